@@ -1,0 +1,3 @@
+"""lathe-mirror: design, turn, render and tolerance double-lobed hyperbolic mirrors."""
+
+__version__ = "0.1.0"

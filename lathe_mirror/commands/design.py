@@ -1,0 +1,78 @@
+"""`lathe-mirror design`: the mirror's design table from the camera's constants."""
+
+from __future__ import annotations
+
+import argparse
+
+from ._common import add_common, load, print_json
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("design", help="design the two lobes (Eqs. 3-6, Table 1)",
+                       description="Design both lobes from the camera's constants and print "
+                       "the design table (the paper's symbols; mm, px, degrees).")
+    add_common(p, output_help="write the design figures as JSON to this file")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..design import TABLE1_SWAP_NOTE, design_figures, mirror_from_config
+
+    cfg = load(args)
+    mirror = mirror_from_config(cfg)
+    figures = design_figures(mirror)
+    if args.config is None:
+        figures["notes"] = [TABLE1_SWAP_NOTE]
+    if args.output:
+        import json
+
+        from ..export.files import write_text
+
+        write_text(args.output, json.dumps(figures, indent=2) + "\n")
+    if args.json:
+        print_json(figures)
+    else:
+        print(format_design(figures))
+    return 0
+
+
+def format_design(fig: dict) -> str:
+    """The design as a readable table."""
+    rows = [
+        ("R_top", "mm", "r_top", "{:.3f}"),
+        ("R_pixel", "px", "r_pixel", "{:.3f}"),
+        ("f", "mm", "f", "{:.3f}"),
+        ("T_pixel", "mm", "t_pixel", "{:.4f}"),
+        ("c = 2e (F1 height)", "mm", "c", "{:.3f}"),
+        ("h (rim height)", "mm", "h", "{:.3f}"),
+        ("a", "mm", "a", "{:.3f}"),
+        ("b", "mm", "b", "{:.3f}"),
+        ("e", "mm", "e", "{:.3f}"),
+        ("a/b", "", "a_over_b", "{:.4f}"),
+        ("alpha", "deg", "alpha_deg", "{:.3f}"),
+        ("vertex height", "mm", "vertex_z", "{:.3f}"),
+    ]
+    inner, outer = fig["lobes"]
+    lines = [f"{'':24s}{'inner (01)':>14s}{'outer (02)':>14s}"]
+    for label, unit, key, fmt in rows:
+        name = f"{label} [{unit}]" if unit else label
+        lines.append(f"{name:24s}{fmt.format(inner[key]):>14s}{fmt.format(outer[key]):>14s}")
+    fov = lambda lobe: f"{lobe['fov_deg']['min']:.2f}..{lobe['fov_deg']['max']:.2f}"  # noqa: E731
+    lines.append(f"{'elevation FOV [deg]':24s}{fov(inner):>14s}{fov(outer):>14s}")
+    j = fig["junction"]
+    radii = fig["image_radii_px"]
+    band = fig["common_band_deg"]
+    lines += [
+        "",
+        f"junction at r = {j['r']:.3f} mm: step {j['step_mm']:.4f} mm, {j['recessed']} lobe recessed "
+        f"(inner sheet z = {j['z_inner']:.4f}, outer sheet z = {j['z_outer']:.4f} mm)",
+        f"stereo baseline (F1 to F1): {fig['baseline_mm']:.3f} mm; "
+        f"common band: {band['min']:.3f} to {band['max']:.3f} deg elevation",
+        f"image radii: inner disc 0..{radii['inner_disc']['max']:.3f} px, lost ring "
+        f"{radii['lost_ring']['min']:.3f}..{radii['lost_ring']['max']:.3f} px, outer annulus "
+        f"{radii['outer_annulus']['min']:.3f}..{radii['outer_annulus']['max']:.3f} px",
+        f"mirror depth (vertex to outer rim): {fig['depth_mm']:.3f} mm",
+    ]
+    for note in fig.get("notes", []):
+        lines.append(f"note: {note}")
+    return "\n".join(lines)

@@ -1,0 +1,159 @@
+"""Configuration: TOML files merged over the embedded defaults, validated key by key.
+
+The defaults are every `*.toml` in `lathe_mirror/data/` (`paper.toml` holds the paper's
+design; each later stage ships its own section file). A user's file may override any
+part of them; it may not add keys the defaults do not have (except the exclusive design
+choices below), change a value's type, or give a non-finite number. Every rejection is a
+ConfigError whose one line names the key and what is allowed.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import math
+import tomllib
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from .errors import ConfigError
+
+#: Keys of which a section takes exactly one; a user's section that names any of them
+#: replaces the default's choice instead of adding to it.
+EXCLUSIVE_KEYS: dict[str, tuple[str, ...]] = {
+    "lobes.inner": ("alpha_deg", "a_over_b", "e"),
+    "lobes.outer": ("alpha_deg", "a_over_b", "e"),
+}
+
+
+def default_config() -> dict[str, Any]:
+    """The embedded defaults: every data/*.toml merged (their sections must not overlap)."""
+    merged: dict[str, Any] = {}
+    data = resources.files("lathe_mirror") / "data"
+    for entry in sorted(data.iterdir(), key=lambda p: p.name):
+        if not entry.name.endswith(".toml"):
+            continue
+        doc = tomllib.loads(entry.read_text(encoding="utf-8"))
+        for key, value in doc.items():
+            if key in merged:
+                raise RuntimeError(f"default section [{key}] is defined twice (data/{entry.name})")
+            merged[key] = value
+    return merged
+
+
+def load_config(path: str | Path | None = None) -> dict[str, Any]:
+    """Defaults, with the user's TOML file (if any) merged over them and validated."""
+    cfg = default_config()
+    if path is None:
+        return cfg
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"--config {path}: no such file") from None
+    except IsADirectoryError:
+        raise ConfigError(f"--config {path}: is a directory, expected a TOML file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"--config {path}: cannot read ({exc})") from None
+    try:
+        user = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"--config {path}: not valid TOML ({exc})") from None
+    return merge(cfg, user, source=str(path))
+
+
+def merge(base: dict[str, Any], user: dict[str, Any], *, source: str = "config") -> dict[str, Any]:
+    """A copy of base with user's values merged in, validated against base's shape."""
+    out = copy.deepcopy(base)
+    _merge_table(out, user, prefix="", source=source)
+    return out
+
+
+def set_value(cfg: dict[str, Any], dotted: str, value: Any, *, source: str) -> None:
+    """Set one key (e.g. from a command-line flag), validated like a file's key."""
+    parts = dotted.split(".")
+    user: dict[str, Any] = {}
+    node = user
+    for p in parts[:-1]:
+        node = node.setdefault(p, {})
+    node[parts[-1]] = value
+    _merge_table(cfg, user, prefix="", source=source)
+
+
+def _merge_table(base: dict[str, Any], user: dict[str, Any], prefix: str, source: str) -> None:
+    exclusive = EXCLUSIVE_KEYS.get(prefix.rstrip("."), ())
+    if exclusive and any(k in user for k in exclusive):
+        for k in exclusive:
+            base.pop(k, None)
+    for key, value in user.items():
+        dotted = f"{prefix}{key}"
+        if key in exclusive:
+            base[key] = _check_scalar(dotted, value, 0.0, source)
+            continue
+        if key not in base:
+            allowed = sorted(set(base) | set(exclusive))
+            hint = difflib.get_close_matches(key, allowed, n=1)
+            did = f"; did you mean '{hint[0]}'?" if hint else ""
+            raise ConfigError(
+                f"{source}: unknown key '{dotted}' (allowed: {', '.join(allowed)}){did}"
+            )
+        default = base[key]
+        if isinstance(default, dict):
+            if not isinstance(value, dict):
+                raise ConfigError(f"{source}: '{dotted}' must be a table [{dotted}], got {_tname(value)}")
+            _merge_table(default, value, prefix=f"{dotted}.", source=source)
+        elif isinstance(default, list):
+            base[key] = _check_list(dotted, value, default, source)
+        else:
+            base[key] = _check_scalar(dotted, value, default, source)
+
+
+def _check_list(dotted: str, value: Any, default: list, source: str) -> list:
+    if not isinstance(value, list):
+        raise ConfigError(f"{source}: '{dotted}' must be a list, got {_tname(value)}")
+    if not default:
+        return value
+    proto = default[0]
+    out = []
+    for i, item in enumerate(value):
+        where = f"{dotted}[{i}]"
+        if isinstance(proto, dict):
+            if not isinstance(item, dict):
+                raise ConfigError(f"{source}: '{where}' must be a table, got {_tname(item)}")
+            missing = sorted(set(proto) - set(item))
+            if missing:
+                raise ConfigError(f"{source}: '{where}' lacks {', '.join(missing)}")
+            entry = copy.deepcopy(proto)
+            _merge_table(entry, item, prefix=f"{where}.", source=source)
+            out.append(entry)
+        else:
+            out.append(_check_scalar(where, item, proto, source))
+    return out
+
+
+def _check_scalar(dotted: str, value: Any, default: Any, source: str) -> Any:
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise ConfigError(f"{source}: '{dotted}' must be true or false, got {value!r}")
+        return value
+    if isinstance(default, float):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{source}: '{dotted}' must be a number, got {_tname(value)} {value!r}")
+        if not math.isfinite(value):
+            raise ConfigError(f"{source}: '{dotted}' = {value!r} must be a finite number")
+        return float(value)
+    if isinstance(default, int):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{source}: '{dotted}' must be an integer, got {_tname(value)} {value!r}")
+        return value
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            raise ConfigError(f"{source}: '{dotted}' must be a string, got {_tname(value)} {value!r}")
+        return value
+    raise ConfigError(f"{source}: '{dotted}' has an unsupported type {_tname(value)}")
+
+
+def _tname(value: Any) -> str:
+    return {dict: "a table", list: "a list", str: "a string", bool: "a boolean",
+            int: "an integer", float: "a number"}.get(type(value), type(value).__name__)

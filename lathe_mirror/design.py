@@ -1,0 +1,463 @@
+"""Design of the double-lobed hyperbolic mirror from the camera's constants.
+
+Frames and units (ARCHITECTURE.md): millimetres and radians; camera frame with the
+pinhole at the origin and +z up the optical axis toward the mirror. Each lobe is the
+upper sheet of (z - e)^2 / a^2 - r^2 / b^2 = 1, so the camera sits at the lobe's outer
+focus (z = 0) and the lobe's single viewpoint is its inner focus F1 at z = 2e (Table 1's
+"c"). The equations are the paper's (de Souza & Motta), section 2.2:
+
+    Eq. 3   e = sqrt(a^2 + b^2)
+    Eq. 6   h = f * R_top / (T_pixel * R_pixel)
+    Table 1 alpha = atan((h - 2e) / R_top)   (the rim's angle above F1's horizon)
+
+Each lobe takes R_top and R_pixel (which fix h through Eq. 6) plus exactly one of alpha,
+a/b or e; the rest follows in closed form.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import DesignError
+
+#: Table 1 prints R_pixel 504 for mirror 01 and 307 for mirror 02, but its h columns
+#: follow from the swapped pair: h(01) = 115.607 needs R_pixel = 307.555, h(02) = 123.457
+#: needs 504. The embedded default uses the swapped (consistent) values.
+TABLE1_SWAP_NOTE = (
+    "Table 1's R_pixel column is swapped: h of mirror 01 (inner) follows from "
+    "R_pixel = 307.555 px, h of mirror 02 (outer) from R_pixel = 504 px; "
+    "the paper default uses the consistent pair"
+)
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Pinhole camera looking up the mirror axis.
+
+    f: focal length, mm. t_pixel: pixel pitch, mm. sensor_px: (width, height), pixels;
+    the principal point is the sensor centre.
+    """
+
+    f: float = 16.0
+    t_pixel: float = 0.009
+    sensor_px: tuple[int, int] = (1008, 1018)
+
+    def __post_init__(self) -> None:
+        _positive("camera.f", self.f, "mm")
+        _positive("camera.t_pixel", self.t_pixel, "mm")
+        if len(self.sensor_px) != 2 or any(int(n) != n or n <= 0 for n in self.sensor_px):
+            raise DesignError(
+                f"camera.sensor_px = {list(self.sensor_px)} must be two positive integers "
+                "[width, height] in pixels"
+            )
+
+    @property
+    def r_pixel_max(self) -> float:
+        """Radius of the largest circle inscribed in the sensor, px (504 for 1008 x 1018)."""
+        return min(self.sensor_px) / 2.0
+
+    def image_radius_px(self, tan_theta: np.ndarray | float) -> np.ndarray | float:
+        """Image radius (px) of a ray at angle theta off the axis, from tan(theta)."""
+        return self.f * np.asarray(tan_theta) / self.t_pixel
+
+    def tan_theta(self, radius_px: np.ndarray | float) -> np.ndarray | float:
+        """tan of the off-axis angle (rad) of the ray through image radius radius_px."""
+        return np.asarray(radius_px) * self.t_pixel / self.f
+
+
+@dataclass(frozen=True)
+class Lobe:
+    """One hyperbolic lobe: upper sheet of (z - e)^2 / a^2 - r^2 / b^2 = 1. Lengths in mm.
+
+    name: "inner" or "outer". r_top: rim radius. r_pixel: image radius of the rim, px.
+    h: rim height above the camera (Eq. 6). a, b: semi-axes. e: centre height (Eq. 3),
+    so the viewpoint F1 is at z = 2e and the camera at z = 0.
+    """
+
+    name: str
+    r_top: float
+    r_pixel: float
+    h: float
+    a: float
+    b: float
+    e: float
+
+    @property
+    def c(self) -> float:
+        """Table 1's c: the height of the viewpoint F1, 2e (mm)."""
+        return 2.0 * self.e
+
+    @property
+    def focus_z(self) -> float:
+        """Height of the lobe's viewpoint F1 (mm)."""
+        return 2.0 * self.e
+
+    @property
+    def alpha(self) -> float:
+        """Angle of the rim above F1's horizon (rad), as Table 1 prints it."""
+        return math.atan((self.h - 2.0 * self.e) / self.r_top)
+
+    @property
+    def a_over_b(self) -> float:
+        return self.a / self.b
+
+    @property
+    def vertex_z(self) -> float:
+        """Height of the sheet's vertex (r = 0), e + a (mm)."""
+        return self.e + self.a
+
+    def z(self, r: np.ndarray | float) -> np.ndarray:
+        """Height of the sheet at radius r (mm): e + a sqrt(1 + r^2 / b^2)."""
+        r = np.asarray(r, dtype=float)
+        return self.e + self.a * np.sqrt(1.0 + (r / self.b) ** 2)
+
+    def slope(self, r: np.ndarray | float) -> np.ndarray:
+        """dz/dr of the sheet at radius r (dimensionless)."""
+        r = np.asarray(r, dtype=float)
+        return self.a * r / (self.b**2 * np.sqrt(1.0 + (r / self.b) ** 2))
+
+    def elevation(self, r: np.ndarray | float) -> np.ndarray:
+        """Elevation (rad) above F1's horizon of the world direction seen at radius r."""
+        r = np.asarray(r, dtype=float)
+        return np.arctan2(self.z(r) - self.focus_z, r)
+
+
+@dataclass(frozen=True)
+class Mirror:
+    """Two lobes sharing the camera as their outer focus.
+
+    The inner lobe covers 0 <= r <= inner.r_top, the outer lobe inner.r_top < r <=
+    outer.r_top; at r = inner.r_top the surface steps between the two sheets.
+    """
+
+    camera: Camera
+    inner: Lobe
+    outer: Lobe
+
+    @property
+    def lobes(self) -> tuple[Lobe, Lobe]:
+        return (self.inner, self.outer)
+
+    @property
+    def r_junction(self) -> float:
+        """Radius of the step between the lobes (mm)."""
+        return self.inner.r_top
+
+    @property
+    def r_max(self) -> float:
+        """Outer rim radius (mm)."""
+        return self.outer.r_top
+
+    @property
+    def vertex_z(self) -> float:
+        """Height of the mirror's vertex (the inner lobe's), mm; machine Z = 0 there."""
+        return self.inner.vertex_z
+
+    @property
+    def junction_z(self) -> tuple[float, float]:
+        """Heights (mm) of the inner and outer sheets at the junction radius."""
+        r = self.r_junction
+        return float(self.inner.z(r)), float(self.outer.z(r))
+
+    @property
+    def step(self) -> float:
+        """Height of the step at the junction, inner minus outer sheet (mm).
+
+        Positive: the inner lobe's rim lies farther from the camera, i.e. the inner lobe is
+        recessed into the part and the outer lobe stands proud toward the camera.
+        """
+        zi, zo = self.junction_z
+        return zi - zo
+
+    @property
+    def recessed(self) -> str:
+        """Which lobe is recessed (farther from the camera) at the junction."""
+        return "inner" if self.step > 0 else "outer"
+
+    @property
+    def baseline(self) -> float:
+        """Stereo baseline: distance between the two viewpoints F1 (mm)."""
+        return abs(self.outer.focus_z - self.inner.focus_z)
+
+    @property
+    def r_outer_visible(self) -> float:
+        """Smallest radius of the outer lobe the camera sees (mm).
+
+        With the inner lobe recessed, the camera sees the outer lobe right from the
+        junction. With the outer lobe recessed, the inner rim hides a band of it: the
+        first outer point seen is where the ray grazing the inner rim meets it.
+        """
+        r1 = self.r_junction
+        zi, zo = self.junction_z
+        if zo <= zi:
+            return r1
+        t = r1 / zi  # tan of the ray grazing the inner rim
+        return _ray_meets_sheet(self.outer, t)
+
+    def fov(self, lobe: Lobe) -> tuple[float, float]:
+        """Elevation range (rad) of world directions the lobe shows: (lowest, highest)."""
+        if lobe is self.inner:
+            return (-math.pi / 2.0, lobe.alpha)
+        return (float(lobe.elevation(self.r_outer_visible)), lobe.alpha)
+
+    @property
+    def common_band(self) -> tuple[float, float]:
+        """Elevations (rad) that both lobes see: the stereo band (lowest, highest)."""
+        lo = max(self.fov(self.inner)[0], self.fov(self.outer)[0])
+        hi = min(self.fov(self.inner)[1], self.fov(self.outer)[1])
+        return (lo, hi)
+
+    @property
+    def image_radii_px(self) -> dict[str, tuple[float, float]]:
+        """Image radii (px): the inner disc, the ring lost at the junction, the outer annulus."""
+        cam = self.camera
+        r1 = self.r_junction
+        zi, zo = self.junction_z
+        inner_edge = float(cam.image_radius_px(r1 / zi))
+        outer_start = float(cam.image_radius_px(self.r_outer_visible / self.outer.z(self.r_outer_visible)))
+        # Rays between the inner rim and the outer sheet's edge hit the step wall (lost).
+        lost = (inner_edge, outer_start) if outer_start > inner_edge else (inner_edge, inner_edge)
+        return {
+            "inner_disc": (0.0, inner_edge),
+            "lost_ring": lost,
+            "outer_annulus": (max(inner_edge, outer_start), float(self.outer.r_pixel)),
+        }
+
+    def lobe_index(self, r: np.ndarray) -> np.ndarray:
+        """0 where r belongs to the inner lobe (r <= r_junction), 1 for the outer lobe."""
+        return (np.asarray(r) > self.r_junction).astype(np.intp)
+
+
+# --------------------------------------------------------------------------------------
+# Lobe and mirror design
+
+
+def design_lobe(
+    name: str,
+    camera: Camera,
+    r_top: float,
+    r_pixel: float,
+    *,
+    alpha_deg: float | None = None,
+    a_over_b: float | None = None,
+    e: float | None = None,
+) -> Lobe:
+    """Design one lobe from R_top (mm), R_pixel (px) and exactly one of alpha, a/b or e.
+
+    h follows from Eq. 6. Then, with the rim P = (R_top, h) on the upper sheet whose foci
+    are the camera (0, 0) and F1 (0, 2e), |P| - |P - F1| = 2a:
+      - alpha given: 2e = h - R_top tan(alpha) (Table 1's definition of alpha);
+      - e given: as it is;
+      - a/b = k given: with s = sqrt(1 + k^2), b = s h - k sqrt(h^2 + R_top^2) (the
+        quadratic of the sheet through P, upper root), a = k b.
+    """
+    key = f"lobes.{name}"
+    _positive(f"{key}.r_top", r_top, "mm")
+    _positive(f"{key}.r_pixel", r_pixel, "px")
+    given = {k: v for k, v in (("alpha_deg", alpha_deg), ("a_over_b", a_over_b), ("e", e)) if v is not None}
+    if len(given) != 1:
+        got = " and ".join(given) if given else "none"
+        raise DesignError(f"{key}: give exactly one of alpha_deg, a_over_b, e (got {got})")
+    for k, v in given.items():
+        _finite(f"{key}.{k}", v)
+
+    h = camera.f * r_top / (camera.t_pixel * r_pixel)  # Eq. 6
+    rho = math.hypot(r_top, h)  # rim's distance from the camera focus
+
+    if alpha_deg is not None:
+        limit = math.degrees(math.atan(h / r_top))
+        if not -limit < alpha_deg < limit:
+            raise DesignError(
+                f"{key}.alpha_deg = {alpha_deg:g} deg: no hyperbola through the rim "
+                f"(R_top = {r_top:g} mm, h = {h:.4f} mm) meets it; allowed "
+                f"-{limit:.4f} < alpha_deg < {limit:.4f}"
+            )
+        e = (h - r_top * math.tan(math.radians(alpha_deg))) / 2.0
+        a = (rho - math.hypot(r_top, h - 2.0 * e)) / 2.0
+        b = math.sqrt((e - a) * (e + a))
+    elif e is not None:
+        if not 0.0 < e < h:
+            raise DesignError(
+                f"{key}.e = {e:g} mm: the rim (R_top = {r_top:g} mm, h = {h:.4f} mm) lies on "
+                f"an upper sheet only for 0 < e < h = {h:.4f} mm"
+            )
+        a = (rho - math.hypot(r_top, h - 2.0 * e)) / 2.0
+        b = math.sqrt((e - a) * (e + a))
+    else:
+        k = float(a_over_b)
+        if not 0.0 < k < h / r_top:
+            raise DesignError(
+                f"{key}.a_over_b = {k:g}: a sheet with the camera at its focus reaches the rim "
+                f"(R_top = {r_top:g} mm, h = {h:.4f} mm) only for 0 < a_over_b < h / R_top = "
+                f"{h / r_top:.4f}"
+            )
+        s = math.sqrt(1.0 + k * k)
+        b = s * h - k * rho
+        a = k * b
+        e = math.hypot(a, b)  # Eq. 3
+
+    lobe = Lobe(name=name, r_top=float(r_top), r_pixel=float(r_pixel), h=h, a=a, b=b, e=e)
+    _check_rim(lobe)
+    return lobe
+
+
+def design_mirror(camera: Camera, inner: Lobe, outer: Lobe) -> Mirror:
+    """Assemble two lobes into a mirror, checking they can share the camera."""
+    if outer.r_top <= inner.r_top:
+        raise DesignError(
+            f"lobes.outer.r_top = {outer.r_top:g} mm must exceed lobes.inner.r_top = "
+            f"{inner.r_top:g} mm"
+        )
+    for lobe in (inner, outer):
+        if lobe.r_pixel > camera.r_pixel_max + 1e-9:
+            raise DesignError(
+                f"lobes.{lobe.name}.r_pixel = {lobe.r_pixel:g} px lies outside the sensor: "
+                f"allowed up to {camera.r_pixel_max:g} px (the inscribed circle of "
+                f"{camera.sensor_px[0]} x {camera.sensor_px[1]} px)"
+            )
+    if inner.r_pixel >= outer.r_pixel:
+        raise DesignError(
+            f"lobes.inner.r_pixel = {inner.r_pixel:g} px must be smaller than "
+            f"lobes.outer.r_pixel = {outer.r_pixel:g} px: the outer lobe images outside the inner one"
+        )
+    mirror = Mirror(camera=camera, inner=inner, outer=outer)
+    if mirror.r_outer_visible >= outer.r_top:
+        raise DesignError(
+            "lobes: the inner lobe's rim hides the whole outer lobe from the camera; "
+            "lower lobes.outer's alpha_deg or raise its r_pixel"
+        )
+    return mirror
+
+
+def mirror_from_config(cfg: dict) -> Mirror:
+    """Mirror from a validated configuration (sections [camera] and [lobes.inner/outer])."""
+    cam_cfg = cfg["camera"]
+    camera = Camera(
+        f=float(cam_cfg["f"]),
+        t_pixel=float(cam_cfg["t_pixel"]),
+        sensor_px=tuple(int(n) for n in cam_cfg["sensor_px"]),
+    )
+    lobes = []
+    for name in ("inner", "outer"):
+        lc = cfg["lobes"][name]
+        lobes.append(
+            design_lobe(
+                name,
+                camera,
+                float(lc["r_top"]),
+                float(lc["r_pixel"]),
+                alpha_deg=lc.get("alpha_deg"),
+                a_over_b=lc.get("a_over_b"),
+                e=lc.get("e"),
+            )
+        )
+    return design_mirror(camera, *lobes)
+
+
+def design_figures(mirror: Mirror) -> dict:
+    """Every design figure as plain data (the paper's symbols; mm, px, deg)."""
+    cam = mirror.camera
+    lobes = []
+    for lobe in mirror.lobes:
+        lo, hi = mirror.fov(lobe)
+        lobes.append(
+            {
+                "name": lobe.name,
+                "r_top": lobe.r_top,
+                "r_pixel": lobe.r_pixel,
+                "f": cam.f,
+                "t_pixel": cam.t_pixel,
+                "h": lobe.h,
+                "a": lobe.a,
+                "b": lobe.b,
+                "e": lobe.e,
+                "c": lobe.c,
+                "alpha_deg": math.degrees(lobe.alpha),
+                "a_over_b": lobe.a_over_b,
+                "vertex_z": lobe.vertex_z,
+                "rim_z": float(lobe.z(lobe.r_top)),
+                "focus_z": lobe.focus_z,
+                "fov_deg": {"min": math.degrees(lo), "max": math.degrees(hi)},
+            }
+        )
+    zi, zo = mirror.junction_z
+    band = mirror.common_band
+    radii = mirror.image_radii_px
+    return {
+        "camera": {"f": cam.f, "t_pixel": cam.t_pixel, "sensor_px": list(cam.sensor_px),
+                   "r_pixel_max": cam.r_pixel_max},
+        "lobes": lobes,
+        "junction": {
+            "r": mirror.r_junction,
+            "z_inner": zi,
+            "z_outer": zo,
+            "step_mm": abs(mirror.step),
+            "recessed": mirror.recessed,
+            "r_outer_visible": mirror.r_outer_visible,
+        },
+        "vertex_z": mirror.vertex_z,
+        "depth_mm": float(mirror.outer.z(mirror.r_max)) - mirror.vertex_z,
+        "baseline_mm": mirror.baseline,
+        "common_band_deg": {"min": math.degrees(band[0]), "max": math.degrees(band[1])},
+        "image_radii_px": {k: {"min": v[0], "max": v[1]} for k, v in radii.items()},
+    }
+
+
+# --------------------------------------------------------------------------------------
+# Checks and helpers
+
+
+def single_viewpoint_error(lobe: Lobe, r: np.ndarray) -> np.ndarray:
+    """Distance (mm) from F1 of the line of each camera ray reflected at radius r.
+
+    A perfect hyperbolic lobe sends every ray from the camera focus through F1.
+    """
+    r = np.asarray(r, dtype=float)
+    p = np.stack([r, lobe.z(r)], axis=-1)
+    d = p / np.linalg.norm(p, axis=-1, keepdims=True)
+    n = np.stack([lobe.slope(r), -np.ones_like(r)], axis=-1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    out = d - 2.0 * np.sum(d * n, axis=-1, keepdims=True) * n
+    q = np.array([0.0, lobe.focus_z]) - p
+    # 2-D cross product |q x out| with |out| = 1 is the distance of F1 from the line.
+    return np.abs(q[..., 0] * out[..., 1] - q[..., 1] * out[..., 0])
+
+
+def _check_rim(lobe: Lobe) -> None:
+    """The rim (R_top, h) must lie on the designed sheet."""
+    z_rim = float(lobe.z(lobe.r_top))
+    if not (np.isfinite(lobe.b) and lobe.b > 0 and abs(z_rim - lobe.h) <= 1e-9 * max(1.0, lobe.h)):
+        raise DesignError(
+            f"lobes.{lobe.name}: no hyperbolic sheet passes through the rim "
+            f"(R_top = {lobe.r_top:g} mm, h = {lobe.h:.6f} mm) with these constants"
+        )
+
+
+def _ray_meets_sheet(lobe: Lobe, t: float) -> float:
+    """Radius where the camera ray r = t z meets the lobe's upper sheet (mm).
+
+    Substituting z = r / t in (z - e)^2 / a^2 - r^2 / b^2 = 1 gives a quadratic in r.
+    """
+    a, b, e = lobe.a, lobe.b, lobe.e
+    qa = 1.0 / (t * t * a * a) - 1.0 / (b * b)
+    qb = -2.0 * e / (t * a * a)
+    qc = e * e / (a * a) - 1.0
+    disc = qb * qb - 4.0 * qa * qc
+    roots = [(-qb + s * math.sqrt(max(disc, 0.0))) / (2.0 * qa) for s in (1.0, -1.0)]
+    # The upper sheet has z - e > 0, i.e. r / t > e.
+    good = [x for x in roots if x > 0 and x / t > e]
+    return min(good)
+
+
+def _positive(key: str, value: float, unit: str) -> None:
+    _finite(key, value)
+    if value <= 0:
+        raise DesignError(f"{key} = {value:g} {unit} must be > 0")
+
+
+def _finite(key: str, value: float) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise DesignError(f"{key} = {value!r} must be a finite number")

@@ -1,0 +1,171 @@
+"""The meridian curve z = Z(r) of a surface of revolution, in the camera frame (mm).
+
+One interface for every surface the tool knows: the exact design, the programmed
+contour of a toolpath, the as-machined and the polished surface. Every method is
+vectorised over r. The surface has two lobes: r <= r_junction belongs to the inner lobe,
+r > r_junction to the outer one, and the step between them is a vertical wall at
+r_junction (not part of either lobe's Z).
+
+Machine frame (ARCHITECTURE.md): Z_machine = vertex_z - z, so the vertex is Z = 0 and
+the part lies in -Z; see `to_machine_z` / `from_machine_z`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+import numpy as np
+
+from .design import Mirror
+
+
+class Profile(ABC):
+    """Meridian curve of a mirror surface. Camera frame, mm.
+
+    Subclasses set r_junction, r_max (mm) and vertex_z (mm, the design's vertex height,
+    which is the machine frame's Z = 0), and implement z and slope.
+    """
+
+    r_junction: float
+    r_max: float
+    vertex_z: float
+
+    @abstractmethod
+    def z(self, r: np.ndarray) -> np.ndarray:
+        """Height of the surface at radius r (mm)."""
+
+    @abstractmethod
+    def slope(self, r: np.ndarray) -> np.ndarray:
+        """dZ/dr at radius r (dimensionless)."""
+
+    def normal(self, r: np.ndarray) -> np.ndarray:
+        """Unit normal (n_r, n_z) at radius r, pointing toward the camera (n_z < 0)."""
+        s = np.asarray(self.slope(r), dtype=float)
+        n = np.stack([s, -np.ones_like(s)], axis=-1)
+        return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+    def lobe_index(self, r: np.ndarray) -> np.ndarray:
+        """0 for the inner lobe (r <= r_junction), 1 for the outer lobe."""
+        return (np.asarray(r) > self.r_junction).astype(np.intp)
+
+    def lobe_range(self, k: int) -> tuple[float, float]:
+        """Radial extent (mm) of lobe k (0 inner, 1 outer)."""
+        return (0.0, self.r_junction) if k == 0 else (self.r_junction, self.r_max)
+
+    def to_machine_z(self, z: np.ndarray) -> np.ndarray:
+        """Camera-frame height (mm) to machine Z (mm): vertex at 0, part in -Z."""
+        return self.vertex_z - np.asarray(z, dtype=float)
+
+    def from_machine_z(self, zm: np.ndarray) -> np.ndarray:
+        """Machine Z (mm) to camera-frame height (mm)."""
+        return self.vertex_z - np.asarray(zm, dtype=float)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(r_junction={self.r_junction:g} mm, r_max={self.r_max:g} mm)"
+
+
+class ExactProfile(Profile):
+    """The designed surface: each lobe's hyperbolic sheet, in closed form."""
+
+    def __init__(self, mirror: Mirror):
+        self.mirror = mirror
+        self.r_junction = mirror.r_junction
+        self.r_max = mirror.r_max
+        self.vertex_z = mirror.vertex_z
+
+    def z(self, r: np.ndarray) -> np.ndarray:
+        r = np.asarray(r, dtype=float)
+        return np.where(r <= self.r_junction, self.mirror.inner.z(r), self.mirror.outer.z(r))
+
+    def slope(self, r: np.ndarray) -> np.ndarray:
+        r = np.asarray(r, dtype=float)
+        return np.where(r <= self.r_junction, self.mirror.inner.slope(r), self.mirror.outer.slope(r))
+
+
+@dataclass(frozen=True)
+class LobeSamples:
+    """Samples (r, z) of one lobe's meridian, r strictly increasing, camera frame, mm."""
+
+    r: np.ndarray
+    z: np.ndarray
+
+    def __post_init__(self) -> None:
+        if self.r.ndim != 1 or self.r.shape != self.z.shape or self.r.size < 2:
+            raise ValueError("LobeSamples: r and z must be 1-D arrays of the same length >= 2")
+        if np.any(np.diff(self.r) <= 0):
+            raise ValueError("LobeSamples: r must be strictly increasing")
+
+
+class PolylineProfile(Profile):
+    """Straight segments between points, per lobe: the paper's 528-point model.
+
+    Between the lobes' samples the profile holds a vertical step at r_junction. Beyond
+    the first/last sample of a lobe the end segment is extended.
+    """
+
+    def __init__(self, inner: LobeSamples, outer: LobeSamples, *, r_junction: float,
+                 r_max: float, vertex_z: float):
+        self.lobes = (inner, outer)
+        self.r_junction = float(r_junction)
+        self.r_max = float(r_max)
+        self.vertex_z = float(vertex_z)
+
+    def z(self, r: np.ndarray) -> np.ndarray:
+        return self._eval(r, derivative=False)
+
+    def slope(self, r: np.ndarray) -> np.ndarray:
+        return self._eval(r, derivative=True)
+
+    def _eval(self, r: np.ndarray, derivative: bool) -> np.ndarray:
+        r = np.asarray(r, dtype=float)
+        out = np.empty_like(r)
+        k = self.lobe_index(r)
+        for i, s in enumerate(self.lobes):
+            m = k == i
+            rr = r[m]
+            j = np.clip(np.searchsorted(s.r, rr, side="right") - 1, 0, s.r.size - 2)
+            dz = (s.z[j + 1] - s.z[j]) / (s.r[j + 1] - s.r[j])
+            out[m] = dz if derivative else s.z[j] + dz * (rr - s.r[j])
+        return out
+
+
+class SampledProfile(Profile):
+    """A smooth profile from dense samples per lobe (cubic spline of z(r)).
+
+    For surfaces known only by samples: the as-machined envelope, the polished surface.
+    The samples should resolve every feature of interest; the spline adds nothing finer.
+    """
+
+    def __init__(self, inner: LobeSamples, outer: LobeSamples, *, r_junction: float,
+                 r_max: float, vertex_z: float):
+        from scipy.interpolate import CubicSpline
+
+        self.lobes = (inner, outer)
+        self._splines = tuple(CubicSpline(s.r, s.z, extrapolate=True) for s in (inner, outer))
+        self.r_junction = float(r_junction)
+        self.r_max = float(r_max)
+        self.vertex_z = float(vertex_z)
+
+    def z(self, r: np.ndarray) -> np.ndarray:
+        return self._eval(r, 0)
+
+    def slope(self, r: np.ndarray) -> np.ndarray:
+        return self._eval(r, 1)
+
+    def _eval(self, r: np.ndarray, nu: int) -> np.ndarray:
+        r = np.asarray(r, dtype=float)
+        k = self.lobe_index(r)
+        return np.where(k == 0, self._splines[0](r, nu), self._splines[1](r, nu))
+
+
+def sample_lobes(profile: Profile, n: int = 4001) -> tuple[LobeSamples, LobeSamples]:
+    """n samples of each lobe of a profile, uniform in r (for SampledProfile, plots)."""
+    out = []
+    for k in (0, 1):
+        lo, hi = profile.lobe_range(k)
+        r = np.linspace(lo, hi, n)
+        if k == 1:
+            r[0] = np.nextafter(lo, hi)  # the junction itself belongs to the inner lobe
+        out.append(LobeSamples(r, profile.z(r)))
+    return out[0], out[1]

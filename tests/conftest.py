@@ -1,0 +1,48 @@
+"""Shared test helpers.
+
+External programs (rs274, freecadcmd, povray) are run for real. On a developer's machine
+a missing program skips its tests with the reason; under CI=true it fails them.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from lathe_mirror.config import default_config
+from lathe_mirror.design import mirror_from_config
+
+IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
+
+
+def require_program(name: str) -> str:
+    """Path of an external program; skip (laptop) or fail (CI=true) when it is missing."""
+    path = shutil.which(name)
+    if path is None:
+        msg = f"external program '{name}' is not installed (scripts/bootstrap installs it)"
+        if IN_CI:
+            pytest.fail(msg + "; CI=true requires it", pytrace=False)
+        pytest.skip(msg)
+    return path
+
+
+def run_cli(*args: str, cwd=None, env=None) -> subprocess.CompletedProcess:
+    """Run `lathe-mirror ARGS` in a fresh process; returns the completed process."""
+    return subprocess.run(
+        [sys.executable, "-m", "lathe_mirror", *args],
+        capture_output=True, text=True, cwd=cwd, env=env, timeout=600,
+    )
+
+
+@pytest.fixture(scope="session")
+def paper_config() -> dict:
+    return default_config()
+
+
+@pytest.fixture(scope="session")
+def paper_mirror(paper_config):
+    return mirror_from_config(paper_config)
