@@ -186,3 +186,8 @@ def test_mirror_level_checks():
         Camera(f=0.0)
     with pytest.raises(DesignError, match="sensor_px"):
         Camera(sensor_px=(1008, -2))
+
+
+def test_design_figures_report_the_viewpoint_check(paper_mirror):
+    for lobe in design_figures(paper_mirror)["lobes"]:
+        assert 0.0 <= lobe["viewpoint_check_mm"] < 1e-9

@@ -59,6 +59,8 @@ def format_design(fig: dict) -> str:
         lines.append(f"{name:24s}{fmt.format(inner[key]):>14s}{fmt.format(outer[key]):>14s}")
     fov = lambda lobe: f"{lobe['fov_deg']['min']:.2f}..{lobe['fov_deg']['max']:.2f}"  # noqa: E731
     lines.append(f"{'elevation FOV [deg]':24s}{fov(inner):>14s}{fov(outer):>14s}")
+    vp = lambda lobe: f"{lobe['viewpoint_check_mm']:.1e}"  # noqa: E731
+    lines.append(f"{'rays missing F1 by [mm]':24s}{vp(inner):>14s}{vp(outer):>14s}")
     j = fig["junction"]
     radii = fig["image_radii_px"]
     band = fig["common_band_deg"]
