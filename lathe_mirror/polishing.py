@@ -1,0 +1,309 @@
+"""Polishing the turned mirror: Preston's law under a compliant lap.
+
+The paper ends (section 6) on "polish the surface as long as the process does not deform
+the mirror profile". This module puts numbers on both halves of that sentence.
+
+Model, per lobe, on a fine uniform grid of r (camera frame, mm; time in s):
+
+    Preston's law (Preston 1927):   dh/dt = k_p * p * v           [mm/s = 1/Pa * Pa * mm/s]
+    surface speed of the spinning part under a lap covering the lobe:  v = omega * r
+    pressure of a compliant (Winkler) pad, stiffness p0 / l_c per unit deflection:
+        p = p0 * max(0, 1 + d / l_c)
+    d = how far the surface stands out toward the pad beyond the pad's own local surface,
+        which conforms to the part up to cubic terms over the pad size w (a Savitzky-Golay
+        cubic fit over a window w): errors much shorter than w (facets, lattice steps) see
+        the full stiffness and are worn away; the design's curvature is not.
+
+h is removed along the surface normal, so the height z (measured from the camera; the
+material lies at larger z) grows by dh * sqrt(1 + slope^2). Because v grows with r the
+lap removes more at the rim than at the vertex: that is the form change, the low-order
+departure from the design, which grows linearly with time while the facets decay
+exponentially (rate k_p p0 omega r / l_c). Lobes are polished separately: the step wall
+and the inside corner at the junction are not modelled (the pad does not reach into the
+corner; each lobe's edge is treated as a free edge of the pad's fit).
+
+Explicit Euler in time, with a step that keeps the fastest mode (gain <= ~1.2 per unit
+d / l_c) stable and monotone.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .design import Mirror
+from .errors import InputError
+from .profile import LobeSamples, Profile, SampledProfile
+
+
+@dataclass(frozen=True)
+class PolishParams:
+    """Polishing process parameters (edge units; converted inside).
+
+    preston_coefficient: k_p, 1/Pa. pressure_kpa: mean pad pressure p0, kPa. pad_size_mm:
+    w, the length over which the pad conforms, mm (a longer pad smooths longer
+    wavelengths). compliance_mm: l_c = p0 / stiffness, the pad deflection that doubles the
+    local pressure, mm (smaller: a stiffer pad, faster smoothing). spindle_rpm: rev/min.
+    time_s: polishing time, s. grid_step_mm: radial grid of the evolution, mm (finer costs
+    time linearly; must resolve the lattice steps). form_degree: degree of the Legendre fit
+    in r that defines "form" per lobe.
+    """
+
+    preston_coefficient: float = 4e-13
+    pressure_kpa: float = 20.0
+    pad_size_mm: float = 6.0
+    compliance_mm: float = 0.004
+    spindle_rpm: float = 300.0
+    time_s: float = 3300.0
+    grid_step_mm: float = 0.005
+    curve_max_s: float = 7200.0
+    curve_points: int = 25
+    form_degree: int = 4
+
+    def __post_init__(self) -> None:
+        for key in ("preston_coefficient", "pressure_kpa", "pad_size_mm", "compliance_mm",
+                    "spindle_rpm", "grid_step_mm", "curve_max_s"):
+            v = getattr(self, key)
+            if not (math.isfinite(v) and v > 0):
+                raise InputError(f"polish.{key} = {v!r} must be a finite number > 0")
+        if not (math.isfinite(self.time_s) and self.time_s >= 0):
+            raise InputError(f"polish.time_s = {self.time_s!r} must be a finite number >= 0 s")
+        if self.curve_points < 3:
+            raise InputError(f"polish.curve_points = {self.curve_points} must be >= 3")
+        if not 0 <= self.form_degree <= 12:
+            raise InputError(f"polish.form_degree = {self.form_degree} must be 0..12")
+        if self.grid_step_mm * 8 > self.pad_size_mm:
+            raise InputError(
+                f"polish.grid_step_mm = {self.grid_step_mm:g} mm must be at most pad_size_mm / 8 "
+                f"= {self.pad_size_mm / 8:g} mm (the pad's fit needs points to fit)")
+
+    @property
+    def pressure_pa(self) -> float:
+        return self.pressure_kpa * 1e3
+
+    @property
+    def omega(self) -> float:
+        """Spindle speed, rad/s."""
+        return self.spindle_rpm * 2.0 * math.pi / 60.0
+
+    @property
+    def curve_times(self) -> np.ndarray:
+        """Times (s) of the polishing curve: 0 .. curve_max_s, evenly spaced."""
+        return np.linspace(0.0, self.curve_max_s, self.curve_points)
+
+
+def polish_params_from_config(cfg: dict) -> PolishParams:
+    """PolishParams from the validated configuration's [polish] section."""
+    p = cfg["polish"]
+    return PolishParams(**{k: (int(v) if k in ("curve_points", "form_degree") else float(v))
+                           for k, v in p.items()})
+
+
+def polish(profile: Profile, params: PolishParams, time_s: float | None = None) -> SampledProfile:
+    """The surface after polishing `profile` for time_s (s; default params.time_s)."""
+    t = params.time_s if time_s is None else time_s
+    return polish_series(profile, params, [t])[0]
+
+
+def polish_series(profile: Profile, params: PolishParams, times_s) -> list[SampledProfile]:
+    """The polished surface at each of times_s (s), from one evolution (snapshots).
+
+    Each lobe evolves on its own grid from r = its inner edge to its outer edge.
+    """
+    times = np.asarray(times_s, dtype=float)
+    if times.ndim != 1 or times.size == 0 or not np.all(np.isfinite(times)) or np.any(times < 0):
+        raise InputError(f"polishing times {times_s!r} must be finite numbers >= 0 s")
+    order = np.argsort(times, kind="stable")
+    per_lobe = []
+    for k in (0, 1):
+        r = _lobe_grid(profile, k, params.grid_step_mm)
+        z0 = np.asarray(profile.z(r), dtype=float)
+        per_lobe.append((r, _evolve(r, z0, params, times[order])))
+    out: list[SampledProfile | None] = [None] * times.size
+    for j, i in enumerate(order):
+        ri, zi = per_lobe[0][0], per_lobe[0][1][j]
+        ro, zo = per_lobe[1][0], per_lobe[1][1][j]
+        out[i] = SampledProfile(LobeSamples(ri, zi), LobeSamples(ro, zo), r_junction=profile.r_junction,
+                                r_max=profile.r_max, vertex_z=profile.vertex_z)
+    return out  # type: ignore[return-value]
+
+
+def removal_rate(r: np.ndarray, params: PolishParams) -> np.ndarray:
+    """Mean removal rate k_p p0 omega r (mm/s) at radius r (mm), before the pad's response."""
+    return params.preston_coefficient * params.pressure_pa * params.omega * np.asarray(r, float)
+
+
+def form_change(profile: Profile, mirror: Mirror, *, degree: int = 4, n: int = 2001) -> dict:
+    """Per-lobe form change: the low-order part of (profile - design), mm.
+
+    A least-squares Legendre fit of the given degree in r over each lobe; returns
+    {"rms", "max"} of that fit (all terms, piston included: the lap removes nothing at
+    the vertex, so its piston is real removal) under "form_change_mm", plus the fit's
+    peak-to-valley "form_pv_mm".
+    """
+    lobes = []
+    for k, lobe in enumerate(mirror.lobes):
+        lo, hi = profile.lobe_range(k)
+        r = np.linspace(lo, hi, n)
+        if k == 1:
+            r[0] = np.nextafter(lo, hi)
+        dz = np.asarray(profile.z(r)) - lobe.z(r)
+        x = (2.0 * r - (lo + hi)) / (hi - lo)
+        fit = np.polynomial.legendre.Legendre.fit(x, dz, degree, domain=[-1, 1])(x)
+        lobes.append({"name": lobe.name,
+                      "form_change_mm": {"rms": float(np.sqrt(np.mean(fit**2))),
+                                         "max": float(np.max(np.abs(fit)))},
+                      "form_pv_mm": float(np.ptp(fit))})
+    return {"lobes": lobes}
+
+
+@dataclass(frozen=True)
+class PolishCurve:
+    """Figures against polishing time. times_s: s. lobes[k][name] -> array over times.
+
+    combined_displacement_px: RMS image displacement over all pixels of both lobes (px),
+    the quantity whose minimum is the optimum time.
+    """
+
+    times_s: np.ndarray
+    lobes: list[dict]
+    combined_displacement_px: np.ndarray
+    profiles: list[SampledProfile] = field(repr=False, default_factory=list)
+
+    @property
+    def optimum_index(self) -> int:
+        return int(np.nanargmin(self.combined_displacement_px))
+
+    @property
+    def optimum_time_s(self) -> float:
+        return float(self.times_s[self.optimum_index])
+
+    @property
+    def optimum_inside(self) -> bool:
+        """True when the optimum is not at either end of the explored range."""
+        return 0 < self.optimum_index < self.times_s.size - 1
+
+    def to_dict(self) -> dict:
+        i = self.optimum_index
+        return {
+            "times_s": [float(t) for t in self.times_s],
+            "combined_image_displacement_px_rms": [float(v) for v in self.combined_displacement_px],
+            "lobes": [{"name": lb["name"], **{key: {"rms": [float(v) for v in val["rms"]],
+                                                    "max": [float(v) for v in val["max"]]}
+                                              for key, val in lb.items() if key != "name"}}
+                      for lb in self.lobes],
+            "optimum": {
+                "time_s": self.optimum_time_s,
+                "inside_range": self.optimum_inside,
+                "combined_image_displacement_px_rms": float(self.combined_displacement_px[i]),
+                "lobes": [{"name": lb["name"], **{key: {"rms": float(val["rms"][i]), "max": float(val["max"][i])}
+                                                  for key, val in lb.items() if key != "name"}}
+                          for lb in self.lobes],
+            },
+        }
+
+
+def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams, times_s=None, *,
+                 progress: bool = False) -> PolishCurve:
+    """Slope error, normal deviation, form change and image displacement against time.
+
+    times_s: s (default params.curve_times). Image displacement is the aligned camera's
+    (tolerance.radial: exact per-pixel RMS over each lobe's annulus).
+    """
+    from .tolerance.radial import lobe_pixel_radii, radial_displacement, surface_errors
+
+    times = params.curve_times if times_s is None else np.asarray(times_s, dtype=float)
+    profiles = polish_series(profile, params, times)
+    keys = ("slope_error_rad", "normal_deviation_mm", "form_change_mm", "image_displacement_px")
+    lobes = [{"name": lb.name, **{key: {"rms": [], "max": []} for key in keys}} for lb in mirror.lobes]
+    px = [lobe_pixel_radii(mirror, k) for k in (0, 1)]
+    combined = []
+    bar = _progress(len(profiles), "polishing curve", progress)
+    for prof in profiles:
+        surf = surface_errors(prof, mirror)
+        form = form_change(prof, mirror, degree=params.form_degree)
+        sq, cnt = 0.0, 0.0
+        for k in (0, 1):
+            d = radial_displacement(prof, mirror, k, px[k].radius_px)
+            w = px[k].count
+            ok = np.isfinite(d)
+            rms = float(np.sqrt(np.sum(w[ok] * d[ok] ** 2) / np.sum(w[ok])))
+            sq += float(np.sum(w[ok] * d[ok] ** 2))
+            cnt += float(np.sum(w[ok]))
+            figs = {"slope_error_rad": surf["lobes"][k]["slope_error_rad"],
+                    "normal_deviation_mm": surf["lobes"][k]["normal_deviation_mm"],
+                    "form_change_mm": form["lobes"][k]["form_change_mm"],
+                    "image_displacement_px": {"rms": rms, "max": float(np.max(np.abs(d[ok])))}}
+            for key in keys:
+                lobes[k][key]["rms"].append(figs[key]["rms"])
+                lobes[k][key]["max"].append(figs[key]["max"])
+        combined.append(math.sqrt(sq / cnt))
+        bar.update(1)
+    bar.close()
+    for lb in lobes:
+        for key in keys:
+            lb[key] = {s: np.asarray(v) for s, v in lb[key].items()}
+    return PolishCurve(times_s=times, lobes=lobes, combined_displacement_px=np.asarray(combined),
+                       profiles=profiles)
+
+
+# --------------------------------------------------------------------------------------
+# The evolution
+
+
+def _lobe_grid(profile: Profile, k: int, step: float) -> np.ndarray:
+    lo, hi = profile.lobe_range(k)
+    n = max(int(math.ceil((hi - lo) / step)) + 1, 16)
+    r = np.linspace(lo, hi, n)
+    if k == 1:
+        r[0] = np.nextafter(lo, hi)  # the junction itself belongs to the inner lobe
+    return r
+
+
+def _evolve(r: np.ndarray, z0: np.ndarray, params: PolishParams, times: np.ndarray) -> list[np.ndarray]:
+    """Explicit evolution of z(r) under the pad; snapshots at the (sorted) times."""
+    from scipy.signal import savgol_filter
+
+    dr = r[1] - r[0]
+    window = int(round(params.pad_size_mm / dr)) | 1  # odd number of points
+    window = min(window, r.size - (1 - r.size % 2))
+    rate = removal_rate(r, params)  # mm/s at p = p0
+    lc = params.compliance_mm
+    # Fastest mode decays at rate_max * g / l_c with g <= ~1.2 (the gain of 1 - SG);
+    # dt below l_c / (2 rate_max) keeps Euler's factor in (0, 1): stable, no overshoot.
+    dt_max = 0.5 * lc / max(float(rate.max()), 1e-300)
+    z = z0.copy()
+    t = 0.0
+    snaps = []
+    for target in times:
+        while t < target - 1e-12:
+            dt = min(dt_max, target - t)
+            fit = savgol_filter(z, window, 3, mode="interp")
+            # Standing out toward the pad (toward the camera) is lower z.
+            d = fit - z
+            p_rel = np.maximum(0.0, 1.0 + d / lc)
+            slope = np.gradient(fit, dr)
+            z = z + dt * rate * p_rel * np.sqrt(1.0 + slope**2)
+            t += dt
+        snaps.append(z.copy())
+    return snaps
+
+
+def _progress(total: int, desc: str, enabled: bool):
+    if enabled:
+        import sys
+
+        from tqdm import tqdm
+
+        return tqdm(total=total, desc=desc, file=sys.stderr, leave=False)
+    return _NoBar()
+
+
+class _NoBar:
+    def update(self, n: int = 1) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
