@@ -1,0 +1,13 @@
+"""Optics: the camera, exact ray tracing off any mirror Profile, the paper's scene,
+synthetic images and the distortion figures of a made mirror against the exact design.
+
+Public API (stable names):
+  trace_pixels(profile, camera, pixels_xy | radii_px=..., *, pose=...) -> RayHits
+  meridian_hits(profile, t) -> MeridianHits;  trace_rays(profile, origin, dirs) -> RayHits
+  image_displacement(made, mirror, camera=None, *, pose=...) -> DistortionMaps
+  distortion_figures(made, mirror, camera=None, *, pose=...) -> {"lobes": [...]}
+  render_image(profile, mirror, scene, camera=None, ...) -> (H, W, 3) uint8
+Nothing here imports cadquery; submodules are imported on use.
+"""
+
+from .camera import ALIGNED, CameraPose  # noqa: F401

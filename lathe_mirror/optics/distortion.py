@@ -1,0 +1,181 @@
+"""What a made mirror does to the image, pixel by pixel, against the exact design.
+
+Figures (ARCHITECTURE.md, "Shared definitions"), per pixel centre of each lobe:
+
+* ray_deviation (reported in deg): angle between the reflected rays of the made and the
+  exact surface for the same camera pixel.
+* image_displacement (px): the made surface sends the pixel's ray to a world direction
+  u; the exact lobe k would image u at the point where the ray from its viewpoint F1
+  along u meets its sheet. With F1 the upper focus of (z - e)^2 / a^2 - r^2 / b^2 = 1,
+  the focal polar equation of the near branch gives that point in closed form,
+
+      P = F1 + lam u,   lam = (b^2 / a) / (1 - (e / a) u_z) = b^2 / (a - e u_z)
+
+  (lam = e - a toward the vertex, u = -z), and the aligned camera images P at
+  (f / t_pixel) (P_x / P_z, P_y / P_z). The displacement is that point minus the pixel;
+  for a lathe-turned mirror and an aligned camera it is radial, and `radial_px` keeps
+  its sign (+ outward).
+* viewpoint_spread (mm): distance of the made reflected ray's line from lobe k's F1.
+
+Pixels count for lobe k where both the exact and the made surface send them to lobe k
+(the usable inner disc / outer annulus; the lost ring and the corners beyond the rim are
+out). RMS and max are over those pixel centres, each pixel once.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..design import Camera, Mirror
+from ..profile import ExactProfile, Profile
+from .camera import ALIGNED, CameraPose, pixel_centres
+from .trace import Fate, RayHits, trace_pixels
+
+LOBE_NAMES = ("inner", "outer")
+
+
+@dataclass(frozen=True)
+class DistortionMaps:
+    """Per-pixel figures of a made mirror against the exact one (arrays of shape (H, W)).
+
+    lobe: the pixel's lobe under the exact mirror (0 inner, 1 outer, -1 none).
+    usable: the made mirror sends the pixel to the same lobe. radius_px: image radius of
+    the pixel centre, px. ray_deviation_rad: rad. image_displacement_px: magnitude, px.
+    radial_px: signed radial component of the displacement, px (+ outward).
+    viewpoint_spread_mm: mm. blocked: the made lobe's reflected ray is vignetted by the
+    mirror itself. Figures are NaN where not usable.
+    """
+
+    camera: Camera
+    lobe: np.ndarray
+    usable: np.ndarray
+    radius_px: np.ndarray
+    ray_deviation_rad: np.ndarray
+    image_displacement_px: np.ndarray
+    radial_px: np.ndarray
+    viewpoint_spread_mm: np.ndarray
+    blocked: np.ndarray
+
+    def lobe_values(self, k: int, name: str) -> np.ndarray:
+        """The usable pixels' values of figure `name` for lobe k (1-D)."""
+        return getattr(self, name)[(self.lobe == k) & self.usable]
+
+    def figures(self) -> dict:
+        """{"lobes": [{"name", "pixels", ..., "<figure>": {"rms", "max"}}, ...]}, inner first."""
+        lobes = []
+        for k, name in enumerate(LOBE_NAMES):
+            in_lobe = self.lobe == k
+            use = in_lobe & self.usable
+            entry = {
+                "name": name,
+                "pixels": int(use.sum()),
+                "pixels_lost": int((in_lobe & ~self.usable).sum()),
+                "pixels_vignetted": int((use & self.blocked).sum()),
+            }
+            for key, arr, scale in (
+                ("ray_deviation_deg", self.ray_deviation_rad, math.degrees(1.0)),
+                ("image_displacement_px", self.image_displacement_px, 1.0),
+                ("viewpoint_spread_mm", self.viewpoint_spread_mm, 1.0),
+            ):
+                entry[key] = _rms_max(arr[use] * scale)
+            lobes.append(entry)
+        return {"lobes": lobes}
+
+
+def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = None, *,
+                       pose: CameraPose = ALIGNED) -> DistortionMaps:
+    """Per-pixel ray deviation, image displacement (px) and viewpoint spread (mm), made vs exact.
+
+    camera: default the mirror's design camera (full sensor). pose: a misaligned camera
+    (traced in 3-D, about 10 s for the full sensor; the aligned case takes well under 1 s
+    because every pixel of the same image radius shares its meridian trace).
+    """
+    camera = camera or mirror.camera
+    u, v = pixel_centres(camera)
+    u, v = u[..., 0], v[..., 0]
+    exact = ExactProfile(mirror)
+    if pose.aligned:
+        # Pixel centres are half-integers: (2u)^2 + (2v)^2 is an exact integer key of rho.
+        key = np.rint((2 * u) ** 2 + (2 * v) ** 2).astype(np.int64)
+        uniq, inverse = np.unique(key, return_inverse=True)
+        radii = np.sqrt(uniq) / 2.0
+        hm, he = (trace_pixels(p, camera, radii_px=radii) for p in (made, exact))
+        per = _figures_of(mirror, camera, hm, he, np.stack([radii, np.zeros_like(radii)], -1))
+        inverse = inverse.reshape(u.shape)
+        maps = {k: a[inverse] for k, a in per.items()}
+    else:
+        xy = np.stack([u, v], axis=-1)
+        hm, he = (trace_pixels(p, camera, xy, pose=pose) for p in (made, exact))
+        maps = _figures_of(mirror, camera, hm, he, xy)
+    return DistortionMaps(camera=camera, radius_px=np.hypot(u, v), **maps)
+
+
+def distortion_figures(made: Profile, mirror: Mirror, camera: Camera | None = None, *,
+                       pose: CameraPose = ALIGNED) -> dict:
+    """The figures of image_displacement as JSON-ready data, lobes inner first.
+
+    {"lobes": [{"name": "inner", "pixels", "pixels_lost", "pixels_vignetted",
+    "ray_deviation_deg": {"rms", "max"}, "image_displacement_px": {...},
+    "viewpoint_spread_mm": {...}}, {... "outer"}]}
+    """
+    return image_displacement(made, mirror, camera, pose=pose).figures()
+
+
+def exact_image_point(mirror: Mirror, k: int, direction: np.ndarray,
+                      camera: Camera | None = None) -> np.ndarray:
+    """Image point (u, v), px, where exact lobe k and the aligned camera image a world
+    direction (..., 3) (unit, pointing away from the mirror). NaN past the asymptote."""
+    camera = camera or mirror.camera
+    lobe = mirror.lobes[k]
+    u = np.asarray(direction, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        denom = lobe.a - lobe.e * u[..., 2]
+        lam = np.where(denom > 0, lobe.b**2 / denom, np.nan)
+        px, py, pz = lam * u[..., 0], lam * u[..., 1], lobe.focus_z + lam * u[..., 2]
+        scale = camera.f / (camera.t_pixel * pz)
+    return np.stack([px * scale, py * scale], axis=-1)
+
+
+def viewpoint_distance(point: np.ndarray, direction: np.ndarray, focus_z: float) -> np.ndarray:
+    """Distance (mm) of the lines point + s direction (unit) from the focus (0, 0, focus_z)."""
+    q = np.array([0.0, 0.0, focus_z]) - point
+    return np.linalg.norm(np.cross(q, direction), axis=-1)
+
+
+# --------------------------------------------------------------------------------------
+
+
+def _figures_of(mirror: Mirror, camera: Camera, hm: RayHits, he: RayHits, xy: np.ndarray) -> dict:
+    lobe = np.where(he.fate <= Fate.OUTER, he.fate, -1).astype(np.int8)
+    usable = (lobe >= 0) & (hm.fate == he.fate)
+    cosang = np.clip(np.sum(hm.direction * he.direction, axis=-1), -1.0, 1.0)
+    sinang = np.linalg.norm(np.cross(hm.direction, he.direction), axis=-1)
+    deviation = np.arctan2(sinang, cosang)
+    disp = np.full(lobe.shape, np.nan)
+    radial = np.full(lobe.shape, np.nan)
+    spread = np.full(lobe.shape, np.nan)
+    rho = np.hypot(xy[..., 0], xy[..., 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ru = np.where(rho > 0, xy[..., 0] / np.where(rho > 0, rho, 1), 1.0)
+        rv = np.where(rho > 0, xy[..., 1] / np.where(rho > 0, rho, 1), 0.0)
+    for k in (0, 1):
+        m = usable & (lobe == k)
+        img = exact_image_point(mirror, k, hm.direction[m], camera)
+        delta = img - xy[m]
+        disp[m] = np.hypot(delta[:, 0], delta[:, 1])
+        radial[m] = delta[:, 0] * ru[m] + delta[:, 1] * rv[m]
+        spread[m] = viewpoint_distance(hm.point[m], hm.direction[m], mirror.lobes[k].focus_z)
+    deviation = np.where(usable, deviation, np.nan)
+    return {"lobe": lobe, "usable": usable, "ray_deviation_rad": deviation,
+            "image_displacement_px": disp, "radial_px": radial,
+            "viewpoint_spread_mm": spread, "blocked": hm.blocked & usable}
+
+
+def _rms_max(x: np.ndarray) -> dict:
+    x = np.asarray(x, float)
+    if x.size == 0:
+        return {"rms": float("nan"), "max": float("nan")}
+    return {"rms": float(np.sqrt(np.mean(x * x))), "max": float(np.max(np.abs(x)))}
