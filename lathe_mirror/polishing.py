@@ -9,7 +9,7 @@ Model, per lobe, on a fine uniform grid of r (camera frame, mm; time in s):
     surface speed of the spinning part under a lap covering the lobe:  v = omega * r
     pressure of a compliant (Winkler) pad, stiffness p0 / l_c per unit deflection:
         p = p0 * max(0, 1 + d / l_c)
-    d = how far the surface stands out toward the pad beyond the pad's own local surface,
+    d = how far (along the normal) the surface stands out toward the pad beyond the pad's own local surface,
         which conforms to the part up to cubic terms over the pad size w (a Savitzky-Golay
         cubic fit over a window w): errors much shorter than w (facets, lattice steps) see
         the full stiffness and are worn away; the design's curvature is not.
@@ -36,6 +36,10 @@ import numpy as np
 from .design import Mirror
 from .errors import InputError
 from .profile import LobeSamples, Profile, SampledProfile
+
+
+#: Time step as a fraction of the fastest e-folding time of a short error (see _evolve).
+ACCURACY = 0.05
 
 
 @dataclass(frozen=True)
@@ -271,9 +275,10 @@ def _evolve(r: np.ndarray, z0: np.ndarray, params: PolishParams, times: np.ndarr
     window = min(window, r.size - (1 - r.size % 2))
     rate = removal_rate(r, params)  # mm/s at p = p0
     lc = params.compliance_mm
-    # Fastest mode decays at rate_max * g / l_c with g <= ~1.2 (the gain of 1 - SG);
-    # dt below l_c / (2 rate_max) keeps Euler's factor in (0, 1): stable, no overshoot.
-    dt_max = 0.5 * lc / max(float(rate.max()), 1e-300)
+    # Short errors decay as exp(-rate g t / l_c), g <= ~1.2 the gain of (1 - SG). Euler's
+    # factor per step is 1 - rate g dt / l_c: dt = l_c / (20 rate_max) keeps it within
+    # (0.94, 1), stable, monotone and within ~3% of the exponential after one e-fold.
+    dt_max = ACCURACY * lc / max(float(rate.max()), 1e-300)
     z = z0.copy()
     t = 0.0
     snaps = []
@@ -281,11 +286,12 @@ def _evolve(r: np.ndarray, z0: np.ndarray, params: PolishParams, times: np.ndarr
         while t < target - 1e-12:
             dt = min(dt_max, target - t)
             fit = savgol_filter(z, window, 3, mode="interp")
-            # Standing out toward the pad (toward the camera) is lower z.
-            d = fit - z
-            p_rel = np.maximum(0.0, 1.0 + d / lc)
-            slope = np.gradient(fit, dr)
-            z = z + dt * rate * p_rel * np.sqrt(1.0 + slope**2)
+            # Standing out toward the pad (toward the camera) is lower z; the pad deflects
+            # along the normal, by the height difference times cos(beta).
+            sec = np.sqrt(1.0 + np.gradient(fit, dr) ** 2)  # 1 / cos(beta)
+            p_rel = np.maximum(0.0, 1.0 + (fit - z) / (sec * lc))
+            # Removal k p v dt along the normal raises z by that over cos(beta).
+            z = z + dt * rate * p_rel * sec
             t += dt
         snaps.append(z.copy())
     return snaps

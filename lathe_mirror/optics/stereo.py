@@ -1,0 +1,135 @@
+"""Stereo range from the two lobes, and what the made mirror does to it.
+
+A world point W in the common band is seen by both lobes. On the exact mirror each lobe
+images it at the pixel whose ray, reflected, passes through the lobe's viewpoint F1 and W
+(the closed-form inverse map, `ideal_radius_px`). The made (or polished) surface sends
+those same two pixels along slightly different rays; the stereo system, which assumes
+the design, reports W, while the point actually seen at that pixel pair is where the two
+made rays cross. Both rays lie in the pixel pair's meridian plane (the radial epipolar
+line of the paper's section 4), so on an aligned camera the triangulation is the
+crossing of two lines in the (r, z) plane.
+
+depth error (ARCHITECTURE.md) = 100 * (R_made - R) / R, with R the true range of W from
+the stereo centre (midway between the viewpoints) and R_made the range of the made rays'
+crossing measured along the same direction (negative when the rays cross behind).
+
+Camera frame, mm and radians inside; ranges in metres and errors in percent at the edges.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..design import Mirror
+from ..profile import Profile
+
+#: Elevations closer than this to an edge of the common band (rad) are not used: at
+#: 0.5 m the two viewpoints see a point 1.5 degrees apart, so points right at the band's
+#: edge would fall outside one lobe's field of view.
+BAND_MARGIN = math.radians(2.0)
+
+
+@dataclass(frozen=True)
+class DepthCurve:
+    """Depth error (%) against range (m) at several elevations (rad) of the common band.
+
+    error_pct has shape (len(ranges_m), len(elevations)).
+    """
+
+    ranges_m: np.ndarray
+    elevations: np.ndarray
+    error_pct: np.ndarray
+
+    def at(self, range_m: float) -> dict:
+        """{"rms", "max"} of |depth error| (%) over the elevations at one range (m)."""
+        i = int(np.argmin(np.abs(self.ranges_m - range_m)))
+        if not math.isclose(self.ranges_m[i], range_m, rel_tol=1e-9):
+            raise ValueError(f"range {range_m} m is not on the curve")
+        e = np.abs(self.error_pct[i])
+        return {"rms": float(np.sqrt(np.mean(e**2))), "max": float(np.max(e))}
+
+    def to_dict(self) -> dict:
+        e = np.abs(self.error_pct)
+        return {"ranges_m": [float(x) for x in self.ranges_m],
+                "elevations_deg": [float(math.degrees(x)) for x in self.elevations],
+                "depth_error_pct": {"rms": [float(v) for v in np.sqrt(np.mean(e**2, axis=1))],
+                                    "max": [float(v) for v in np.max(e, axis=1)]}}
+
+
+def stereo_centre_z(mirror: Mirror) -> float:
+    """Height (mm) of the stereo centre, midway between the two viewpoints F1."""
+    return 0.5 * (mirror.inner.focus_z + mirror.outer.focus_z)
+
+
+def band_elevations(mirror: Mirror, n: int = 9) -> np.ndarray:
+    """n elevations (rad) evenly across the common band, BAND_MARGIN inside its edges."""
+    lo, hi = mirror.common_band
+    lo, hi = lo + BAND_MARGIN, hi - BAND_MARGIN
+    if hi <= lo:
+        raise ValueError("the common band is narrower than twice the margin: no stereo")
+    return np.linspace(lo, hi, n)
+
+
+def world_points(mirror: Mirror, ranges_mm: np.ndarray, elevations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Meridian coordinates (r, z) in mm of points at range and elevation from the stereo centre."""
+    rr, ee = np.meshgrid(np.asarray(ranges_mm, float), np.asarray(elevations, float), indexing="ij")
+    return rr * np.cos(ee), stereo_centre_z(mirror) + rr * np.sin(ee)
+
+
+def exact_pixels(mirror: Mirror, w_r: np.ndarray, w_z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Image radii (px) at which the exact inner and outer lobes image the points (w_r, w_z)."""
+    from ..tolerance.radial import ideal_radius_px
+
+    out = []
+    for lobe in mirror.lobes:
+        phi = np.arctan2(w_z - lobe.focus_z, w_r)
+        out.append(ideal_radius_px(lobe, mirror.camera, phi))
+    return out[0], out[1]
+
+
+def triangulate(p1: np.ndarray, o1: np.ndarray, p2: np.ndarray, o2: np.ndarray) -> np.ndarray:
+    """Midpoint of the closest approach of lines p1 + s o1 and p2 + u o2 (any dimension).
+
+    Vectors on the last axis. In a plane the lines cross and this is the crossing; for
+    (nearly) parallel lines the result is inf/NaN.
+    """
+    w = p1 - p2
+    a = np.sum(o1 * o1, -1)
+    b = np.sum(o1 * o2, -1)
+    c = np.sum(o2 * o2, -1)
+    d = np.sum(o1 * w, -1)
+    e = np.sum(o2 * w, -1)
+    den = a * c - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (b * e - c * d) / den
+        u = (a * e - b * d) / den
+    return 0.5 * ((p1 + s[..., None] * o1) + (p2 + u[..., None] * o2))
+
+
+def depth_error_curve(profile: Profile, mirror: Mirror, ranges_m, *, elevations=None,
+                      camera_dz: float = 0.0) -> DepthCurve:
+    """Depth error (%) of a made surface against range (m), aligned camera.
+
+    elevations: rad (default band_elevations). camera_dz: axial camera offset (mm).
+    """
+    from ..tolerance.radial import trace_lobe
+
+    ranges_m = np.asarray(ranges_m, dtype=float)
+    elev = band_elevations(mirror) if elevations is None else np.asarray(elevations, float)
+    w_r, w_z = world_points(mirror, ranges_m * 1e3, elev)
+    rho = exact_pixels(mirror, w_r, w_z)
+    rays = [trace_lobe(profile, mirror, k, rho[k].ravel(), camera_dz=camera_dz) for k in (0, 1)]
+    p = [np.stack([ry.r, ry.z], -1) for ry in rays]
+    o = [np.stack([ry.o_r, ry.o_z], -1) for ry in rays]
+    x = triangulate(p[0], o[0], p[1], o[1]).reshape(w_r.shape + (2,))
+    return DepthCurve(ranges_m, elev, _error_pct(mirror, x, ranges_m * 1e3, elev))
+
+
+def _error_pct(mirror: Mirror, x: np.ndarray, ranges_mm: np.ndarray, elev: np.ndarray) -> np.ndarray:
+    """100 (R_made - R) / R with R_made the crossing's range along the true direction."""
+    ux, uz = np.cos(elev)[None, :], np.sin(elev)[None, :]
+    r_made = x[..., 0] * ux + (x[..., 1] - stereo_centre_z(mirror)) * uz
+    return 100.0 * (r_made - ranges_mm[:, None]) / ranges_mm[:, None]

@@ -1,0 +1,125 @@
+"""Polishing model (Preston's law, compliant pad) against closed forms and hand calculations."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+from lathe_mirror.errors import InputError
+from lathe_mirror.polishing import PolishParams, form_change, polish, polish_curve, polish_params_from_config
+from lathe_mirror.profile import ExactProfile, LobeSamples, PolylineProfile, SampledProfile
+
+from conftest import run_cli
+
+
+def paper_polyline(mirror, n: int = 528, res: float = 0.005) -> PolylineProfile:
+    """The paper's section-6 model, built here independently: n points uniform in r,
+    split between the lobes by radial extent, r and machine Z rounded to the lattice."""
+    n_in = round(n * mirror.r_junction / mirror.r_max)
+    lobes = []
+    for k, lobe in enumerate(mirror.lobes):
+        if k == 0:
+            r = np.linspace(0.0, mirror.r_junction, n_in)
+        else:
+            r = np.linspace(mirror.r_junction, mirror.r_max, n - n_in + 1)[1:]
+        zm = np.round((mirror.vertex_z - lobe.z(r)) / res) * res
+        lobes.append(LobeSamples(np.round(r / res) * res, mirror.vertex_z - zm))
+    return PolylineProfile(*lobes, r_junction=mirror.r_junction, r_max=mirror.r_max,
+                           vertex_z=mirror.vertex_z)
+
+
+def rippled(mirror, amplitude: float, wavelength: float) -> SampledProfile:
+    """The exact surface plus a sinusoidal ripple z += A sin(2 pi r / lambda), densely sampled."""
+    lobes = []
+    for k, lobe in enumerate(mirror.lobes):
+        lo, hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
+        r = np.linspace(lo, hi, int((hi - lo) / 0.001) + 1)
+        if k == 1:
+            r[0] = np.nextafter(lo, hi)
+        lobes.append(LobeSamples(r, lobe.z(r) + amplitude * np.sin(2 * np.pi * r / wavelength)))
+    return SampledProfile(*lobes, r_junction=mirror.r_junction, r_max=mirror.r_max, vertex_z=mirror.vertex_z)
+
+
+def test_smooth_surface_loses_preston_depth(paper_mirror):
+    """On the exact (smooth) surface the pad presses evenly: removal = k p v t along the normal."""
+    params = PolishParams(time_s=1200.0)
+    out = polish(ExactProfile(paper_mirror), params)
+    omega = 300.0 * 2.0 * math.pi / 60.0  # rpm -> rad/s, by hand
+    for lobe, r in ((paper_mirror.inner, 8.0), (paper_mirror.inner, 15.0), (paper_mirror.outer, 30.0)):
+        removal_normal = 4e-13 * 20e3 * omega * r * 1200.0  # mm: (1/Pa)(Pa)(mm/s)(s)
+        dz_expected = removal_normal * math.sqrt(1.0 + float(lobe.slope(r)) ** 2)
+        dz = float(out.z(np.array([r]))[0] - lobe.z(r))
+        assert dz == pytest.approx(dz_expected, rel=0.02), (lobe.name, r, dz, dz_expected)
+
+
+def test_short_ripple_decays_exponentially(paper_mirror):
+    """A ripple much shorter than the pad sees the pad's full stiffness p0 / l_c: linearising
+    p = p0 (1 + d / l_c) gives dA/dt = -k p0 omega r A / l_c, so A(t) = A0 exp(-k p0 omega r t / l_c)."""
+    a0, lam = 0.0005, 0.2  # mm: 0.5 um ripple (<< l_c = 4 um: linear regime), 0.2 mm << pad 6 mm
+    params = PolishParams(time_s=900.0)
+    before = rippled(paper_mirror, a0, lam)
+    after = polish(before, params)
+    omega = 300.0 * 2.0 * math.pi / 60.0
+    for r0 in (12.0, 18.0, 28.0):
+        r = np.linspace(r0 - 0.3, r0 + 0.3, 601)
+        lobe = paper_mirror.lobes[int(r0 > paper_mirror.r_junction)]
+        resid = after.z(r) - lobe.z(r)
+        # Amplitude of the ripple: least squares on sin, cos and a local quadratic trend.
+        basis = np.stack([np.sin(2 * np.pi * r / lam), np.cos(2 * np.pi * r / lam),
+                          np.ones_like(r), r - r0, (r - r0) ** 2], axis=1)
+        coef, *_ = np.linalg.lstsq(basis, resid, rcond=None)
+        amp = math.hypot(coef[0], coef[1])
+        expected = a0 * math.exp(-4e-13 * 20e3 * omega * r0 * 900.0 / 0.004)
+        assert 0.02 < expected / a0 < 0.8  # the test exercises real decay, not 0 or 1
+        assert amp == pytest.approx(expected, rel=0.06), (r0, amp, expected)
+
+
+def test_zero_time_returns_the_input(paper_mirror):
+    made = paper_polyline(paper_mirror)
+    out = polish(made, PolishParams(), 0.0)
+    r = np.linspace(0.5, 34.5, 500)
+    r = r[np.abs(r - paper_mirror.r_junction) > 0.01]
+    # The polished surface is a cubic spline through the 0.005 mm grid of the polyline:
+    # at most the chord error of a facet between grid points.
+    assert np.max(np.abs(out.z(r) - made.z(r))) < 2e-4
+
+
+def test_polishing_curve_has_an_inside_optimum_and_costs_form(paper_mirror, paper_config):
+    params = dataclasses.replace(polish_params_from_config(paper_config), curve_points=9)
+    curve = polish_curve(paper_polyline(paper_mirror), paper_mirror, params)
+    d = curve.combined_displacement_px
+    i = curve.optimum_index
+    assert curve.optimum_inside and 0 < i < d.size - 1
+    assert d[i] < 0.5 * d[0]  # polishing does help the facetted paper mirror
+    assert d[-1] > d[i]  # and too much of it hurts again
+    # The form keeps growing with time on the outer lobe (v = omega r): the cost.
+    form = curve.lobes[1]["form_change_mm"]["rms"]
+    assert np.all(np.diff(form) > 0)
+    # Form change recomputed independently at the optimum: the Legendre fit of the same surface.
+    again = form_change(curve.profiles[i], paper_mirror, degree=params.form_degree)
+    assert again["lobes"][1]["form_change_mm"]["rms"] == pytest.approx(form[i], rel=1e-12)
+    # Slope error falls from the facetted start (the facets are what the pad removes).
+    slope = curve.lobes[1]["slope_error_rad"]["rms"]
+    assert slope[i] < 0.2 * slope[0]
+    json.dumps(curve.to_dict())  # plain data
+
+
+def test_bad_parameters_are_refused():
+    with pytest.raises(InputError, match="polish.pressure_kpa"):
+        PolishParams(pressure_kpa=-1.0)
+    with pytest.raises(InputError, match="polish.grid_step_mm"):
+        PolishParams(grid_step_mm=2.0)
+
+
+def test_polish_cli_bad_time_exit_2(tmp_path):
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text("[polish]\ntime_s = -5.0\n")
+    out = tmp_path / "out"
+    proc = run_cli("polish", "--config", str(cfg), "-o", str(out))
+    assert proc.returncode == 2, proc.stderr
+    assert "polish.time_s" in proc.stderr and "Traceback" not in proc.stderr
+    assert not out.exists() or not any(out.iterdir())
