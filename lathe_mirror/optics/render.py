@@ -1,0 +1,97 @@
+"""Synthetic images of the scene through the mirror, and how two images differ.
+
+Each pixel's ray is traced exactly off the mirror Profile (trace.py), its reflection is
+followed into the room (scene.py). Pixels whose ray hits the step wall (the lost ring),
+passes the rim, or whose reflection is vignetted by the mirror itself are black. Colours
+are linear (no sRGB curve), as POV-Ray writes them with File_Gamma=1.0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..design import Camera, Mirror
+from ..errors import InputError
+from ..profile import Profile
+from .camera import ALIGNED, CameraPose, pixel_centres
+from .scene import Scene, shade
+from .trace import Fate, trace_pixels
+
+#: Rays per chunk: bounds memory (a few hundred bytes per ray) and paces the progress bar.
+CHUNK_RAYS = 1 << 18
+
+
+def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera | None = None, *,
+                 pose: CameraPose = ALIGNED, supersample: int = 1,
+                 window: tuple[int, int, int, int] | None = None,
+                 progress: bool = False) -> np.ndarray:
+    """Render the scene through the mirror: (H, W, 3) uint8, linear RGB.
+
+    camera: default the mirror's design camera (full sensor). supersample: n x n rays per
+    pixel, averaged (n^2 the cost). window: (col0, row0, width, height) crop of the sensor.
+    progress: a tqdm bar on stderr. Raises InputError if no pixel sees the mirror.
+    """
+    camera = camera or mirror.camera
+    u, v = pixel_centres(camera, supersample=supersample, window=window)
+    h, w, n = u.shape
+    u, v = u.reshape(-1), v.reshape(-1)
+    rgb = np.zeros((u.size, 3))
+    seen = 0
+    starts = range(0, u.size, CHUNK_RAYS)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=u.size, unit="ray", unit_scale=True, desc="render", leave=False)
+    for a in starts:
+        sl = slice(a, min(a + CHUNK_RAYS, u.size))
+        hits = trace_pixels(profile, camera, np.stack([u[sl], v[sl]], axis=-1), pose=pose)
+        lit = (hits.fate <= Fate.OUTER) & ~hits.blocked
+        seen += int(np.count_nonzero(hits.fate <= Fate.OUTER))
+        if lit.any():
+            rgb[sl][lit] = shade(scene, hits.point[lit], hits.direction[lit])
+        if bar is not None:
+            bar.update(sl.stop - sl.start)
+    if bar is not None:
+        bar.close()
+    if seen == 0:
+        raise InputError(
+            "camera: no pixel sees the mirror (check [camera_pose] decentre / tilt_deg / "
+            "axial_offset and the [camera] constants)"
+        )
+    img = rgb.reshape(h, w, n, 3).mean(axis=2)
+    return np.clip(np.rint(img * 255.0), 0, 255).astype(np.uint8)
+
+
+def image_difference(a: np.ndarray, b: np.ndarray, *, mask: np.ndarray | None = None) -> dict:
+    """How much image b differs from a (uint8 (H, W, 3)): {"rms": grey levels 0..255, "ssim"}.
+
+    RMS over all channels (and the masked pixels, if a mask is given). SSIM (Wang et al.
+    2004, IEEE TIP 13(4)) on the luma Y = 0.299 R + 0.587 G + 0.114 B with their constants:
+    Gaussian window sigma = 1.5 px, K1 = 0.01, K2 = 0.03, L = 255; mean over the mask.
+    """
+    from scipy.ndimage import gaussian_filter
+
+    a = np.asarray(a, float)
+    b = np.asarray(b, float)
+    if a.shape != b.shape:
+        raise ValueError(f"image_difference: shapes differ {a.shape} vs {b.shape}")
+    m = np.ones(a.shape[:2], bool) if mask is None else np.asarray(mask, bool)
+    diff = (a - b)[m]
+    rms = float(np.sqrt(np.mean(diff * diff))) if diff.size else float("nan")
+    luma = np.array([0.299, 0.587, 0.114])
+    x, y = a @ luma, b @ luma
+    c1, c2 = (0.01 * 255) ** 2, (0.03 * 255) ** 2
+    g = lambda img: gaussian_filter(img, 1.5, truncate=3.5)  # noqa: E731  (11 x 11 window)
+    mx, my = g(x), g(y)
+    sxx = g(x * x) - mx * mx
+    syy = g(y * y) - my * my
+    sxy = g(x * y) - mx * my
+    ssim_map = ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
+    return {"rms": rms, "ssim": float(ssim_map[m].mean()) if m.any() else float("nan")}
+
+
+def difference_image(a: np.ndarray, b: np.ndarray, *, gain: float = 1.0) -> np.ndarray:
+    """|a - b| per channel as uint8 (H, W, 3), times gain (clipped): a picture of where they differ."""
+    d = np.abs(np.asarray(a, np.int16) - np.asarray(b, np.int16)) * gain
+    return np.clip(d, 0, 255).astype(np.uint8)

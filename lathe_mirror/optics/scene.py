@@ -1,0 +1,207 @@
+"""The paper's room (section 6, Fig. 11), closed-form ray intersection and Lambert shading.
+
+Camera frame, mm: the floor is the plane z = -camera_height, the ceiling z = room_height
+- camera_height, the walls x = x_lo / x_hi and y = y_lo / y_hi; boxes stand on the floor,
+axis-aligned. Everything is a plane or a box, so a ray's hit is closed form (the slab
+method, Kay & Kajiya 1986), vectorised over all rays.
+
+Shading is Lambert plus ambient under one distant shadowless light, so each face has one
+shade and edges read: colour = pigment * (ambient + diffuse * max(0, n . l)), l the unit
+vector toward the light. The checker of the floor and walls is POV-Ray's: square colour
+index = (floor(x / s) + floor(y / s) + floor(z / s)) mod 2, the first colour on even; its
+planes are placed off the checker's own grid lines so no face sits on a square edge.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+
+# Surface ids: the room's six planes, then box faces (by axis and sign of their normal).
+FLOOR, CEILING, X_LO, X_HI, Y_LO, Y_HI = range(6)
+BOX_FACE0 = 6  # + 2 * axis + (1 if the normal points + else 0)
+N_SURFACES = 12
+
+
+@dataclass(frozen=True)
+class Box:
+    """An axis-aligned box: corners lo, hi (x, y, z), mm."""
+
+    lo: tuple[float, float, float]
+    hi: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A square room with checkered floor and walls and boxes on the floor. mm, linear RGB.
+
+    bounds: (x_lo, x_hi, y_lo, y_hi, z_floor, z_ceiling) of the room in the camera frame.
+    floor_square, wall_square: checker square sides. light: unit vector toward the light.
+    """
+
+    bounds: tuple[float, float, float, float, float, float]
+    boxes: tuple[Box, ...]
+    floor_square: float
+    wall_square: float
+    ambient: float
+    diffuse: float
+    light: tuple[float, float, float]
+    floor_colours: tuple[tuple[float, float, float], tuple[float, float, float]]
+    x_wall_colours: tuple[tuple[float, float, float], tuple[float, float, float]]
+    y_wall_colours: tuple[tuple[float, float, float], tuple[float, float, float]]
+    ceiling_colour: tuple[float, float, float]
+    box_colour: tuple[float, float, float]
+
+    def normals(self) -> np.ndarray:
+        """Unit normal of every surface id, facing into the room / out of the box (12, 3)."""
+        n = np.zeros((N_SURFACES, 3))
+        n[FLOOR, 2], n[CEILING, 2] = 1.0, -1.0
+        n[X_LO, 0], n[X_HI, 0], n[Y_LO, 1], n[Y_HI, 1] = 1.0, -1.0, 1.0, -1.0
+        for axis in range(3):
+            n[BOX_FACE0 + 2 * axis, axis] = -1.0
+            n[BOX_FACE0 + 2 * axis + 1, axis] = 1.0
+        return n
+
+    def shades(self) -> np.ndarray:
+        """Lambert factor ambient + diffuse * max(0, n . l) of every surface id (12,)."""
+        return self.ambient + self.diffuse * np.maximum(0.0, self.normals() @ np.array(self.light))
+
+
+def scene_from_config(cfg: dict, *, mirror_top: float = 0.0, mirror_radius: float = 0.0) -> Scene:
+    """The [scene] section as a Scene; checks that the camera, mirror and boxes fit the room.
+
+    mirror_top (mm): the mirror's highest point above the camera; mirror_radius (mm): its
+    rim radius. Raises InputError naming the key on an empty or impossible scene.
+    """
+    sc = cfg["scene"]
+    side, height, cam_h = sc["room_size"], sc["room_height"], sc["camera_height"]
+    for key in ("room_size", "room_height", "camera_height", "floor_square", "wall_square"):
+        if not sc[key] > 0:
+            raise InputError(f"scene.{key} = {sc[key]:g} mm must be > 0")
+    if not cam_h + mirror_top < height:
+        raise InputError(
+            f"scene.camera_height = {cam_h:g} mm: the mirror's top ({mirror_top:.1f} mm above the "
+            f"camera) must stay below the ceiling (scene.room_height = {height:g} mm)"
+        )
+    cx, cy = _pair(sc["room_centre"], "scene.room_centre")
+    half = side / 2.0
+    bounds = (cx - half, cx + half, cy - half, cy + half, -cam_h, height - cam_h)
+    reach = max(mirror_radius, 1.0)
+    if not (bounds[0] < -reach and bounds[1] > reach and bounds[2] < -reach and bounds[3] > reach):
+        raise InputError(
+            f"scene.room_centre = {list(sc['room_centre'])}: the camera and mirror (radius "
+            f"{mirror_radius:g} mm) must be inside the room (side {side:g} mm)"
+        )
+    if not sc["boxes"]:
+        raise InputError(
+            "scene.boxes is empty: the scene needs at least one [[scene.boxes]] "
+            "(centre = [x, y], size = [x, y, z] in mm; the paper's room has three)"
+        )
+    boxes = []
+    for i, b in enumerate(sc["boxes"]):
+        key = f"scene.boxes[{i}]"
+        bx, by = _pair(b["centre"], f"{key}.centre")
+        size = [float(v) for v in b["size"]]
+        if len(size) != 3 or min(size) <= 0:
+            raise InputError(f"{key}.size = {b['size']}: give three sizes (x, y, z) > 0 mm")
+        lo = (bx - size[0] / 2, by - size[1] / 2, bounds[4])
+        hi = (bx + size[0] / 2, by + size[1] / 2, bounds[4] + size[2])
+        if lo[0] < bounds[0] or hi[0] > bounds[1] or lo[1] < bounds[2] or hi[1] > bounds[3] or hi[2] > bounds[5]:
+            raise InputError(f"{key}: the box (centre {b['centre']}, size {b['size']} mm) must fit in the room")
+        if lo[0] <= reach and hi[0] >= -reach and lo[1] <= reach and hi[1] >= -reach:
+            raise InputError(
+                f"{key}: the box (centre {b['centre']}, size {b['size']} mm) stands on the camera's "
+                f"axis; keep it clear of the mirror (radius {mirror_radius:g} mm)"
+            )
+        boxes.append(Box(lo, hi))
+    light = np.asarray(sc["light_direction"], float)
+    if light.shape != (3,) or not np.linalg.norm(light) > 0:
+        raise InputError(f"scene.light_direction = {sc['light_direction']}: give a non-zero (x, y, z)")
+    return Scene(
+        bounds=bounds,
+        boxes=tuple(boxes),
+        floor_square=float(sc["floor_square"]),
+        wall_square=float(sc["wall_square"]),
+        ambient=float(sc["ambient"]),
+        diffuse=float(sc["diffuse"]),
+        light=tuple(float(x) for x in -light / np.linalg.norm(light)),
+        floor_colours=_colours(sc["floor_colours"], "scene.floor_colours", 2),
+        x_wall_colours=_colours(sc["x_wall_colours"], "scene.x_wall_colours", 2),
+        y_wall_colours=_colours(sc["y_wall_colours"], "scene.y_wall_colours", 2),
+        ceiling_colour=_colours(sc["ceiling_colour"], "scene.ceiling_colour", 1)[0],
+        box_colour=_colours(sc["box_colour"], "scene.box_colour", 1)[0],
+    )
+
+
+def intersect(scene: Scene, origin: np.ndarray, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First hit of rays (origins (N, 3) inside the room, directions (N, 3)).
+
+    Returns (distance along the direction, surface id); every ray inside the closed room
+    hits something.
+    """
+    o = np.asarray(origin, float)
+    d = np.asarray(direction, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+    lo = np.array(scene.bounds[0::2])[[0, 1, 2]]  # x_lo, y_lo, z_floor
+    hi = np.array(scene.bounds[1::2])[[0, 1, 2]]  # x_hi, y_hi, z_ceiling
+    # Leaving the room: per axis, the plane ahead of the ray.
+    ahead = np.where(d > 0, hi, lo)
+    with np.errstate(invalid="ignore"):
+        s_axis = np.where(d != 0, (ahead - o) * inv, np.inf)
+    axis = np.argmin(s_axis, axis=1)
+    dist = np.take_along_axis(s_axis, axis[:, None], axis=1)[:, 0]
+    positive = np.take_along_axis(d, axis[:, None], axis=1)[:, 0] > 0
+    room_ids = np.array([[X_LO, X_HI], [Y_LO, Y_HI], [FLOOR, CEILING]])
+    surface = room_ids[axis, positive.astype(np.intp)]
+    for box in scene.boxes:
+        blo, bhi = np.array(box.lo), np.array(box.hi)
+        with np.errstate(invalid="ignore"):
+            t1 = (blo - o) * inv
+            t2 = (bhi - o) * inv
+        near = np.fmin(t1, t2)
+        far = np.fmax(t1, t2)
+        t_near = near.max(axis=1)
+        t_far = far.min(axis=1)
+        hit = (t_near <= t_far) & (t_near > 0) & (t_near < dist)
+        if hit.any():
+            ax = np.argmax(near[hit], axis=1)
+            d_ax = np.take_along_axis(d[hit], ax[:, None], axis=1)[:, 0]
+            dist[hit] = t_near[hit]
+            surface[hit] = BOX_FACE0 + 2 * ax + (d_ax < 0)  # the face's normal opposes the ray
+    return dist, surface
+
+
+def shade(scene: Scene, origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """Linear RGB in 0..1 of what rays see (N, 3)."""
+    o = np.asarray(origin, float)
+    d = np.asarray(direction, float)
+    dist, surface = intersect(scene, o, d)
+    p = o + dist[:, None] * d
+    shades = scene.shades()
+    # Pigment table: per surface id, (colour on even squares, colour on odd squares).
+    table = np.zeros((N_SURFACES, 2, 3))
+    table[FLOOR] = scene.floor_colours
+    table[CEILING] = (scene.ceiling_colour, scene.ceiling_colour)
+    table[[X_LO, X_HI]] = scene.x_wall_colours
+    table[[Y_LO, Y_HI]] = scene.y_wall_colours
+    table[BOX_FACE0:] = (scene.box_colour, scene.box_colour)
+    size = np.where(surface == FLOOR, scene.floor_square, scene.wall_square)
+    parity = np.floor(p / size[:, None]).astype(np.int64).sum(axis=1) & 1
+    return table[surface, parity] * shades[surface][:, None]
+
+
+def _pair(value, key: str) -> tuple[float, float]:
+    if len(value) != 2:
+        raise InputError(f"{key} = {value}: give two numbers (x, y) in mm")
+    return float(value[0]), float(value[1])
+
+
+def _colours(value, key: str, n: int) -> tuple:
+    v = [float(x) for x in value]
+    if len(v) != 3 * n or min(v) < 0 or max(v) > 1:
+        raise InputError(f"{key} = {value}: give {n} RGB triple(s), {3 * n} numbers in 0..1")
+    return tuple(tuple(v[3 * i:3 * i + 3]) for i in range(n))
