@@ -144,34 +144,42 @@ def intersect(scene: Scene, origin: np.ndarray, direction: np.ndarray) -> tuple[
     """
     o = np.asarray(origin, float)
     d = np.asarray(direction, float)
+    # Work on contiguous columns: reductions over a length-3 axis are slow in numpy.
+    oc = [np.ascontiguousarray(o[:, i]) for i in range(3)]
+    dc = [np.ascontiguousarray(d[:, i]) for i in range(3)]
     with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / d
-    lo = np.array(scene.bounds[0::2])[[0, 1, 2]]  # x_lo, y_lo, z_floor
-    hi = np.array(scene.bounds[1::2])[[0, 1, 2]]  # x_hi, y_hi, z_ceiling
-    # Leaving the room: per axis, the plane ahead of the ray.
-    ahead = np.where(d > 0, hi, lo)
-    with np.errstate(invalid="ignore"):
-        s_axis = np.where(d != 0, (ahead - o) * inv, np.inf)
-    axis = np.argmin(s_axis, axis=1)
-    dist = np.take_along_axis(s_axis, axis[:, None], axis=1)[:, 0]
-    positive = np.take_along_axis(d, axis[:, None], axis=1)[:, 0] > 0
-    room_ids = np.array([[X_LO, X_HI], [Y_LO, Y_HI], [FLOOR, CEILING]])
-    surface = room_ids[axis, positive.astype(np.intp)]
-    for box in scene.boxes:
-        blo, bhi = np.array(box.lo), np.array(box.hi)
+        inv = [1.0 / x for x in dc]
+    bounds = scene.bounds
+    ids = ((X_LO, X_HI), (Y_LO, Y_HI), (FLOOR, CEILING))
+    dist = np.full(o.shape[0], np.inf)
+    surface = np.zeros(o.shape[0], dtype=np.intp)
+    # Leaving the room: per axis, the plane ahead of the ray; keep the nearest.
+    for axis in range(3):
+        pos = dc[axis] > 0
+        ahead = np.where(pos, bounds[2 * axis + 1], bounds[2 * axis])
         with np.errstate(invalid="ignore"):
-            t1 = (blo - o) * inv
-            t2 = (bhi - o) * inv
-        near = np.fmin(t1, t2)
-        far = np.fmax(t1, t2)
-        t_near = near.max(axis=1)
-        t_far = far.min(axis=1)
+            s = (ahead - oc[axis]) * inv[axis]
+        s[dc[axis] == 0] = np.inf
+        better = s < dist
+        dist = np.where(better, s, dist)
+        surface = np.where(better, np.where(pos, ids[axis][1], ids[axis][0]), surface)
+    for box in scene.boxes:
+        t_near = np.full(o.shape[0], -np.inf)
+        t_far = np.full(o.shape[0], np.inf)
+        face = np.zeros(o.shape[0], dtype=np.intp)
+        for axis in range(3):
+            with np.errstate(invalid="ignore"):
+                t1 = (box.lo[axis] - oc[axis]) * inv[axis]
+                t2 = (box.hi[axis] - oc[axis]) * inv[axis]
+            near = np.fmin(t1, t2)
+            later = near > t_near
+            t_near = np.where(later, near, t_near)
+            # The face entered has its normal against the ray: + side when the ray goes -.
+            face = np.where(later, BOX_FACE0 + 2 * axis + (dc[axis] < 0), face)
+            t_far = np.fmin(t_far, np.fmax(t1, t2))
         hit = (t_near <= t_far) & (t_near > 0) & (t_near < dist)
-        if hit.any():
-            ax = np.argmax(near[hit], axis=1)
-            d_ax = np.take_along_axis(d[hit], ax[:, None], axis=1)[:, 0]
-            dist[hit] = t_near[hit]
-            surface[hit] = BOX_FACE0 + 2 * ax + (d_ax < 0)  # the face's normal opposes the ray
+        dist = np.where(hit, t_near, dist)
+        surface = np.where(hit, face, surface)
     return dist, surface
 
 
@@ -180,18 +188,22 @@ def shade(scene: Scene, origin: np.ndarray, direction: np.ndarray) -> np.ndarray
     o = np.asarray(origin, float)
     d = np.asarray(direction, float)
     dist, surface = intersect(scene, o, d)
-    p = o + dist[:, None] * d
     shades = scene.shades()
-    # Pigment table: per surface id, (colour on even squares, colour on odd squares).
+    # Pigment table: per surface id, (colour on even squares, colour on odd squares),
+    # already multiplied by the face's Lambert shade.
     table = np.zeros((N_SURFACES, 2, 3))
     table[FLOOR] = scene.floor_colours
     table[CEILING] = (scene.ceiling_colour, scene.ceiling_colour)
     table[[X_LO, X_HI]] = scene.x_wall_colours
     table[[Y_LO, Y_HI]] = scene.y_wall_colours
     table[BOX_FACE0:] = (scene.box_colour, scene.box_colour)
-    size = np.where(surface == FLOOR, scene.floor_square, scene.wall_square)
-    parity = np.floor(p / size[:, None]).astype(np.int64).sum(axis=1) & 1
-    return table[surface, parity] * shades[surface][:, None]
+    table *= shades[:, None, None]
+    inv_size = np.where(surface == FLOOR, 1.0 / scene.floor_square, 1.0 / scene.wall_square)
+    cells = np.zeros(o.shape[0], dtype=np.int64)
+    for axis in range(3):
+        p = o[:, axis] + dist * d[:, axis]
+        cells += np.floor(p * inv_size).astype(np.int64)
+    return table[surface, cells & 1]
 
 
 def _pair(value, key: str) -> tuple[float, float]:
