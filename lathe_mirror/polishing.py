@@ -268,11 +268,10 @@ def _lobe_grid(profile: Profile, k: int, step: float) -> np.ndarray:
 
 def _evolve(r: np.ndarray, z0: np.ndarray, params: PolishParams, times: np.ndarray) -> list[np.ndarray]:
     """Explicit evolution of z(r) under the pad; snapshots at the (sorted) times."""
-    from scipy.signal import savgol_filter
-
     dr = r[1] - r[0]
     window = int(round(params.pad_size_mm / dr)) | 1  # odd number of points
     window = min(window, r.size - (1 - r.size % 2))
+    pad_fit = _PadFit(r.size, window, 3)
     rate = removal_rate(r, params)  # mm/s at p = p0
     lc = params.compliance_mm
     # Short errors decay as exp(-rate g t / l_c), g <= ~1.2 the gain of (1 - SG). Euler's
@@ -285,16 +284,43 @@ def _evolve(r: np.ndarray, z0: np.ndarray, params: PolishParams, times: np.ndarr
     for target in times:
         while t < target - 1e-12:
             dt = min(dt_max, target - t)
-            fit = savgol_filter(z, window, 3, mode="interp")
+            fit = pad_fit(z)
             # Standing out toward the pad (toward the camera) is lower z; the pad deflects
             # along the normal, by the height difference times cos(beta).
-            sec = np.sqrt(1.0 + np.gradient(fit, dr) ** 2)  # 1 / cos(beta)
+            sec = np.sqrt(1.0 + (np.gradient(fit, dr)) ** 2)  # 1 / cos(beta)
             p_rel = np.maximum(0.0, 1.0 + (fit - z) / (sec * lc))
             # Removal k p v dt along the normal raises z by that over cos(beta).
             z = z + dt * rate * p_rel * sec
             t += dt
         snaps.append(z.copy())
     return snaps
+
+
+class _PadFit:
+    """The pad's conforming surface: a Savitzky-Golay fit (polynomial of `order` over a
+    window of `window` points, Savitzky & Golay 1964), by FFT convolution in the interior
+    and by the window's own polynomial fit at each end (as scipy's mode="interp")."""
+
+    def __init__(self, n: int, window: int, order: int):
+        h = window // 2
+        x = np.arange(-h, h + 1, dtype=float)
+        vander = np.vander(x, order + 1, increasing=True)  # window x (order + 1)
+        self.pinv = np.linalg.pinv(vander)  # window values -> polynomial coefficients
+        self.kernel = (vander[h] @ self.pinv)[::-1].copy()  # centre value, as a convolution
+        self.v_left = vander[:h]  # the first h points of the first window
+        self.v_right = vander[h + 1:]  # the last h points of the last window
+        self.n, self.h, self.window = n, h, window
+        self.size = 1 << int(math.ceil(math.log2(n + window - 1)))
+        self.kernel_f = np.fft.rfft(self.kernel, self.size)
+
+    def __call__(self, z: np.ndarray) -> np.ndarray:
+        full = np.fft.irfft(np.fft.rfft(z, self.size) * self.kernel_f, self.size)
+        out = np.empty_like(z)
+        h, w = self.h, self.window
+        out[h:self.n - h] = full[w - 1:self.n]
+        out[:h] = self.v_left @ (self.pinv @ z[:w])
+        out[self.n - h:] = self.v_right @ (self.pinv @ z[self.n - w:])
+        return out
 
 
 def _progress(total: int, desc: str, enabled: bool):

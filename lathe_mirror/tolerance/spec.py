@@ -1,0 +1,115 @@
+"""The tolerance spec (limits a made mirror must meet) and the parameters' tolerances.
+
+Read from the [tolerance] section (lathe_mirror/data/tolerance.toml, overridable by the
+user's --config). Edge units (px, %, m, degrees, s) are kept in the names; the analysis
+converts to mm and radians.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+
+from ..errors import InputError
+
+
+class Distribution(str, Enum):
+    """How a parameter's tolerance is read when drawing trials."""
+
+    NORMAL = "normal"    # the tolerance is a 3-sigma bound of a normal distribution
+    UNIFORM = "uniform"  # uniform within +/- the tolerance
+
+
+class Program(str, Enum):
+    """Which programmed contour the toleranced parts are turned from."""
+
+    BEST = "best"
+    PAPER = "paper"
+
+
+@dataclass(frozen=True)
+class Spec:
+    """Limits. image_displacement_px: per-lobe RMS, px. depth_error_pct: RMS |depth error|
+    over the common band at depth_range_m (m), %. slope_error_rad: per-lobe RMS, rad."""
+
+    image_displacement_px: float = 3.0
+    depth_error_pct: float = 25.0
+    depth_range_m: float = 1.0
+    slope_error_rad: float = 0.01
+
+
+#: The toleranced parameters, in table order: key -> (what it is, unit at the edge).
+PARAMETERS: dict[str, tuple[str, str]] = {
+    "lattice_phase": ("offset of the work zero on the controller's lattice (resolution)", "step"),
+    "nose_radius_mm": ("insert nose radius", "mm"),
+    "tool_x_mm": ("tool setting error across the axis (radius)", "mm"),
+    "tool_z_mm": ("tool setting error along the axis", "mm"),
+    "polish_time_s": ("polishing time", "s"),
+    "camera_decentre_mm": ("camera pinhole off the mirror axis (x and y)", "mm"),
+    "camera_tilt_deg": ("camera axis tilt (about x and y)", "deg"),
+    "camera_axial_mm": ("camera pinhole along the axis", "mm"),
+}
+
+
+@dataclass(frozen=True)
+class ToleranceSettings:
+    """Everything the tolerance analysis reads from [tolerance]."""
+
+    seed: int
+    trials: int
+    program: Program
+    distribution: Distribution
+    lattice_phases: int
+    azimuths: int
+    bin_px: float
+    depth_points: int
+    spec: Spec
+    tolerances: dict[str, float]  # PARAMETERS' keys except lattice_phase; edge units
+
+
+def settings_from_config(cfg: dict) -> ToleranceSettings:
+    """Validated ToleranceSettings; an InputError names the offending key."""
+    t = cfg["tolerance"]
+    _int_at_least("tolerance.trials", t["trials"], 1)
+    _int_at_least("tolerance.lattice_phases", t["lattice_phases"], 1)
+    _int_at_least("tolerance.azimuths", t["azimuths"], 1)
+    _int_at_least("tolerance.depth_points", t["depth_points"], 1)
+    _int_at_least("tolerance.seed", t["seed"], 0)
+    if not (math.isfinite(t["bin_px"]) and 0.05 <= t["bin_px"] <= 50):
+        raise InputError(f"tolerance.bin_px = {t['bin_px']!r} must be 0.05 .. 50 px")
+    program = _enum("tolerance.strategy", t["strategy"], Program)
+    dist = _enum("tolerance.distribution", t["distribution"], Distribution)
+    s = t["spec"]
+    for key in ("image_displacement_px", "depth_error_pct", "slope_error_rad"):
+        _positive(f"tolerance.spec.{key}", s[key])
+    if not (math.isfinite(s["depth_range_m"]) and 0.2 <= s["depth_range_m"] <= 100.0):
+        raise InputError(f"tolerance.spec.depth_range_m = {s['depth_range_m']!r} must be 0.2 .. 100 m")
+    tol = {}
+    for key, value in t["params"].items():
+        if not (math.isfinite(value) and value >= 0):
+            raise InputError(f"tolerance.params.{key} = {value!r} must be a finite number >= 0")
+        tol[key] = float(value)
+    return ToleranceSettings(
+        seed=int(t["seed"]), trials=int(t["trials"]), program=program, distribution=dist,
+        lattice_phases=int(t["lattice_phases"]), azimuths=int(t["azimuths"]),
+        bin_px=float(t["bin_px"]), depth_points=int(t["depth_points"]),
+        spec=Spec(**{k: float(v) for k, v in s.items()}), tolerances=tol)
+
+
+def _enum(key: str, value: str, enum: type[Enum]):
+    try:
+        return enum(value)
+    except ValueError:
+        allowed = ", ".join(f'"{m.value}"' for m in enum)
+        raise InputError(f"{key} = {value!r}: allowed {allowed}") from None
+
+
+def _int_at_least(key: str, value: int, lo: int) -> None:
+    if value < lo:
+        raise InputError(f"{key} = {value!r} must be an integer >= {lo}")
+
+
+def _positive(key: str, value: float) -> None:
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"{key} = {value!r} must be a finite number > 0")
