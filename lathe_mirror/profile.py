@@ -169,3 +169,145 @@ def sample_lobes(profile: Profile, n: int = 4001) -> tuple[LobeSamples, LobeSamp
             r[0] = np.nextafter(lo, hi)  # the junction itself belongs to the inner lobe
         out.append(LobeSamples(r, profile.z(r)))
     return out[0], out[1]
+
+
+class PathProfile(Profile):
+    """A chain of programmed lines and arcs per lobe, as a surface (camera frame, mm).
+
+    The moves are given in the MACHINE frame (r, Z) (what the G-code holds); z = vertex_z
+    - Z. Each lobe's moves must advance in r (a lathe contour of a convex lobe does). Arcs
+    may be spirals: LinuxCNC cuts an arc whose end radius differs from its start radius
+    with the radius linear in the swept angle, and so does this class, so the profile is
+    what the controller cuts. Exact (no sampling): z and slope in closed form per move,
+    the arc's angle found by Newton's method.
+
+    inner, outer: sequences of moves with attributes kind ("line" | "arc"), start, end
+    (r, Z) and, for arcs, centre (r, Z), radius (start radius), end_radius.
+    """
+
+    def __init__(self, inner, outer, *, r_junction: float, r_max: float, vertex_z: float):
+        self.r_junction = float(r_junction)
+        self.r_max = float(r_max)
+        self.vertex_z = float(vertex_z)
+        self._lobes = tuple(_MoveTable(moves) for moves in (inner, outer))
+
+    def breakpoints(self, k: int) -> np.ndarray:
+        """Radii (mm) where lobe k's moves join (where the slope jumps)."""
+        t = self._lobes[k]
+        return np.concatenate([t.r0, t.r1[-1:]])
+
+    def z(self, r: np.ndarray) -> np.ndarray:
+        return self._eval(r, derivative=False)
+
+    def slope(self, r: np.ndarray) -> np.ndarray:
+        return self._eval(r, derivative=True)
+
+    def _eval(self, r: np.ndarray, derivative: bool) -> np.ndarray:
+        r = np.asarray(r, dtype=float)
+        flat = r.reshape(-1)
+        out = np.empty_like(flat)
+        k = self.lobe_index(flat)
+        for i, table in enumerate(self._lobes):
+            m = k == i
+            if np.any(m):
+                zm, dzm = table.eval(flat[m])
+                # camera frame: z = vertex_z - Z, so dz/dr = -dZ/dr
+                out[m] = -dzm if derivative else self.vertex_z - zm
+        return out.reshape(r.shape)
+
+
+class _MoveTable:
+    """Lines and arcs of one lobe as arrays, for vectorised evaluation (machine frame)."""
+
+    def __init__(self, moves) -> None:
+        moves = list(moves)
+        if not moves:
+            raise ValueError("PathProfile: a lobe needs at least one move")
+        self.r0 = np.array([m.start[0] for m in moves], dtype=float)
+        self.r1 = np.array([m.end[0] for m in moves], dtype=float)
+        if np.any(self.r1 <= self.r0):
+            raise ValueError("PathProfile: every move of a lobe must advance in r")
+        self.z0 = np.array([m.start[1] for m in moves], dtype=float)
+        self.z1 = np.array([m.end[1] for m in moves], dtype=float)
+        self.is_arc = np.array([m.kind == "arc" for m in moves])
+        nan = float("nan")
+        self.cr = np.array([m.centre[0] if m.kind == "arc" else nan for m in moves])
+        self.cz = np.array([m.centre[1] if m.kind == "arc" else nan for m in moves])
+        self.rad0 = np.array([m.radius if m.kind == "arc" else nan for m in moves])
+        self.rad1 = np.array([m.end_radius if m.kind == "arc" else nan for m in moves])
+        self.phi0 = np.arctan2(self.z0 - self.cz, self.r0 - self.cr)
+        self.phi1 = np.arctan2(self.z1 - self.cz, self.r1 - self.cr)
+
+    def eval(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Machine Z and dZ/dr at radii r (beyond the ends, the end moves extended)."""
+        j = np.clip(np.searchsorted(self.r0, r, side="right") - 1, 0, self.r0.size - 1)
+        zm = np.empty_like(r)
+        dz = np.empty_like(r)
+        arc = self.is_arc[j]
+        lj = j[~arc]
+        if lj.size:
+            s = (self.z1[lj] - self.z0[lj]) / (self.r1[lj] - self.r0[lj])
+            zm[~arc] = self.z0[lj] + s * (r[~arc] - self.r0[lj])
+            dz[~arc] = s
+        aj = j[arc]
+        if aj.size:
+            zm[arc], dz[arc] = _spiral_at_r(
+                r[arc], self.cr[aj], self.cz[aj], self.rad0[aj], self.rad1[aj],
+                self.phi0[aj], self.phi1[aj],
+            )
+        return zm, dz
+
+
+def _spiral_at_r(r, cr, cz, rad0, rad1, phi0, phi1):
+    """Z and dZ/dr of the arc point at radius r: R(phi) = rad0 + (rad1 - rad0) t, t the
+    fraction of the sweep (LinuxCNC's spiral); the point lies in the upper half (0 < phi <
+    pi) about its centre, as a lathe contour's arcs about centres below the surface do."""
+    sweep = phi1 - phi0
+    dR = np.where(np.abs(sweep) > 0, (rad1 - rad0) / np.where(sweep == 0, 1.0, sweep), 0.0)
+    phi = np.arccos(np.clip((r - cr) / rad0, -1.0, 1.0))
+    for _ in range(4):  # Newton on f(phi) = cr + R(phi) cos(phi) - r
+        R = rad0 + dR * (phi - phi0)
+        f = cr + R * np.cos(phi) - r
+        df = dR * np.cos(phi) - R * np.sin(phi)
+        phi = phi - f / df
+    R = rad0 + dR * (phi - phi0)
+    zm = cz + R * np.sin(phi)
+    dzdphi = dR * np.sin(phi) + R * np.cos(phi)
+    drdphi = dR * np.cos(phi) - R * np.sin(phi)
+    return zm, dzdphi / drdphi
+
+
+class TabulatedProfile(Profile):
+    """A profile known by dense samples of z AND slope per lobe (camera frame, mm).
+
+    Both are interpolated linearly between samples. For envelopes whose slope is known
+    exactly at each sample (the tool-nose envelope): unlike SampledProfile's spline it
+    never invents curvature at a kink, and the slope is the geometric one, not a
+    difference quotient of z.
+    """
+
+    def __init__(self, inner: tuple[np.ndarray, np.ndarray, np.ndarray],
+                 outer: tuple[np.ndarray, np.ndarray, np.ndarray], *, r_junction: float,
+                 r_max: float, vertex_z: float):
+        for r, z, s in (inner, outer):
+            if r.ndim != 1 or r.shape != z.shape or r.shape != s.shape or r.size < 2:
+                raise ValueError("TabulatedProfile: r, z, slope must be 1-D of equal length >= 2")
+            if np.any(np.diff(r) < 0):
+                raise ValueError("TabulatedProfile: r must be non-decreasing")
+        self.lobes = (inner, outer)
+        self.r_junction = float(r_junction)
+        self.r_max = float(r_max)
+        self.vertex_z = float(vertex_z)
+
+    def z(self, r: np.ndarray) -> np.ndarray:
+        return self._eval(r, 1)
+
+    def slope(self, r: np.ndarray) -> np.ndarray:
+        return self._eval(r, 2)
+
+    def _eval(self, r: np.ndarray, col: int) -> np.ndarray:
+        r = np.asarray(r, dtype=float)
+        k = self.lobe_index(r)
+        a = np.interp(r, self.lobes[0][0], self.lobes[0][col])
+        b = np.interp(r, self.lobes[1][0], self.lobes[1][col])
+        return np.where(k == 0, a, b)

@@ -1,0 +1,215 @@
+"""The CNC lathe, its tool and the stock: the limits a toolpath must respect.
+
+Machine frame (ARCHITECTURE.md): Z along the spindle axis, Z = 0 at the mirror's vertex,
+the part in -Z; X is the radius r (radius mode) or 2r (diameter mode). The controller's
+lattice (`Lathe.resolution`) applies to r and Z. Lengths in mm, angles in radians inside
+(the configuration gives degrees).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+
+
+@dataclass(frozen=True)
+class Lathe:
+    """Limits of a CNC lathe controller. Lengths in mm.
+
+    resolution: programmable increment of r and Z (the lattice), mm.
+    max_points: points (r, Z) the controller holds for the finishing contour; a G1 end
+      point counts one, a G2/G3 block two (its end point and its centre I, K).
+    diameter_mode: X words are 2 r (LinuxCNC G7) rather than r (G8).
+    travel_x: largest reachable radius, mm. travel_z_min / travel_z_max: machine Z range, mm.
+    spindle_max_rpm: cap of the spindle under constant surface speed, rev/min.
+    surface_speed: constant cutting speed, m/min. feed_rough / feed_finish: mm/rev.
+    arc_radius_tolerance: largest |end radius - start radius| we allow an arc, mm.
+    """
+
+    resolution: float = 0.005
+    max_points: int = 528
+    diameter_mode: bool = True
+    travel_x: float = 60.0
+    travel_z_min: float = -80.0
+    travel_z_max: float = 60.0
+    spindle_max_rpm: int = 3000
+    surface_speed: float = 200.0
+    feed_rough: float = 0.15
+    feed_finish: float = 0.03
+    arc_radius_tolerance: float = 0.0002
+
+    def __post_init__(self) -> None:
+        _positive("machine.resolution", self.resolution, "mm")
+        if self.resolution > 0.1:
+            raise InputError(f"machine.resolution = {self.resolution:g} mm: allowed 0 < resolution <= 0.1 mm")
+        if isinstance(self.max_points, bool) or int(self.max_points) != self.max_points or self.max_points < 4:
+            raise InputError(f"machine.max_points = {self.max_points!r}: must be an integer >= 4")
+        _positive("machine.travel_x", self.travel_x, "mm")
+        if not self.travel_z_min < 0.0 < self.travel_z_max:
+            raise InputError(
+                f"machine.travel_z_min = {self.travel_z_min:g}, travel_z_max = {self.travel_z_max:g} mm: "
+                "need travel_z_min < 0 < travel_z_max (Z = 0 is the vertex)"
+            )
+        _positive("machine.spindle_max_rpm", self.spindle_max_rpm, "rev/min")
+        _positive("machine.surface_speed", self.surface_speed, "m/min")
+        _positive("machine.feed_rough", self.feed_rough, "mm/rev")
+        _positive("machine.feed_finish", self.feed_finish, "mm/rev")
+        _positive("machine.arc_radius_tolerance", self.arc_radius_tolerance, "mm")
+
+    # The lattice: integer multiples of the resolution. Working in integer lattice units
+    # keeps "on the lattice" exact instead of a float comparison.
+    def to_units(self, v: np.ndarray | float) -> np.ndarray:
+        """Lattice coordinates (float, mm) -> integer lattice units (rounded)."""
+        return np.rint(np.asarray(v, dtype=float) / self.resolution).astype(np.int64)
+
+    def from_units(self, k: np.ndarray | int) -> np.ndarray:
+        """Integer lattice units -> mm."""
+        return np.asarray(k, dtype=np.int64) * self.resolution
+
+    def snap(self, v: np.ndarray | float) -> np.ndarray:
+        """Nearest lattice value(s), mm (the paper's rounding)."""
+        return self.from_units(self.to_units(v))
+
+    def on_lattice(self, v: np.ndarray | float, *, tol: float = 1e-9) -> bool:
+        """True if every value is a lattice value (to tol mm of float noise)."""
+        v = np.asarray(v, dtype=float)
+        return bool(np.all(np.abs(v - self.snap(v)) <= tol))
+
+    @property
+    def decimals(self) -> int:
+        """Decimals that write every lattice value of X (2r in diameter mode) and Z exactly."""
+        step = self.resolution  # Z, I, K are on it; X = 2r is on twice it
+        for d in range(0, 7):
+            if abs(round(step * 10**d) - step * 10**d) < 1e-9:
+                return max(d, 1)
+        return 6
+
+
+@dataclass(frozen=True)
+class Tool:
+    """A turning tool. nose_radius in mm; angles in radians.
+
+    included_angle: the insert's tip angle. approach_angle: direction of the tool's
+    trailing flank measured from the +Z axis toward -X. Seen from the tip, the tool's
+    body fills the wedge of directions from approach_angle to approach_angle +
+    included_angle (both measured from +Z toward -X). A lattice contour with normals
+    between those of the lobes and the step wall needs that wedge inside the free
+    side of every surface normal (see `check_reach`).
+    """
+
+    nose_radius: float = 0.2
+    included_angle: float = math.radians(35.0)
+    approach_angle: float = math.radians(3.0)
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.nose_radius) and self.nose_radius >= 0.0):
+            raise InputError(f"tool.nose_radius = {self.nose_radius!r} mm must be >= 0")
+        if not 0.0 < self.included_angle < math.pi:
+            raise InputError(
+                f"tool.included_angle = {math.degrees(self.included_angle):g} deg: allowed 0 < angle < 180"
+            )
+        if not -math.pi / 2 < self.approach_angle < math.pi / 2:
+            raise InputError(
+                f"tool.approach_angle = {math.degrees(self.approach_angle):g} deg: allowed -90 < angle < 90"
+            )
+
+    def flank_directions(self) -> tuple[float, float]:
+        """Directions (rad, in the (r, Z) plane from +r toward +Z) of the two flanks."""
+        first = math.pi / 2 + self.approach_angle
+        return first, first + self.included_angle
+
+    def check_reach(self, normal_angles: np.ndarray, what: str = "the contour") -> None:
+        """Raise InputError unless the tool can cut surfaces with these outward normals.
+
+        normal_angles: directions (rad, from +r toward +Z) of outward surface normals.
+        A straight flank clears the surface near the contact only if its direction lies
+        in the surface's free half-plane: normal - 90 deg <= flank <= normal + 90 deg.
+        """
+        lo, hi = self.flank_directions()
+        n = np.asarray(normal_angles, dtype=float)
+        worst_low = float(np.min(n))
+        worst_high = float(np.max(n))
+        if hi - math.pi / 2 > worst_low + 1e-12:
+            raise InputError(
+                f"tool.approach_angle + tool.included_angle = {math.degrees(hi - math.pi / 2):.2f} deg: "
+                f"the tool's leading flank would rub {what} where its normal is "
+                f"{math.degrees(worst_low):.2f} deg from +r; allowed up to {math.degrees(worst_low):.2f} deg"
+            )
+        if lo + math.pi / 2 < worst_high - 1e-12:
+            raise InputError(
+                f"tool.approach_angle = {math.degrees(self.approach_angle):.2f} deg: the trailing flank "
+                f"would rub {what} where its normal is {math.degrees(worst_high):.2f} deg from +r "
+                f"(the step wall); allowed >= {math.degrees(worst_high - math.pi):.2f} deg"
+            )
+
+
+@dataclass(frozen=True)
+class Stock:
+    """The bar the mirror is turned from. Lengths in mm.
+
+    diameter: bar diameter. face_allowance: stock above the vertex (Z = 0) faced off.
+    length: depth of the part below Z = 0 that roughing may reach.
+    """
+
+    diameter: float = 76.0
+    face_allowance: float = 1.0
+    length: float = 40.0
+
+    def __post_init__(self) -> None:
+        _positive("stock.diameter", self.diameter, "mm")
+        if not (math.isfinite(self.face_allowance) and self.face_allowance >= 0):
+            raise InputError(f"stock.face_allowance = {self.face_allowance!r} mm must be >= 0")
+        _positive("stock.length", self.length, "mm")
+
+    @property
+    def radius(self) -> float:
+        return self.diameter / 2.0
+
+
+def lathe_from_config(cfg: dict) -> Lathe:
+    """Lathe from a validated configuration's [machine] section."""
+    m = cfg["machine"]
+    return Lathe(
+        resolution=float(m["resolution"]),
+        max_points=int(m["max_points"]),
+        diameter_mode=bool(m["diameter_mode"]),
+        travel_x=float(m["travel_x"]),
+        travel_z_min=float(m["travel_z_min"]),
+        travel_z_max=float(m["travel_z_max"]),
+        spindle_max_rpm=int(m["spindle_max_rpm"]),
+        surface_speed=float(m["surface_speed"]),
+        feed_rough=float(m["feed_rough"]),
+        feed_finish=float(m["feed_finish"]),
+        arc_radius_tolerance=float(m["arc_radius_tolerance"]),
+    )
+
+
+def tool_from_config(cfg: dict) -> Tool:
+    """Tool from a validated configuration's [tool] section (angles in degrees there)."""
+    t = cfg["tool"]
+    return Tool(
+        nose_radius=float(t["nose_radius"]),
+        included_angle=math.radians(float(t["included_angle"])),
+        approach_angle=math.radians(float(t["approach_angle"])),
+    )
+
+
+def stock_from_config(cfg: dict) -> Stock:
+    """Stock from a validated configuration's [stock] section."""
+    s = cfg["stock"]
+    return Stock(
+        diameter=float(s["diameter"]),
+        face_allowance=float(s["face_allowance"]),
+        length=float(s["length"]),
+    )
+
+
+def _positive(key: str, value: float, unit: str) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(f"{key} = {value!r} must be a finite number ({unit})")
+    if value <= 0:
+        raise InputError(f"{key} = {value:g} {unit}: must be > 0")

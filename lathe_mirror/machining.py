@@ -1,0 +1,204 @@
+"""The as-machined surface: the envelope of the tool nose along the programmed path.
+
+The programmed path is the nose centre's (toolpath.Toolpath.segments, machine frame).
+A round nose of radius rho removes every point within rho of the path, so the surface
+left at radius r is the lowest point any nose position reaches there (machine Z, part in
+-Z): the minimum over (a) each move's offset by rho toward the part and (b) the lower
+half of the nose circle at every vertex, where the moves' offsets leave gaps. In
+closed form per piece, evaluated on a dense grid of radii; a zero nose radius gives the
+programmed contour itself. This includes the fillet the nose leaves in the junction's
+inside corner, which it cannot reach.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .profile import PathProfile, Profile, TabulatedProfile
+
+#: Radial spacing (mm) of the envelope's samples; the envelope is piecewise smooth,
+#: so linear interpolation between them errs by ~ spacing^2 / (8 rho) (< 2e-7 mm).
+GRID = 0.0005
+
+
+def as_machined(toolpath, nose_radius: float | None = None) -> Profile:
+    """The surface a nose of `nose_radius` (mm; default the tool's) cuts along the path.
+
+    Camera frame. Zero nose radius: the programmed contour (exact lines and arcs).
+    """
+    rho = toolpath.nose_radius if nose_radius is None else float(nose_radius)
+    if not (math.isfinite(rho) and rho >= 0):
+        raise ValueError(f"nose_radius = {nose_radius!r} mm must be >= 0")
+    if rho == 0.0:
+        m = toolpath.mirror
+        return PathProfile(toolpath.lobe_segments("inner"), toolpath.lobe_segments("outer"),
+                           r_junction=m.r_junction, r_max=m.r_max, vertex_z=m.vertex_z)
+    return nose_envelope(toolpath, rho, include_junction=True)
+
+
+def nose_envelope(toolpath, rho: float, *, include_junction: bool = True) -> TabulatedProfile:
+    """Envelope of a nose of radius rho (mm) along the path, as a TabulatedProfile.
+
+    include_junction=False: only each lobe's own moves and interior vertices (the path
+    offset back, without the inside-corner fillet); the lobe's ends are extended along
+    their last slope where no piece covers a radius.
+    """
+    m = toolpath.mirror
+    segs = toolpath.segments
+    lobes = toolpath.lobe_of
+    out = []
+    for k, name in enumerate(("inner", "outer")):
+        lo, hi = (0.0, m.r_junction) if k == 0 else (m.r_junction, m.r_max)
+        n = int(math.ceil((hi - lo) / GRID)) + 1
+        r = np.linspace(lo, hi, n)
+        if k == 1:
+            r[0] = np.nextafter(lo, hi)
+        keep = [i for i, lb in enumerate(lobes) if lb == name or (include_junction and lb == "junction")]
+        zbest = np.full(n, np.inf)
+        sbest = np.zeros(n)
+        for i in keep:
+            _piece_move(segs[i], rho, r, zbest, sbest)
+        by_move = np.isfinite(zbest)
+        # vertices: the ends of the kept moves (interior ones only without the junction)
+        verts = []
+        for i in keep:
+            verts.append(segs[i].start)
+            verts.append(segs[i].end)
+        verts = np.unique(np.asarray(verts), axis=0)
+        if not include_junction:
+            ends = {tuple(segs[keep[0]].start), tuple(segs[keep[-1]].end)}
+            verts = np.array([v for v in verts if tuple(v) not in ends]).reshape(-1, 2)
+        _piece_discs(verts, rho, r, zbest, sbest)
+        ok = np.isfinite(zbest)
+        if not include_junction:
+            # beyond the moves' own offsets only vertex discs reach: extend the moves
+            idx = np.flatnonzero(by_move)
+            if idx.size:
+                ok[: idx[0]] = False
+                ok[idx[-1] + 1:] = False
+                zbest[~ok] = np.inf
+        if not np.any(ok):
+            raise ValueError(f"nose envelope: no move covers the {name} lobe")
+        if not np.all(ok):  # extend the ends linearly (only without the junction)
+            idx = np.flatnonzero(ok)
+            a, b = idx[0], idx[-1]
+            zbest[:a] = zbest[a] + sbest[a] * (r[:a] - r[a])
+            sbest[:a] = sbest[a]
+            zbest[b + 1:] = zbest[b] + sbest[b] * (r[b + 1:] - r[b])
+            sbest[b + 1:] = sbest[b]
+            gaps = ~np.isfinite(zbest)
+            if np.any(gaps):
+                zbest[gaps] = np.interp(r[gaps], r[~gaps], zbest[~gaps])
+                sbest[gaps] = np.interp(r[gaps], r[~gaps], sbest[~gaps])
+        # camera frame: z = vertex_z - Z, dz/dr = -dZ/dr
+        out.append((r, m.vertex_z - zbest, -sbest))
+    return TabulatedProfile(out[0], out[1], r_junction=m.r_junction, r_max=m.r_max,
+                            vertex_z=m.vertex_z)
+
+
+def _take_lower(r_idx: np.ndarray, z: np.ndarray, s: np.ndarray, zbest, sbest) -> None:
+    better = z < zbest[r_idx]
+    zbest[r_idx[better]] = z[better]
+    sbest[r_idx[better]] = s[better]
+
+
+def _piece_move(seg, rho: float, r: np.ndarray, zbest, sbest) -> None:
+    """Lower offset of one move (toward -Z) by rho, closed form, on the grid r."""
+    if seg.kind == "line":
+        (r0, z0), (r1, z1) = seg.start, seg.end
+        dr, dz = r1 - r0, z1 - z0
+        ln = math.hypot(dr, dz)
+        if ln == 0 or abs(dr) < 1e-12:
+            return  # a vertical move: its lower edge is its end discs
+        # the normal with negative Z component
+        nr, nz = -dz / ln, dr / ln
+        if nz > 0:
+            nr, nz = -nr, -nz
+        a, b = sorted((r0 + rho * nr, r1 + rho * nr))
+        i0, i1 = np.searchsorted(r, [a, b])
+        if i1 <= i0:
+            return
+        idx = np.arange(i0, i1)
+        slope = dz / dr
+        z = (z0 + rho * nz) + slope * (r[idx] - (r0 + rho * nr))
+        _take_lower(idx, z, np.full(idx.size, slope), zbest, sbest)
+    else:
+        c = np.asarray(seg.centre, dtype=float)
+        R0, R1 = seg.radius - rho, seg.end_radius - rho
+        if R0 <= 0 or R1 <= 0:
+            return
+        a0 = math.atan2(seg.start[1] - c[1], seg.start[0] - c[0])
+        sweep = seg.sweep
+        phis = (a0, a0 + sweep)
+        ra = c[0] + R0 * math.cos(phis[0])
+        rb = c[0] + R1 * math.cos(phis[1])
+        a, b = sorted((ra, rb))
+        i0, i1 = np.searchsorted(r, [a, b])
+        if i1 <= i0:
+            return
+        idx = np.arange(i0, i1)
+        from .profile import _spiral_at_r
+
+        z, s = _spiral_at_r(r[idx], np.full(idx.size, c[0]), np.full(idx.size, c[1]),
+                            np.full(idx.size, R0), np.full(idx.size, R1),
+                            np.full(idx.size, phis[0]), np.full(idx.size, phis[1]))
+        _take_lower(idx, z, s, zbest, sbest)
+
+
+def _piece_discs(verts: np.ndarray, rho: float, r: np.ndarray, zbest, sbest) -> None:
+    """Lower half of the nose circle at each vertex, on the grid r (vectorised)."""
+    if verts.size == 0:
+        return
+    i0 = np.searchsorted(r, verts[:, 0] - rho)
+    i1 = np.searchsorted(r, verts[:, 0] + rho, side="right")
+    counts = np.maximum(i1 - i0, 0)
+    if counts.sum() == 0:
+        return
+    owner = np.repeat(np.arange(len(verts)), counts)
+    start = np.repeat(i0, counts)
+    offs = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    idx = start + offs
+    dx = r[idx] - verts[owner, 0]
+    h = np.sqrt(np.maximum(rho * rho - dx * dx, 0.0))
+    z = verts[owner, 1] - h
+    s = np.where(h > 0, dx / np.where(h > 0, h, 1.0), np.sign(dx) * 1e6)
+    order = np.lexsort((z, idx))
+    idx, z, s = idx[order], z[order], s[order]
+    first = np.concatenate([[True], idx[1:] != idx[:-1]])
+    _take_lower(idx[first], z[first], s[first], zbest, sbest)
+
+
+def gouge_depth(toolpath, nose_radius: float | None = None) -> float:
+    """Deepest point (mm) of the as-machined surface inside the exact part (0 if none).
+
+    Measured from each lobe's sheet (foot point by Newton) over the envelope's samples,
+    and from the step's top corner to the nose along the junction moves (the one place
+    the part's boundary is not a lobe sheet that the nose passes).
+    """
+    from .toolpath import _signed_distance_camera
+
+    rho = toolpath.nose_radius if nose_radius is None else float(nose_radius)
+    m = toolpath.mirror
+    prof = as_machined(toolpath, rho)
+    depth = 0.0
+    for k, lobe in enumerate(m.lobes):
+        lo, hi = prof.lobe_range(k)
+        r = np.linspace(lo, hi, 40001)
+        if k == 1:
+            r[0] = np.nextafter(lo, hi)
+        if hasattr(prof, "breakpoints"):
+            bp = prof.breakpoints(k)
+            r = np.concatenate([r, bp[(bp > lo) & (bp <= hi)]])
+        d = _signed_distance_camera(lobe, r, prof.z(r))
+        depth = max(depth, float(-d.min()))
+    # the step's top corner (machine frame) against the nose along the junction moves
+    corner = np.array([m.r_junction, m.vertex_z - float(m.outer.z(m.r_junction))])
+    for seg, lb in zip(toolpath.segments, toolpath.lobe_of):
+        if lb != "junction":
+            continue
+        p = seg.sample(2001)
+        dist = np.hypot(*(p - corner).T).min()
+        depth = max(depth, rho - float(dist))
+    return depth
