@@ -254,7 +254,7 @@ def _newton_root(profile: Profile, t: np.ndarray, k: int, *, table: int = 2049,
         ha = np.where(h > 0, ha, xa)
         with np.errstate(divide="ignore", invalid="ignore"):
             nx = xa - h / dh
-        outside = ~((nx > la) & (nx < ha)) | ~np.isfinite(nx)
+        outside = ~((nx >= la) & (nx <= ha)) | ~np.isfinite(nx)
         nx = np.where(outside, 0.5 * (la + ha), nx)
         lo[active], hi[active], x[active] = la, ha, nx
         done = (np.abs(nx - xa) <= ROOT_TOL_MM) | (h == 0) | (ha - la <= ROOT_TOL_MM)
@@ -277,10 +277,14 @@ def _height_range(profile: Profile) -> tuple[float, float]:
 
 
 def _gap(profile: Profile, p: np.ndarray) -> np.ndarray:
-    """z - Z(r) of points (..., 3): > 0 inside the material; -1 beyond the rim (no mirror)."""
+    """z - Z(r) of points (..., 3): > 0 inside the material.
+
+    Beyond the rim the mount continues the rim's height (z_rim), as the black annulus of
+    the POV-Ray scene does, so a ray leaving the rim enters the mount, not the void.
+    """
     r = np.hypot(p[..., 0], p[..., 1])
     inside = r <= profile.r_max
-    g = np.full(r.shape, -1.0)
+    g = p[..., 2] - float(profile.z(np.array(profile.r_max)))
     g[inside] = p[..., 2][inside] - profile.z(r[inside])
     return g
 
@@ -332,8 +336,9 @@ def _trace_chunk(profile, origin, d, z_lo, z_hi, steps):
     nvec = np.stack([slope * cx, slope * cy, -np.ones_like(r)], axis=-1)
     nvec /= np.linalg.norm(nvec, axis=-1, keepdims=True)
     o = dd - 2.0 * np.sum(dd * nvec, axis=-1, keepdims=True) * nvec
-    fate[idx] = np.where(on_wall, Fate.WALL, k).astype(np.int8)
-    good = ~on_wall
+    on_mount = r > profile.r_max
+    fate[idx] = np.where(on_wall, Fate.WALL, np.where(on_mount, Fate.MISS, k)).astype(np.int8)
+    good = ~on_wall & ~on_mount
     point[idx[good]] = p[good]
     out[idx[good]] = o[good]
     inner = good & (k == 0)
