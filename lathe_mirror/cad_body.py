@@ -178,7 +178,7 @@ class BodySpec:
     material allowed under the face (above the back face and above the bore).
     """
 
-    blank_diameter: float = 80.0
+    blank_diameter: float = 76.0
     thickness: float = 30.0
     mount: Mount = Mount.BORE
     mount_diameter: float = 20.0
@@ -263,30 +263,18 @@ def design_meridian(mirror: Mirror, spec: BodySpec) -> Meridian:
     return close_body(face, spec, name="design", features=features)
 
 
-def programmed_meridian(segments: Iterable[Any], mirror: Mirror, spec: BodySpec) -> Meridian:
-    """The as-programmed mirror: the toolpath's finishing moves (machine frame, objects
-    with kind "line"|"arc", start, end (r, Z), and for arcs centre, radius, clockwise)
-    revolved exactly, on the same body. The contour must run outward from the axis."""
-    face: list[Segment] = []
-    for s in segments:
-        kind = SegmentKind(str(getattr(s.kind, "value", s.kind)))
-        start = (float(s.start[0]), float(s.start[1]))
-        end = (float(s.end[0]), float(s.end[1]))
-        if start == end:
-            continue
-        if kind is SegmentKind.ARC:
-            face.append(Segment(kind, start, end, Role.MIRROR,
-                                centre=(float(s.centre[0]), float(s.centre[1])),
-                                radius=float(s.radius), clockwise=bool(s.clockwise)))
-        else:
-            face.append(Segment(SegmentKind.LINE, start, end, Role.MIRROR))
+def programmed_meridian(face: list[Segment], mirror: Mirror, spec: BodySpec) -> Meridian:
+    """The as-programmed mirror: the contour the program cuts (see `programmed_contour`),
+    lines and arcs revolved exactly, on the same body. The contour runs outward from the
+    axis; a contour that starts off the axis is faced flat to it."""
+    face = list(face)
     if not face:
         raise InputError("toolpath: no finishing moves to revolve")
-    if face[0].start[0] > 1e-9:  # a contour that starts off the axis: face the centre flat
+    if face[0].start[0] > 1e-9:
         face.insert(0, Segment(SegmentKind.LINE, (0.0, face[0].start[1]), face[0].start, Role.MIRROR))
     for prev, nxt in zip(face, face[1:]):
         if math.dist(prev.end, nxt.start) > 1e-9:
-            raise InputError(f"toolpath: the contour is broken between {prev.end} and {nxt.start}")
+            raise RuntimeError(f"toolpath: the contour is broken between {prev.end} and {nxt.start}")
     r1 = mirror.r_junction
     features = {
         "r_top_inner": r1, "r_top_outer": face[-1].end[0],
@@ -295,6 +283,126 @@ def programmed_meridian(segments: Iterable[Any], mirror: Mirror, spec: BodySpec)
     }
     features["step"] = features["z_step_outer"] - features["z_rim_inner"]
     return close_body(face, spec, name="programmed", features=features)
+
+
+def moves_as_segments(moves: Iterable[Any], role: Role = Role.MIRROR) -> list[Segment]:
+    """Toolpath moves (kind "line"|"arc", start, end, centre; machine frame (r, Z), mm)
+    as meridian segments.
+
+    LinuxCNC cuts an arc whose end radius differs from its start radius (by at most the
+    lathe's arc_radius_tolerance) as a spiral; an exact revolve needs a circle, so such an
+    arc becomes the circle through its start, its spiral's midpoint and its end (within
+    a quarter of the radius difference of the spiral).
+    """
+    out = []
+    for m in moves:
+        kind = str(getattr(m.kind, "value", m.kind))
+        start = (float(m.start[0]), float(m.start[1]))
+        end = (float(m.end[0]), float(m.end[1]))
+        if math.dist(start, end) == 0.0:
+            continue
+        if kind == "arc":
+            c = (float(m.centre[0]), float(m.centre[1]))
+            r0, r1 = math.dist(start, c), math.dist(end, c)
+            a0 = math.atan2(start[1] - c[1], start[0] - c[0])
+            a1 = math.atan2(end[1] - c[1], end[0] - c[0])
+            sweep = (a1 - a0 + math.pi) % (2.0 * math.pi) - math.pi  # |sweep| < pi
+            if r0 != r1:
+                am = a0 + 0.5 * sweep
+                rm = 0.5 * (r0 + r1)
+                mid = (c[0] + rm * math.cos(am), c[1] + rm * math.sin(am))
+                c = _circumcentre(start, mid, end)
+                r0 = math.dist(start, c)
+            out.append(Segment(SegmentKind.ARC, start, end, role, centre=c, radius=r0,
+                               clockwise=sweep < 0.0))
+        else:
+            out.append(Segment(SegmentKind.LINE, start, end, role))
+    return out
+
+
+#: Offset ends closer than this (mm) are merged at their midpoint (see programmed_contour).
+SNAP = 1e-6
+
+
+def programmed_contour(centre_path: list[Segment], nose_radius: float) -> list[Segment]:
+    """The contour a nose of radius rho cuts when its centre follows `centre_path`: the
+    path offset by rho to its right (the part's side, for a path running outward from the
+    axis), lines staying lines and arcs concentric arcs (radius R + rho counter-clockwise,
+    R - rho clockwise). Where the path turns left (the step wall's foot) the nose leaves
+    an arc of radius rho about the vertex; where it turns right the two offsets are cut
+    at their intersection. This is the exact envelope of the nose, as in cutter-radius
+    compensation (G41/G42) run backwards, except that offset ends closer than SNAP
+    (1e-6 mm, where consecutive moves are tangent to rounding) meet at their midpoint.
+    """
+    rho = float(nose_radius)
+    if rho == 0.0:
+        return [Segment(s.kind, s.start, s.end, Role.MIRROR, s.centre, s.radius, s.clockwise)
+                for s in centre_path]
+    off = [_offset(s, rho) for s in centre_path]
+    out: list[Segment] = []
+    cur = off[0]
+    for k in range(1, len(off)):
+        nxt = off[k]
+        vertex = centre_path[k].start
+        t1, t2 = _tangent(centre_path[k - 1], end=True), _tangent(centre_path[k], end=False)
+        turn = math.atan2(t1[0] * t2[1] - t1[1] * t2[0], t1[0] * t2[0] + t1[1] * t2[1])
+        gap = math.dist(cur.end, nxt.start)
+        if gap <= SNAP:
+            # Offsets of (nearly) tangent moves: meet halfway rather than leave a
+            # sub-micron fillet or a sliver face.
+            mid = (0.5 * (cur.end[0] + nxt.start[0]), 0.5 * (cur.end[1] + nxt.start[1]))
+            cur = _with_ends(cur, cur.start, mid)
+            nxt = _with_ends(nxt, mid, nxt.end)
+        elif turn > 0.0:  # left turn: the nose swings about the vertex
+            out.append(cur)
+            cur = Segment(SegmentKind.ARC, cur.end, nxt.start, Role.MIRROR, centre=vertex,
+                          radius=rho, clockwise=False)
+        else:  # right turn: the offsets overlap; cut both at their crossing
+            p = _intersection(cur, nxt, near=(0.5 * (cur.end[0] + nxt.start[0]),
+                                              0.5 * (cur.end[1] + nxt.start[1])))
+            cur = _with_ends(cur, cur.start, p)
+            nxt = _with_ends(nxt, p, nxt.end)
+        out.append(cur)
+        cur = nxt
+    out.append(cur)
+    # The first move leaves the axis; its offset may start a hair off it (lattice
+    # rounding tilts the move): cut it at r = 0, or leave it for the body to face flat.
+    first = out[0]
+    if first.start[0] < 0.0:
+        p = _intersection(first, Segment(SegmentKind.LINE, (0.0, first.start[1] - 1.0),
+                                         (0.0, first.start[1] + 1.0)), near=first.start)
+        out[0] = _with_ends(first, p, first.end)
+    for s in out:
+        _check_direction(s)
+    return out
+
+
+def programmed_parts(cfg: dict[str, Any], mirror: Mirror, spec: BodySpec
+                     ) -> tuple[Meridian, tuple[Segment, ...], dict[str, Any]]:
+    """Plan the finishing toolpath of the configuration (lathe_mirror.toolpath) and
+    return the programmed meridian, the tool-centre path (the programmed moves) and the
+    toolpath's figures."""
+    from .machine import lathe_from_config, tool_from_config
+    from .toolpath import Strategy, plan_toolpath
+
+    strategy_name = cfg.get("toolpath", {}).get("strategy", "arcs")
+    try:
+        strategy = Strategy(strategy_name)
+    except ValueError:
+        allowed = ", ".join(s.value for s in Strategy)
+        raise ConfigError(f"toolpath.strategy = {strategy_name!r}: allowed {allowed}") from None
+    tp = plan_toolpath(mirror, lathe_from_config(cfg), tool_from_config(cfg), strategy)
+    centre = moves_as_segments(tp.segments, role=Role.MIRROR)
+    contour = programmed_contour(centre, tp.nose_radius)
+    figures = {
+        "strategy": strategy.value,
+        "moves": len(tp.segments),
+        "arcs": sum(1 for s in tp.segments if s.kind == "arc"),
+        "points": int(tp.n_points),
+        "nose_radius_mm": float(tp.nose_radius),
+        "contour_segments": len(contour),
+    }
+    return programmed_meridian(contour, mirror, spec), tuple(centre), figures
 
 
 def close_body(face: list[Segment], spec: BodySpec, *, name: str,
@@ -369,6 +477,106 @@ def close_body(face: list[Segment], spec: BodySpec, *, name: str,
 
 # --------------------------------------------------------------------------------------
 # Helpers
+
+
+def _circumcentre(a: tuple[float, float], b: tuple[float, float],
+                  c: tuple[float, float]) -> tuple[float, float]:
+    """Centre of the circle through three points."""
+    ax, ay = a
+    bx, by = b[0] - ax, b[1] - ay
+    cx, cy = c[0] - ax, c[1] - ay
+    d = 2.0 * (bx * cy - by * cx)
+    b2, c2 = bx * bx + by * by, cx * cx + cy * cy
+    return (ax + (cy * b2 - by * c2) / d, ay + (bx * c2 - cx * b2) / d)
+
+
+def _tangent(s: Segment, *, end: bool) -> tuple[float, float]:
+    """Unit direction of travel at the start or the end of a segment."""
+    if s.kind is SegmentKind.LINE:
+        d = (s.end[0] - s.start[0], s.end[1] - s.start[1])
+        n = math.hypot(*d)
+        return (d[0] / n, d[1] / n)
+    p = s.end if end else s.start
+    ux, uy = (p[0] - s.centre[0]) / s.radius, (p[1] - s.centre[1]) / s.radius
+    return (uy, -ux) if s.clockwise else (-uy, ux)
+
+
+def _offset(s: Segment, rho: float) -> Segment:
+    """The segment moved by rho to the right of its direction of travel."""
+    if s.kind is SegmentKind.LINE:
+        tx, ty = _tangent(s, end=False)
+        nx, ny = ty, -tx  # right-hand normal
+        return Segment(SegmentKind.LINE, (s.start[0] + rho * nx, s.start[1] + rho * ny),
+                       (s.end[0] + rho * nx, s.end[1] + rho * ny), Role.MIRROR)
+    radius = s.radius - rho if s.clockwise else s.radius + rho
+    if radius <= 0.0:
+        raise InputError(
+            f"tool.nose_radius = {rho:g} mm exceeds the radius {s.radius:.4f} mm of a "
+            f"concave programmed arc at {s.start}: the nose cannot cut it"
+        )
+    k = radius / s.radius
+    cr, cz = s.centre
+    move = lambda p: (cr + k * (p[0] - cr), cz + k * (p[1] - cz))  # noqa: E731
+    return Segment(SegmentKind.ARC, move(s.start), move(s.end), Role.MIRROR,
+                   centre=s.centre, radius=radius, clockwise=s.clockwise)
+
+
+def _with_ends(s: Segment, start: tuple[float, float], end: tuple[float, float]) -> Segment:
+    return Segment(s.kind, (float(start[0]), float(start[1])), (float(end[0]), float(end[1])),
+                   s.role, s.centre, s.radius, s.clockwise, s.a, s.b, s.lobe)
+
+
+def _intersection(s1: Segment, s2: Segment, *, near: tuple[float, float]) -> tuple[float, float]:
+    """The crossing of two segments' carrier lines/circles nearest to `near`; if they
+    do not cross (offsets of tangent moves, rounding), `near` itself."""
+    def line_circle(p: tuple, d: tuple, c: tuple, R: float) -> list:
+        fx, fy = p[0] - c[0], p[1] - c[1]
+        b = fx * d[0] + fy * d[1]
+        disc = b * b - (fx * fx + fy * fy - R * R)
+        if disc < 0.0:
+            return []
+        q = math.sqrt(disc)
+        return [(p[0] + t * d[0], p[1] + t * d[1]) for t in (-b - q, -b + q)]
+
+    kinds = (s1.kind, s2.kind)
+    cands: list = []
+    if kinds == (SegmentKind.LINE, SegmentKind.LINE):
+        d1, d2 = _tangent(s1, end=False), _tangent(s2, end=False)
+        den = d1[0] * d2[1] - d1[1] * d2[0]
+        if abs(den) > 1e-15:
+            wx, wy = s2.start[0] - s1.start[0], s2.start[1] - s1.start[1]
+            t = (wx * d2[1] - wy * d2[0]) / den
+            cands = [(s1.start[0] + t * d1[0], s1.start[1] + t * d1[1])]
+    elif SegmentKind.LINE in kinds:
+        ln, arc = (s1, s2) if s1.kind is SegmentKind.LINE else (s2, s1)
+        cands = line_circle(ln.start, _tangent(ln, end=False), arc.centre, arc.radius)
+    else:
+        (x1, y1), (x2, y2) = s1.centre, s2.centre
+        R1, R2 = s1.radius, s2.radius
+        d = math.hypot(x2 - x1, y2 - y1)
+        if d > 0.0:
+            a = (d * d + R1 * R1 - R2 * R2) / (2.0 * d)
+            h2 = R1 * R1 - a * a
+            if h2 >= 0.0:
+                h = math.sqrt(h2)
+                ex, ey = (x2 - x1) / d, (y2 - y1) / d
+                mx, my = x1 + a * ex, y1 + a * ey
+                cands = [(mx - h * ey, my + h * ex), (mx + h * ey, my - h * ex)]
+    if not cands:
+        return near
+    return min(cands, key=lambda p: math.dist(p, near))
+
+
+def _check_direction(s: Segment) -> None:
+    """A trimmed offset must still run the way its move did (else the nose cannot
+    follow the path: a move shorter than the nose's overlap)."""
+    if s.kind is SegmentKind.LINE:
+        if math.dist(s.start, s.end) == 0.0:
+            raise RuntimeError(f"toolpath contour: a move vanished at {s.start}")
+        return
+    t0, t1 = s.arc_angles()
+    if abs(t1 - t0) >= math.pi:
+        raise RuntimeError(f"toolpath contour: an arc turned inside out at {s.start}")
 
 
 def _pieces(sweep: float, radius: float, tolerance: float) -> int:

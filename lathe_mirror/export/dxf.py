@@ -9,8 +9,11 @@ Layers:
   BODY          the rest of the blank's meridian (shoulder, side, back, bore or boss)
   AXIS          the revolution axis (CENTER line type)
   CAMERA        the camera's pinhole and both lobes' viewpoints F1 (POINTs)
-  TOOLPATH      the programmed finishing contour: LINE and ARC as the G-code moves
-  TOOL_CENTRE   the path of the tool nose's centre (the contour offset by the nose radius)
+  TOOLPATH      the programmed finishing contour, the surface the program cuts: LINEs and
+                ARCs (the G-code moves offset back by the nose radius, see
+                cad_body.programmed_contour; the moves themselves for a sharp tool)
+  TOOL_CENTRE   the path of the tool nose's centre: the G-code's moves as LINE and ARC
+                (lathe_mirror.toolpath programs the nose centre)
   DIMENSIONS    both R_top, the vertex and rim heights above the camera (Table 1's h),
                 the rim depths below the vertex, and the step between the lobes
 

@@ -173,9 +173,7 @@ def read_step(path: str | Path) -> Any:
 
 def solid_figures(shape: Any) -> dict[str, Any]:
     """Checks of a shape: number of solids, validity (BRepCheck), volume (mm^3), surface
-    area (mm^2), bounding box (mm)."""
-    from OCP.Bnd import Bnd_Box
-    from OCP.BRepBndLib import BRepBndLib
+    area (mm^2)."""
     from OCP.BRepCheck import BRepCheck_Analyzer
     from OCP.BRepGProp import BRepGProp
     from OCP.GProp import GProp_GProps
@@ -193,16 +191,12 @@ def solid_figures(shape: Any) -> dict[str, Any]:
     # ~1e-15 relative; the adaptive one with Eps = 1e-9 was off by 1.5e-7 (measured).
     BRepGProp.VolumeProperties_s(shape, vprops)
     BRepGProp.SurfaceProperties_s(shape, aprops)
-    box = Bnd_Box()
-    BRepBndLib.AddOptimal_s(shape, box, False, False)
-    xmin, ymin, zmin, xmax, ymax, zmax = box.Get()
     return {
         "solids": count(TopAbs_SOLID),
         "faces": count(TopAbs_FACE),
         "valid": bool(BRepCheck_Analyzer(shape).IsValid()),
         "volume_mm3": float(vprops.Mass()),
         "area_mm2": float(aprops.Mass()),
-        "bbox_mm": [xmin, ymin, zmin, xmax, ymax, zmax],
     }
 
 

@@ -1,0 +1,155 @@
+"""CAD of the mirror end to end: config -> meridian -> STEP / STL / DXF bytes -> files.
+
+`export_cad` is what `lathe-mirror cad` calls; `write_reference_cad` writes the paper
+mirror's reference files into `cad/` (the main job regenerates them; a test checks they
+are current). Machine frame and mm throughout (ARCHITECTURE.md).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from enum import Enum
+from pathlib import Path
+from typing import Any
+
+from ..cad_body import Meridian, Segment, body_spec_from_config, design_meridian, programmed_meridian
+from ..design import Mirror, mirror_from_config
+from ..errors import InputError
+from .files import check_writable, prepare_dir, write_bytes
+
+
+class Which(str, Enum):
+    """Which mirror: the design (exact lobes) or the toolpath's programmed contour."""
+
+    DESIGN = "design"
+    PROGRAMMED = "programmed"
+
+
+class CadFormat(str, Enum):
+    """Output format, by file content."""
+
+    STEP = "step"
+    STL = "stl"
+    DXF = "dxf"
+
+
+#: File name suffixes that imply a format when --format is not given.
+SUFFIXES = {".step": CadFormat.STEP, ".stp": CadFormat.STEP, ".stl": CadFormat.STL,
+            ".dxf": CadFormat.DXF}
+
+#: The reference files of the paper mirror, written by write_reference_cad.
+REFERENCE_FILES = ("mirror_design.step", "mirror_programmed.step", "mirror_profile.dxf")
+
+
+def parse_enum(enum: type[Enum], value: str, what: str) -> Any:
+    """enum(value), or InputError naming `what` and the allowed values."""
+    try:
+        return enum(str(value).lower())
+    except ValueError:
+        allowed = ", ".join(m.value for m in enum)
+        raise InputError(f"{what} {value!r}: unknown; allowed {allowed}") from None
+
+
+@dataclass(frozen=True)
+class CadModel:
+    """The meridians behind every CAD file of one configuration."""
+
+    mirror: Mirror
+    design: Meridian
+    programmed: Meridian | None
+    tool_centre: tuple[Segment, ...] | None
+    toolpath_figures: dict[str, Any] | None
+
+
+def build_model(cfg: dict[str, Any], *, programmed: bool) -> CadModel:
+    """The design meridian and, when asked, the programmed one and the tool-centre path
+    (these plan the toolpath: lathe_mirror.toolpath)."""
+    mirror = mirror_from_config(cfg)
+    spec = body_spec_from_config(cfg)
+    design = design_meridian(mirror, spec)
+    if not programmed:
+        return CadModel(mirror, design, None, None, None)
+    from ..cad_body import programmed_parts
+
+    prog, centre, figures = programmed_parts(cfg, mirror, spec)
+    return CadModel(mirror, design, prog, centre, figures)
+
+
+def cad_bytes(model: CadModel, which: Which, fmt: CadFormat, cfg: dict[str, Any]) -> bytes:
+    """The file's bytes (deterministic for a given configuration)."""
+    c = cfg["cad"]
+    meridian = model.design if which is Which.DESIGN else model.programmed
+    if meridian is None:
+        raise InputError("--which programmed needs the toolpath (internal: not built)")
+    if fmt is CadFormat.STEP:
+        from .step import parse_schema, step_bytes
+
+        return step_bytes(meridian, schema=parse_schema(c["step_schema"]),
+                          product_name=str(c["product_name"]))
+    if fmt is CadFormat.STL:
+        from .mesh import stl_bytes
+
+        return stl_bytes(meridian, float(c["stl_tolerance"]))
+    from .dxf import dxf_bytes
+
+    return dxf_bytes(model.mirror, model.design, programmed=model.programmed,
+                     tool_centre=model.tool_centre)
+
+
+def export_cad(cfg: dict[str, Any], which: Which, fmt: CadFormat, path: str | Path) -> dict[str, Any]:
+    """Write one CAD file; returns its figures (JSON-ready). Nothing is written on error."""
+    check_writable(path)
+    # The DXF carries the toolpath layers whenever a toolpath can be planned.
+    model = build_model(cfg, programmed=(which is Which.PROGRAMMED or fmt is CadFormat.DXF))
+    data = cad_bytes(model, which, fmt, cfg)
+    write_bytes(path, data)
+    meridian = model.design if which is Which.DESIGN else model.programmed
+    out: dict[str, Any] = {
+        "which": which.value,
+        "format": fmt.value,
+        "path": str(path),
+        "bytes": len(data),
+        "sha256": hashlib.sha256(data).hexdigest(),
+        "frame": "machine: axis Z, vertex at the origin, part in -Z, mm",
+        "volume_mm3": meridian.volume(),
+        "features_mm": dict(meridian.features),
+    }
+    out["check"] = check_file(path, fmt)
+    if model.toolpath_figures is not None:
+        out["toolpath"] = model.toolpath_figures
+    return out
+
+
+def check_file(path: str | Path, fmt: CadFormat) -> dict[str, Any]:
+    """Read a written file back and check it: STEP (OCC's reader) one valid solid and
+    its volume; STL (trimesh) watertight and its volume; DXF ezdxf's audit errors."""
+    if fmt is CadFormat.STEP:
+        from .step import read_step, solid_figures
+
+        return solid_figures(read_step(path))
+    if fmt is CadFormat.STL:
+        import trimesh
+
+        from .mesh import mesh_figures
+
+        return mesh_figures(trimesh.load(str(path), file_type="stl", validate=True))
+    from .dxf import audit
+
+    return {"audit_errors": audit(path)}
+
+
+def write_reference_cad(out_dir: str | Path = "cad", cfg: dict[str, Any] | None = None) -> list[Path]:
+    """Write the paper mirror's reference CAD into out_dir: the designed and the
+    programmed STEP and the meridian DXF (REFERENCE_FILES). Returns the paths."""
+    from ..config import default_config
+
+    cfg = default_config() if cfg is None else cfg
+    out = prepare_dir(out_dir)
+    model = build_model(cfg, programmed=True)
+    jobs = [(Which.DESIGN, CadFormat.STEP), (Which.PROGRAMMED, CadFormat.STEP),
+            (Which.DESIGN, CadFormat.DXF)]
+    paths = []
+    for name, (which, fmt) in zip(REFERENCE_FILES, jobs):
+        paths.append(write_bytes(out / name, cad_bytes(model, which, fmt, cfg)))
+    return paths
