@@ -7,8 +7,11 @@
   uniform528  a stand-in for the paper's coarse model that needs no toolpath: 528 points
               uniform in r, shared by the lobes in proportion to their arc length, r and z
               rounded to the lathe lattice (0.005 mm), straight segments
-  paper, best, ...  the programmed contour of that toolpath strategy (toolpath.py), or
-              with nose_radius > 0 the as-machined surface of that tool (machining.py)
+  paper, lattice, arcs, best (= toolpath.BEST)
+              the programmed contour of that toolpath strategy (toolpath.py) for the
+              configured [tool] (Toolpath.contour_profile), or with nose_radius > 0 the
+              as-machined surface of a tool of that nose radius along its own program
+              (machining.as_machined)
 """
 
 from __future__ import annotations
@@ -82,16 +85,21 @@ def _strategies() -> tuple[str, ...]:
         from ..toolpath import Strategy
     except ImportError:
         return ()
-    return tuple(s.value for s in Strategy)
+    return tuple(s.value for s in Strategy) + ("best",)
 
 
 def _toolpath_surface(name: str, mirror: Mirror, cfg: dict, nose_radius: float) -> Profile:
-    from ..machine import lathe_from_config, tool_from_config
-    from ..toolpath import Strategy, plan_toolpath
+    import dataclasses
 
-    toolpath = plan_toolpath(mirror, lathe_from_config(cfg), tool_from_config(cfg), Strategy(name))
+    from ..machine import lathe_from_config, tool_from_config
+    from ..toolpath import BEST, Strategy, plan_toolpath
+
+    strategy = BEST if name == "best" else Strategy(name)
+    tool = tool_from_config(cfg)
     if nose_radius > 0:
         from ..machining import as_machined
 
-        return as_machined(toolpath, nose_radius)
-    return toolpath.contour_profile()
+        # The program for that tool (its path is offset by the nose), and what the nose cuts.
+        tool = dataclasses.replace(tool, nose_radius=nose_radius)
+        return as_machined(plan_toolpath(mirror, lathe_from_config(cfg), tool, strategy), nose_radius)
+    return plan_toolpath(mirror, lathe_from_config(cfg), tool, strategy).contour_profile()
