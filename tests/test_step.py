@@ -1,0 +1,203 @@
+"""STEP of the designed and the programmed mirror: re-imported by OCC and by FreeCAD,
+volume against numerical integration, exact faces, reproducible bytes, schemas."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from lathe_mirror.cad_body import BodySpec, design_meridian, programmed_parts
+from lathe_mirror.export.step import (SCHEMA_NAMES, StepSchema, read_step, solid_figures,
+                                      step_bytes)
+from lathe_mirror.profile import ExactProfile
+
+from conftest import require_program
+from test_cad_body import integrated_volume
+
+FREECAD_SCRIPT = r'''
+import json, os, sys
+try:
+    import Part
+    shape = Part.read(os.environ["LATHE_MIRROR_STEP"])
+    solids = shape.Solids
+    print("RESULT " + json.dumps({
+        "solids": len(solids),
+        "valid": bool(shape.isValid()) and all(s.isValid() for s in solids),
+        "closed": all(s.isClosed() for s in solids),
+        "volume": shape.Volume,
+    }))
+except Exception as exc:
+    print("ERROR %s: %s" % (type(exc).__name__, exc))
+    sys.exit(1)
+'''
+
+
+@pytest.fixture(scope="module")
+def design(paper_mirror):
+    return design_meridian(paper_mirror, BodySpec())
+
+
+@pytest.fixture(scope="module")
+def design_step(tmp_path_factory, design):
+    path = tmp_path_factory.mktemp("step") / "design.step"
+    path.write_bytes(step_bytes(design))
+    return path
+
+
+@pytest.fixture(scope="module")
+def programmed(paper_config, paper_mirror):
+    return programmed_parts(paper_config, paper_mirror, BodySpec())
+
+
+@pytest.fixture(scope="module")
+def programmed_step(tmp_path_factory, programmed):
+    path = tmp_path_factory.mktemp("step") / "programmed.step"
+    path.write_bytes(step_bytes(programmed[0]))
+    return path
+
+
+def test_design_step_is_one_valid_solid_with_the_integrated_volume(design_step, paper_mirror):
+    fig = solid_figures(read_step(design_step))
+    assert fig["solids"] == 1 and fig["valid"]
+    assert fig["volume_mm3"] == pytest.approx(integrated_volume(paper_mirror, BodySpec()), rel=1e-6)
+
+
+def test_design_faces_follow_the_exact_profile(design_step, paper_mirror):
+    """Points of the exact profile (camera-frame ExactProfile, moved to the machine frame)
+    at three azimuths lie within 1e-5 mm of the STEP's faces (its shell, not the solid:
+    inside a solid the distance is 0). A point 1e-3 mm off the surface must measure
+    1e-3 mm: the check can fail."""
+    shell = _shell(read_step(design_step))
+    prof = ExactProfile(paper_mirror)
+    r = np.concatenate([np.linspace(0.0, 20.0, 12), np.linspace(20.0 + 1e-9, 35.0, 12)])
+    zm = np.where(r <= 20.0, prof.to_machine_z(paper_mirror.inner.z(r)),
+                  prof.to_machine_z(paper_mirror.outer.z(r)))
+    dists = []
+    for phi in (0.0, 2.1, 4.4):
+        pts = np.stack([r * math.cos(phi), r * math.sin(phi), zm], axis=1)
+        dists += [_distance(shell, p) for p in pts]
+    print(f"exact profile to design faces: max {max(dists):.3g} mm")
+    assert max(dists) < 1e-5
+    # the negative control: 1e-3 mm along the normal, into the air
+    n = prof.normal(np.array([12.0]))[0]  # camera frame (n_r, n_z), n_z < 0: toward the camera
+    p = np.array([12.0 + 1e-3 * n[0], 0.0, float(prof.to_machine_z(prof.z(12.0))) - 1e-3 * n[1]])
+    assert _distance(shell, p) == pytest.approx(1e-3, rel=1e-3)
+
+
+def test_programmed_step_is_one_valid_solid(programmed_step, programmed):
+    mer = programmed[0]
+    fig = solid_figures(read_step(programmed_step))
+    assert fig["solids"] == 1 and fig["valid"]
+    # OCC's integration of the revolved lines and arcs against Green's theorem on them
+    assert fig["volume_mm3"] == pytest.approx(mer.volume(), rel=1e-6)
+
+
+def test_tool_centre_path_lies_one_nose_radius_from_the_programmed_faces(programmed_step, programmed,
+                                                                        paper_config, paper_mirror):
+    """The nose (radius rho) touches the surface it cuts: every point of the G-code's
+    moves is rho from the programmed faces. Arcs are LinuxCNC's spirals sampled as
+    the controller cuts them; the STEP's circle through ends and middle stays within
+    a quarter of the radius mismatch (<= 0.0002 mm) of them."""
+    from lathe_mirror.machine import lathe_from_config, tool_from_config
+    from lathe_mirror.toolpath import Strategy, plan_toolpath
+
+    cfg = paper_config
+    tp = plan_toolpath(paper_mirror, lathe_from_config(cfg), tool_from_config(cfg),
+                       Strategy(cfg["toolpath"]["strategy"]))
+    rho = tp.nose_radius
+    assert rho > 0 and rho == programmed[2]["nose_radius_mm"]
+    shell = _shell(read_step(programmed_step))
+    pts = np.concatenate([m.sample(4)[1:3] for m in tp.segments[::5]])  # the moves as cut
+    d = np.array([_distance(shell, np.array([p[0] * math.cos(1.0), p[0] * math.sin(1.0), p[1]]))
+                  for p in pts])
+    print(f"tool centre to programmed faces: max |d - rho| = {np.abs(d - rho).max():.3g} mm")
+    assert np.abs(d - rho).max() < 1e-4
+
+
+def test_freecad_opens_both_steps_as_one_valid_solid(tmp_path, design_step, programmed_step,
+                                                     design, programmed, paper_mirror):
+    freecad = require_program("freecadcmd")
+    script = tmp_path / "check_step.py"
+    script.write_text(FREECAD_SCRIPT)
+    expected = {design_step: integrated_volume(paper_mirror, BodySpec()),
+                programmed_step: programmed[0].volume()}
+    for path, volume in expected.items():
+        env = dict(os.environ, LATHE_MIRROR_STEP=str(path))
+        proc = subprocess.run([freecad, str(script)], capture_output=True, text=True,
+                              env=env, timeout=120, cwd=tmp_path)
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+        line = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
+        assert line, proc.stdout[-2000:]
+        res = json.loads(line[-1][len("RESULT "):])
+        assert res["solids"] == 1 and res["valid"] and res["closed"], res
+        assert res["volume"] == pytest.approx(volume, rel=1e-6)
+
+
+def test_same_bytes_in_two_processes(tmp_path):
+    code = ("import sys; from lathe_mirror.config import default_config; "
+            "from lathe_mirror.design import mirror_from_config; "
+            "from lathe_mirror.cad_body import design_meridian, body_spec_from_config; "
+            "from lathe_mirror.export.step import step_bytes; c = default_config(); "
+            "m = design_meridian(mirror_from_config(c), body_spec_from_config(c)); "
+            "step_bytes(m); sys.stdout.buffer.write(step_bytes(m))")  # the 2nd in-process export
+    outs = [subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=120,
+                           env=dict(os.environ, PYTHONHASHSEED=str(seed))).stdout
+            for seed in (1, 2)]
+    assert outs[0].startswith(b"ISO-10303-21;")
+    assert outs[0] == outs[1]
+    text = outs[0].decode()
+    assert "FILE_NAME('lathe-mirror-design','2000-01-01T00:00:00'" in text
+    assert "PRODUCT('lathe-mirror','lathe-mirror'" in text  # no per-process counter
+
+
+@pytest.mark.parametrize("schema", list(StepSchema))
+def test_schema_and_units(design, schema):
+    text = step_bytes(design, schema=schema).decode()
+    header = text[: text.index("ENDSEC;")]
+    assert SCHEMA_NAMES[schema] in header
+    other = [s for s in StepSchema if s is not schema][0]
+    assert SCHEMA_NAMES[other] not in header
+    assert ".MILLI.,.METRE." in text.replace(" ", "")
+
+
+def test_machine_frame(design_step):
+    """Axis Z, vertex at the origin, part in -Z: the bounds of the re-imported solid."""
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+
+    box = Bnd_Box()
+    BRepBndLib.AddOptimal_s(read_step(design_step), box, False, False)
+    xmin, ymin, zmin, xmax, ymax, zmax = box.Get()
+    assert zmax == pytest.approx(0.0, abs=1e-6)
+    assert zmin == pytest.approx(-BodySpec().thickness, abs=1e-6)
+    assert xmax == pytest.approx(BodySpec().blank_diameter / 2, abs=1e-6)
+    assert xmin == pytest.approx(-xmax, abs=1e-6) and ymax == pytest.approx(xmax, abs=1e-6)
+
+
+# --------------------------------------------------------------------------------------
+
+
+def _shell(shape):
+    from OCP.TopAbs import TopAbs_SHELL
+    from OCP.TopExp import TopExp_Explorer
+
+    exp = TopExp_Explorer(shape, TopAbs_SHELL)
+    assert exp.More()
+    return exp.Current()
+
+
+def _distance(shape, p) -> float:
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeVertex
+    from OCP.BRepExtrema import BRepExtrema_DistShapeShape
+    from OCP.gp import gp_Pnt
+
+    v = BRepBuilderAPI_MakeVertex(gp_Pnt(float(p[0]), float(p[1]), float(p[2]))).Vertex()
+    d = BRepExtrema_DistShapeShape(v, shape)
+    assert d.IsDone()
+    return float(d.Value())
