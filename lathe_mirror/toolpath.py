@@ -639,52 +639,20 @@ def _dp_vertices(t: _Target, s_nom: np.ndarray, res: float, cols, k_best: int = 
 
 def _arc_moves(layout: _Layout, lathe: Lathe) -> tuple[list, list]:
     """G2/G3 arcs per lobe, end points and centres on the lattice (see module doc)."""
-    res = lathe.resolution
     budget = lathe.max_points - 1 - (1 + layout.junction_extra())  # start, junction
     n_arcs = _arc_counts(layout, budget)
-    ends = []
-    for t, m, cols in zip(layout.targets(), n_arcs, (layout.inner_cols, layout.outer_cols)):
-        s_nom = _arc_breaks(t.length, m, cols)
-        cr, cz, d, th, valid = _candidates(t, s_nom, res, cols, k_best=1)
-        ends.append(np.stack([cr[:, 0], cz[:, 0]], axis=-1))
-    segs: list[Move] = []
-    lobes: list[str] = []
-    inner_arcs = _fit_arcs(layout.inner, ends[0], lathe)
-    segs += inner_arcs
-    lobes += ["inner"] * len(inner_arcs)
-    j = layout.junction_moves(ends[0][-1], ends[1][0])
-    segs += j
-    lobes += ["junction"] * len(j)
-    outer_arcs = _fit_arcs(layout.outer, ends[1], lathe)
-    segs += outer_arcs
-    lobes += ["outer"] * len(outer_arcs)
+    inner_arcs = _lobe_arcs(layout.inner, lathe, layout.inner_cols, n_arcs[0])
+    outer_arcs = _lobe_arcs(layout.outer, lathe, layout.outer_cols, n_arcs[1])
+    j = layout.junction_moves(np.asarray(inner_arcs[-1].end), np.asarray(outer_arcs[0].start))
+    segs: list[Move] = [*inner_arcs, *j, *outer_arcs]
+    lobes = ["inner"] * len(inner_arcs) + ["junction"] * len(j) + ["outer"] * len(outer_arcs)
     return segs, lobes
 
 
-def _arc_breaks(length: float, m: int, cols) -> np.ndarray:
-    """Arc-length positions of m + 1 arc end points along a lobe.
-
-    An end point held to a fixed column (the axis, the wall, the rim) can only be the
-    lattice point above or below the curve there, up to half a step off it; the arc
-    ending there tilts by about that offset over its length, so such end arcs are
-    made `_END_ARC_FACTOR` times longer than the others. The axis end is exempt: the
-    curve crosses the axis horizontally, where the lattice row through the vertex holds it.
-    """
-    w = np.ones(m)
-    if m >= 3:
-        if cols[1] is not None:
-            w[-1] = _END_ARC_FACTOR
-        if cols[0] is not None and cols[0] > 0.0:
-            w[0] = _END_ARC_FACTOR
-    return np.concatenate([[0.0], np.cumsum(w) / w.sum() * length])
-
-
-_END_ARC_FACTOR = 8.0
-
-
 def _arc_counts(layout: _Layout, budget: int) -> tuple[int, int]:
-    """Arcs per lobe: as many as the budget holds up to one per `_ARC_LENGTH` mm."""
-    want = [max(1, int(math.ceil(t.length / _ARC_LENGTH))) for t in layout.targets()]
+    """Arcs per lobe: one per `_ARC_LENGTH` mm, fewer (shared by length) if the budget
+    (2 points per arc) cannot hold that many."""
+    want = [max(1, int(math.ceil(t.length / _ARC_LENGTH))) + 2 for t in layout.targets()]
     cap = budget // 2
     if sum(want) > cap:
         n0 = max(1, min(cap - 1, int(round(cap * want[0] / sum(want)))))
@@ -698,13 +666,87 @@ def _arc_counts(layout: _Layout, budget: int) -> tuple[int, int]:
 _ARC_LENGTH = 0.4
 
 
-def _fit_arcs(t: _Target, ends: np.ndarray, lathe: Lathe, *, window: int = 10,
-              n_check: int = 9) -> list[Arc]:
+def _lobe_arcs(t: _Target, lathe: Lathe, cols, m: int) -> list[Arc]:
+    """Arcs along one lobe, at most m of them.
+
+    An end point held to a fixed column (the wall, the rim) can only be the lattice
+    point above or below the curve there, up to half a step off it, and an arc through
+    two points cannot rotate: it tilts by about that offset over its length. So the
+    arc ending there is chosen by search over its length and the column's two lattice
+    rows (the longest arcs follow the slowly changing curvature at the rims well); the
+    other end points are the lattice points nearest the curve at even spacing. The
+    axis end is exempt: the curve crosses it level, on the vertex's own lattice row.
+    """
+    res = lathe.resolution
+    length = t.length
+    s_of = lambda p: np.interp(foot_on_sheet(t.lobe, p[..., 0], p[..., 1], zero=t.zero),  # noqa: E731
+                               t.rs, t.s_tab)
+    first = last = None
+    s_lo, s_hi = 0.0, length
+    m_left = m
+    if cols[0] is not None and cols[0] > 0.0 and m >= 3:
+        first = _end_arc(t, lathe, cols[0], at_start=True)
+        s_lo = float(s_of(np.asarray(first.end)))
+        m_left -= 1
+    if cols[1] is not None and m >= 3:
+        last = _end_arc(t, lathe, cols[1], at_start=False)
+        s_hi = float(s_of(np.asarray(last.start)))
+        m_left -= 1
+    n_mid = max(1, min(m_left, int(math.ceil((s_hi - s_lo) / _ARC_LENGTH))))
+    s_nom = np.linspace(s_lo, s_hi, n_mid + 1)
+    end_cols = (None if first is None else first.end[0], None if last is None else last.start[0])
+    if first is None:
+        end_cols = (cols[0], end_cols[1])
+    if last is None:
+        end_cols = (end_cols[0], cols[1])
+    cr, cz, _, _, _ = _candidates(t, s_nom, res, end_cols, k_best=2)
+    ends = np.stack([cr[:, 0], cz[:, 0]], axis=-1)
+    if first is not None:
+        ends[0] = first.end
+    if last is not None:
+        ends[-1] = last.start
+    arcs, _ = _fit_arcs(t, ends, lathe)
+    return ([first] if first else []) + arcs + ([last] if last else [])
+
+
+#: Lengths (mm) tried for an arc ending on a fixed column.
+_END_ARC_LENGTHS = (0.4, 0.6, 0.8, 1.0, 1.3, 1.6, 2.0, 2.5, 3.0, 4.0)
+
+
+def _end_arc(t: _Target, lathe: Lathe, col: float, *, at_start: bool) -> Arc:
+    res = lathe.resolution
+    lens = np.asarray([x for x in _END_ARC_LENGTHS if x < 0.45 * t.length])
+    s_fixed = 0.0 if at_start else t.length
+    s_free = lens if at_start else t.length - lens[::-1]
+    # the fixed column's two lattice rows
+    if at_start:
+        fr, fz, _, _, _ = _candidates(t, np.array([0.0, 0.1]), res, (col, None), k_best=2)
+        fixed = np.stack([fr[0], fz[0]], axis=-1)  # (2, 2)
+    else:
+        fr, fz, _, _, _ = _candidates(t, np.array([t.length - 0.1, t.length]), res, (None, col), k_best=2)
+        fixed = np.stack([fr[-1], fz[-1]], axis=-1)
+    gr, gz, _, _, _ = _candidates(t, np.concatenate([[s_fixed], s_free]) if at_start
+                                  else np.concatenate([s_free, [s_fixed]]), res, (None, None), k_best=1)
+    free = np.stack([gr[:, 0], gz[:, 0]], axis=-1)
+    free = free[1:] if at_start else free[:-1]
+    pairs_f = np.repeat(fixed, len(free), axis=0)
+    pairs_g = np.tile(free, (2, 1))
+    S, E = (pairs_f, pairs_g) if at_start else (pairs_g, pairs_f)
+    arcs, err = _fit_arcs(t, None, lathe, starts=S, ends_=E)
+    return arcs[int(np.argmin(err))]
+
+
+def _fit_arcs(t: _Target, ends: np.ndarray | None, lathe: Lathe, *, window: int = 10,
+              n_check: int = 9, starts: np.ndarray | None = None,
+              ends_: np.ndarray | None = None) -> tuple[list[Arc], np.ndarray]:
     """One arc per consecutive pair of end points, its centre the lattice point (within
     `window` steps of the best circle's centre) whose cut arc has the smallest max slope
     error against the curve, among those within the radius tolerance."""
     res = lathe.resolution
-    S, E = ends[:-1], ends[1:]
+    if ends is not None:
+        S, E = ends[:-1], ends[1:]
+    else:
+        S, E = starts, ends_
     m = S.shape[0]
     # the ideal centre: on the normal at the middle, at the middle's radius of curvature
     mid = 0.5 * (S + E)
@@ -752,7 +794,7 @@ def _fit_arcs(t: _Target, ends: np.ndarray, lathe: Lathe, *, window: int = 10,
         c = cand[i, best[i]]
         arcs.append(Arc(start=_pt(S[i]), end=_pt(E[i]), centre=_pt(c),
                         clockwise=bool(sweep[i, best[i]] > 0)))
-    return arcs
+    return arcs, score[np.arange(m), best]
 
 
 def _foot_rs(t: _Target, p: np.ndarray):

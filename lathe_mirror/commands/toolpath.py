@@ -1,0 +1,98 @@
+"""`lathe-mirror toolpath`: the finishing toolpath and its G-code, with profile errors."""
+
+from __future__ import annotations
+
+import argparse
+
+from ._common import add_common, load, print_json
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "toolpath", help="lathe toolpath on the machine's lattice and its G-code",
+        description="Plan the finishing contour on the lathe's lattice within its point budget, "
+        "write the G-code (roughing + finishing, tool-nose compensation computed here) and "
+        "report the profile errors per lobe.")
+    add_common(p, output_help="G-code file, or a directory (gets mirror_<strategy>.ngc/.nc)")
+    p.add_argument("--strategy", default=None,
+                   help="paper | lattice | arcs (default: the config's, arcs = the best)")
+    p.add_argument("--dialect", default="linuxcnc", help="linuxcnc | fanuc (default linuxcnc)")
+    p.add_argument("--points", type=int, default=None, metavar="N",
+                   help="point budget of the finishing contour (machine.max_points, default 528)")
+    p.add_argument("--resolution", type=float, default=None, metavar="MM",
+                   help="lattice step of r and Z, mm (machine.resolution, default 0.005)")
+    p.add_argument("--nose-radius", type=float, default=None, metavar="MM",
+                   help="tool nose radius, mm (tool.nose_radius, default 0.2; 0 = sharp)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from ..config import set_value
+    from ..design import mirror_from_config
+    from ..errors import InputError
+    from ..export.gcode import Dialect, options_from_config, parse_dialect, program
+    from ..machine import lathe_from_config, stock_from_config, tool_from_config
+    from ..machining import as_machined, gouge_depth
+    from ..toolpath import Strategy, plan_toolpath_with, profile_errors
+
+    cfg = load(args)
+    dialect = parse_dialect(args.dialect)
+    for flag, key, value in (("--points", "machine.max_points", args.points),
+                             ("--resolution", "machine.resolution", args.resolution),
+                             ("--nose-radius", "tool.nose_radius", args.nose_radius)):
+        if value is not None:
+            set_value(cfg, key, value, source=flag)
+    name = args.strategy or cfg["toolpath"]["strategy"]
+    try:
+        strategy = Strategy(name)
+    except ValueError:
+        raise InputError(f"--strategy {name!r}: allowed {', '.join(s.value for s in Strategy)}") from None
+    mirror = mirror_from_config(cfg)
+    lathe, tool, stock = lathe_from_config(cfg), tool_from_config(cfg), stock_from_config(cfg)
+    opts = options_from_config(cfg)
+    tp = plan_toolpath_with(mirror, lathe, tool, strategy,
+                            max_deviation=float(cfg["toolpath"]["max_deviation"]))
+    text = program(tp, stock, dialect, options=opts, name=f"mirror_{strategy.value}")
+    if args.output:
+        from ..export.files import prepare_dir, write_text
+
+        out = Path(args.output)
+        if out.is_dir() or args.output.endswith("/"):
+            ext = "ngc" if dialect is Dialect.LINUXCNC else "nc"
+            out = prepare_dir(out) / f"mirror_{strategy.value}.{ext}"
+        write_text(out, text)
+    figures = profile_errors(as_machined(tp), mirror)
+    contour = profile_errors(tp.contour_profile(), mirror) if tp.nose_radius > 0 else figures
+    result = {
+        "strategy": strategy.value,
+        "dialect": dialect.value,
+        "n_points": tp.n_points,
+        "max_points": lathe.max_points,
+        "resolution_mm": lathe.resolution,
+        "nose_radius_mm": tool.nose_radius,
+        "moves": len(tp.segments),
+        "arcs": sum(1 for s in tp.segments if s.kind == "arc"),
+        "gouge_depth_mm": gouge_depth(tp),
+        "lobes": figures["lobes"],
+        "contour_lobes": contour["lobes"],
+    }
+    if args.json:
+        print_json(result)
+    elif not args.output:
+        print(text, end="")
+    else:
+        print(format_figures(result))
+    return 0
+
+
+def format_figures(res: dict) -> str:
+    lines = [f"strategy {res['strategy']}: {res['moves']} moves ({res['arcs']} arcs), "
+             f"{res['n_points']} of {res['max_points']} points, nose radius {res['nose_radius_mm']:g} mm, "
+             f"gouge {res['gouge_depth_mm']:.4f} mm"]
+    for lobe in res["lobes"]:
+        nd, se = lobe["normal_deviation_mm"], lobe["slope_error_rad"]
+        lines.append(f"  {lobe['name']:5s} normal deviation rms {nd['rms']:.2e} max {nd['max']:.2e} mm; "
+                     f"slope error rms {se['rms']:.2e} max {se['max']:.2e} rad")
+    return "\n".join(lines)
