@@ -15,7 +15,7 @@ from ..errors import InputError
 from ..profile import Profile
 from .camera import ALIGNED, CameraPose, pixel_centres
 from .scene import Scene, shade
-from .trace import Fate, trace_pixels
+from .trace import Fate, RayHits, meridian_hits, trace_pixels
 
 #: Rays per chunk: bounds memory (a few hundred bytes per ray) and paces the progress bar.
 CHUNK_RAYS = 1 << 14  # fits the CPU caches: 1.5x faster than 1 << 18
@@ -35,21 +35,26 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
     u, v = pixel_centres(camera, supersample=supersample, window=window)
     h, w, n = u.shape
     u, v = u.reshape(-1), v.reshape(-1)
-    rgb = np.zeros((u.size, 3))
+    # One sample per pixel: quantise each chunk straight into the image; else average first.
+    rgb = np.zeros((u.size, 3), dtype=np.uint8 if n == 1 else float)
     seen = 0
-    starts = range(0, u.size, CHUNK_RAYS)
     bar = None
     if progress:
         from tqdm import tqdm
 
         bar = tqdm(total=u.size, unit="ray", unit_scale=True, desc="render", leave=False)
-    for a in starts:
+    aligned = _aligned_meridian(profile, camera, u, v, n) if pose.aligned else None
+    for a in range(0, u.size, CHUNK_RAYS):
         sl = slice(a, min(a + CHUNK_RAYS, u.size))
-        hits = trace_pixels(profile, camera, np.stack([u[sl], v[sl]], axis=-1), pose=pose)
+        if aligned is not None:
+            hits = aligned(sl)
+        else:
+            hits = trace_pixels(profile, camera, np.stack([u[sl], v[sl]], axis=-1), pose=pose)
         lit = (hits.fate <= Fate.OUTER) & ~hits.blocked
         seen += int(np.count_nonzero(hits.fate <= Fate.OUTER))
         if lit.any():
-            rgb[sl][lit] = shade(scene, hits.point[lit], hits.direction[lit])
+            colour = shade(scene, hits.point[lit], hits.direction[lit])
+            rgb[sl][lit] = _to_uint8(colour) if n == 1 else colour
         if bar is not None:
             bar.update(sl.stop - sl.start)
     if bar is not None:
@@ -59,9 +64,43 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
             "camera: no pixel sees the mirror (check [camera_pose] decentre / tilt_deg / "
             "axial_offset and the [camera] constants)"
         )
-    img = rgb.reshape(h, w, n, 3)
-    img = img[:, :, 0] if n == 1 else img.mean(axis=2)
-    return np.clip(np.rint(img * 255.0), 0, 255).astype(np.uint8)
+    if n == 1:
+        return rgb.reshape(h, w, 3)
+    return _to_uint8(rgb.reshape(h, w, n, 3).mean(axis=2))
+
+
+def _to_uint8(rgb: np.ndarray) -> np.ndarray:
+    """Linear 0..1 to 0..255, rounded to nearest."""
+    return np.clip(np.rint(rgb * 255.0), 0, 255).astype(np.uint8)
+
+
+def _aligned_meridian(profile: Profile, camera: Camera, u: np.ndarray, v: np.ndarray, n: int):
+    """Trace each distinct image radius once (an aligned camera's rays depend on the
+    radius only, and about 8 pixels share each); returns chunk -> RayHits.
+
+    Sample points sit at odd multiples of 1 / (2n) px from the principal point, so
+    (2n u)^2 + (2n v)^2 is an exact integer key of the radius.
+    """
+    key = np.rint((2 * n * u) ** 2 + (2 * n * v) ** 2).astype(np.int64)
+    present = np.zeros(int(key.max()) + 1, dtype=bool)
+    present[key] = True
+    uniq = np.flatnonzero(present)
+    index = np.cumsum(present) - 1  # key -> position in uniq
+    rho_u = np.sqrt(uniq) / (2 * n)
+    m = meridian_hits(profile, rho_u * (camera.t_pixel / camera.f))
+
+    def chunk(sl: slice) -> RayHits:
+        i = index[key[sl]]
+        rho = rho_u[i]
+        safe = np.where(rho > 0, rho, 1.0)
+        cos = np.where(rho > 0, u[sl] / safe, 1.0)
+        sin = np.where(rho > 0, v[sl] / safe, 0.0)
+        r, orr = m.r[i], m.out_r[i]
+        point = np.stack([r * cos, r * sin, m.z[i]], axis=-1)
+        direction = np.stack([orr * cos, orr * sin, m.out_z[i]], axis=-1)
+        return RayHits(fate=m.fate[i], point=point, direction=direction, blocked=m.blocked[i])
+
+    return chunk
 
 
 def image_difference(a: np.ndarray, b: np.ndarray, *, mask: np.ndarray | None = None) -> dict:

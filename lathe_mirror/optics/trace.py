@@ -35,6 +35,11 @@ import numpy as np
 
 from ..design import Camera, Lobe, Mirror
 from ..profile import ExactProfile, PolylineProfile, Profile
+
+try:  # the toolpath issue's profile of the tool-nose envelope (z linear between samples)
+    from ..profile import TabulatedProfile
+except ImportError:  # pragma: no cover
+    TabulatedProfile = None
 from .camera import ALIGNED, CameraPose, ray_directions
 
 #: Newton / bisection stop: change of r (meridian) or ray length s (3-D) below this, mm.
@@ -150,7 +155,8 @@ def meridian_hits(profile: Profile, t: np.ndarray) -> MeridianHits:
     r[outer] = np.maximum(r[outer], r_out0)  # a root at the junction belongs to the outer lobe
     hit = inner | outer
     z = np.full(t.shape, np.nan)
-    z[hit] = profile.z(r[hit])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z[hit] = np.where(t[hit] > 0, r[hit] / t[hit], profile.z(np.zeros(1))[0])  # on the ray
 
     # Mirror reflection out = d - 2 (d.n) n in the meridian plane, n = (s, -1) / |.|.
     s = np.full(t.shape, np.nan)
@@ -212,11 +218,26 @@ def _meridian_root(profile: Profile, t: np.ndarray, k: int) -> np.ndarray:
         return t * _sheet_height(lobe, t)
     if isinstance(profile, PolylineProfile):
         s = profile.lobes[k]
-        q = s.r / s.z  # tan of each vertex seen from the camera: increasing along the lobe
-        j = np.clip(np.searchsorted(q, t, side="right") - 1, 0, s.r.size - 2)
-        m = (s.z[j + 1] - s.z[j]) / (s.r[j + 1] - s.r[j])
-        return t * (s.z[j] - m * s.r[j]) / (1.0 - t * m)
+        return _polyline_root(s.r, s.z, t)
+    if TabulatedProfile is not None and isinstance(profile, TabulatedProfile):
+        r, z, _ = profile.lobes[k]  # z is linear between samples: a polyline
+        return _polyline_root(r, z, t)
     return _newton_root(profile, t, k)
+
+
+def _polyline_root(rs: np.ndarray, zs: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Where rays r = t z meet the polyline through (rs, zs) (rs non-decreasing), mm.
+
+    The segment is found by a binary search on the vertices' r / z (increasing along a
+    lobe, see the module doc); the end segments extend beyond the ends.
+    """
+    q = np.maximum.accumulate(rs / zs)
+    j = np.clip(np.searchsorted(q, t, side="right") - 1, 0, rs.size - 2)
+    dr = rs[j + 1] - rs[j]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m = (zs[j + 1] - zs[j]) / dr
+        r = t * (zs[j] - m * rs[j]) / (1.0 - t * m)
+    return np.where(dr > 0, r, rs[j])  # a vertical step in the table: the ray meets it there
 
 
 def _sheet_height(lobe: Lobe, t: np.ndarray) -> np.ndarray:
