@@ -15,6 +15,7 @@ the centre; its error is the separate tool_x tolerance).
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 from dataclasses import dataclass
 
@@ -73,5 +74,31 @@ def _snap(x: np.ndarray, step: float, phase: float) -> np.ndarray:
     return np.round((x - off) / step) * step + off
 
 
-def _issue3_surface(mirror, cfg, program, res, phase, nose_radius) -> MadeSurface:  # pragma: no cover
-    raise NotImplementedError
+def _issue3_surface(mirror: Mirror, cfg: dict, program: Program, res: float, phase: float,
+                    nose_radius: float | None) -> MadeSurface:
+    from ..machine import lathe_from_config, tool_from_config
+    from ..machining import as_machined
+    from ..toolpath import BEST, Strategy, plan_toolpath
+
+    lathe = dataclasses.replace(lathe_from_config(cfg), resolution=res)
+    tool = tool_from_config(cfg)
+    strategy = BEST if program is Program.BEST else Strategy.PAPER
+    # The planner puts machine Z = 0 at mirror.vertex_z; a mirror whose vertex_z sits
+    # phase * res higher is the same surface cut with the work zero that far off the lattice.
+    planned = mirror if phase == 0.0 else _ZeroShiftedMirror(mirror.camera, mirror.inner, mirror.outer,
+                                                             zero_shift=phase * res)
+    tp = plan_toolpath(planned, lathe, tool, strategy)
+    rho = tool.nose_radius if nose_radius is None else nose_radius
+    return MadeSurface(as_machined(tp, rho),
+                       f"{strategy.value} program (issue 3), as-machined with a {rho:g} mm nose")
+
+
+@dataclasses.dataclass(frozen=True)
+class _ZeroShiftedMirror(Mirror):
+    """The design with its machine zero moved zero_shift (mm) along the axis."""
+
+    zero_shift: float = 0.0
+
+    @property
+    def vertex_z(self) -> float:  # type: ignore[override]
+        return self.inner.vertex_z + self.zero_shift

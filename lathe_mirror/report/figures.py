@@ -1,0 +1,148 @@
+"""The report's plots: plain data in, PNG bytes out (matplotlib, Agg, no disk).
+
+Each helper draws one figure from data the report already holds in its JSON, so a plot
+never shows a number the JSON does not. PNGs carry no timestamp or software tag, so the
+same data gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+
+LOBE_COLOURS = {"inner": "tab:blue", "outer": "tab:orange"}
+MIRROR_COLOURS = {"exact": "black", "paper": "tab:red", "best": "tab:green", "polished": "tab:purple"}
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams.update({"font.size": 9, "svg.hashsalt": "lathe-mirror"})
+    return plt
+
+
+def png(fig) -> bytes:
+    """The figure as PNG bytes, without metadata that would change from run to run."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100, metadata={"Software": None}, bbox_inches="tight")
+    _pyplot().close(fig)
+    return buf.getvalue()
+
+
+def image_png(img: np.ndarray) -> bytes:
+    """An RGB uint8 array as PNG bytes (Pillow, no metadata)."""
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(np.asarray(img, dtype=np.uint8)).save(buf, format="PNG", optimize=False)
+    return buf.getvalue()
+
+
+def images_side_by_side(images: dict[str, np.ndarray]) -> bytes:
+    """Renders in a row, titled by their names."""
+    plt = _pyplot()
+    n = len(images)
+    fig, axes = plt.subplots(1, n, figsize=(3.2 * n, 3.4))
+    for ax, (name, img) in zip(np.atleast_1d(axes), images.items()):
+        ax.imshow(img)
+        ax.set_title(name)
+        ax.set_axis_off()
+    return png(fig)
+
+
+def profile_deviation_plot(curves: dict[str, tuple[np.ndarray, np.ndarray]], r_junction: float) -> bytes:
+    """Signed height error (um) of each made surface against r (mm)."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 3.2))
+    for name, (r, dz) in curves.items():
+        ax.plot(r, dz * 1e3, lw=0.7, label=name, color=MIRROR_COLOURS.get(name))
+    ax.axvline(r_junction, color="grey", lw=0.5, ls="--")
+    ax.set_xlabel("r (mm)")
+    ax.set_ylabel("z made - z exact (um)")
+    ax.set_title("as-machined / polished height error along the meridian (camera frame)")
+    ax.legend(loc="best")
+    ax.grid(alpha=0.3)
+    return png(fig)
+
+
+def displacement_plot(curves: dict[str, tuple[np.ndarray, np.ndarray]], lost_ring: tuple[float, float]) -> bytes:
+    """Radial image displacement (px) against image radius (px), one line per mirror."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 3.2))
+    for name, (rho, d) in curves.items():
+        ax.plot(rho, d, lw=0.6, label=name, color=MIRROR_COLOURS.get(name))
+    ax.axvspan(*lost_ring, color="grey", alpha=0.3, label="lost ring (step wall)")
+    ax.set_xlabel("image radius (px)")
+    ax.set_ylabel("radial image displacement (px)")
+    ax.set_yscale("symlog", linthresh=0.1)
+    ax.legend(loc="best")
+    ax.grid(alpha=0.3)
+    return png(fig)
+
+
+def polishing_curve_plot(curve: dict, title: str) -> bytes:
+    """Image displacement, slope error and form change against polishing time."""
+    plt = _pyplot()
+    t = np.asarray(curve["times_s"]) / 60.0
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.2))
+    opt = curve["optimum"]["time_s"] / 60.0
+    for lb in curve["lobes"]:
+        c = LOBE_COLOURS[lb["name"]]
+        axes[0].plot(t, lb["image_displacement_px"]["rms"], color=c, label=f"{lb['name']} RMS")
+        axes[1].plot(t, lb["slope_error_rad"]["rms"], color=c, label=lb["name"])
+        axes[2].plot(t, np.asarray(lb["form_change_mm"]["rms"]) * 1e3, color=c, label=lb["name"])
+    axes[0].plot(t, curve["combined_image_displacement_px_rms"], color="black", label="both lobes")
+    for ax, yl in zip(axes, ("image displacement (px)", "slope error RMS (rad)", "form change RMS (um)")):
+        ax.axvline(opt, color="tab:purple", ls="--", lw=0.8)
+        ax.set_xlabel("polishing time (min)")
+        ax.set_ylabel(yl)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best")
+    axes[0].set_yscale("log")
+    axes[1].set_yscale("log")
+    fig.suptitle(title)
+    return png(fig)
+
+
+def depth_error_plot(curves: dict[str, dict]) -> bytes:
+    """RMS |depth error| (%) over the common band against range (m), one line per mirror."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6, 3.4))
+    for name, c in curves.items():
+        y = np.maximum(np.asarray(c["depth_error_pct"]["rms"]), 1e-12)
+        ax.plot(c["ranges_m"], y, marker=".", label=name, color=MIRROR_COLOURS.get(name))
+    ax.set_xlabel("range (m)")
+    ax.set_ylabel("RMS |depth error| (%)")
+    ax.set_yscale("log")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="best")
+    return png(fig)
+
+
+def monte_carlo_histograms(per_trial: dict, spec: dict, yield_fraction: float) -> bytes:
+    """Histograms of the trials' figures with the spec's limits."""
+    plt = _pyplot()
+    disp = np.asarray(per_trial["image_displacement_px_rms"])
+    slope = np.asarray(per_trial["slope_error_rad_rms"])
+    depth = np.asarray(per_trial["depth_error_pct_rms"])
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.2))
+    for k, name in enumerate(("inner", "outer")):
+        axes[0].hist(disp[:, k], bins=40, alpha=0.6, color=LOBE_COLOURS[name], label=name)
+        axes[1].hist(slope[:, k], bins=40, alpha=0.6, color=LOBE_COLOURS[name], label=name)
+    axes[2].hist(np.clip(depth, 0, 5 * spec["depth_error_pct"]), bins=40, color="grey")
+    axes[0].axvline(spec["image_displacement_px"], color="red", ls="--", label="limit")
+    axes[1].axvline(spec["slope_error_rad"], color="red", ls="--", label="limit")
+    axes[2].axvline(spec["depth_error_pct"], color="red", ls="--", label="limit")
+    axes[0].set_xlabel("RMS image displacement (px)")
+    axes[1].set_xlabel("RMS slope error (rad)")
+    axes[2].set_xlabel(f"RMS |depth error| at {spec['depth_range_m']:g} m (%, clipped at 5x limit)")
+    for ax in axes:
+        ax.set_ylabel("trials")
+        ax.legend(loc="best")
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"Monte Carlo, {disp.shape[0]} trials: yield {100 * yield_fraction:.1f} %")
+    return png(fig)
