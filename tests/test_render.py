@@ -1,0 +1,144 @@
+"""The room, the renderer and the `render` command: hand-computed colours, SSIM's closed
+form, supersampling against a finer sensor, determinism, and bad input (exit 2)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from conftest import run_cli
+from lathe_mirror.design import Camera
+from lathe_mirror.optics.render import image_difference, render_image
+from lathe_mirror.optics.scene import BOX_FACE0, FLOOR, X_HI, intersect, scene_from_config, shade
+from lathe_mirror.profile import ExactProfile
+
+
+@pytest.fixture(scope="module")
+def scene(paper_config, paper_mirror):
+    return scene_from_config(paper_config, mirror_top=paper_mirror.outer.h, mirror_radius=35.0)
+
+
+def test_floor_below_and_wall_ahead_by_hand(scene, paper_config):
+    sc = paper_config["scene"]
+    o = np.array([[0.0, 0.0, 100.0], [0.0, 0.0, 100.0]])
+    d = np.array([[0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
+    dist, surf = intersect(scene, o, d)
+    assert dist[0] == pytest.approx(100.0 + sc["camera_height"])
+    assert surf[0] == FLOOR
+    x_hi = sc["room_centre"][0] + sc["room_size"] / 2
+    assert dist[1] == pytest.approx(x_hi)
+    assert surf[1] == X_HI
+    rgb = shade(scene, o, d)
+    light = -np.asarray(sc["light_direction"]) / np.linalg.norm(sc["light_direction"])
+    # Floor point (0, 0, -350): squares floor(0) + floor(0) + floor(-350 / 300) = -2, even: white.
+    floor_shade = sc["ambient"] + sc["diffuse"] * max(0.0, light[2])
+    assert rgb[0] == pytest.approx(np.array(sc["floor_colours"][:3]) * floor_shade)
+    # Wall point (2150, 0, 100): 7 + 0 + 0 odd: the second (black) colour.
+    assert rgb[1] == pytest.approx(np.array(sc["x_wall_colours"][3:]) * 0.0 + 0.0)
+
+
+def test_box_face_hit_by_hand(scene, paper_config):
+    box = paper_config["scene"]["boxes"][0]  # centre (1100, 500), size 500^3 on the floor
+    cx, cy = box["centre"]
+    z_mid = -paper_config["scene"]["camera_height"] + box["size"][2] / 2
+    o = np.array([[0.0, cy, z_mid]])
+    d = np.array([[1.0, 0.0, 0.0]])
+    dist, surf = intersect(scene, o, d)
+    assert dist[0] == pytest.approx(cx - box["size"][0] / 2)
+    assert surf[0] == BOX_FACE0 + 0  # the -x face
+    sc = paper_config["scene"]
+    light = -np.asarray(sc["light_direction"]) / np.linalg.norm(sc["light_direction"])
+    expect = np.array(sc["box_colour"]) * (sc["ambient"] + sc["diffuse"] * max(0.0, -light[0]))
+    assert shade(scene, o, d)[0] == pytest.approx(expect)
+
+
+def test_centre_pixel_sees_the_floor_under_the_mirror(scene, paper_mirror, paper_config):
+    """Rays next to the axis return nearly along it, outward on their own side: the floor
+    just around (0, 0, -350), where the checker's lines x = 0 and y = 0 cross. Squares
+    floor(x/300) + floor(y/300) + floor(-350/300): even (white) where x and y share a sign."""
+    img = render_image(ExactProfile(paper_mirror), paper_mirror, scene, window=(503, 508, 2, 2))
+    sc = paper_config["scene"]
+    light = -np.asarray(sc["light_direction"]) / np.linalg.norm(sc["light_direction"])
+    white = round(255 * (sc["ambient"] + sc["diffuse"] * light[2]))
+    assert img[0, 0].tolist() == [white] * 3 and img[1, 1].tolist() == [white] * 3  # u, v same sign
+    assert img[0, 1].max() == 0 and img[1, 0].max() == 0
+
+
+def test_lost_ring_and_corners_are_black(scene, paper_mirror):
+    img = render_image(ExactProfile(paper_mirror), paper_mirror, scene)
+    assert img.shape == (1018, 1008, 3)
+    u = np.arange(1008) + 0.5 - 504
+    v = np.arange(1018) + 0.5 - 509
+    rho = np.hypot(u[None, :], v[:, None])
+    lost = (rho > 307.6) & (rho < 312.4)
+    corners = rho > 504.1
+    assert img[lost].max() == 0 and img[corners].max() == 0
+    assert (img[rho < 280].max(axis=-1) > 0).mean() > 0.4  # the inner disc shows the room
+
+
+def test_supersampling_is_the_mean_of_a_finer_sensor(scene, paper_mirror):
+    """2 x 2 samples per pixel sit exactly at the pixel centres of a sensor with half the
+    pitch and twice the pixels; the averaged image is their 2 x 2 block mean."""
+    exact = ExactProfile(paper_mirror)
+    coarse = Camera(16.0, 0.036, (252, 254))
+    fine = Camera(16.0, 0.018, (504, 508))
+    a = render_image(exact, paper_mirror, scene, coarse, supersample=2).astype(float)
+    b = render_image(exact, paper_mirror, scene, fine).astype(float)
+    block = b.reshape(254, 2, 252, 2, 3).mean(axis=(1, 3))
+    assert np.abs(a - block).max() <= 1.0  # rounding before vs after the mean
+
+
+def test_ssim_and_rms_closed_form():
+    """Two flat images x = 100, y = 150: RMS 50; SSIM = (2 x y + C1) / (x^2 + y^2 + C1)
+    (the contrast-structure term is C2 / C2 = 1), Wang et al. 2004 with L = 255."""
+    a = np.full((40, 40, 3), 100, np.uint8)
+    b = np.full((40, 40, 3), 150, np.uint8)
+    c1 = (0.01 * 255) ** 2
+    d = image_difference(a, b)
+    assert d["rms"] == pytest.approx(50.0)
+    assert d["ssim"] == pytest.approx((2 * 100 * 150 + c1) / (100**2 + 150**2 + c1), rel=1e-9)
+    assert image_difference(a, a)["ssim"] == pytest.approx(1.0)
+
+
+def test_render_command_writes_images_figures_and_is_reproducible(tmp_path):
+    out = tmp_path / "r"
+    p = run_cli("render", "--surface", "uniform528", "-o", str(out), "--json", "--no-progress")
+    assert p.returncode == 0, p.stderr
+    fig = json.loads(p.stdout)
+    assert [lobe["name"] for lobe in fig["lobes"]] == ["inner", "outer"]
+    for lobe in fig["lobes"]:
+        for key in ("ray_deviation_deg", "image_displacement_px", "viewpoint_spread_mm"):
+            assert lobe[key]["rms"] > 0 and lobe[key]["max"] >= lobe[key]["rms"]
+    assert 0 < fig["image_difference"]["ssim"] < 1
+    names = {f.split("/")[-1] for f in fig["files"]}
+    assert {"exact.png", "uniform528.png", "difference_uniform528.png", "exact.pov",
+            "uniform528.pov", "displacement_radius_uniform528.png",
+            "displacement_map_uniform528.png"} <= names
+    assert json.loads((out / "figures_uniform528.json").read_text())["lobes"] == fig["lobes"]
+    again = run_cli("render", "--surface", "uniform528", "-o", str(tmp_path / "s"),
+                    "--image-only", "--no-progress")
+    assert again.returncode == 0, again.stderr
+    assert (tmp_path / "s" / "uniform528.png").read_bytes() == (out / "uniform528.png").read_bytes()
+
+
+@pytest.mark.parametrize("args, toml, words", [
+    (["--surface", "mirror42"], "", "unknown surface"),
+    (["--surface", "exact"], "[[scene.boxes]]\n", None),  # placeholder replaced below
+    (["--surface", "exact"], "[camera_pose]\ndecentre = [400.0, 0.0]\n", "no pixel sees the mirror"),
+    (["--surface", "exact", "--supersample", "0"], "", "--supersample"),
+    (["--surface", "exact", "--nose-radius", "0.2"], "", "--nose-radius"),
+])
+def test_bad_input_one_line_exit_2_nothing_written(tmp_path, args, toml, words):
+    if words is None:  # an empty scene: no boxes at all
+        toml, words = "[scene]\nboxes = []\n", "scene.boxes is empty"
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(toml)
+    out = tmp_path / "out"
+    p = run_cli("render", "--config", str(cfg), "-o", str(out), "--no-progress", *args)
+    assert p.returncode == 2, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0] and "Traceback" not in p.stderr
+    assert not out.exists() or not any(out.iterdir())
