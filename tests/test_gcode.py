@@ -1,0 +1,242 @@
+"""G-code: LinuxCNC's rs274 interprets every program; its canonical moves rebuild the
+finishing contour to 0.0001 mm; lattice, budget, refusals, reproducibility, gcode/."""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import require_program, run_cli
+from lathe_mirror.errors import InputError
+from lathe_mirror.export.gcode import (Dialect, ProgramOptions, parse_dialect, program,
+                                       reference_programs)
+from lathe_mirror.machine import Lathe, Stock, Tool
+from lathe_mirror.toolpath import Strategy, plan_toolpath
+
+REPO = Path(__file__).resolve().parents[1]
+LATHE = Lathe()
+STOCK = Stock()
+
+
+def rs274(tmp_path: Path, text: str) -> str:
+    """Run LinuxCNC's interpreter on a program; its canonical output (fails on error)."""
+    exe = require_program("rs274")
+    prog = tmp_path / "prog.ngc"
+    prog.write_text(text)
+    # rs274's tool table is read in inches; the offsets are zero (nose centre set up)
+    (tmp_path / "tools.tbl").write_text("T1 P1 X0 Z0 D0 Q2 ;finishing insert\n")
+    env = dict(os.environ, HOME=str(tmp_path))
+    res = subprocess.run([exe, "-t", str(tmp_path / "tools.tbl"), "-g", str(prog)],
+                         capture_output=True, text=True, cwd=tmp_path, env=env, timeout=60)
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    return res.stdout
+
+
+def canonical_contour(out: str) -> list[tuple]:
+    """The moves between the 'finish contour begin/end' comments, as rs274 reports them:
+    ("line", (r, Z)) or ("arc", (r, Z), centre (r, Z), rotation). In G7, X is a radius."""
+    lines = out.splitlines()
+    i0 = next(i for i, ln in enumerate(lines) if 'COMMENT("finish contour begin")' in ln)
+    i1 = next(i for i, ln in enumerate(lines) if 'COMMENT("finish contour end")' in ln)
+    moves = []
+    for ln in lines[i0 + 1:i1]:
+        m = re.search(r"(STRAIGHT_FEED|ARC_FEED)\(([^)]*)\)", ln)
+        if not m:
+            continue
+        v = [float(x) for x in m.group(2).split(",")]
+        if m.group(1) == "STRAIGHT_FEED":
+            moves.append(("line", (v[0], v[2])))
+        else:  # XZ plane: first axis Z, second X
+            moves.append(("arc", (v[1], v[0]), (v[3], v[2]), int(v[4])))
+    return moves
+
+
+def rebuild_points(moves, n=33) -> tuple[np.ndarray, list]:
+    """Points along the rebuilt contour (arcs as LinuxCNC's spiral), per move."""
+    cur = np.array(moves[0][1])
+    pieces = []
+    for mv in moves[1:]:
+        end = np.array(mv[1])
+        if mv[0] == "line":
+            t = np.linspace(0, 1, n)[:, None]
+            pieces.append((1 - t) * cur + t * end)
+        else:
+            c = np.array(mv[2])
+            a0 = math.atan2(cur[1] - c[1], cur[0] - c[0])
+            a1 = math.atan2(end[1] - c[1], end[0] - c[0])
+            # rotation +1 = counterclockwise in the (Z, X) plane = clockwise in (r, Z)
+            sweep = a1 - a0
+            if mv[3] > 0:
+                while sweep >= 0:
+                    sweep -= 2 * math.pi
+            else:
+                while sweep <= 0:
+                    sweep += 2 * math.pi
+            r0, r1 = np.hypot(*(cur - c)), np.hypot(*(end - c))
+            u = np.linspace(0, 1, n)
+            rad = r0 + (r1 - r0) * u
+            phi = a0 + sweep * u
+            pieces.append(c + rad[:, None] * np.stack([np.cos(phi), np.sin(phi)], -1))
+        cur = end
+    return pieces
+
+
+@pytest.fixture(scope="module")
+def plans(paper_mirror):
+    out = {}
+    for rho in (0.0, 0.2):
+        for st in (Strategy.PAPER, Strategy.LATTICE, Strategy.ARCS):
+            out[(st, rho)] = plan_toolpath(paper_mirror, LATHE, Tool(nose_radius=rho), st)
+    return out
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.2])
+@pytest.mark.parametrize("strategy", [Strategy.PAPER, Strategy.LATTICE, Strategy.ARCS])
+def test_rs274_rebuilds_the_contour(tmp_path, plans, strategy, rho):
+    tp = plans[(strategy, rho)]
+    out = rs274(tmp_path, program(tp, STOCK, Dialect.LINUXCNC))
+    moves = canonical_contour(out)
+    assert len(moves) == len(tp.segments) + 1
+    # the first feed move reaches the contour's start
+    assert np.allclose(moves[0][1], tp.segments[0].start, atol=1e-4)
+    rebuilt = rebuild_points(moves)
+    for seg, mv, pts in zip(tp.segments, moves[1:], rebuilt):
+        assert mv[0] == seg.kind
+        assert np.allclose(mv[1], seg.end, atol=1e-4)
+        if seg.kind == "arc":
+            assert np.allclose(mv[2], seg.centre, atol=1e-4)
+            # G2 (clockwise in G18) is reported as rotation -1
+            assert (mv[3] == -1) == seg.clockwise
+        want = seg.sample(len(pts))
+        assert np.max(np.hypot(*(pts - want).T)) <= 1e-4
+
+
+def test_rs274_reports_the_lattice_and_the_setup(tmp_path, plans):
+    tp = plans[(Strategy.ARCS, 0.2)]
+    out = rs274(tmp_path, program(tp, STOCK, Dialect.LINUXCNC))
+    assert "SELECT_PLANE(CANON_PLANE_XZ)" in out
+    assert "USE_LENGTH_UNITS(CANON_UNITS_MM)" in out
+    assert "SET_SPINDLE_MODE(0 3000.0000)" in out  # G96 D: the spindle cap
+    assert "SET_FEED_MODE(0, 1)" in out  # G95: feed per revolution
+    assert "CHANGE_TOOL(1)" in out
+    # every canonical coordinate of the contour is a lattice value (4 decimals printed)
+    for mv in canonical_contour(out):
+        vals = np.array(mv[1] + (mv[2] if mv[0] == "arc" else ()))
+        assert np.all(np.abs(vals / 0.005 - np.rint(vals / 0.005)) < 1e-6)
+
+
+def test_every_written_word_is_on_the_lattice(plans):
+    tp = plans[(Strategy.ARCS, 0.0)]
+    for dialect in Dialect:
+        text = program(tp, STOCK, dialect)
+        for word, val in re.findall(r"\b([XZIK])(-?\d+\.\d+)", text):
+            step = 0.01 if word == "X" else 0.005  # diameter mode: X = 2r
+            v = float(val)
+            assert abs(v / step - round(v / step)) < 1e-9, (word, val)
+
+
+def test_fanuc_dialect_structure(plans):
+    text = program(plans[(Strategy.ARCS, 0.2)], STOCK, Dialect.FANUC)
+    lines = text.splitlines()
+    assert lines[0] == "%" and lines[1].startswith("O1000")
+    assert "G50 S3000" in lines and "T0101" in lines
+    assert any(ln.startswith("G96 S200") for ln in lines)
+    assert "G99" in " ".join(lines)  # feed per revolution
+    assert lines[-2:] == ["M30", "%"]
+    assert not any("G7" in ln.split() or "G43" in ln.split() for ln in lines)
+
+
+def test_header_states_design_machine_tool_budget_and_figures(plans):
+    tp = plans[(Strategy.ARCS, 0.0)]
+    head = [ln for ln in program(tp, STOCK).splitlines() if ln.startswith("(")]
+    text = "\n".join(head)
+    assert "a 48.3584 b 26.8656" in text  # Table 1's a, b of mirror 01
+    assert f"{tp.n_points} of 528 points used" in text
+    assert "nose radius 0 mm" in text
+    assert text.count("slope error rms") == 2
+
+
+def test_same_inputs_same_bytes(paper_mirror):
+    a = program(plan_toolpath(paper_mirror, LATHE, Tool(), Strategy.ARCS), STOCK)
+    b = program(plan_toolpath(paper_mirror, LATHE, Tool(), Strategy.ARCS), STOCK)
+    assert a == b
+
+
+def test_a_gouging_program_is_refused(paper_mirror):
+    tp = plan_toolpath(paper_mirror, LATHE, Tool(nose_radius=0.0), Strategy.PAPER)
+    # the paper's rounding lies up to ~0.003 mm inside the part: a tighter tolerance refuses it
+    with pytest.raises(InputError, match="gouge"):
+        program(tp, STOCK, options=ProgramOptions(gouge_tolerance=0.001))
+
+
+def test_unknown_dialect():
+    with pytest.raises(InputError, match="allowed: linuxcnc, fanuc"):
+        parse_dialect("heidenhain")
+
+
+def test_reference_programs_are_current():
+    for name, text in reference_programs().items():
+        path = REPO / "gcode" / name
+        assert path.exists(), f"gcode/{name} missing: run write_reference_programs('gcode')"
+        assert path.read_text() == text, f"gcode/{name} is stale: run write_reference_programs('gcode')"
+
+
+@pytest.mark.parametrize("name", ["mirror_paper.ngc", "mirror_arcs.ngc"])
+def test_reference_programs_pass_rs274(tmp_path, name):
+    out = rs274(tmp_path, (REPO / "gcode" / name).read_text())
+    moves = canonical_contour(out)
+    pts = np.array([m[1] for m in moves] + [m[2] for m in moves if m[0] == "arc"])
+    assert np.all(np.abs(pts / 0.005 - np.rint(pts / 0.005)) < 1e-6)
+    n_points = 1 + sum(1 if m[0] == "line" else 2 for m in moves[1:])
+    assert n_points <= 528
+
+
+# --------------------------------------------------------------------------------------
+# The command line: bad inputs give one line, exit 2, and no file
+
+
+@pytest.mark.parametrize("args, phrase", [
+    (["--points", "10"], "machine.max_points = 10: too small"),
+    (["--resolution", "0"], "machine.resolution = 0"),
+    (["--nose-radius", "1.0"], "too large for the junction"),
+    (["--dialect", "heidenhain"], "unknown dialect"),
+    (["--strategy", "spline"], "--strategy 'spline'"),
+])
+def test_cli_bad_inputs(tmp_path, args, phrase):
+    out = tmp_path / "p.ngc"
+    res = run_cli("toolpath", *args, "-o", str(out))
+    assert res.returncode == 2, res.stderr
+    err = res.stderr.strip().splitlines()
+    assert len(err) == 1 and phrase in err[0], res.stderr
+    assert "Traceback" not in res.stderr
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_cli_travel_exceeded(tmp_path):
+    cfg = tmp_path / "small.toml"
+    cfg.write_text("[machine]\ntravel_x = 30.0\n")
+    out = tmp_path / "p.ngc"
+    res = run_cli("toolpath", "--config", str(cfg), "-o", str(out))
+    assert res.returncode == 2
+    assert "machine.travel_x = 30" in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_cli_json_and_directory_output(tmp_path):
+    import json
+
+    res = run_cli("toolpath", "--nose-radius", "0", "--json", "-o", str(tmp_path) + "/")
+    assert res.returncode == 0, res.stderr
+    data = json.loads(res.stdout)
+    assert [lb["name"] for lb in data["lobes"]] == ["inner", "outer"]
+    for lb in data["lobes"]:
+        assert set(lb) >= {"name", "normal_deviation_mm", "slope_error_rad"}
+        assert set(lb["slope_error_rad"]) == {"rms", "max"}
+    assert data["n_points"] <= 528
+    assert (tmp_path / "mirror_arcs.ngc").exists()
