@@ -11,7 +11,8 @@ the image's +u (columns), `up` = its height H * t_pixel along the image's -v (ro
 down), all in mm, so POV-Ray's ray through (column, row) is ours (camera.py).
 
 Mirror: the programmed contour as one `lathe { linear_spline ... }` per lobe (the vertices
-of a PolylineProfile; any other Profile sampled densely), the exact mirror as one
+of a piecewise-linear profile: the programmed G1 points; any other Profile sampled
+densely, DENSE_POINTS per lobe), the exact mirror as one
 `quadric` per lobe, (z - e)^2 / a^2 - r^2 / b^2 = 1, clipped to its radial range and upper
 sheet. The step wall between the lobes is an open black cylinder and a black annulus at
 the rim height stands for the mount, so the lost ring and the corners are black as in our
@@ -29,11 +30,14 @@ import numpy as np
 from ..design import Camera, Mirror
 from ..optics.camera import ALIGNED, CameraPose
 from ..optics.scene import Scene
-from ..profile import ExactProfile, PolylineProfile, Profile
+from ..optics.trace import polyline_vertices
+from ..profile import ExactProfile, Profile
 from .files import write_text
 
 #: Samples per lobe for a Profile that is not a polyline (lathe points are straight segments).
 DENSE_POINTS = 2001
+#: A piecewise-linear profile with more vertices than this per lobe is resampled instead.
+MAX_LATHE_POINTS = 20000
 #: Outer radius of the black mount annulus around the rim, mm beyond r_max.
 MOUNT_WIDTH_MM = 60.0
 
@@ -138,11 +142,12 @@ def _lobe_points(profile: Profile, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Lathe points (r, z) of lobe k covering its whole radial range, mm."""
     lo, hi = profile.lobe_range(k)
     lo_eval = np.nextafter(lo, np.inf) if k == 1 else lo
-    if isinstance(profile, PolylineProfile):
-        s = profile.lobes[k]
-        inside = (s.r > lo) & (s.r < hi)
-        r = np.concatenate([[lo], s.r[inside], [hi]])
-        z = np.concatenate([[float(profile.z(np.array(lo_eval)))], s.z[inside],
+    vertices = polyline_vertices(profile, k)
+    if vertices is not None and vertices[0].size <= MAX_LATHE_POINTS:
+        rs, zs = vertices
+        inside = (rs > lo) & (rs < hi)
+        r = np.concatenate([[lo], rs[inside], [hi]])
+        z = np.concatenate([[float(profile.z(np.array(lo_eval)))], zs[inside],
                             [float(profile.z(np.array(hi)))]])
         return r, z
     r = np.linspace(lo, hi, DENSE_POINTS)

@@ -36,10 +36,10 @@ import numpy as np
 from ..design import Camera, Lobe, Mirror
 from ..profile import ExactProfile, PolylineProfile, Profile
 
-try:  # the toolpath issue's profile of the tool-nose envelope (z linear between samples)
-    from ..profile import TabulatedProfile
+try:  # the toolpath issue's profiles: tool-nose envelopes and programmed moves
+    from ..profile import PathProfile, TabulatedProfile
 except ImportError:  # pragma: no cover
-    TabulatedProfile = None
+    PathProfile = TabulatedProfile = None
 from .camera import ALIGNED, CameraPose, ray_directions
 
 #: Newton / bisection stop: change of r (meridian) or ray length s (3-D) below this, mm.
@@ -216,13 +216,32 @@ def _meridian_root(profile: Profile, t: np.ndarray, k: int) -> np.ndarray:
     if isinstance(profile, ExactProfile):
         lobe = profile.mirror.lobes[k]
         return t * _sheet_height(lobe, t)
+    vertices = polyline_vertices(profile, k)
+    if vertices is not None:
+        return _polyline_root(*vertices, t)
+    return _newton_root(profile, t, k)
+
+
+def polyline_vertices(profile: Profile, k: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """(r, z) vertices (mm, camera frame) of lobe k if its z is piecewise linear, else None.
+
+    PolylineProfile: its samples. TabulatedProfile: its samples (z interpolated linearly).
+    PathProfile of G1 lines only, end to end: its move ends. Beyond the end vertices the
+    end segments extend, as these profiles evaluate there.
+    """
     if isinstance(profile, PolylineProfile):
         s = profile.lobes[k]
-        return _polyline_root(s.r, s.z, t)
+        return s.r, s.z
     if TabulatedProfile is not None and isinstance(profile, TabulatedProfile):
-        r, z, _ = profile.lobes[k]  # z is linear between samples: a polyline
-        return _polyline_root(r, z, t)
-    return _newton_root(profile, t, k)
+        r, z, _ = profile.lobes[k]
+        return r, z
+    if PathProfile is not None and isinstance(profile, PathProfile):
+        tab = profile._lobes[k]
+        if tab.is_arc.any() or np.any(tab.r1[:-1] != tab.r0[1:]) or np.any(tab.z1[:-1] != tab.z0[1:]):
+            return None
+        r = np.concatenate([tab.r0, tab.r1[-1:]])
+        return r, profile.from_machine_z(np.concatenate([tab.z0, tab.z1[-1:]]))
+    return None
 
 
 def _polyline_root(rs: np.ndarray, zs: np.ndarray, t: np.ndarray) -> np.ndarray:
