@@ -85,7 +85,8 @@ def _aligned_meridian(profile: Profile, camera: Camera, u: np.ndarray, v: np.nda
     present = np.zeros(int(key.max()) + 1, dtype=bool)
     present[key] = True
     uniq = np.flatnonzero(present)
-    index = np.cumsum(present) - 1  # key -> position in uniq
+    index = np.empty(present.size, dtype=np.int32)  # key -> position in uniq
+    index[uniq] = np.arange(uniq.size, dtype=np.int32)
     rho_u = np.sqrt(uniq) / (2 * n)
     m = meridian_hits(profile, rho_u * (camera.t_pixel / camera.f))
 
