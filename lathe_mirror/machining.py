@@ -55,6 +55,10 @@ def nose_envelope(toolpath, rho: float, *, include_junction: bool = True) -> Tab
         r = np.linspace(lo, hi, n)
         if k == 1:
             r[0] = np.nextafter(lo, hi)
+        else:
+            # the fillet at the wall is the nose circle near its side, steep: sample finer
+            r = np.union1d(r, np.linspace(max(lo, hi - 2 * rho), hi, 8001))
+            n = r.size
         keep = [i for i, lb in enumerate(lobes) if lb == name or (include_junction and lb == "junction")]
         zbest = np.full(n, np.inf)
         sbest = np.zeros(n)
@@ -191,8 +195,14 @@ def gouge_depth(toolpath, nose_radius: float | None = None) -> float:
         if hasattr(prof, "breakpoints"):
             bp = prof.breakpoints(k)
             r = np.concatenate([r, bp[(bp > lo) & (bp <= hi)]])
-        d = _signed_distance_camera(lobe, r, prof.z(r))
-        depth = max(depth, float(-d.min()))
+        z = prof.z(r)
+        inside = -_signed_distance_camera(lobe, r, z)  # > 0: inside the part, below the sheet
+        if k == 1:
+            # beside the step wall the part's nearest boundary may be the wall itself
+            zi, zo = m.junction_z
+            beside = (z <= zi) & (z >= zo)
+            inside = np.where(beside, np.minimum(inside, r - m.r_junction), inside)
+        depth = max(depth, float(inside.max()))
     # the step's top corner (machine frame) against the nose along the junction moves
     corner = np.array([m.r_junction, m.vertex_z - float(m.outer.z(m.r_junction))])
     for seg, lb in zip(toolpath.segments, toolpath.lobe_of):

@@ -1,0 +1,95 @@
+"""The as-machined surface: tool-nose envelope against a brute-force sweep, the
+junction's fillet against the corner-wedge hand calculation, and the gouge check."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from lathe_mirror.machine import Lathe, Tool
+from lathe_mirror.machining import as_machined, gouge_depth
+from lathe_mirror.profile import PathProfile
+from lathe_mirror.toolpath import Strategy, plan_toolpath, profile_errors
+
+LATHE = Lathe()
+
+
+@pytest.fixture(scope="module")
+def tp02(paper_mirror):
+    return plan_toolpath(paper_mirror, LATHE, Tool(nose_radius=0.2), Strategy.ARCS)
+
+
+def brute_envelope(tp, rho, r, step=0.0002):
+    """Lowest point (machine Z) of any nose circle centred on densely sampled path
+    points, at each radius r: the definition of the swept surface, no offsets."""
+    pts = np.concatenate([s.sample(max(2, int(math.ceil(_len(s) / step)) + 1)) for s in tp.segments])
+    out = np.full(r.shape, np.inf)
+    for i, x in enumerate(r):
+        near = pts[np.abs(pts[:, 0] - x) <= rho]
+        if near.size:
+            out[i] = np.min(near[:, 1] - np.sqrt(np.maximum(rho**2 - (x - near[:, 0]) ** 2, 0)))
+    return out
+
+
+def _len(s):
+    p = s.sample(64)
+    return float(np.hypot(*np.diff(p, axis=0).T).sum())
+
+
+@pytest.mark.parametrize("window", [(0.0, 0.3), (9.8, 10.1), (19.6, 20.0), (20.0, 20.3), (34.7, 35.0)])
+def test_envelope_matches_a_brute_force_sweep(tp02, paper_mirror, window):
+    r = np.linspace(*window, 61)
+    if window[0] == 20.0:
+        r = r[1:]  # r = 20 belongs to the inner lobe
+    am = as_machined(tp02)
+    got = paper_mirror.vertex_z - am.z(r)
+    want = brute_envelope(tp02, 0.2, r)
+    # sampling the path every 0.2 um leaves scallops < step^2 / (8 rho) = 2.5e-8 mm
+    assert np.max(np.abs(got - want)) < 2e-6
+
+
+def test_the_fillet_in_the_inside_corner(tp02, paper_mirror):
+    """The nose cannot enter the corner at the wall's foot: at the wall (r = 20) the
+    surface stands rho / tan(theta / 2) above the foot (tangent-line hand estimate with
+    theta the corner's opening, 90 deg - the inner rim's slope angle)."""
+    m = paper_mirror
+    am = as_machined(tp02)
+    theta = math.pi / 2 - math.atan(float(m.inner.slope(20.0)))
+    est = 0.2 / math.tan(theta / 2)
+    rise = float(m.inner.z(20.0) - am.z(np.array([20.0]))[0])  # camera z: above = smaller z
+    assert abs(rise - est) / est < 0.08
+    # and the fillet is the nose circle: radius 0.2 about the path's corner point
+    c = np.array(tp02.lobe_segments("inner")[-1].end)
+    r = np.linspace(c[0] + 0.01, 20.0, 20)
+    zm = m.vertex_z - am.z(r)
+    assert np.allclose(np.hypot(r - c[0], zm - c[1]), 0.2, atol=1e-6)
+    # it costs the inner lobe's rim: a large local slope error, reported honestly
+    e = profile_errors(am, m)
+    assert e["lobes"][0]["slope_error_rad"]["max"] > 0.5
+
+
+def test_zero_nose_is_the_programmed_contour(paper_mirror):
+    tp = plan_toolpath(paper_mirror, LATHE, Tool(nose_radius=0.0), Strategy.ARCS)
+    assert isinstance(as_machined(tp), PathProfile)
+    r = np.linspace(0.1, 34.9, 101)
+    assert np.allclose(as_machined(tp).z(r), tp.contour_profile().z(r))
+
+
+def test_nose_compensated_path_cuts_the_surface(tp02, paper_mirror):
+    """The nose-centre path sits rho off the surface; its envelope comes back to it."""
+    e_path = profile_errors(as_machined(tp02, nose_radius=0.0), paper_mirror)
+    e_cut = profile_errors(as_machined(tp02), paper_mirror)
+    for a, b in zip(e_path["lobes"], e_cut["lobes"]):
+        assert 0.19 < a["normal_deviation_mm"]["rms"] < 0.21
+    # away from the junction's fillet the cut surface is within a few um of the design
+    outer = e_cut["lobes"][1]
+    assert outer["normal_deviation_mm"]["max"] < 0.003
+
+
+def test_gouge_check(tp02, paper_mirror):
+    assert 0.0 <= gouge_depth(tp02) <= 0.005  # the stated tolerance
+    # a nose 0.1 mm larger than the path was planned for cuts 0.1 mm into the part
+    deeper = gouge_depth(tp02, nose_radius=0.3)
+    assert abs(deeper - 0.1) < 0.005
