@@ -339,7 +339,10 @@ def programmed_contour(centre_path: list[Segment], nose_radius: float) -> list[S
         return [Segment(s.kind, s.start, s.end, Role.MIRROR, s.centre, s.radius, s.clockwise)
                 for s in centre_path]
     off = [_offset(s, rho) for s in centre_path]
-    out: list[Segment] = []
+    # Each contour piece with the direction its move ran (lines) to spot a piece that a
+    # trim turned round: that move's nose never touched the part (it cut air, e.g. the
+    # junction's move rounded away from the step's top corner) and it drops out.
+    items: list[list[Any]] = []
     cur = off[0]
     for k in range(1, len(off)):
         nxt = off[k]
@@ -354,7 +357,7 @@ def programmed_contour(centre_path: list[Segment], nose_radius: float) -> list[S
             cur = _with_ends(cur, cur.start, mid)
             nxt = _with_ends(nxt, mid, nxt.end)
         elif turn > 0.0:  # left turn: the nose swings about the vertex
-            out.append(cur)
+            items.append([cur, _tangent(centre_path[k - 1], end=False)])
             cur = Segment(SegmentKind.ARC, cur.end, nxt.start, Role.MIRROR, centre=vertex,
                           radius=rho, clockwise=False)
         else:  # right turn: the offsets overlap; cut both at their crossing
@@ -362,9 +365,11 @@ def programmed_contour(centre_path: list[Segment], nose_radius: float) -> list[S
                                               0.5 * (cur.end[1] + nxt.start[1])))
             cur = _with_ends(cur, cur.start, p)
             nxt = _with_ends(nxt, p, nxt.end)
-        out.append(cur)
+        items.append([cur, _tangent(centre_path[k - 1], end=False) if cur.kind is SegmentKind.LINE else None])
         cur = nxt
-    out.append(cur)
+    items.append([cur, _tangent(centre_path[-1], end=False)])
+    _drop_turned_round(items)
+    out = [seg for seg, _ in items]
     # The first move leaves the axis; its offset may start a hair off it (lattice
     # rounding tilts the move): cut it at r = 0, or leave it for the body to face flat.
     first = out[0]
@@ -372,8 +377,8 @@ def programmed_contour(centre_path: list[Segment], nose_radius: float) -> list[S
         p = _intersection(first, Segment(SegmentKind.LINE, (0.0, first.start[1] - 1.0),
                                          (0.0, first.start[1] + 1.0)), near=first.start)
         out[0] = _with_ends(first, p, first.end)
-    for s in out:
-        _check_direction(s)
+    for seg in out:
+        _check_direction(seg)
     return out
 
 
@@ -565,6 +570,33 @@ def _intersection(s1: Segment, s2: Segment, *, near: tuple[float, float]) -> tup
     if not cands:
         return near
     return min(cands, key=lambda p: math.dist(p, near))
+
+
+def _turned_round(s: Segment, direction: tuple[float, float] | None) -> bool:
+    """True if a trimmed piece runs against its move (line) or wraps (arc: the pieces
+    are all shorter than half a turn, so a sweep of pi or more means it was inverted)."""
+    if s.kind is SegmentKind.LINE:
+        d = (s.end[0] - s.start[0], s.end[1] - s.start[1])
+        return direction is not None and d[0] * direction[0] + d[1] * direction[1] <= 0.0
+    t0, t1 = s.arc_angles()
+    return abs(t1 - t0) >= math.pi
+
+
+def _drop_turned_round(items: list[list[Any]]) -> None:
+    """Remove pieces that trimming turned round, joining their neighbours at their
+    crossing, until none is left (the nose envelope's local loops)."""
+    while True:
+        bad = next((i for i, (seg, d) in enumerate(items) if _turned_round(seg, d)), None)
+        if bad is None:
+            return
+        if bad == 0 or bad == len(items) - 1:
+            raise RuntimeError(f"toolpath contour: the end move at {items[bad][0].start} cuts nothing")
+        gone = items.pop(bad)[0]
+        prev, nxt = items[bad - 1][0], items[bad][0]
+        near = (0.5 * (gone.start[0] + gone.end[0]), 0.5 * (gone.start[1] + gone.end[1]))
+        p = _intersection(prev, nxt, near=near)
+        items[bad - 1][0] = _with_ends(prev, prev.start, p)
+        items[bad][0] = _with_ends(nxt, p, nxt.end)
 
 
 def _check_direction(s: Segment) -> None:

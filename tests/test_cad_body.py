@@ -133,3 +133,20 @@ def test_roles(paper_mirror):
     mer = design_meridian(paper_mirror, BodySpec())
     assert [s.role for s in mer.face] == [Role.MIRROR, Role.WALL, Role.MIRROR]
     assert all(s.role is Role.BODY for s in mer.segments[mer.n_face:])
+
+
+def test_a_move_that_cuts_air_drops_out_of_the_contour():
+    """Centre path: right along Z = 0, up the wall x = 1, a short move down-right that
+    stays 0.5 above the wall's top, then right along Z = 0.95. With rho = 0.5 the short
+    move's offset lies left of the wall's offset x = 1.5 (the nose cuts air there); the
+    fillet about (1.1, 0.95) reaches x = 1.5 only at Z = 0.65, above the last move's
+    offset Z = 0.45. By hand, the envelope: Z = -0.5 to x = 1, the quarter circle about
+    (1, 0) to (1.5, 0), up x = 1.5 to Z = 0.45, along Z = 0.45 to x = 3."""
+    L = lambda a, b: Segment(SegmentKind.LINE, a, b)  # noqa: E731
+    path = [L((0.0, 0.0), (1.0, 0.0)), L((1.0, 0.0), (1.0, 1.0)),
+            L((1.0, 1.0), (1.1, 0.95)), L((1.1, 0.95), (3.0, 0.95))]
+    out = programmed_contour(path, 0.5)
+    assert [s.kind for s in out] == [SegmentKind.LINE, SegmentKind.ARC, SegmentKind.LINE, SegmentKind.LINE]
+    assert out[1].centre == (1.0, 0.0) and out[1].end == pytest.approx((1.5, 0.0))
+    assert out[2].start == pytest.approx((1.5, 0.0)) and out[2].end == pytest.approx((1.5, 0.45))
+    assert out[3].start == pytest.approx((1.5, 0.45)) and out[3].end == pytest.approx((3.0, 0.45))
