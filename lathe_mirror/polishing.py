@@ -214,7 +214,8 @@ def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams, times_s
     """Slope error, normal deviation, form change and image displacement against time.
 
     times_s: s (default params.curve_times). Image displacement is the aligned camera's
-    (tolerance.radial: exact per-pixel RMS over each lobe's annulus).
+    (tolerance.radial: exact per-pixel RMS over each lobe's usable pixels); slope error and
+    normal deviation over the radii the image uses (tolerance.radial.used_extent).
     """
     from .tolerance.radial import lobe_pixel_radii, radial_displacement, surface_errors
 
@@ -226,7 +227,7 @@ def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams, times_s
     combined = []
     bar = _progress(len(profiles), "polishing curve", progress)
     for prof in profiles:
-        surf = surface_errors(prof, mirror)
+        surf = surface_errors(prof, mirror, used=True)
         form = form_change(prof, mirror, degree=params.form_degree)
         sq, cnt = 0.0, 0.0
         for k in (0, 1):

@@ -123,7 +123,7 @@ def depth_error_plot(curves: dict[str, dict]) -> bytes:
     return png(fig)
 
 
-def monte_carlo_histograms(per_trial: dict, spec: dict, yield_fraction: float) -> bytes:
+def monte_carlo_histograms(per_trial: dict, spec: dict, yield_fraction: float, *, title: str = "") -> bytes:
     """Histograms of the trials' figures with the spec's limits."""
     plt = _pyplot()
     disp = np.asarray(per_trial["image_displacement_px_rms"])
@@ -144,5 +144,6 @@ def monte_carlo_histograms(per_trial: dict, spec: dict, yield_fraction: float) -
         ax.set_ylabel("trials")
         ax.legend(loc="best")
         ax.grid(alpha=0.3)
-    fig.suptitle(f"Monte Carlo, {disp.shape[0]} trials: yield {100 * yield_fraction:.1f} %")
+    fig.suptitle(f"Monte Carlo{', ' + title if title else ''}, {disp.shape[0]} trials: yield "
+                 f"{100 * yield_fraction:.1f} %")
     return png(fig)

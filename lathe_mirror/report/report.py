@@ -126,7 +126,7 @@ def compute(cfg: dict, *, progress: bool = False, renders: bool = True, toleranc
     steps.start("tolerance")
     if tolerance:
         out["tolerance"] = _tolerance(mirror, cfg, params, curve_paper, curve_best, progress)
-        out["verdict"] = _verdict(out)
+        out["verdict"] = {name: t["verdict"] for name, t in out["tolerance"]["programs"].items()}
     steps.done()
     # ---- plots
     steps.start("plots")
@@ -185,21 +185,29 @@ def _toolpaths(mirror, cfg: dict):
 
 
 def _mirror_figures(profile, mirror) -> dict:
-    """The five figures per lobe (ARCHITECTURE.md), surface and optics."""
+    """The five figures per lobe (ARCHITECTURE.md), surface and optics.
+
+    Surface figures: toolpath.profile_errors (issue 3). Optical figures: over the pixels
+    each lobe images unobstructed (tolerance.radial: every pixel centre, aligned camera);
+    optics.distortion's figures (issue 5, which also count the pixels the step wall
+    vignettes) are kept alongside under "optics_distortion" for comparison.
+    """
     from ..optics.distortion import distortion_figures
+    from ..tolerance.radial import radial_figures
     from ..toolpath import profile_errors
 
     surf = profile_errors(profile, mirror)
-    opt = distortion_figures(profile, mirror)
+    rad = radial_figures(profile, mirror)
+    full = distortion_figures(profile, mirror)
     lobes = []
-    for s, o in zip(surf["lobes"], opt["lobes"]):
+    for s, o, f in zip(surf["lobes"], rad["lobes"], full["lobes"]):
         lobes.append({"name": s["name"], "slope_error_rad": s["slope_error_rad"],
                       "normal_deviation_mm": s["normal_deviation_mm"],
                       "ray_deviation_deg": o["ray_deviation_deg"],
                       "image_displacement_px": o["image_displacement_px"],
                       "viewpoint_spread_mm": o["viewpoint_spread_mm"],
-                      "pixels": o.get("pixels"), "pixels_lost": o.get("pixels_lost"),
-                      "pixels_vignetted": o.get("pixels_vignetted")})
+                      "pixels": o["pixels"], "pixels_excluded": o["pixels_excluded"],
+                      "optics_distortion": f})
     return {"lobes": lobes}
 
 
@@ -238,23 +246,27 @@ def _renders(made: dict, mirror, cfg: dict):
 
 
 def _tolerance(mirror, cfg, params, curve_paper, curve_best, progress: bool) -> dict:
+    """Monte Carlo and sensitivity for each toleranced program; the verdict of each."""
     from ..tolerance.montecarlo import prepare, run_monte_carlo
     from ..tolerance.sensitivity import sensitivity_table
     from ..tolerance.spec import Program, settings_from_config
 
     settings = settings_from_config(cfg)
-    curve = curve_best if settings.program is Program.BEST else curve_paper
-    ctx = prepare(mirror, cfg, settings, params, curve.optimum_time_s, progress=progress)
-    mc = run_monte_carlo(ctx, progress=progress)
-    sens = sensitivity_table(ctx, progress=progress)
-    return {"program": settings.program.value, "surfaces": ctx.source,
-            "nominal_polish_time_s": ctx.nominal_time_s, "distribution": settings.distribution.value,
-            "tolerances": settings.tolerances, "monte_carlo": mc.to_dict(), "sensitivity": sens}
+    out = {"spec": settings.spec.__dict__, "distribution": settings.distribution.value,
+           "tolerances": settings.tolerances, "seed": settings.seed, "programs": {}}
+    for program in settings.programs:
+        curve = curve_best if program is Program.BEST else curve_paper
+        ctx = prepare(mirror, cfg, settings, params, curve.optimum_time_s, program, progress=progress)
+        mc = run_monte_carlo(ctx, progress=progress)
+        sens = sensitivity_table(ctx, progress=progress)
+        entry = {"surfaces": ctx.source, "nominal_polish_time_s": ctx.nominal_time_s,
+                 "monte_carlo": mc.to_dict(), "sensitivity": sens}
+        entry["verdict"] = _verdict(entry, settings.spec.__dict__)
+        out["programs"][program.value] = entry
+    return out
 
 
-def _verdict(out: dict) -> dict:
-    t = out["tolerance"]
-    spec = t["monte_carlo"]["spec"]
+def _verdict(t: dict, spec: dict) -> dict:
     nominal = t["sensitivity"]["nominal"]
     checks = {
         "image_displacement_px": {"limit": spec["image_displacement_px"],
@@ -265,7 +277,7 @@ def _verdict(out: dict) -> dict:
     }
     for c in checks.values():
         c["pass"] = bool(c["nominal"] <= c["limit"])
-    return {"program": t["program"], "checks": checks, "nominal_pass": all(c["pass"] for c in checks.values()),
+    return {"checks": checks, "nominal_pass": all(c["pass"] for c in checks.values()),
             "yield": t["monte_carlo"]["yield"], "trials": t["monte_carlo"]["trials"]}
 
 
@@ -295,9 +307,10 @@ def _plots(out: dict, made: dict, mirror, images: dict) -> dict[str, bytes]:
     plots["depth_error"] = F.depth_error_plot(out["stereo"]["curves"])
     if images:
         plots["images"] = F.images_side_by_side(images)
-    if "tolerance" in out:
-        mc = out["tolerance"]["monte_carlo"]
-        plots["monte_carlo"] = F.monte_carlo_histograms(mc["per_trial"], mc["spec"], mc["yield"])
+    for name, t in out.get("tolerance", {}).get("programs", {}).items():
+        mc = t["monte_carlo"]
+        plots[f"monte_carlo_{name}"] = F.monte_carlo_histograms(mc["per_trial"], mc["spec"], mc["yield"],
+                                                                title=f"{name} program")
     return plots
 
 
@@ -409,35 +422,40 @@ def _depth_table(st: dict) -> str:
 def _tolerance_html(f: dict, img) -> str:
     if "tolerance" not in f:
         return "<p>(tolerance analysis not run)</p>"
-    t, v = f["tolerance"], f["verdict"]
-    checks = "".join(
-        f"<tr><th>{k}</th><td>{_fmt(c['limit'])}</td><td>{_fmt(c['nominal'])}</td>"
-        f"<td class='{'pass' if c['pass'] else 'fail'}'>{'PASS' if c['pass'] else 'FAIL'}</td></tr>"
-        for k, c in v["checks"].items())
-    sens_rows = ""
-    for r in t["sensitivity"]["rows"]:
-        for which in ("minus", "plus"):
-            c = r[which]
-            sens_rows += (f"<tr><td>{r['parameter'] if which == 'minus' else ''}</td>"
-                          f"<td>{_fmt(r['tolerance']) if which == 'minus' else ''} {r['unit'] if which == 'minus' else ''}</td>"
-                          f"<td>{which}</td><td>{_fmt(c['image_displacement_px_rms'][0])}</td>"
-                          f"<td>{_fmt(c['image_displacement_px_rms'][1])}</td><td>{_fmt(c['slope_error_rad_rms'][0])}</td>"
-                          f"<td>{_fmt(c['slope_error_rad_rms'][1])}</td><td>{_fmt(c['depth_error_pct_rms'])}</td>"
-                          f"<td>{'PASS' if c['pass'] else 'FAIL'}</td></tr>")
-    mc = t["monte_carlo"]
-    return (
-        f"<p>Program toleranced: <b>{html.escape(t['program'])}</b> ({html.escape(t['surfaces'])}), polished "
-        f"{_fmt(t['nominal_polish_time_s'] / 60)} min nominal. Tolerances ({html.escape(t['distribution'])}): "
-        f"{html.escape(json.dumps(t['tolerances']))}.</p>"
-        f"<h3>Pass / fail of the nominal part against the spec</h3><table><tr><th>criterion</th><th>limit</th>"
-        f"<th>nominal</th><th></th></tr>{checks}</table>"
-        f"<p class='yield'>Monte Carlo yield: <b>{100 * mc['yield']:.1f} %</b> of {mc['trials']} trials "
-        f"(seed {mc['seed']}); per criterion: {html.escape(json.dumps(mc['pass_fraction']))}</p>"
-        + img("monte_carlo", "Monte Carlo histograms")
-        + "<h3>Sensitivity (each parameter at -/+ its tolerance, others nominal)</h3>"
-        "<table><tr><th>parameter</th><th>tolerance</th><th></th><th>disp. inner px</th><th>disp. outer px</th>"
-        "<th>slope inner rad</th><th>slope outer rad</th><th>depth err %</th><th>spec</th></tr>"
-        + sens_rows + "</table>")
+    tol = f["tolerance"]
+    parts = [f"<p>Spec: {html.escape(json.dumps(tol['spec']))}. Tolerances ({html.escape(tol['distribution'])}; "
+             f"normal: each is a 3-sigma bound): {html.escape(json.dumps(tol['tolerances']))}. Seed {tol['seed']}.</p>"]
+    for name, t in tol["programs"].items():
+        v = t["verdict"]
+        checks = "".join(
+            f"<tr><th>{k}</th><td>{_fmt(c['limit'])}</td><td>{_fmt(c['nominal'])}</td>"
+            f"<td class='{'pass' if c['pass'] else 'fail'}'>{'PASS' if c['pass'] else 'FAIL'}</td></tr>"
+            for k, c in v["checks"].items())
+        sens_rows = ""
+        for r in t["sensitivity"]["rows"]:
+            for which in ("minus", "plus"):
+                c = r[which]
+                first = which == "minus"
+                sens_rows += (f"<tr><td>{r['parameter'] if first else ''}</td>"
+                              f"<td>{(_fmt(r['tolerance']) + ' ' + r['unit']) if first else ''}</td>"
+                              f"<td>{which}</td><td>{_fmt(c['image_displacement_px_rms'][0])}</td>"
+                              f"<td>{_fmt(c['image_displacement_px_rms'][1])}</td>"
+                              f"<td>{_fmt(c['slope_error_rad_rms'][0])}</td><td>{_fmt(c['slope_error_rad_rms'][1])}</td>"
+                              f"<td>{_fmt(c['depth_error_pct_rms'])}</td>"
+                              f"<td class='{'pass' if c['pass'] else 'fail'}'>{'PASS' if c['pass'] else 'FAIL'}</td></tr>")
+        mc = t["monte_carlo"]
+        parts.append(
+            f"<h3>{html.escape(name)} program</h3><p>Surfaces: {html.escape(t['surfaces'])}; polished "
+            f"{_fmt(t['nominal_polish_time_s'] / 60)} min nominal.</p>"
+            f"<table><tr><th>criterion (nominal part)</th><th>limit</th><th>nominal</th><th></th></tr>{checks}</table>"
+            f"<p class='yield'>Monte Carlo yield: <b>{100 * mc['yield']:.1f} %</b> of {mc['trials']} trials; "
+            f"pass fraction per criterion: {html.escape(json.dumps(mc['pass_fraction']))}</p>"
+            + img(f"monte_carlo_{name}", f"Monte Carlo histograms, {name} program")
+            + "<p>Sensitivity: each parameter at -/+ its tolerance, the others nominal.</p>"
+            "<table><tr><th>parameter</th><th>tolerance</th><th></th><th>disp. inner px</th><th>disp. outer px</th>"
+            "<th>slope inner rad</th><th>slope outer rad</th><th>depth err %</th><th>spec</th></tr>"
+            + sens_rows + "</table>")
+    return "".join(parts)
 
 
 def _finite(x: Any) -> Any:

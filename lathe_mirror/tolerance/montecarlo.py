@@ -16,7 +16,7 @@ import numpy as np
 
 from ..design import Mirror
 from .perturb import NodeSurfaces, PixelSample, TrialFigures, Trials, build_nodes, evaluate, pixel_sample
-from .spec import Distribution, ToleranceSettings
+from .spec import Distribution, Program, ToleranceSettings
 from .surfaces import machined_surface
 
 #: Polishing-time snapshots per machined surface, as fractions of the time tolerance.
@@ -34,6 +34,7 @@ class Context:
     nominal_nose_mm: float
     nominal_time_s: float
     source: str
+    program: Program
 
 
 @dataclass
@@ -44,6 +45,7 @@ class MonteCarloResult:
     figures: TrialFigures
     passed: dict[str, np.ndarray]
     settings: ToleranceSettings
+    program: Program
 
     @property
     def pass_all(self) -> np.ndarray:
@@ -65,6 +67,7 @@ class MonteCarloResult:
                           "slope_error_rad": _dist(f.slope_error_rad_rms[:, k]),
                           "normal_deviation_mm": _dist(f.normal_deviation_mm_rms[:, k])})
         out = {
+            "program": self.program.value,
             "seed": self.settings.seed,
             "trials": len(self.trials),
             "yield": self.yield_fraction,
@@ -89,7 +92,7 @@ class MonteCarloResult:
 
 
 def prepare(mirror: Mirror, cfg: dict, settings: ToleranceSettings, polish_params, nominal_time_s: float,
-            *, progress: bool = False) -> Context:
+            program: Program, *, progress: bool = False) -> Context:
     """Machined surfaces at each lattice phase x nose node, polished at the time nodes."""
     tol = settings.tolerances
     nose0 = float(cfg.get("tool", {}).get("nose_radius", 0.0))
@@ -103,13 +106,13 @@ def prepare(mirror: Mirror, cfg: dict, settings: ToleranceSettings, polish_param
     dt = tol.get("polish_time_s", 0.0)
     times = np.unique(np.clip([nominal_time_s + f * dt for f in TIME_NODES], 0.0, None))
     phases = np.arange(settings.lattice_phases) / settings.lattice_phases
-    bar = _bar(len(phases) * len(nose_nodes), "tolerance: machining + polishing nodes", progress)
+    bar = _bar(len(phases) * len(nose_nodes), f"tolerance ({program.value}): machining + polishing", progress)
     machined = []
     source = ""
     for ph in phases:
         row = []
         for nose in nose_nodes:
-            made = machined_surface(mirror, cfg, settings.program, phase=float(ph), nose_radius=float(nose))
+            made = machined_surface(mirror, cfg, program, phase=float(ph), nose_radius=float(nose))
             source = made.source
             row.append(made.profile)
         machined.append(row)
@@ -118,7 +121,7 @@ def prepare(mirror: Mirror, cfg: dict, settings: ToleranceSettings, polish_param
     bar.close()
     samples = (pixel_sample(mirror, 0, bin_px=settings.bin_px, azimuths=settings.azimuths),
                pixel_sample(mirror, 1, bin_px=settings.bin_px, azimuths=settings.azimuths))
-    return Context(mirror, settings, nodes, samples, nose0, float(nominal_time_s), source)
+    return Context(mirror, settings, nodes, samples, nose0, float(nominal_time_s), source, program)
 
 
 def draw_trials(ctx: Context, n: int | None = None, seed: int | None = None) -> Trials:
@@ -168,7 +171,7 @@ def judge(figures: TrialFigures, settings: ToleranceSettings) -> dict[str, np.nd
 def run_monte_carlo(ctx: Context, *, progress: bool = False) -> MonteCarloResult:
     trials = draw_trials(ctx)
     fig = evaluate_trials(ctx, trials, progress=progress)
-    return MonteCarloResult(trials, fig, judge(fig, ctx.settings), ctx.settings)
+    return MonteCarloResult(trials, fig, judge(fig, ctx.settings), ctx.settings, ctx.program)
 
 
 def _dist(x: np.ndarray) -> dict:

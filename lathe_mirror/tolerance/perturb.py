@@ -31,7 +31,7 @@ import numpy as np
 from ..design import Mirror
 from ..optics.stereo import band_elevations, stereo_centre_z
 from ..profile import Profile
-from .radial import ideal_radius_px, lobe_pixel_radii
+from .radial import ideal_radius_px, lobe_pixel_radii, used_extent
 
 #: Fixed-point iterations of the 3-D ray-surface intersection (contraction <= ~0.22).
 _MAX_ITER = 40
@@ -193,7 +193,7 @@ def evaluate(mirror: Mirror, nodes: NodeSurfaces, trials: Trials, samples: tuple
         n_all = 0.0
         for k in (0, 1):
             smp = samples[k]
-            disp, ok = _displacement(mirror, nodes, k, surf[k], tr, origin, rot, smp.u, smp.v)
+            disp, ok = _displacement(mirror, nodes, k, surf, tr, origin, rot, smp.u, smp.v)
             w = np.where(ok, smp.weight[None, :], 0.0)
             d2 = np.where(ok, disp**2, 0.0)
             disp_rms[sl, k] = np.sqrt(np.sum(w * d2, axis=1) / np.maximum(np.sum(w, axis=1), 1e-300))
@@ -260,8 +260,13 @@ def _poses(tr: Trials) -> tuple[np.ndarray, np.ndarray]:
     return origin, ry @ rx
 
 
-def _trace(mirror: Mirror, nodes: NodeSurfaces, k: int, surf, tr: Trials, origin, rot, u, v):
-    """Hit points, reflected unit directions (trials, m, 3) and a validity mask (trials, m)."""
+def _trace(mirror: Mirror, nodes: NodeSurfaces, k: int, surfs, tr: Trials, origin, rot, u, v):
+    """Hit points, reflected unit directions (trials, m, 3) and a validity mask (trials, m).
+
+    Invalid: the ray lands off lobe k (the wall, the other lobe, past the rim) or, leaving
+    the recessed inner lobe, runs into the step wall (vignetted).
+    """
+    surf = surfs[k]
     cam = mirror.camera
     dc = np.stack([u * cam.t_pixel, v * cam.t_pixel, np.full_like(u, cam.f)], axis=-1)
     dc = dc / np.linalg.norm(dc, axis=-1, keepdims=True)
@@ -297,12 +302,24 @@ def _trace(mirror: Mirror, nodes: NodeSurfaces, k: int, surf, tr: Trials, origin
     nn = np.sqrt(1.0 + slope**2)
     n = np.stack([slope * er_x / nn, slope * er_y / nn, -1.0 / nn], axis=-1)
     out = d - 2.0 * np.sum(d * n, axis=-1, keepdims=True) * n
+    if k == 0 and mirror.step > 0:
+        # Where the reflected ray crosses the cylinder r = r_junction, outward.
+        rj = mirror.r_junction
+        a = out[..., 0] ** 2 + out[..., 1] ** 2
+        b = 2.0 * (p[..., 0] * out[..., 0] + p[..., 1] * out[..., 1])
+        c = p[..., 0] ** 2 + p[..., 1] ** 2 - rj**2
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s_wall = (-b + np.sqrt(np.maximum(b * b - 4 * a * c, 0.0))) / (2 * a)
+        z_cross = p[..., 2] + s_wall * out[..., 2]
+        q_top = np.clip(np.abs(rj - tr.tool_x_mm), mirror.r_junction, mirror.r_max)
+        z_top = _lookup(nodes, 1, surfs[1][0], np.arange(len(tr)), q_top)
+        ok &= ~(z_cross > z_top[:, None])
     return p, out, ok
 
 
-def _displacement(mirror, nodes, k, surf, tr, origin, rot, u, v):
+def _displacement(mirror, nodes, k, surfs, tr, origin, rot, u, v):
     """|image displacement| (px) of each sample pixel of each trial, and validity."""
-    _, out, ok = _trace(mirror, nodes, k, surf, tr, origin, rot, u, v)
+    _, out, ok = _trace(mirror, nodes, k, surfs, tr, origin, rot, u, v)
     horiz = np.hypot(out[..., 0], out[..., 1])
     rho_id = ideal_radius_px(mirror.lobes[k], mirror.camera, np.arctan2(out[..., 2], horiz))
     with np.errstate(invalid="ignore"):
@@ -313,11 +330,14 @@ def _displacement(mirror, nodes, k, surf, tr, origin, rot, u, v):
 
 
 def _surface_errors(mirror, nodes, k, surf, tr, stride: int = 4):
-    """RMS slope error (rad) and RMS normal deviation (mm) of lobe k per trial, uniform in r."""
+    """RMS slope error (rad) and RMS normal deviation (mm) of lobe k per trial, uniform in r
+    over the extent the image uses (radial.used_extent)."""
     lobe = mirror.lobes[k]
     r = nodes.r0[k] + nodes.dr[k] * np.arange(0, nodes.n[k], stride)
     if k == 1:
         r[0] = np.nextafter(r[0], np.inf)
+    u_lo, u_hi = used_extent(mirror, k)
+    r = r[(r >= u_lo) & (r <= u_hi)]
     lo, hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
     rows = np.arange(len(tr))[:, None]
     q_raw = r[None, :] - tr.tool_x_mm[:, None]
@@ -355,7 +375,7 @@ def _depth_error(mirror, nodes, surf, tr, origin, rot, dp) -> np.ndarray:
     rays = []
     for k in (0, 1):
         u, v = dp["pix"][k]
-        p, o, ok = _trace(mirror, nodes, k, surf[k], tr, origin, rot, u, v)
+        p, o, ok = _trace(mirror, nodes, k, surf, tr, origin, rot, u, v)
         rays.append((p, o, ok))
     x = triangulate(rays[0][0], rays[0][1], rays[1][0], rays[1][1])
     r_made = np.sum((x - np.array([0.0, 0.0, dp["zc"]])) * dp["unit"][None], axis=-1)

@@ -45,6 +45,14 @@ class MeridianRays:
     z: np.ndarray
     o_r: np.ndarray
     o_z: np.ndarray
+    ok: np.ndarray | None = None       # the ray lands on its lobe (not the wall, not past the rim)
+    blocked: np.ndarray | None = None  # the reflected ray runs into the step wall (vignetted)
+
+    @property
+    def usable(self) -> np.ndarray:
+        """Rays that land on their lobe and leave it unobstructed."""
+        ok = np.ones(self.r.shape, bool) if self.ok is None else self.ok
+        return ok if self.blocked is None else ok & ~self.blocked
 
     @property
     def elevation(self) -> np.ndarray:
@@ -56,22 +64,33 @@ class MeridianRays:
 # Public entry points
 
 
-def lobe_pixel_radii(mirror: Mirror, k: int, *, bin_px: float | None = None) -> PixelRadii:
+def lobe_pixel_radii(mirror: Mirror, k: int, *, bin_px: float | None = None,
+                     corner_mm: float = 0.0) -> PixelRadii:
     """Image radii of the pixel centres of lobe k's usable annulus, with their counts.
 
     The annuli are the design's (Mirror.image_radii_px): the inner disc, and the outer
     annulus up to the outer lobe's R_pixel; the ring lost on the step wall is neither.
     bin_px: None gives every distinct radius (exact; ~10^5 radii on the paper's sensor);
     a bin width (px) gives bin-centre radii (faster, approximate: for Monte Carlo).
+    corner_mm: width (mm) of the inner lobe's band next to the step that is not usable,
+    e.g. the fillet a nose of that radius leaves in the inside corner; its pixels are
+    counted lost like the step wall's (see corner_limit_px).
     """
     radii = mirror.image_radii_px
     lo, hi = radii["inner_disc"] if k == 0 else radii["outer_annulus"]
-    rho, cnt = _sensor_radii(tuple(int(n) for n in mirror.camera.sensor_px))
+    if k == 0 and corner_mm > 0:
+        hi = corner_limit_px(mirror, corner_mm)
+    rho_all, cnt_all = _sensor_radii(tuple(int(n) for n in mirror.camera.sensor_px))
+    rho, cnt = rho_all, cnt_all
     if k == 0:
         m = rho < hi
     else:
         m = (rho > lo) & (rho <= hi)
     rho, cnt = rho[m], cnt[m]
+    # Pixels whose exact ray the step wall blocks (vignetted) are not part of the lobe's
+    # usable image on any mirror made to this design.
+    keep = trace_lobe(mirror.lobes[k], mirror, k, rho).usable
+    rho, cnt = rho[keep], cnt[keep]
     if bin_px is not None:
         edges = np.arange(lo, hi + bin_px, bin_px)
         idx = np.clip(np.searchsorted(edges, rho, side="right") - 1, 0, edges.size - 2)
@@ -80,6 +99,28 @@ def lobe_pixel_radii(mirror: Mirror, k: int, *, bin_px: float | None = None) -> 
         keep = tot > 0
         rho, cnt = mean[keep] / tot[keep], tot[keep]
     return PixelRadii(rho.astype(float), cnt.astype(float))
+
+
+def used_extent(mirror: Mirror, k: int) -> tuple[float, float]:
+    """Radial extent (mm) of lobe k that the image uses: the whole outer lobe; the inner
+    lobe up to where its exact reflected rays start to run into the step wall (beyond, the
+    surface, including any fillet the tool leaves in the inside corner, shows no world)."""
+    lo, hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
+    if k == 1 or mirror.step <= 0:
+        return lo, hi
+    lobe = mirror.inner
+    r = np.linspace(lo, hi, 20001)[1:]
+    z = lobe.z(r)
+    # Exact rays leave along F1 -> P; blocked if they reach r_junction above the step's top.
+    z_wall = z + (hi - r) * (z - lobe.focus_z) / r
+    blocked = z_wall > float(mirror.outer.z(hi))
+    return lo, float(r[np.argmax(blocked)]) if blocked.any() else hi
+
+
+def corner_limit_px(mirror: Mirror, corner_mm: float) -> float:
+    """Image radius (px) of the exact inner lobe at r = r_junction - corner_mm (Eq. 6's map)."""
+    r = max(mirror.r_junction - corner_mm, 0.0)
+    return float(mirror.camera.image_radius_px(r / float(mirror.inner.z(r))))
 
 
 def trace_lobe(profile: Profile | Lobe, mirror: Mirror, k: int, radius_px: np.ndarray, *,
@@ -109,7 +150,20 @@ def trace_lobe(profile: Profile | Lobe, mirror: Mirror, k: int, radius_px: np.nd
     n_r, n_z = s / nn, -1.0 / nn
     dot = d_r * n_r + d_z * n_z
     # Law of reflection: o = d - 2 (d . n) n.
-    return MeridianRays(r=r, z=z, o_r=d_r - 2 * dot * n_r, o_z=d_z - 2 * dot * n_z)
+    o_r, o_z = d_r - 2 * dot * n_r, d_z - 2 * dot * n_z
+    lo, hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
+    slack = 1e-9
+    ok = (r >= lo - slack) & (r <= hi + slack) & (r > lo if k == 1 else True)
+    blocked = None
+    if k == 0 and mirror.step > 0:
+        # The recessed inner lobe: a reflected ray that reaches the junction radius above
+        # the top of the step (the outer lobe's edge) runs into the wall.
+        outer = mirror.outer if isinstance(profile, Lobe) else profile
+        z_top = float(_lobe_functions(outer, mirror, 1)[0](np.array([mirror.r_junction]))[0])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z_at_wall = z + (mirror.r_junction - r) * o_z / o_r
+        blocked = (o_r > 0) & (z_at_wall > z_top)
+    return MeridianRays(r=r, z=z, o_r=o_r, o_z=o_z, ok=ok, blocked=blocked)
 
 
 def ideal_radius_px(lobe: Lobe, camera: Camera, elevation: np.ndarray) -> np.ndarray:
@@ -134,50 +188,61 @@ def radial_displacement(profile: Profile, mirror: Mirror, k: int, radius_px: np.
     """Radial image displacement (px) of lobe k at image radii radius_px (px).
 
     ARCHITECTURE.md: where the exact lobe would image the direction the made surface sends
-    the pixel to, minus where the pixel is.
+    the pixel to, minus where the pixel is. NaN where the made ray misses lobe k or the
+    step wall blocks it (as optics.distortion counts them: lost or vignetted).
     """
     rays = trace_lobe(profile, mirror, k, radius_px, camera_dz=camera_dz)
-    return ideal_radius_px(mirror.lobes[k], mirror.camera, rays.elevation) - radius_px
+    d = ideal_radius_px(mirror.lobes[k], mirror.camera, rays.elevation) - radius_px
+    # Rays that miss their lobe or are vignetted by the step carry no image: NaN.
+    return np.where(rays.usable, d, np.nan)
 
 
 def radial_figures(profile: Profile, mirror: Mirror, *, camera_dz: float = 0.0,
-                   bin_px: float | None = None) -> dict:
+                   bin_px: float | None = None, corner_mm: float = 0.0) -> dict:
     """Per-lobe ray_deviation_deg, image_displacement_px, viewpoint_spread_mm ({rms, max}).
 
     RMS and max over the pixel centres of each lobe's usable annulus (each distinct radius
     weighted by its pixel count). Aligned camera, optionally shifted along the axis.
+    Pixels count where both the exact and the made ray land on the lobe unobstructed
+    (the rule of optics.distortion; lobe_pixel_radii drops the exact's vignetted ones);
+    corner_mm: see lobe_pixel_radii.
     """
     lobes = []
     for k, lobe in enumerate(mirror.lobes):
-        px = lobe_pixel_radii(mirror, k, bin_px=bin_px)
+        px = lobe_pixel_radii(mirror, k, bin_px=bin_px, corner_mm=corner_mm)
         made = trace_lobe(profile, mirror, k, px.radius_px, camera_dz=camera_dz)
         exact = trace_lobe(lobe, mirror, k, px.radius_px)
+        use = made.usable
         disp = ideal_radius_px(lobe, mirror.camera, made.elevation) - px.radius_px
         # atan2(|cross|, dot) keeps precision for tiny angles where arccos loses it.
         dev = np.degrees(np.arctan2(np.abs(made.o_r * exact.o_z - made.o_z * exact.o_r),
                                     made.o_r * exact.o_r + made.o_z * exact.o_z))
         # |(F1 - P) x o| with |o| = 1: distance of F1 from the reflected line.
         spread = np.abs(-made.r * made.o_z - (lobe.focus_z - made.z) * made.o_r)
+        w = px.count
         lobes.append({
             "name": lobe.name,
-            "ray_deviation_deg": weighted_stats(dev, px.count),
-            "image_displacement_px": weighted_stats(disp, px.count),
-            "viewpoint_spread_mm": weighted_stats(spread, px.count),
+            "pixels": int(np.sum(w[use])),
+            "pixels_excluded": int(np.sum(w[~use])),
+            "ray_deviation_deg": weighted_stats(dev[use], w[use]),
+            "image_displacement_px": weighted_stats(disp[use], w[use]),
+            "viewpoint_spread_mm": weighted_stats(spread[use], w[use]),
         })
     return {"lobes": lobes}
 
 
-def surface_errors(profile: Profile, mirror: Mirror, *, n: int = 4001) -> dict:
+def surface_errors(profile: Profile, mirror: Mirror, *, n: int = 4001, used: bool = False) -> dict:
     """Per-lobe slope_error_rad and normal_deviation_mm ({rms, max}) on n radii per lobe.
 
-    Uniform in r over each lobe. Slope error: angle between the made and exact normals
+    Uniform in r over each lobe (used=True: over the extent the image uses, used_extent). Slope error: angle between the made and exact normals
     at the same r. Normal deviation: |dz| cos(beta) with beta the exact surface's slope
     angle, the distance to the exact surface to first order in dz / (radius of curvature).
     """
     exact_lobes = mirror.lobes
     out = []
     for k, lobe in enumerate(exact_lobes):
-        lo, hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
+        lo, hi = used_extent(mirror, k) if used else ((0.0, mirror.r_junction) if k == 0 else
+                                                       (mirror.r_junction, mirror.r_max))
         r = np.linspace(lo, hi, n)
         if k == 1:
             r[0] = np.nextafter(lo, hi)

@@ -30,13 +30,13 @@ class Program(str, Enum):
 
 @dataclass(frozen=True)
 class Spec:
-    """Limits. image_displacement_px: per-lobe RMS, px. depth_error_pct: RMS |depth error|
+    """Limits (defaults: lathe_mirror/data/tolerance.toml). image_displacement_px: per-lobe RMS, px. depth_error_pct: RMS |depth error|
     over the common band at depth_range_m (m), %. slope_error_rad: per-lobe RMS, rad."""
 
-    image_displacement_px: float = 3.0
-    depth_error_pct: float = 25.0
-    depth_range_m: float = 1.0
-    slope_error_rad: float = 0.01
+    image_displacement_px: float
+    depth_error_pct: float
+    depth_range_m: float
+    slope_error_rad: float
 
 
 #: The toleranced parameters, in table order: key -> (what it is, unit at the edge).
@@ -58,7 +58,7 @@ class ToleranceSettings:
 
     seed: int
     trials: int
-    program: Program
+    programs: tuple[Program, ...]
     distribution: Distribution
     lattice_phases: int
     azimuths: int
@@ -78,7 +78,9 @@ def settings_from_config(cfg: dict) -> ToleranceSettings:
     _int_at_least("tolerance.seed", t["seed"], 0)
     if not (math.isfinite(t["bin_px"]) and 0.05 <= t["bin_px"] <= 50):
         raise InputError(f"tolerance.bin_px = {t['bin_px']!r} must be 0.05 .. 50 px")
-    program = _enum("tolerance.strategy", t["strategy"], Program)
+    programs = tuple(_enum(f"tolerance.programs[{i}]", v, Program) for i, v in enumerate(t["programs"]))
+    if not programs:
+        raise InputError("tolerance.programs = []: name at least one of \"paper\", \"best\"")
     dist = _enum("tolerance.distribution", t["distribution"], Distribution)
     s = t["spec"]
     for key in ("image_displacement_px", "depth_error_pct", "slope_error_rad"):
@@ -91,7 +93,7 @@ def settings_from_config(cfg: dict) -> ToleranceSettings:
             raise InputError(f"tolerance.params.{key} = {value!r} must be a finite number >= 0")
         tol[key] = float(value)
     return ToleranceSettings(
-        seed=int(t["seed"]), trials=int(t["trials"]), program=program, distribution=dist,
+        seed=int(t["seed"]), trials=int(t["trials"]), programs=programs, distribution=dist,
         lattice_phases=int(t["lattice_phases"]), azimuths=int(t["azimuths"]),
         bin_px=float(t["bin_px"]), depth_points=int(t["depth_points"]),
         spec=Spec(**{k: float(v) for k, v in s.items()}), tolerances=tol)
