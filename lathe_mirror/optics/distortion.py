@@ -19,7 +19,10 @@ Figures (ARCHITECTURE.md, "Shared definitions"), per pixel centre of each lobe:
 
 Pixels count for lobe k where both the exact and the made surface send them to lobe k
 (the usable inner disc / outer annulus; the lost ring and the corners beyond the rim are
-out). RMS and max are over those pixel centres, each pixel once.
+out). RMS and max are over those pixel centres, each pixel once. The recessed inner
+lobe's outer band (image radius above ~281 px on the paper's mirror: elevations above
+~8.94 deg) reflects into the step wall and the outer lobe's material, so it sees no
+scene; figures()["lobes"][k]["unvignetted"] repeats the figures without those pixels.
 """
 
 from __future__ import annotations
@@ -75,12 +78,15 @@ class DistortionMaps:
                 "pixels_lost": int((in_lobe & ~self.usable).sum()),
                 "pixels_vignetted": int((use & self.blocked).sum()),
             }
+            clear = use & ~self.blocked
+            entry["unvignetted"] = {"pixels": int(clear.sum())}
             for key, arr, scale in (
                 ("ray_deviation_deg", self.ray_deviation_rad, math.degrees(1.0)),
                 ("image_displacement_px", self.image_displacement_px, 1.0),
                 ("viewpoint_spread_mm", self.viewpoint_spread_mm, 1.0),
             ):
                 entry[key] = _rms_max(arr[use] * scale)
+                entry["unvignetted"][key] = _rms_max(arr[clear] * scale)
             lobes.append(entry)
         return {"lobes": lobes}
 
