@@ -758,7 +758,7 @@ def _fit_arcs(t: _Target, ends: np.ndarray | None, lathe: Lathe, *, window: int 
     m = S.shape[0]
     # the ideal centre: on the normal at the middle, at the middle's radius of curvature
     mid = 0.5 * (S + E)
-    rs_mid, _ = _foot_rs(t, mid)
+    rs_mid = foot_on_sheet(t.lobe, mid[:, 0], mid[:, 1], zero=t.zero)
     kap = _kappa_offset(t, rs_mid)
     # the circle of that curvature through S and E: its centre on SE's perpendicular
     # bisector, on the part's side (below the chord, which runs toward +r)
@@ -803,11 +803,6 @@ def _fit_arcs(t: _Target, ends: np.ndarray | None, lathe: Lathe, *, window: int 
         arcs.append(Arc(start=_pt(S[i]), end=_pt(E[i]), centre=_pt(c),
                         clockwise=bool(sweep[i, best[i]] > 0)))
     return arcs, score[np.arange(m), best]
-
-
-def _foot_rs(t: _Target, p: np.ndarray):
-    rf = foot_on_sheet(t.lobe, p[:, 0], p[:, 1], zero=t.zero)
-    return rf, None
 
 
 def _kappa_offset(t: _Target, rs) -> np.ndarray:

@@ -240,3 +240,51 @@ def test_cli_json_and_directory_output(tmp_path):
         assert set(lb["slope_error_rad"]) == {"rms", "max"}
     assert data["n_points"] <= 528
     assert (tmp_path / "mirror_arcs.ngc").exists()
+
+
+def canonical_moves(out: str) -> list[tuple[str, tuple[float, float], bool]]:
+    """Every move rs274 reports: (kind, end (r, Z), from the finishing contour on)."""
+    moves, finishing = [], False
+    for ln in out.splitlines():
+        if 'COMMENT("finish contour begin")' in ln:
+            finishing = True  # and after it the exit, which faces the rim's shoulder
+        m = re.search(r"(STRAIGHT_FEED|STRAIGHT_TRAVERSE|ARC_FEED)\(([^)]*)\)", ln)
+        if m:
+            v = [float(x) for x in m.group(2).split(",")]
+            end = (v[1], v[0]) if m.group(1) == "ARC_FEED" else (v[0], v[2])
+            moves.append((m.group(1), end, finishing))
+    return moves
+
+
+def test_roughing_leaves_the_allowance_and_never_cuts_the_part(tmp_path, paper_mirror):
+    """Simulate the stock column by column from rs274's own moves: every roughing feed
+    move removes what a 0.2 mm nose reaches. After roughing, the stock left on the
+    mirror is at least half the allowance and at most one roughing depth plus the
+    allowance; rapid and roughing moves keep the nose off the finished part."""
+    m = paper_mirror
+    rho, allow, depth = 0.2, ProgramOptions().rough_allowance, ProgramOptions().rough_depth
+    tp = plan_toolpath(m, LATHE, Tool(nose_radius=rho), Strategy.ARCS)
+    moves = canonical_moves(rs274(tmp_path, program(tp, STOCK)))
+    r = np.arange(0.0, 35.0, 0.01)
+    part = m.vertex_z - np.where(r <= 20.0, m.inner.z(r), m.outer.z(r))
+    top = np.full(r.shape, STOCK.face_allowance)  # the bar's face
+    prev = None
+    for kind, p, finishing in moves:
+        if prev is not None and not finishing:
+            seg = np.linspace(prev, p, 400)
+            if kind == "STRAIGHT_FEED":
+                for c in seg:
+                    near = np.abs(r - c[0]) < rho
+                    bottom = c[1] - np.sqrt(rho**2 - (r[near] - c[0]) ** 2)
+                    top[near] = np.minimum(top[near], bottom)
+        if prev is not None and (kind == "STRAIGHT_TRAVERSE" or not finishing):
+            # the nose never reaches into the finished part, rapid or roughing feed
+            seg = np.linspace(prev, p, 400)
+            idx = np.clip(np.searchsorted(r, seg[:, 0]), 0, r.size - 1)
+            inside = seg[:, 0] <= 34.99
+            assert np.all(seg[inside, 1] - part[idx[inside]] > rho * 0.99), (kind, prev, p)
+        prev = p
+    left = top - part
+    away = np.abs(r - 20.0) > 0.6  # beside the wall the nose's column spans both lobes
+    assert left[away].min() >= 0.5 * allow
+    assert left[away].max() <= depth + allow + 0.05
