@@ -150,3 +150,33 @@ def test_a_move_that_cuts_air_drops_out_of_the_contour():
     assert out[1].centre == (1.0, 0.0) and out[1].end == pytest.approx((1.5, 0.0))
     assert out[2].start == pytest.approx((1.5, 0.0)) and out[2].end == pytest.approx((1.5, 0.45))
     assert out[3].start == pytest.approx((1.5, 0.45)) and out[3].end == pytest.approx((3.0, 0.45))
+
+
+@pytest.mark.parametrize("strategy", ["paper", "lattice", "arcs"])
+def test_programmed_contour_is_the_machining_envelope(paper_config, paper_mirror, strategy):
+    """The exact contour (lines and arcs) against lathe_mirror.machining's independent
+    envelope (the lowest nose point over a 0.0005 mm grid of radii, linearly
+    interpolated). Linear interpolation across a corner of the envelope, where the
+    slope dZ/dr jumps by ds between two moves, errs by up to GRID * ds / 4: the bound."""
+    import copy
+
+    from lathe_mirror.cad_body import _tangent, programmed_parts
+    from lathe_mirror.machine import lathe_from_config, tool_from_config
+    from lathe_mirror.machining import GRID, as_machined
+    from lathe_mirror.toolpath import Strategy, plan_toolpath
+
+    cfg = copy.deepcopy(paper_config)
+    cfg["toolpath"]["strategy"] = strategy
+    mer, centre, _ = programmed_parts(cfg, paper_mirror, BodySpec())
+    tp = plan_toolpath(paper_mirror, lathe_from_config(cfg), tool_from_config(cfg), Strategy(strategy))
+    env = as_machined(tp)
+    jumps = [abs(b[1] / b[0] - a[1] / a[0])  # dZ/dr after minus before, at each vertex
+             for a, b in ((_tangent(p, end=True), _tangent(q, end=False))
+                          for p, q, lp, lq in zip(centre, centre[1:], tp.lobe_of, tp.lobe_of[1:])
+                          if lp == lq != "junction")]
+    bound = GRID * max(jumps) / 4 + 1e-6
+    pts = np.concatenate([s.points(1e-5) for s in mer.face])
+    r, Z = pts[:, 0], pts[:, 1]
+    sel = ((r > 0.01) & (r < 19.99)) | ((r > 20.01) & (r < 34.9))  # off the wall and the rim
+    dz = Z[sel] - env.to_machine_z(env.z(r[sel]))
+    assert np.abs(dz).max() < bound
