@@ -208,8 +208,8 @@ class Meridian:
         return abs(math.pi * sum(s.integral_r2_dz() for s in self.segments))
 
     def polyline(self, tolerance: float) -> np.ndarray:
-        """The loop as points (n, 2), chords within `tolerance` mm; the last point is the
-        first one again's predecessor (the loop is implied closed)."""
+        """The loop as points (n, 2), chords within `tolerance` mm. The loop is implied
+        closed: the first point is not repeated at the end."""
         parts = [s.points(tolerance)[:-1] for s in self.segments]
         return np.concatenate(parts, axis=0)
 

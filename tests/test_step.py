@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from lathe_mirror.cad_body import BodySpec, design_meridian, programmed_parts
-from lathe_mirror.export.step import (SCHEMA_NAMES, StepSchema, read_step, solid_figures,
-                                      step_bytes)
+from lathe_mirror.export.step import (SCHEMA_NAMES, StepSchema, as_cadquery, read_step,
+                                      solid_figures, step_bytes)
 from lathe_mirror.profile import ExactProfile
 
 from conftest import require_program
@@ -245,3 +245,5 @@ def test_cadquery_reads_the_step(design_step, paper_mirror):
     solids = shape.solids().vals()
     assert len(solids) == 1 and solids[0].isValid()
     assert solids[0].Volume() == pytest.approx(integrated_volume(paper_mirror, BodySpec()), rel=1e-6)
+    wrapped = as_cadquery(read_step(design_step))  # our solid handed to cadquery users
+    assert wrapped.isValid() and wrapped.Volume() == pytest.approx(solids[0].Volume(), rel=1e-12)

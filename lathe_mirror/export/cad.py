@@ -13,7 +13,7 @@ from enum import Enum
 from pathlib import Path
 from typing import Any
 
-from ..cad_body import Meridian, Segment, body_spec_from_config, design_meridian, programmed_meridian
+from ..cad_body import Meridian, Segment, body_spec_from_config, design_meridian
 from ..design import Mirror, mirror_from_config
 from ..errors import InputError
 from .files import check_writable, prepare_dir, write_bytes
