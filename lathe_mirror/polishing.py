@@ -142,14 +142,18 @@ def removal_rate(r: np.ndarray, params: PolishParams) -> np.ndarray:
 def form_change(profile: Profile, mirror: Mirror, *, degree: int = 4, n: int = 2001) -> dict:
     """Per-lobe form change: the low-order part of (profile - design), mm.
 
-    A least-squares Legendre fit of the given degree in r over each lobe; returns
+    A least-squares Legendre fit of the given degree in r over the extent of each lobe the
+    image uses (tolerance.radial.used_extent: the inner lobe stops where the step wall
+    starts to vignette its rays, which also leaves out the tool's corner fillet); returns
     {"rms", "max"} of that fit (all terms, piston included: the lap removes nothing at
     the vertex, so its piston is real removal) under "form_change_mm", plus the fit's
     peak-to-valley "form_pv_mm".
     """
+    from .tolerance.radial import used_extent
+
     lobes = []
     for k, lobe in enumerate(mirror.lobes):
-        lo, hi = profile.lobe_range(k)
+        lo, hi = used_extent(mirror, k)
         r = np.linspace(lo, hi, n)
         if k == 1:
             r[0] = np.nextafter(lo, hi)

@@ -1,20 +1,64 @@
-"""`lathe-mirror run`: the whole pipeline on the given or default config."""
+"""`lathe-mirror run`: the whole pipeline on the paper default or --config.
+
+design -> programs into gcode/ -> STEP and DXF into cad/ -> as-machined, renders,
+polishing, stereo, tolerance -> report into out/ (or -o). On the paper default gcode/ and
+cad/ are the repository's reference outputs (regenerated here); with --config they go
+into the output directory unless --gcode-dir / --cad-dir say otherwise.
+"""
 
 from __future__ import annotations
 
 import argparse
 
-from ._common import add_common
+from ._common import add_common, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("run", help="the whole pipeline (for now: the design)",
-                       description="Run every stage on the paper default or --config.")
-    add_common(p, output_help="output directory")
+    p = sub.add_parser("run", help="the whole pipeline: programs, CAD, renders, polishing, tolerance, report",
+                       description="Design the mirror, write its programs (gcode/) and CAD (cad/), "
+                       "predict the made and polished mirrors' images and stereo depth, run the "
+                       "tolerance analysis and write the report (out/report.html, out/report.json).")
+    add_common(p, output_help="report directory (default: out/)")
+    p.add_argument("--gcode-dir", metavar="DIR", help="where the programs go (default: gcode/ on the "
+                   "paper default, OUTPUT/gcode with --config)")
+    p.add_argument("--cad-dir", metavar="DIR", help="where STEP and DXF go (default: cad/ on the "
+                   "paper default, OUTPUT/cad with --config)")
+    p.add_argument("--no-render", action="store_true", help="skip the renders side by side")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from . import design
+    import sys
+    from pathlib import Path
 
-    return design.run(args)
+    from ..design import mirror_from_config
+    from ..export.files import prepare_dir
+    from ..report.report import compute, write_report
+    from .report import summary
+
+    cfg = load(args)
+    mirror_from_config(cfg)  # a bad design stops here, before anything is written
+    out_dir = Path(args.output or "out")
+    default = args.config is None
+    gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")
+    cad_dir = Path(args.cad_dir) if args.cad_dir else (Path("cad") if default else out_dir / "cad")
+    for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir")):
+        prepare_dir(d, what)
+    print("lathe-mirror run: programs", file=sys.stderr)
+    from ..export.gcode import write_reference_programs
+
+    programs = write_reference_programs(gcode_dir, cfg)
+    print("lathe-mirror run: CAD", file=sys.stderr)
+    from ..export.cad import write_reference_cad
+
+    cad = write_reference_cad(cad_dir, cfg)
+    data = compute(cfg, progress=True, renders=not args.no_render)
+    data.figures["outputs"] = {"gcode": [str(p) for p in programs], "cad": [str(p) for p in cad]}
+    paths = write_report(data, out_dir)
+    if args.json:
+        print_json(data.figures)
+    else:
+        print(summary(data.figures, paths))
+        print("programs: " + ", ".join(str(p) for p in programs))
+        print("CAD: " + ", ".join(str(p) for p in cad))
+    return 0

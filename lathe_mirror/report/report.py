@@ -63,7 +63,7 @@ class _Steps:
             self.bar.close()
 
 
-STAGES = ["design", "toolpaths", "distortion", "polishing", "stereo", "renders", "tolerance", "plots"]
+STAGES = ["design", "toolpaths", "polishing", "distortion", "stereo", "renders", "tolerance", "plots"]
 
 
 def compute(cfg: dict, *, progress: bool = False, renders: bool = True, tolerance: bool = True) -> ReportData:

@@ -1,0 +1,64 @@
+"""`lathe-mirror polish`: the polishing curve of a program's as-machined mirror."""
+
+from __future__ import annotations
+
+import argparse
+
+from ._common import add_common, load, print_json
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("polish", help="polish the as-machined mirror (Preston's law, compliant pad)",
+                       description="Polish a program's as-machined mirror ([polish] settings): the "
+                       "polishing curve (slope error, normal deviation, form change, image displacement "
+                       "against time), the time that minimises image displacement and the form it costs, "
+                       "and the figures after polish.time_s.")
+    add_common(p, output_help="directory for polish.json (the curve and the figures)")
+    p.add_argument("--program", default="paper", metavar="paper|best",
+                   help="which program's as-machined surface to polish (default: paper, the paper's "
+                        "528-point program that section 6 proposes to polish)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..design import mirror_from_config
+    from ..errors import InputError
+    from ..polishing import polish, polish_curve, polish_params_from_config
+    from ..tolerance.radial import radial_figures
+    from ..tolerance.spec import Program
+    from ..tolerance.surfaces import machined_surface
+
+    cfg = load(args)
+    try:
+        program = Program(args.program)
+    except ValueError:
+        raise InputError(f"--program {args.program!r}: allowed paper, best") from None
+    params = polish_params_from_config(cfg)
+    if args.output:
+        from ..export.files import prepare_dir
+
+        prepare_dir(args.output)
+    mirror = mirror_from_config(cfg)
+    made = machined_surface(mirror, cfg, program)
+    curve = polish_curve(made.profile, mirror, params, progress=True)
+    polished = polish(made.profile, params)
+    from ..report.report import _polish_summary
+
+    out = {"program": program.value, "surface": made.source, "params": dict(params.__dict__),
+           "summary": _polish_summary(curve, program.value), "curve": curve.to_dict(),
+           "at_time_s": {"time_s": params.time_s, **radial_figures(polished, mirror)}}
+    if args.output:
+        from pathlib import Path
+
+        from ..export.files import write_text
+        from ..report.report import dumps
+
+        write_text(Path(args.output) / "polish.json", dumps(out))
+    if args.json:
+        print_json(out)
+    else:
+        print(out["summary"]["statement"])
+        print(f"after polish.time_s = {params.time_s:g} s: " + "; ".join(
+            f"{lb['name']} image displacement {lb['image_displacement_px']['rms']:.3f} px RMS"
+            for lb in out["at_time_s"]["lobes"]))
+    return 0

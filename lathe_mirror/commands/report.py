@@ -1,0 +1,44 @@
+"""`lathe-mirror report`: every stage's figures as report.json and a self-contained report.html."""
+
+from __future__ import annotations
+
+import argparse
+
+from ._common import add_common, load, print_json
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("report", help="the report: HTML (self-contained) + JSON of every figure",
+                       description="Compute every stage on the paper default or --config and write "
+                       "report.json and report.html (figures embedded, opens without a network).")
+    add_common(p, output_help="output directory (default: out/)")
+    p.add_argument("--no-render", action="store_true", help="skip the renders side by side")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..export.files import prepare_dir
+    from ..report.report import compute, write_report
+
+    cfg = load(args)
+    out_dir = args.output or "out"
+    prepare_dir(out_dir)
+    data = compute(cfg, progress=True, renders=not args.no_render)
+    paths = write_report(data, out_dir)
+    if args.json:
+        print_json(data.figures)
+    else:
+        print(summary(data.figures, paths))
+    return 0
+
+
+def summary(fig: dict, paths: dict) -> str:
+    lines = [f"report: {paths['html']} (figures: {paths['json']})",
+             fig["polishing"]["summary"]["statement"]]
+    at = fig["stereo"]["at_2_m"]
+    lines.append("depth error at 2 m (RMS over the band): " + ", ".join(
+        f"{k} {v['rms']:.3g} %" for k, v in at.items()))
+    for name, v in fig.get("verdict", {}).items():
+        lines.append(f"{name} program: nominal {'PASS' if v['nominal_pass'] else 'FAIL'}, "
+                     f"yield {100 * v['yield']:.1f} % of {v['trials']} trials")
+    return "\n".join(lines)
