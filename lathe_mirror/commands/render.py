@@ -32,7 +32,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import math
-    import sys
 
     import numpy as np
 
@@ -58,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     z_top = float(max(np.max(made.z(np.linspace(0, made.r_max, 2001))), mirror.outer.h))
     scene = scene_from_config(cfg, mirror_top=z_top + abs(pose.axial_offset), mirror_radius=mirror.r_max)
     _check_sees_mirror(made, mirror, pose)
-    progress = not args.no_progress and sys.stderr.isatty() or (not args.no_progress and n > 1)
+    progress = not args.no_progress  # tqdm on stderr
     out = None
     if args.output:
         from ..export.files import prepare_dir
@@ -98,16 +97,19 @@ def run(args: argparse.Namespace) -> int:
         from ..optics.plots import displacement_map_png, displacement_vs_radius_png
         from ..optics.render import difference_image
 
+        same = surface == "exact" and not nose  # the made mirror is the exact one
         files.append(_write_png(out / "exact.png", exact_img))
-        files.append(_write_png(out / f"{surface}.png", made_img))
-        files.append(_write_png(out / f"difference_{surface}.png", difference_image(exact_img, made_img)))
+        if not same:
+            files.append(_write_png(out / f"{surface}.png", made_img))
+            files.append(_write_png(out / f"difference_{surface}.png", difference_image(exact_img, made_img)))
         title = f"{surface}" + (f", as machined (nose {nose:g} mm)" if nose else "")
         files.append(str(write_bytes(out / f"displacement_radius_{surface}.png",
                                      displacement_vs_radius_png(maps, title=title))))
         files.append(str(write_bytes(out / f"displacement_map_{surface}.png",
                                      displacement_map_png(maps, title=title))))
         files.append(str(write_povray(out / "exact.pov", exact, mirror, scene, pose=pose)))
-        files.append(str(write_povray(out / f"{surface}.pov", made, mirror, scene, pose=pose)))
+        if not same:
+            files.append(str(write_povray(out / f"{surface}.pov", made, mirror, scene, pose=pose)))
         figures["files"] = files
         write_text(out / f"figures_{surface}.json", json.dumps(_jsonable(figures), indent=2) + "\n")
     if args.json:
