@@ -16,14 +16,19 @@ import math
 
 import numpy as np
 
+from typing import TYPE_CHECKING
+
 from .profile import PathProfile, Profile, TabulatedProfile
+
+if TYPE_CHECKING:
+    from .toolpath import Toolpath
 
 #: Radial spacing (mm) of the envelope's samples; the envelope is piecewise smooth,
 #: so linear interpolation between them errs by ~ spacing^2 / (8 rho) (< 2e-7 mm).
 GRID = 0.0005
 
 
-def as_machined(toolpath, nose_radius: float | None = None) -> Profile:
+def as_machined(toolpath: Toolpath, nose_radius: float | None = None) -> Profile:
     """The surface a nose of `nose_radius` (mm; default the tool's) cuts along the path.
 
     Camera frame. Zero nose radius: the programmed contour (exact lines and arcs).
@@ -38,7 +43,7 @@ def as_machined(toolpath, nose_radius: float | None = None) -> Profile:
     return nose_envelope(toolpath, rho, include_junction=True)
 
 
-def nose_envelope(toolpath, rho: float, *, include_junction: bool = True) -> TabulatedProfile:
+def nose_envelope(toolpath: Toolpath, rho: float, *, include_junction: bool = True) -> TabulatedProfile:
     """Envelope of a nose of radius rho (mm) along the path, as a TabulatedProfile.
 
     include_junction=False: only each lobe's own moves and interior vertices (the path
@@ -174,7 +179,7 @@ def _piece_discs(verts: np.ndarray, rho: float, r: np.ndarray, zbest, sbest) -> 
     _take_lower(idx[first], z[first], s[first], zbest, sbest)
 
 
-def gouge_depth(toolpath, nose_radius: float | None = None) -> float:
+def gouge_depth(toolpath: Toolpath, nose_radius: float | None = None) -> float:
     """Deepest point (mm) of the as-machined surface inside the exact part (0 if none).
 
     Measured from each lobe's sheet (foot point by Newton) over the envelope's samples,
@@ -212,3 +217,24 @@ def gouge_depth(toolpath, nose_radius: float | None = None) -> float:
         dist = np.hypot(*(p - corner).T).min()
         depth = max(depth, rho - float(dist))
     return depth
+
+
+def junction_fillet(toolpath: Toolpath, nose_radius: float | None = None) -> dict | None:
+    """What the nose leaves in the junction's inside corner, or None for a sharp tool.
+
+    r_start_mm: where the fillet leaves the inner lobe (the nose's contact point with
+    the sheet when its centre is at the corner); height_mm: how far above the wall's
+    foot the fillet meets the wall (r = r_junction). The camera sees this band of the
+    inner lobe's rim through a fillet, not the designed sheet.
+    """
+    from .toolpath import foot_on_sheet
+
+    rho = toolpath.nose_radius if nose_radius is None else float(nose_radius)
+    if rho == 0.0:
+        return None
+    m = toolpath.mirror
+    c = toolpath.lobe_segments("inner")[-1].end
+    r_start = float(foot_on_sheet(m.inner, np.array([c[0]]), np.array([c[1]]), zero=m.vertex_z)[0])
+    rj = np.array([m.r_junction])
+    height = float(m.inner.z(rj)[0] - as_machined(toolpath, rho).z(rj)[0])
+    return {"r_start_mm": r_start, "r_end_mm": m.r_junction, "height_mm": height}

@@ -93,3 +93,17 @@ def test_gouge_check(tp02, paper_mirror):
     # a nose 0.1 mm larger than the path was planned for cuts 0.1 mm into the part
     deeper = gouge_depth(tp02, nose_radius=0.3)
     assert abs(deeper - 0.1) < 0.005
+
+
+def test_junction_fillet_extent_by_hand(tp02, paper_mirror):
+    """Tangent lengths of a circle in a corner of opening theta are rho / tan(theta / 2):
+    up the wall, and back along the inner lobe (whose slope angle there is 90 - theta)."""
+    from lathe_mirror.machining import junction_fillet
+
+    m = paper_mirror
+    phi = math.atan(float(m.inner.slope(20.0)))  # the inner rim's slope angle
+    tangent = 0.2 / math.tan((math.pi / 2 - phi) / 2)
+    f = junction_fillet(tp02)
+    assert abs(f["height_mm"] - tangent) < 0.02 * tangent
+    assert abs((20.0 - f["r_start_mm"]) - tangent * math.cos(phi)) < 0.02 * tangent
+    assert junction_fillet(tp02, nose_radius=0.0) is None

@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
     from ..export.gcode import Dialect, options_from_config, parse_dialect, program
     from ..machine import lathe_from_config, stock_from_config, tool_from_config
-    from ..machining import as_machined, gouge_depth
+    from ..machining import as_machined, gouge_depth, junction_fillet
     from ..toolpath import Strategy, plan_toolpath_with, profile_errors
 
     cfg = load(args)
@@ -75,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
         "moves": len(tp.segments),
         "arcs": sum(1 for s in tp.segments if s.kind == "arc"),
         "gouge_depth_mm": gouge_depth(tp),
+        "junction_fillet": junction_fillet(tp),
         "lobes": figures["lobes"],
         "contour_lobes": contour["lobes"],
     }

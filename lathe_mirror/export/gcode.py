@@ -23,8 +23,13 @@ from pathlib import Path
 
 import numpy as np
 
+from typing import TYPE_CHECKING
+
 from ..errors import InputError
 from ..machine import Stock
+
+if TYPE_CHECKING:
+    from ..toolpath import Toolpath
 
 
 class Dialect(enum.Enum):
@@ -70,7 +75,7 @@ def options_from_config(cfg: dict) -> ProgramOptions:
     return opts
 
 
-def program(toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCNC, *,
+def program(toolpath: Toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCNC, *,
             options: ProgramOptions = ProgramOptions(), name: str = "mirror") -> str:
     """The whole program as text. Raises InputError if it would gouge the part, leave
     the lathe's travel, or the stock cannot hold the mirror."""
@@ -94,16 +99,16 @@ def program(toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCNC, *,
     from ..machining import as_machined
 
     figures = profile_errors(as_machined(toolpath), m)
-    rough = _roughing(toolpath, stock, options)
+    rough_paths = _roughing_paths(toolpath, stock, options)
+    rough = np.concatenate([np.asarray(p, dtype=float) for p in rough_paths])
     finish_exit = _finish_exit(toolpath, stock, options)
-    check_travel(np.concatenate([toolpath.points(), rough.reshape(-1, 2), finish_exit]), lathe,
-                 what="the program")
+    check_travel(np.concatenate([toolpath.points(), rough, finish_exit]), lathe, what="the program")
     w = _Writer(lathe, dialect)
     w.header(toolpath, stock, options, figures, depth, name)
     w.setup()
     w.comment("roughing: Z levels, then a semi-finishing pass")
     w.feed(lathe.feed_rough)
-    for path in _roughing_paths(toolpath, stock, options):
+    for path in rough_paths:
         w.rapid(path[0])
         for p in path[1:-1]:
             w.line(p)
@@ -128,7 +133,7 @@ def program(toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCNC, *,
     return w.text()
 
 
-def write_program(path: str | Path, toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCNC,
+def write_program(path: str | Path, toolpath: Toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCNC,
                   *, options: ProgramOptions = ProgramOptions(), name: str = "mirror") -> Path:
     """Write the program atomically (nothing is written if it is refused)."""
     from .files import write_text
@@ -174,11 +179,6 @@ def _part_z(mirror, r: np.ndarray) -> np.ndarray:
     rr = np.minimum(r, mirror.r_max)
     z = np.where(rr <= mirror.r_junction, mirror.inner.z(rr), mirror.outer.z(rr))
     return mirror.vertex_z - z
-
-
-def _roughing(toolpath, stock: Stock, options: ProgramOptions) -> np.ndarray:
-    paths = _roughing_paths(toolpath, stock, options)
-    return np.concatenate([np.asarray(p) for p in paths]) if paths else np.zeros((0, 2))
 
 
 def _roughing_paths(toolpath, stock: Stock, options: ProgramOptions) -> list[list[tuple]]:
@@ -321,6 +321,13 @@ class _Writer:
         c(f"strategy {tp.strategy.value}: {len(tp.segments)} moves, {n_arcs} arcs, "
           f"{tp.n_points} of {lathe.max_points} points used")
         c(f"gouge check: deepest point inside the part {depth:.4f} mm, tolerance {options.gouge_tolerance:g} mm")
+        from ..machining import junction_fillet
+
+        fillet = junction_fillet(tp)
+        if fillet is not None:
+            c(f"junction fillet: the nose cannot reach the inside corner; the inner lobe is "
+              f"filleted from r {fillet['r_start_mm']:.3f} to {fillet['r_end_mm']:g} mm, "
+              f"{fillet['height_mm']:.3f} mm up the wall; the figures below include it")
         for lobe in figures["lobes"]:
             nd, se = lobe["normal_deviation_mm"], lobe["slope_error_rad"]
             c(f"as machined {lobe['name']}: normal deviation rms {nd['rms']:.2e} max {nd['max']:.2e} mm, "
