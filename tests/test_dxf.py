@@ -91,9 +91,19 @@ def test_dimensions_are_the_design(drawing):
     """R_top (20, 35), heights above the camera of the vertex (103.678) and the rims
     (Table 1's h: 115.607, 123.457), rim depths and the step (1.821)."""
     _, doc, _, _ = drawing
-    got = sorted(round(d.get_measurement(), 3) for d in doc.modelspace().query('DIMENSION[layer=="DIMENSIONS"]'))
+    dims = list(doc.modelspace().query('DIMENSION[layer=="DIMENSIONS"]'))
+    got = sorted(round(d.get_measurement(), 3) for d in dims)
     want = sorted([20.0, 35.0, 103.678, 115.607, 123.457, 115.607 - 103.678, 123.457 - 103.678, 1.821])
     assert got == pytest.approx(want, abs=1.5e-3)
+    # ... and the text a reader sees is that number in mm (no unit scaling, a point)
+    shown = sorted(float(_dimension_text(d)) for d in dims)
+    assert shown == pytest.approx(want, abs=1.5e-3)
+
+
+def _dimension_text(dim) -> str:
+    texts = [e.dxf.text for e in dim.get_geometry_block() if e.dxftype() == "MTEXT"]
+    assert len(texts) == 1
+    return texts[0]
 
 
 def test_same_bytes_twice(paper_config, paper_mirror, drawing):

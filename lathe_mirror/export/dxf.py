@@ -32,6 +32,9 @@ from ..cad_body import Meridian, Role, Segment, SegmentKind
 from ..design import Mirror
 from .files import check_writable, write_bytes
 
+#: The dimension style of the drawing (mm, three decimals).
+DIMSTYLE = "LATHE_MIRROR_MM"
+
 LAYERS = {  # name: (AutoCAD colour index, line type)
     "MIRROR_EXACT": (5, "CONTINUOUS"),
     "BODY": (7, "CONTINUOUS"),
@@ -39,7 +42,7 @@ LAYERS = {  # name: (AutoCAD colour index, line type)
     "CAMERA": (3, "CONTINUOUS"),
     "TOOLPATH": (6, "CONTINUOUS"),
     "TOOL_CENTRE": (4, "DASHED"),
-    "DIMENSIONS": (2, "CONTINUOUS"),
+    "DIMENSIONS": (30, "CONTINUOUS"),  # orange: legible on dark and light backgrounds
 }
 
 
@@ -54,6 +57,12 @@ def dxf_bytes(mirror: Mirror, design: Meridian, *, programmed: Meridian | None =
         doc = ezdxf.new("R2010", setup=True)
         doc.units = units.MM
         doc.header["$MEASUREMENT"] = 1  # metric
+        # Our own dimension style: 1 drawing unit = 1 mm shown as mm (ezdxf's "EZDXF"
+        # style scales measurements by 100, for drawings in metres shown in cm).
+        doc.dimstyles.new(DIMSTYLE, dxfattribs={
+            "dimlfac": 1.0, "dimdec": 3, "dimtxt": 2.0, "dimasz": 1.5, "dimexe": 1.0,
+            "dimexo": 0.6, "dimgap": 0.6, "dimtad": 1, "dimzin": 8,
+            "dimdsep": ord(".")})
         for name, (color, linetype) in LAYERS.items():
             doc.layers.add(name, color=color, linetype=linetype)
         msp = doc.modelspace()
@@ -139,8 +148,8 @@ def _add_dimensions(msp, mirror: Mirror, design: Meridian) -> None:
     zi, zo, zs = f["z_rim_inner"], f["z_rim_outer"], f["z_step_outer"]
     dims = [
         # (point 1, point 2, base point of the dimension line, angle deg): R_top
-        ((0.0, 0.0), (r1, zi), (0.0, vz + 3.0), 0.0),
-        ((0.0, 0.0), (r2, zo), (0.0, vz + 9.0), 0.0),
+        ((0.0, 0.0), (r1, zi), (0.0, 5.0), 0.0),
+        ((0.0, 0.0), (r2, zo), (0.0, 11.0), 0.0),
         # the heights above the camera: vertex, inner rim, outer rim (Table 1's h)
         ((0.0, vz), (0.0, 0.0), (-8.0, 0.0), 90.0),
         ((0.0, vz), (r1, zi), (-16.0, 0.0), 90.0),
@@ -151,8 +160,8 @@ def _add_dimensions(msp, mirror: Mirror, design: Meridian) -> None:
         ((r1, zi), (r1, zs), (r1 + 4.0, 0.0), 90.0),
     ]
     for p1, p2, base, angle in dims:
-        dim = msp.add_linear_dim(base=base, p1=p1, p2=p2, angle=angle, dimstyle="EZDXF",
-                                 override={"dimdec": 3}, dxfattribs={"layer": "DIMENSIONS"})
+        dim = msp.add_linear_dim(base=base, p1=p1, p2=p2, angle=angle, dimstyle=DIMSTYLE,
+                                 dxfattribs={"layer": "DIMENSIONS"})
         dim.render()
 
 
