@@ -151,6 +151,9 @@ def _lobe_points(profile: Profile, k: int) -> tuple[np.ndarray, np.ndarray]:
                             [float(profile.z(np.array(hi)))]])
         return r, z
     r = np.linspace(lo, hi, DENSE_POINTS)
+    if hasattr(profile, "breakpoints"):  # keep the program's kinks (move ends) exact
+        b = np.asarray(profile.breakpoints(k), dtype=float)
+        r = np.union1d(r, b[(b > lo) & (b < hi)])
     z = profile.z(np.concatenate([[lo_eval], r[1:]]))
     return r, z
 

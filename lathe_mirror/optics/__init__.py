@@ -7,7 +7,11 @@ Public API (stable names):
   image_displacement(made, mirror, camera=None, *, pose=...) -> DistortionMaps
   distortion_figures(made, mirror, camera=None, *, pose=...) -> {"lobes": [...]}
   render_image(profile, mirror, scene, camera=None, ...) -> (H, W, 3) uint8
-Nothing here imports cadquery; submodules are imported on use.
+  image_difference(a, b, *, mask=None) -> {"rms", "ssim"}
+  scene_from_config(cfg, ...) -> Scene;  make_surface(name, mirror, cfg, *, nose_radius=0)
+  optics.plots: displacement_vs_radius_png(maps), displacement_map_png(maps) -> PNG bytes
+Modules: camera (pixels, rays, CameraPose), trace, distortion, scene, render, surfaces,
+plots; stereo (issue 6). Nothing here imports cadquery; submodules are imported on use.
 """
 
 from .camera import ALIGNED, CameraPose  # noqa: F401
