@@ -11,7 +11,7 @@ from lathe_mirror.errors import InputError
 from lathe_mirror.machine import Lathe, Tool
 from lathe_mirror.profile import ExactProfile, PathProfile, Profile
 from lathe_mirror.toolpath import (BEST, Arc, Line, Strategy, check_junction, check_travel,
-                                   plan_toolpath, plan_toolpath_with, profile_errors)
+                                   plan_toolpath, plan_toolpath, profile_errors)
 
 LATHE = Lathe()  # the paper's machine: 0.005 mm, 528 points
 
@@ -150,7 +150,7 @@ def test_budget_too_small(paper_mirror):
         plan_toolpath(paper_mirror, Lathe(max_points=12), Tool())
     # a budget that holds it: every strategy stays within it
     for st in Strategy:
-        tp = plan_toolpath_with(paper_mirror, Lathe(max_points=120), Tool(nose_radius=0.0), st)
+        tp = plan_toolpath(paper_mirror, Lathe(max_points=120), Tool(nose_radius=0.0), st)
         assert tp.n_points <= 120
 
 

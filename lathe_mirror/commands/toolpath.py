@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     from ..export.gcode import Dialect, options_from_config, parse_dialect, program
     from ..machine import lathe_from_config, stock_from_config, tool_from_config
     from ..machining import as_machined, gouge_depth, junction_fillet
-    from ..toolpath import Strategy, plan_toolpath_with, profile_errors
+    from ..toolpath import Strategy, plan_toolpath, profile_errors
 
     cfg = load(args)
     dialect = parse_dialect(args.dialect)
@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     mirror = mirror_from_config(cfg)
     lathe, tool, stock = lathe_from_config(cfg), tool_from_config(cfg), stock_from_config(cfg)
     opts = options_from_config(cfg)
-    tp = plan_toolpath_with(mirror, lathe, tool, strategy,
+    tp = plan_toolpath(mirror, lathe, tool, strategy,
                             max_deviation=float(cfg["toolpath"]["max_deviation"]))
     text = program(tp, stock, dialect, options=opts, name=f"mirror_{strategy.value}")
     if args.output:
