@@ -288,3 +288,15 @@ def test_roughing_leaves_the_allowance_and_never_cuts_the_part(tmp_path, paper_m
     away = np.abs(r - 20.0) > 0.6  # beside the wall the nose's column spans both lobes
     assert left[away].min() >= 0.5 * allow
     assert left[away].max() <= depth + allow + 0.05
+
+
+def test_radius_mode_program(tmp_path, paper_mirror):
+    """G8: X words are radii; rs274 reports the same contour."""
+    lathe = Lathe(diameter_mode=False)
+    tp = plan_toolpath(paper_mirror, lathe, Tool(nose_radius=0.2), Strategy.ARCS)
+    text = program(tp, STOCK)
+    assert "G8" in text.splitlines()[next(i for i, ln in enumerate(text.splitlines()) if ln.startswith("G18"))]
+    moves = canonical_contour(rs274(tmp_path, text))
+    assert np.allclose([mv[1] for mv in moves[1:]], [s.end for s in tp.segments], atol=1e-4)
+    # the rim's X word is its radius, not its diameter
+    assert f"X{tp.segments[-1].end[0]:.3f}" in text
