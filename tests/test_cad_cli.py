@@ -33,6 +33,20 @@ def test_body_thinner_than_the_profile_is_refused(tmp_path):
     assert not out.exists() and list(tmp_path.iterdir()) == [cfg]
 
 
+@pytest.mark.parametrize("toml, key", [
+    ('mount = "flange"', "cad.mount"),
+    ('step_schema = "AP203"', "cad.step_schema"),
+    ('product_name = "Spiegel \u00fc"', "cad.product_name"),
+    ("mount_depth = 27.0", "cad.mount_depth"),
+])
+def test_bad_cad_settings_are_refused(tmp_path, toml, key):
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text(f"[cad]\n{toml}\n", encoding="utf-8")
+    out = tmp_path / "m.step"
+    _assert_refused(run_cli("cad", "--config", str(cfg), "-o", str(out)), key)
+    assert not out.exists()
+
+
 def test_unwritable_path_is_refused(tmp_path):
     out = tmp_path / "no_such_dir" / "m.step"
     _assert_refused(run_cli("cad", "-o", str(out)), "does not exist")

@@ -112,6 +112,12 @@ def step_bytes(meridian: Meridian, *, schema: StepSchema = StepSchema.AP214,
     from OCP.STEPControl import STEPControl_AsIs, STEPControl_Controller, STEPControl_Writer
     from OCP.TCollection import TCollection_HAsciiString
 
+    if not (product_name and product_name.isascii() and product_name.isprintable()
+            and "'" not in product_name and len(product_name) <= 80):
+        raise InputError(
+            f"cad.product_name = {product_name!r}: allowed 1 to 80 printable ASCII "
+            "characters without quotes (STEP strings)"
+        )
     if solid is None:
         solid = meridian_solid(meridian, lobe_curve=lobe_curve)
     _quiet()
