@@ -48,8 +48,9 @@ class DistortionMaps:
     usable: the made mirror sends the pixel to the same lobe. radius_px: image radius of
     the pixel centre, px. ray_deviation_rad: rad. image_displacement_px: magnitude, px.
     radial_px: signed radial component of the displacement, px (+ outward).
-    viewpoint_spread_mm: mm. blocked: the made lobe's reflected ray is vignetted by the
-    mirror itself. Figures are NaN where not usable.
+    viewpoint_spread_mm: mm. blocked: the pixel is vignetted by the mirror itself (the
+    EXACT mirror's reflected ray runs into the step: a property of the design, so every
+    made surface is judged on the same "unvignetted" pixels). Figures are NaN where not usable.
     """
 
     camera: Camera
@@ -177,7 +178,7 @@ def _figures_of(mirror: Mirror, camera: Camera, hm: RayHits, he: RayHits, xy: np
     deviation = np.where(usable, deviation, np.nan)
     return {"lobe": lobe, "usable": usable, "ray_deviation_rad": deviation,
             "image_displacement_px": disp, "radial_px": radial,
-            "viewpoint_spread_mm": spread, "blocked": hm.blocked & usable}
+            "viewpoint_spread_mm": spread, "blocked": he.blocked & usable}
 
 
 def _rms_max(x: np.ndarray) -> dict:
