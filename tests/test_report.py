@@ -1,0 +1,141 @@
+"""The report's figures against the modules that compute them, recomputed independently here."""
+
+from __future__ import annotations
+
+import copy
+import html
+import json
+import math
+import re
+
+import numpy as np
+import pytest
+
+from lathe_mirror.machine import lathe_from_config, tool_from_config
+from lathe_mirror.machining import as_machined
+from lathe_mirror.optics.stereo import depth_error_curve
+from lathe_mirror.polishing import polish, polish_params_from_config
+from lathe_mirror.profile import ExactProfile
+from lathe_mirror.report.report import compute, dumps, render_html, write_report
+from lathe_mirror.tolerance.radial import radial_figures
+from lathe_mirror.toolpath import BEST, Strategy, plan_toolpath, profile_errors
+
+
+@pytest.fixture(scope="module")
+def small_cfg(paper_config):
+    cfg = copy.deepcopy(paper_config)
+    cfg["polish"]["curve_points"] = 9
+    cfg["tolerance"]["trials"] = 60
+    cfg["tolerance"]["lattice_phases"] = 1
+    return cfg
+
+
+@pytest.fixture(scope="module")
+def report(small_cfg):
+    return compute(small_cfg, renders=True)
+
+
+@pytest.fixture(scope="module")
+def made(small_cfg, paper_mirror):
+    lathe, tool = lathe_from_config(small_cfg), tool_from_config(small_cfg)
+    return {"paper": as_machined(plan_toolpath(paper_mirror, lathe, tool, Strategy.PAPER)),
+            "best": as_machined(plan_toolpath(paper_mirror, lathe, tool, BEST))}
+
+
+def test_design_and_machine_tables(report, paper_mirror, small_cfg):
+    f = report.figures
+    assert f["design"]["lobes"][0]["c"] == pytest.approx(110.64, abs=0.005)  # Table 1
+    assert f["design"]["lobes"][1]["h"] == pytest.approx(123.457, abs=0.0005)
+    assert f["machine"]["lathe"]["resolution"] == small_cfg["machine"]["resolution"]
+    assert f["machine"]["tool"]["nose_radius"] == small_cfg["tool"]["nose_radius"]
+    strategies = [r["strategy"] for r in f["toolpaths"]]
+    assert set(strategies) == {s.value for s in Strategy}
+    assert all(r["n_points"] <= small_cfg["machine"]["max_points"] for r in f["toolpaths"])
+
+
+def test_made_mirror_figures_recomputed(report, made, paper_mirror):
+    f = report.figures["mirrors"]
+    for name in ("paper", "best"):
+        surf = profile_errors(made[name], paper_mirror)
+        opt = radial_figures(made[name], paper_mirror)
+        for k in (0, 1):
+            lb = f[name]["lobes"][k]
+            assert lb["slope_error_rad"] == pytest.approx(surf["lobes"][k]["slope_error_rad"], rel=1e-12)
+            assert lb["image_displacement_px"] == pytest.approx(opt["lobes"][k]["image_displacement_px"], rel=1e-12)
+            assert lb["viewpoint_spread_mm"] == pytest.approx(opt["lobes"][k]["viewpoint_spread_mm"], rel=1e-12)
+    for k in (0, 1):
+        assert f["exact"]["lobes"][k]["image_displacement_px"]["max"] < 1e-9
+
+
+def test_polishing_curve_and_polished_mirror(report, made, paper_mirror, small_cfg):
+    pol = report.figures["polishing"]
+    curve = pol["paper_program"]
+    d = np.asarray(curve["combined_image_displacement_px_rms"])
+    i = int(np.argmin(d))
+    assert curve["optimum"]["time_s"] == curve["times_s"][i]
+    assert 0 < i < d.size - 1 and pol["summary"]["optimum_inside_range"]
+    # The polished mirror is the paper program polished for that time, recomputed here in one
+    # run (the curve's run stops at every snapshot, so its Euler steps differ: ~1e-4).
+    polished = polish(made["paper"], polish_params_from_config(small_cfg), curve["optimum"]["time_s"])
+    again = radial_figures(polished, paper_mirror)
+    for k in (0, 1):
+        assert report.figures["mirrors"]["polished"]["lobes"][k]["image_displacement_px"]["rms"] == pytest.approx(
+            again["lobes"][k]["image_displacement_px"]["rms"], rel=1e-3)
+    # The statement quotes the curve's own numbers (form cost in um).
+    form_outer = curve["optimum"]["lobes"][1]["form_change_mm"]["rms"] * 1e3
+    assert f"{form_outer:.1f} um RMS" in pol["summary"]["statement"]
+
+
+def test_depth_error_at_2m_for_the_four_mirrors(report, made, paper_mirror):
+    at = report.figures["stereo"]["at_2_m"]
+    assert set(at) == {"exact", "paper", "best", "polished"}
+    assert at["exact"]["max"] < 1e-6
+    again = depth_error_curve(made["best"], paper_mirror, [2.0]).at(2.0)
+    assert at["best"]["rms"] == pytest.approx(again["rms"], rel=1e-12)
+    assert at["paper"]["rms"] > at["best"]["rms"]  # the 528-point program is the worse one
+
+
+def test_tolerance_section(report):
+    t = report.figures["tolerance"]
+    for name, prog in t["programs"].items():
+        mc = prog["monte_carlo"]
+        passes = mc["per_trial"]["pass"]
+        assert mc["yield"] == pytest.approx(sum(passes) / len(passes), abs=1e-15)
+        assert report.figures["verdict"][name]["yield"] == mc["yield"]
+        # The verdict's nominal numbers are the sensitivity table's nominal case.
+        nominal = prog["sensitivity"]["nominal"]
+        assert prog["verdict"]["checks"]["depth_error_pct"]["nominal"] == nominal["depth_error_pct_rms"]
+
+
+def test_renders_side_by_side(report):
+    imgs = report.images
+    assert list(imgs) == ["exact", "paper", "best", "polished"]
+    for img in imgs.values():
+        assert img.shape == (1018, 1008, 3) and img.dtype == np.uint8
+    # The paper program's image differs from the exact one more than the best program's.
+    diff = report.figures["renders"]["against_exact"]
+    key = next(k for k in diff["paper"] if "rms" in k.lower())
+    assert diff["paper"][key] > diff["best"][key]
+
+
+def test_html_is_self_contained_and_json_is_plain(report, tmp_path):
+    paths = write_report(report, tmp_path)
+    page = paths["html"].read_text(encoding="utf-8")
+    assert not re.search(r"(src|href)\s*=\s*['\"]?(https?:|//)", page)
+    assert "http://" not in page and "https://" not in page
+    assert page.count("data:image/png;base64,") >= 7
+    for text in ("Monte Carlo yield", html.escape(report.figures["polishing"]["summary"]["statement"])):
+        assert text in page
+    data = json.loads(paths["json"].read_text())
+    assert data["stereo"]["at_2_m"]["exact"]["rms"] == report.figures["stereo"]["at_2_m"]["exact"]["rms"]
+    # Same data, same bytes (no timestamps in the PNGs or the JSON).
+    assert render_html(report) == page
+    assert dumps(report.figures) == paths["json"].read_text()
+
+
+def test_same_config_same_json(small_cfg, report):
+    cfg = copy.deepcopy(small_cfg)
+    again = compute(cfg, renders=False)
+    a, b = dict(report.figures), dict(again.figures)
+    a.pop("renders", None)
+    assert dumps(a) == dumps(b)
