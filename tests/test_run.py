@@ -1,0 +1,56 @@
+"""`lathe-mirror run` (the README's main command) and the stage commands, end to end."""
+
+from __future__ import annotations
+
+import json
+
+from conftest import run_cli
+
+SMALL = """
+[polish]
+curve_points = 9
+[tolerance]
+trials = 100
+lattice_phases = 1
+"""
+
+
+def test_run_writes_programs_cad_and_report(tmp_path):
+    cfg = tmp_path / "small.toml"
+    cfg.write_text(SMALL)
+    out = tmp_path / "out"
+    proc = run_cli("run", "--config", str(cfg), "-o", str(out))
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    # With --config the programs and CAD go under the output directory, not the repository's.
+    assert sorted(p.suffix for p in (out / "gcode").iterdir()) == [".nc", ".nc", ".ngc", ".ngc"]
+    assert {p.suffix for p in (out / "cad").iterdir()} == {".step", ".dxf"}
+    report = json.loads((out / "report.json").read_text())
+    assert report["outputs"]["gcode"] and report["outputs"]["cad"]
+    assert set(report["stereo"]["at_2_m"]) == {"exact", "paper", "best", "polished"}
+    assert report["polishing"]["summary"]["optimum_inside_range"] is True
+    html = (out / "report.html").read_text()
+    assert "<img" in html and "https://" not in html
+    # The progress display went to stderr, the summary to stdout.
+    assert "report:" in proc.stdout and "yield" in proc.stdout
+    assert "lathe-mirror" in proc.stderr
+
+
+def test_run_bad_config_exit_2_writes_nothing(tmp_path):
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text("[lobes.inner]\nr_top = -3.0\n")
+    out = tmp_path / "out"
+    proc = run_cli("run", "--config", str(cfg), "-o", str(out))
+    assert proc.returncode == 2
+    assert "r_top" in proc.stderr and "Traceback" not in proc.stderr
+    assert not out.exists()
+
+
+def test_polish_command_json(tmp_path):
+    cfg = tmp_path / "small.toml"
+    cfg.write_text("[polish]\ncurve_points = 7\n")
+    proc = run_cli("polish", "--config", str(cfg), "--json", "-o", str(tmp_path / "p"))
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    data = json.loads(proc.stdout)
+    assert data == json.loads((tmp_path / "p" / "polish.json").read_text())
+    assert data["summary"]["optimum_time_s"] == data["curve"]["optimum"]["time_s"]
+    assert len(data["curve"]["times_s"]) == 7
