@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..optics.distortion import image_displacement
 
-    maps = image_displacement(made, mirror, pose=pose)
+    maps = image_displacement(made, mirror, pose=pose, progress=progress)
     exact_img = made_img if surface == "exact" and nose == 0 else render_image(
         exact, mirror, scene, pose=pose, supersample=n, progress=progress)
     usable = maps.lobe >= 0

@@ -93,12 +93,13 @@ class DistortionMaps:
 
 
 def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = None, *,
-                       pose: CameraPose = ALIGNED) -> DistortionMaps:
+                       pose: CameraPose = ALIGNED, progress: bool = False) -> DistortionMaps:
     """Per-pixel ray deviation, image displacement (px) and viewpoint spread (mm), made vs exact.
 
     camera: default the mirror's design camera (full sensor). pose: a misaligned camera
     (traced in 3-D, about 10 s for the full sensor; the aligned case takes well under 1 s
     because every pixel of the same image radius shares its meridian trace).
+    progress: tqdm bars on stderr for the 3-D traces.
     """
     camera = camera or mirror.camera
     u, v = pixel_centres(camera)
@@ -115,7 +116,7 @@ def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = No
         maps = {k: a[inverse] for k, a in per.items()}
     else:
         xy = np.stack([u, v], axis=-1)
-        hm, he = (trace_pixels(p, camera, xy, pose=pose) for p in (made, exact))
+        hm, he = (trace_pixels(p, camera, xy, pose=pose, progress=progress) for p in (made, exact))
         maps = _figures_of(mirror, camera, hm, he, xy)
     return DistortionMaps(camera=camera, radius_px=np.hypot(u, v), **maps)
 

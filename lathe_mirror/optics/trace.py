@@ -101,13 +101,15 @@ class RayHits:
 
 
 def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None = None, *,
-                 radii_px: np.ndarray | None = None, pose: CameraPose = ALIGNED) -> RayHits:
+                 radii_px: np.ndarray | None = None, pose: CameraPose = ALIGNED,
+                 progress: bool = False) -> RayHits:
     """Trace the rays of image points (px) off the profile; exact for any Profile.
 
     pixels_xy: (..., 2) image coordinates (u, v) from the principal point, px (see
     camera.py; pixel centres are half-integers). radii_px: alternatively image radii
     along +u, px. pose: a misaligned camera uses the general 3-D tracer (slower, about
-    100 profile evaluations per ray); the aligned one the exact meridian tracer.
+    60 profile evaluations per ray); the aligned one the exact meridian tracer.
+    progress: a tqdm bar on stderr for the 3-D path (seconds per million rays).
     """
     if (pixels_xy is None) == (radii_px is None):
         raise ValueError("trace_pixels: give exactly one of pixels_xy or radii_px")
@@ -118,7 +120,7 @@ def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None 
     u, v = pixels_xy[..., 0], pixels_xy[..., 1]
     if not pose.aligned:
         origin, d = ray_directions(camera, u, v, pose)
-        return trace_rays(profile, origin, d)
+        return trace_rays(profile, origin, d, progress=progress)
     rho = np.hypot(u, v)
     t = rho * (camera.t_pixel / camera.f)
     m = meridian_hits(profile, t)
@@ -181,7 +183,7 @@ def meridian_hits(profile: Profile, t: np.ndarray) -> MeridianHits:
 
 
 def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
-               steps: int = 16, chunk: int = 65536) -> RayHits:
+               steps: int = 16, chunk: int = 65536, progress: bool = False) -> RayHits:
     """General 3-D tracer: rays origin + s * direction (mm, unit directions (..., 3)).
 
     Marches each ray through the mirror's height range (about 23 mm) in `steps` steps,
@@ -201,10 +203,19 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
     out = np.full((n, 3), np.nan)
     blocked = np.zeros(n, dtype=bool)
     z_lo, z_hi = _height_range(profile)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=n, unit="ray", unit_scale=True, desc="trace 3-D", leave=False)
     for a in range(0, n, chunk):
         sl = slice(a, min(a + chunk, n))
         f, p, o, b = _trace_chunk(profile, origin, d_all[sl], z_lo, z_hi, steps)
         fate[sl], point[sl], out[sl], blocked[sl] = f, p, o, b
+        if bar is not None:
+            bar.update(sl.stop - sl.start)
+    if bar is not None:
+        bar.close()
     return RayHits(fate=fate.reshape(shape), point=point.reshape(*shape, 3),
                    direction=out.reshape(*shape, 3), blocked=blocked.reshape(shape))
 
