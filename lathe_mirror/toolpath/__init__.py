@@ -34,10 +34,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .design import Lobe, Mirror
-from .errors import InputError
-from .machine import Lathe, Tool
-from .profile import ExactProfile, PathProfile, Profile
+from ..design import Lobe, Mirror
+from ..errors import InputError
+from ..machine import Lathe, Tool
+from ..profile import ExactProfile, PathProfile, Profile
 
 
 class Strategy(enum.Enum):
@@ -162,7 +162,7 @@ class Toolpath:
         if self.nose_radius == 0.0:
             return PathProfile(self.lobe_segments("inner"), self.lobe_segments("outer"),
                                r_junction=m.r_junction, r_max=m.r_max, vertex_z=m.vertex_z)
-        from .machining import nose_envelope
+        from ..machining import nose_envelope
 
         return nose_envelope(self, self.nose_radius, include_junction=False)
 
