@@ -93,7 +93,7 @@ class DistortionMaps:
 
 
 def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = None, *,
-                       pose: CameraPose = ALIGNED, progress: bool = False) -> DistortionMaps:
+                       pose: CameraPose | None = ALIGNED, progress: bool = False) -> DistortionMaps:
     """Per-pixel ray deviation, image displacement (px) and viewpoint spread (mm), made vs exact.
 
     camera: default the mirror's design camera (full sensor). pose: a misaligned camera
@@ -102,6 +102,7 @@ def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = No
     progress: tqdm bars on stderr for the 3-D traces.
     """
     camera = camera or mirror.camera
+    pose = pose or ALIGNED
     u, v = pixel_centres(camera)
     u, v = u[..., 0], v[..., 0]
     exact = ExactProfile(mirror)
@@ -122,7 +123,7 @@ def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = No
 
 
 def distortion_figures(made: Profile, mirror: Mirror, camera: Camera | None = None, *,
-                       pose: CameraPose = ALIGNED) -> dict:
+                       pose: CameraPose | None = ALIGNED) -> dict:
     """The figures of image_displacement as JSON-ready data, lobes inner first.
 
     {"lobes": [{"name": "inner", "pixels", "pixels_lost", "pixels_vignetted",

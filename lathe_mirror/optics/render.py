@@ -22,7 +22,7 @@ CHUNK_RAYS = 1 << 14  # fits the CPU caches: 1.5x faster than 1 << 18
 
 
 def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera | None = None, *,
-                 pose: CameraPose = ALIGNED, supersample: int = 1,
+                 pose: CameraPose | None = ALIGNED, supersample: int = 1,
                  window: tuple[int, int, int, int] | None = None,
                  progress: bool = False) -> np.ndarray:
     """Render the scene through the mirror: (H, W, 3) uint8, linear RGB.
@@ -32,6 +32,7 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
     progress: a tqdm bar on stderr. Raises InputError if no pixel sees the mirror.
     """
     camera = camera or mirror.camera
+    pose = pose or ALIGNED
     u, v = pixel_centres(camera, supersample=supersample, window=window)
     h, w, n = u.shape
     u, v = u.reshape(-1), v.reshape(-1)

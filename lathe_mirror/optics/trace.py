@@ -101,7 +101,7 @@ class RayHits:
 
 
 def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None = None, *,
-                 radii_px: np.ndarray | None = None, pose: CameraPose = ALIGNED,
+                 radii_px: np.ndarray | None = None, pose: CameraPose | None = ALIGNED,
                  progress: bool = False) -> RayHits:
     """Trace the rays of image points (px) off the profile; exact for any Profile.
 
@@ -111,6 +111,7 @@ def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None 
     60 profile evaluations per ray); the aligned one the exact meridian tracer.
     progress: a tqdm bar on stderr for the 3-D path (seconds per million rays).
     """
+    pose = pose or ALIGNED
     if (pixels_xy is None) == (radii_px is None):
         raise ValueError("trace_pixels: give exactly one of pixels_xy or radii_px")
     if pixels_xy is None:
