@@ -42,10 +42,10 @@ def run(args: argparse.Namespace) -> int:
     made = machined_surface(mirror, cfg, program)
     curve = polish_curve(made.profile, mirror, params, progress=True)
     polished = polish(made.profile, params)
-    from ..report.report import _polish_summary
+    from ..report.report import polish_summary
 
     out = {"program": program.value, "surface": made.source, "params": dict(params.__dict__),
-           "summary": _polish_summary(curve, program.value), "curve": curve.to_dict(),
+           "summary": polish_summary(curve, program.value), "curve": curve.to_dict(),
            "at_time_s": {"time_s": params.time_s, **radial_figures(polished, mirror)}}
     if args.output:
         from pathlib import Path

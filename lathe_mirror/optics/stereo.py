@@ -44,19 +44,23 @@ class DepthCurve:
     error_pct: np.ndarray
 
     def at(self, range_m: float) -> dict:
-        """{"rms", "max"} of |depth error| (%) over the elevations at one range (m)."""
+        """{"rms", "max", "median"} of |depth error| (%) over the elevations at one range (m).
+
+        The median is given too because near-parallel rays make the error heavy-tailed."""
         i = int(np.argmin(np.abs(self.ranges_m - range_m)))
         if not math.isclose(self.ranges_m[i], range_m, rel_tol=1e-9):
             raise ValueError(f"range {range_m} m is not on the curve")
         e = np.abs(self.error_pct[i])
-        return {"rms": float(np.sqrt(np.mean(e**2))), "max": float(np.max(e))}
+        return {"rms": float(np.sqrt(np.mean(e**2))), "max": float(np.max(e)), "median": float(np.median(e))}
 
     def to_dict(self) -> dict:
         e = np.abs(self.error_pct)
         return {"ranges_m": [float(x) for x in self.ranges_m],
                 "elevations_deg": [float(math.degrees(x)) for x in self.elevations],
                 "depth_error_pct": {"rms": [float(v) for v in np.sqrt(np.mean(e**2, axis=1))],
-                                    "max": [float(v) for v in np.max(e, axis=1)]}}
+                                    "max": [float(v) for v in np.max(e, axis=1)],
+                                    "median": [float(v) for v in np.median(e, axis=1)]},
+                "signed_error_pct": [[float(v) for v in row] for row in self.error_pct]}
 
 
 def stereo_centre_z(mirror: Mirror) -> float:

@@ -96,7 +96,7 @@ def compute(cfg: dict, *, progress: bool = False, renders: bool = True, toleranc
         "paper_program": curve_paper.to_dict(),
         "best_program": curve_best.to_dict(),
     }
-    out["polishing"]["summary"] = _polish_summary(curve_paper, "paper")
+    out["polishing"]["summary"] = polish_summary(curve_paper, "paper")
     steps.done()
     steps.start("distortion")
     made["exact"] = ExactProfile(mirror)
@@ -211,7 +211,7 @@ def _mirror_figures(profile, mirror) -> dict:
     return {"lobes": lobes}
 
 
-def _polish_summary(curve, program: str) -> dict:
+def polish_summary(curve, program: str) -> dict:
     i = curve.optimum_index
     d = curve.to_dict()["optimum"]
     form = [lb["form_change_mm"] for lb in d["lobes"]]
@@ -413,10 +413,11 @@ def _mirrors_table(m: dict) -> str:
 
 def _depth_table(st: dict) -> str:
     key = f"at_{DEPTH_REPORT_M:g}_m"
-    rows = "".join(f"<tr><th>{n}</th><td>{_fmt(v['rms'])}</td><td>{_fmt(v['max'])}</td></tr>"
-                   for n, v in st[key].items())
-    return (f"<table><tr><th>mirror</th><th>RMS |depth error| at {DEPTH_REPORT_M:g} m (%)</th>"
-            f"<th>max (%)</th></tr>{rows}</table>")
+    rows = "".join(f"<tr><th>{n}</th><td>{_fmt(v['rms'])}</td><td>{_fmt(v['median'])}</td>"
+                   f"<td>{_fmt(v['max'])}</td></tr>" for n, v in st[key].items())
+    return (f"<p>{html.escape(st['definition'])}; baseline {_fmt(st['baseline_mm'])} mm.</p>"
+            f"<table><tr><th>mirror</th><th>RMS |depth error| at {DEPTH_REPORT_M:g} m (%)</th>"
+            f"<th>median (%)</th><th>max (%)</th></tr>{rows}</table>")
 
 
 def _tolerance_html(f: dict, img) -> str:

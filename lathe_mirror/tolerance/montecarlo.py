@@ -113,7 +113,8 @@ def prepare(mirror: Mirror, cfg: dict, settings: ToleranceSettings, polish_param
         row = []
         for nose in nose_nodes:
             made = machined_surface(mirror, cfg, program, phase=float(ph), nose_radius=float(nose))
-            source = made.source
+            if ph == 0.0 and nose == nose0:
+                source = made.source
             row.append(made.profile)
         machined.append(row)
     nodes = build_nodes(mirror, machined, nose_nodes, phases, polish_params, times, source=source,
