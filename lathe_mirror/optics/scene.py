@@ -142,52 +142,62 @@ def intersect(scene: Scene, origin: np.ndarray, direction: np.ndarray) -> tuple[
     Returns (distance along the direction, surface id); every ray inside the closed room
     hits something.
     """
-    o = np.asarray(origin, float)
-    d = np.asarray(direction, float)
-    # Work on contiguous columns: reductions over a length-3 axis are slow in numpy.
-    oc = [np.ascontiguousarray(o[:, i]) for i in range(3)]
-    dc = [np.ascontiguousarray(d[:, i]) for i in range(3)]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = [1.0 / x for x in dc]
+    oc, dc = _columns(origin), _columns(direction)
+    return intersect_columns(scene, oc, dc)
+
+
+def shade(scene: Scene, origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """Linear RGB in 0..1 of what rays see (N, 3)."""
+    return shade_columns(scene, _columns(origin), _columns(direction))
+
+
+def intersect_columns(scene: Scene, oc, dc) -> tuple[np.ndarray, np.ndarray]:
+    """intersect() on the coordinates as three 1-D arrays each (x, y, z): numpy is much
+    faster on contiguous columns than on a length-3 axis."""
+    with np.errstate(divide="ignore"):
+        inv = [1.0 / x for x in dc]  # +-inf along an axis the ray does not move on
     bounds = scene.bounds
     ids = ((X_LO, X_HI), (Y_LO, Y_HI), (FLOOR, CEILING))
-    dist = np.full(o.shape[0], np.inf)
-    surface = np.zeros(o.shape[0], dtype=np.intp)
-    # Leaving the room: per axis, the plane ahead of the ray; keep the nearest.
+    dist = None
+    surface = None
+    # Leaving the room: per axis, the plane ahead of the ray; keep the nearest. Choosing
+    # "ahead" by the sign of 1/d also sends a zero component (1/d = +-inf) to +inf.
     for axis in range(3):
-        pos = dc[axis] > 0
+        pos = inv[axis] > 0
         ahead = np.where(pos, bounds[2 * axis + 1], bounds[2 * axis])
-        with np.errstate(invalid="ignore"):
-            s = (ahead - oc[axis]) * inv[axis]
-        s[dc[axis] == 0] = np.inf
-        better = s < dist
-        dist = np.where(better, s, dist)
-        surface = np.where(better, np.where(pos, ids[axis][1], ids[axis][0]), surface)
+        s = (ahead - oc[axis]) * inv[axis]
+        this = np.where(pos, ids[axis][1], ids[axis][0])
+        if dist is None:
+            dist, surface = s, this
+        else:
+            better = s < dist
+            dist = np.where(better, s, dist)
+            surface = np.where(better, this, surface)
     for box in scene.boxes:
-        t_near = np.full(o.shape[0], -np.inf)
-        t_far = np.full(o.shape[0], np.inf)
-        face = np.zeros(o.shape[0], dtype=np.intp)
+        t_near = t_far = face = None
         for axis in range(3):
-            with np.errstate(invalid="ignore"):
-                t1 = (box.lo[axis] - oc[axis]) * inv[axis]
-                t2 = (box.hi[axis] - oc[axis]) * inv[axis]
+            t1 = (box.lo[axis] - oc[axis]) * inv[axis]
+            t2 = (box.hi[axis] - oc[axis]) * inv[axis]
             near = np.fmin(t1, t2)
-            later = near > t_near
-            t_near = np.where(later, near, t_near)
+            far = np.fmax(t1, t2)
             # The face entered has its normal against the ray: + side when the ray goes -.
-            face = np.where(later, BOX_FACE0 + 2 * axis + (dc[axis] < 0), face)
-            t_far = np.fmin(t_far, np.fmax(t1, t2))
+            this = BOX_FACE0 + 2 * axis + (inv[axis] < 0)
+            if t_near is None:
+                t_near, t_far, face = near, far, this
+            else:
+                later = near > t_near
+                t_near = np.where(later, near, t_near)
+                face = np.where(later, this, face)
+                t_far = np.fmin(t_far, far)
         hit = (t_near <= t_far) & (t_near > 0) & (t_near < dist)
         dist = np.where(hit, t_near, dist)
         surface = np.where(hit, face, surface)
     return dist, surface
 
 
-def shade(scene: Scene, origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """Linear RGB in 0..1 of what rays see (N, 3)."""
-    o = np.asarray(origin, float)
-    d = np.asarray(direction, float)
-    dist, surface = intersect(scene, o, d)
+def shade_columns(scene: Scene, oc, dc) -> np.ndarray:
+    """shade() on the coordinates as three 1-D arrays each (x, y, z)."""
+    dist, surface = intersect_columns(scene, oc, dc)
     shades = scene.shades()
     # Pigment table: per surface id, (colour on even squares, colour on odd squares),
     # already multiplied by the face's Lambert shade.
@@ -199,11 +209,15 @@ def shade(scene: Scene, origin: np.ndarray, direction: np.ndarray) -> np.ndarray
     table[BOX_FACE0:] = (scene.box_colour, scene.box_colour)
     table *= shades[:, None, None]
     inv_size = np.where(surface == FLOOR, 1.0 / scene.floor_square, 1.0 / scene.wall_square)
-    cells = np.zeros(o.shape[0], dtype=np.int64)
-    for axis in range(3):
-        p = o[:, axis] + dist * d[:, axis]
-        cells += np.floor(p * inv_size).astype(np.int64)
-    return table[surface, cells & 1]
+    cells = np.floor((oc[0] + dist * dc[0]) * inv_size)
+    cells += np.floor((oc[1] + dist * dc[1]) * inv_size)
+    cells += np.floor((oc[2] + dist * dc[2]) * inv_size)  # small integers: exact in float
+    return table[surface, cells.astype(np.int64) & 1]
+
+
+def _columns(a: np.ndarray) -> list[np.ndarray]:
+    a = np.asarray(a, float)
+    return [np.ascontiguousarray(a[:, i]) for i in range(3)]
 
 
 def _pair(value, key: str) -> tuple[float, float]:
