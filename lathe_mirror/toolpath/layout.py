@@ -1,0 +1,131 @@
+"""What every strategy shares: where each lobe's path starts and ends on the lattice, the
+junction moves up the step wall, the split of the point budget between the lobes, and
+the lattice points nearest the nose-centre curve.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..design import Mirror
+from ..machine import Lathe
+from .geometry import _solve_rs_for_centre_r, _Target
+from .moves import Line, Move
+
+
+class _Layout:
+    """Where each lobe's path starts and ends on the lattice, and the junction moves."""
+
+    def __init__(self, mirror: Mirror, lathe: Lathe, rho: float) -> None:
+        self.mirror, self.lathe, self.rho = mirror, lathe, rho
+        res = lathe.resolution
+        zero = mirror.vertex_z
+        rj = mirror.r_junction
+        # the nose centre's column on the wall: at or inside rj - rho (never into the wall)
+        self.r_wall = math.floor((rj - rho) / res + 1e-9) * res
+        rs_end = rj if rho == 0.0 else _solve_rs_for_centre_r(mirror.inner, rho, self.r_wall)
+        self.inner = _Target(mirror.inner, zero, rho, 0.0, rs_end)
+        self.outer = _Target(mirror.outer, zero, rho, rj, mirror.r_max)
+        # fixed columns of the end points: the axis, the wall; for a sharp tool also the
+        # rim; with a nose the outer ends float (nearest lattice point to the target)
+        self.inner_cols = (0.0, self.r_wall)
+        self.outer_cols = (rj, mirror.r_max) if rho == 0.0 else (None, None)
+
+    def targets(self) -> tuple[_Target, _Target]:
+        return self.inner, self.outer
+
+    def junction_extra(self) -> int:
+        """Points the junction adds beyond the lobes' own end points."""
+        return 0 if self.rho == 0.0 else 1
+
+    def min_points(self, max_dev: float) -> int:
+        """Points a polyline needs to stay within max_dev of both lobes (chord sag k L^2/8)."""
+        total = 0
+        for t in self.targets():
+            kappa = np.abs(np.gradient(t.theta_tab, t.s_tab))
+            total += int(math.ceil(np.trapezoid(np.sqrt(kappa / (8.0 * max_dev)), t.s_tab))) + 1
+        return total + self.junction_extra()
+
+    def assemble_lines(self, inner: np.ndarray, outer: np.ndarray) -> tuple[list, list]:
+        """G1 moves through the inner points, the junction, the outer points."""
+        segs: list[Move] = []
+        lobes: list[str] = []
+        for a, b in zip(inner[:-1], inner[1:]):
+            segs.append(Line(_pt(a), _pt(b)))
+            lobes.append("inner")
+        segs_j = self.junction_moves(inner[-1], outer[0])
+        segs += segs_j
+        lobes += ["junction"] * len(segs_j)
+        for a, b in zip(outer[:-1], outer[1:]):
+            segs.append(Line(_pt(a), _pt(b)))
+            lobes.append("outer")
+        return segs, lobes
+
+    def junction_moves(self, inner_end: np.ndarray, outer_start: np.ndarray) -> list[Move]:
+        """Up the step wall from the inner lobe's last point to the outer lobe's first.
+
+        Sharp tool: one G1 up the wall (same column). With a nose: up the wall at the
+        nose's column, then along the outer lobe's start tangent to its first point, so
+        the path passes the step's top corner at >= rho (a corner circumscribed by two
+        tangents, the corner left sharp).
+        """
+        if self.rho == 0.0:
+            return [Line(_pt(inner_end), _pt(outer_start))]
+        res = self.lathe.resolution
+        lobe = self.mirror.outer
+        s0 = float(lobe.slope(self.mirror.r_junction))
+        # the outer offset's tangent line at its start, back to the wall column; round
+        # up (away from the part)
+        z2 = outer_start[1] + (outer_start[0] - self.r_wall) * s0
+        z2 = math.ceil(z2 / res - 1e-9) * res
+        p2 = np.array([self.r_wall, z2])
+        return [Line(_pt(inner_end), _pt(p2)), Line(_pt(p2), _pt(outer_start))]
+
+
+def _split_budget(layout: _Layout, total: int, weights) -> tuple[int, int]:
+    """Points per lobe: `total` shared in proportion to `weights`, at least 2 each."""
+    w = np.asarray(weights, dtype=float)
+    n0 = int(round(total * w[0] / w.sum()))
+    n0 = min(max(n0, 2), total - 2)
+    return n0, total - n0
+
+
+def _candidates(t: _Target, s_nom: np.ndarray, res: float, cols, k_best: int):
+    """Up to k_best lattice points near each nominal vertex, those nearest the curve."""
+    rs = t.rs_at_s(s_nom)
+    p = t.point(rs)
+    gaps = np.diff(p[:, 0])
+    half = np.empty(len(s_nom))
+    half[:] = np.inf
+    half[:-1] = np.minimum(half[:-1], gaps)
+    half[1:] = np.minimum(half[1:], gaps)
+    half = np.maximum(0.4 * half, res)  # windows of neighbours never overlap
+    # a lobe's end points stay at its ends (the rim must be cut to the rim)
+    half[0] = min(half[0], 2 * res)
+    half[-1] = min(half[-1], 2 * res)
+    w = int(max(1, min(60, np.max(np.floor(half / res)))))
+    offs = np.arange(-w, w + 1)
+    col = np.rint(p[:, 0] / res).astype(np.int64)[:, None] + offs[None, :]
+    ok = np.abs(col * res - p[:, [0]]) <= half[:, None] + 1e-12
+    for i, c in ((0, cols[0]), (len(s_nom) - 1, cols[1])):
+        if c is not None:
+            ok[i] = col[i] == int(round(c / res))
+    r = col * res
+    r_safe = np.where(ok, r, p[:, [0]])
+    z = t.z_at_r(np.clip(r_safe, t.r_tab[0], t.r_tab[-1]))
+    zl = np.floor(z / res).astype(np.int64)
+    cand_r = np.concatenate([r_safe, r_safe], axis=1)
+    cand_zk = np.concatenate([zl, zl + 1], axis=1)
+    cand_ok = np.concatenate([ok, ok], axis=1)
+    cand_z = cand_zk * res
+    d, th = t.errors(cand_r, cand_z)
+    score = np.where(cand_ok, np.abs(d), np.inf)
+    order = np.argsort(score, axis=1, kind="stable")[:, :k_best]
+    take = lambda a: np.take_along_axis(a, order, axis=1)  # noqa: E731
+    return take(cand_r), take(cand_z), take(d), take(th), np.isfinite(take(score))
+
+
+def _pt(p) -> tuple[float, float]:
+    return (float(p[0]), float(p[1]))

@@ -1,0 +1,25 @@
+"""Strategy PAPER: the paper's method (section 6), spread and round.
+
+Points evenly spaced along the whole profile's length, each coordinate rounded to the
+lattice, joined by G1 lines (528 points at 0.005 mm on the paper's machine).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..machine import Lathe
+from .layout import _Layout, _split_budget
+
+
+def _paper_points(layout: _Layout, lathe: Lathe) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's method: points evenly spaced along the whole profile's length, each
+    coordinate rounded to the lattice (section 6: 528 points, 0.005 mm)."""
+    n_inner, n_outer = _split_budget(layout, lathe.max_points - layout.junction_extra(),
+                                     weights=[t.length for t in layout.targets()])
+    out = []
+    for t, n in zip(layout.targets(), (n_inner, n_outer)):
+        s = np.linspace(0.0, t.length, n)
+        p = t.point(t.rs_at_s(s))
+        out.append(lathe.snap(p))
+    return out[0], out[1]

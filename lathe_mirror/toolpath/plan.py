@@ -1,0 +1,56 @@
+"""plan_toolpath: check the tool and the budget, run one strategy, check the result.
+
+The strategies themselves are in paper.py, lattice.py and arcs.py (see the package doc).
+"""
+
+from __future__ import annotations
+
+from ..design import Mirror
+from ..errors import InputError
+from ..machine import Lathe, Tool
+from .arcs import _arc_moves
+from .checks import check_junction, check_travel
+from .geometry import _normal_angles
+from .lattice import _lattice_points
+from .layout import _Layout
+from .moves import BEST, Strategy, Toolpath
+from .paper import _paper_points
+
+
+def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
+                  max_deviation: float = 0.01) -> Toolpath:
+    """Plan the finishing contour of `mirror` on `lathe` with `tool`.
+
+    max_deviation (mm): the largest normal deviation the budget must allow a polyline
+    (decides "budget too small"; the config's toolpath.max_deviation).
+    Raises InputError when the budget cannot hold the profile within it, the nose
+    cannot fit the junction, the tool's flanks would rub the profile, or the contour
+    leaves the lathe's travel.
+    """
+    if not isinstance(strategy, Strategy):
+        raise InputError(f"strategy {strategy!r}: allowed {', '.join(s.value for s in Strategy)}")
+    rho = tool.nose_radius
+    check_junction(mirror, tool)
+    tool.check_reach(_normal_angles(mirror), what="the mirror's profile")
+    layout = _Layout(mirror, lathe, rho)
+    need = layout.min_points(max_deviation)
+    if lathe.max_points < need:
+        raise InputError(
+            f"machine.max_points = {lathe.max_points}: too small to hold the profile; lines "
+            f"within {max_deviation:g} mm of it need at least {need} points"
+        )
+    if strategy is Strategy.PAPER:
+        inner, outer = _paper_points(layout, lathe)
+        segs, lobes = layout.assemble_lines(inner, outer)
+    elif strategy is Strategy.LATTICE:
+        inner, outer = _lattice_points(layout, lathe)
+        segs, lobes = layout.assemble_lines(inner, outer)
+    else:
+        segs, lobes = _arc_moves(layout, lathe)
+    n_points = 1 + sum(s.n_points for s in segs)
+    tp = Toolpath(strategy=strategy, lathe=lathe, tool=tool, mirror=mirror,
+                  segments=tuple(segs), lobe_of=tuple(lobes), n_points=n_points)
+    if n_points > lathe.max_points:  # a bug, not bad input: every strategy plans within it
+        raise RuntimeError(f"{strategy.value}: {n_points} points exceed the budget {lathe.max_points}")
+    check_travel(tp.points(), lathe, what="the finishing contour")
+    return tp
