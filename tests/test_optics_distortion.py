@@ -143,3 +143,17 @@ def test_as_machined_fillet_band_starts_at_the_hand_computed_tangent_point(paper
     inner = (maps.lobe == 0) & maps.usable
     bad = inner & (maps.image_displacement_px > 2.0)
     assert maps.radius_px[bad].min() == pytest.approx(rho_px, abs=0.3)
+
+
+def test_paper_reference_model_is_within_its_hand_bound(paper_mirror, paper_config):
+    """The paper's 10^-6 mm model (section 6: a "satisfactory" image): chords of spacing h
+    on a curve of curvature <= kappa tilt the normal by <= h kappa / 2, and rounding both
+    ends to q = 1e-6 mm by <= 2 q / h more; the ray turns by twice that."""
+    from lathe_mirror.optics.surfaces import make_surface
+
+    fig = distortion_figures(make_surface("reference", paper_mirror, paper_config), paper_mirror)
+    for lobe_fig, lobe, span in zip(fig["lobes"], paper_mirror.lobes, (20.0, 15.0)):
+        h = span / 4000
+        kappa = lobe.a / lobe.b**2  # the sheet's largest curvature: at its vertex
+        bound = 2 * (h * kappa / 2 + 2 * 1e-6 / h)
+        assert 0 < lobe_fig["ray_deviation_deg"]["max"] <= math.degrees(bound)

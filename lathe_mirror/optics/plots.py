@@ -19,6 +19,10 @@ def displacement_vs_radius_png(maps: DistortionMaps, *, title: str = "") -> byte
         # plot each distinct radius once.
         rho, idx = np.unique(np.round(maps.radius_px[use], 6), return_index=True)
         ax.plot(rho, maps.radial_px[use][idx], ".", ms=1.5, label=f"{name} lobe")
+    vig = maps.blocked & (maps.lobe >= 0)
+    if vig.any():  # the exact design's pixels whose view the step wall blocks
+        ax.axvspan(float(maps.radius_px[vig].min()), float(maps.radius_px[vig].max()),
+                   color="0.85", zorder=0, label="vignetted by the step")
     ax.axhline(0.0, color="0.5", lw=0.6)
     ax.set_xlabel("image radius (px)")
     ax.set_ylabel("radial image displacement (px)")
