@@ -296,8 +296,12 @@ def _plots(out: dict, made: dict, mirror, images: dict) -> dict[str, bytes]:
         rho, d = [], []
         for k in (0, 1):
             px = lobe_pixel_radii(mirror, k, bin_px=0.25)
-            rho.append(px.radius_px)
-            d.append(radial_displacement(made[name], mirror, k, px.radius_px))
+            # NaN where radii are missing (vignetted, the lost ring): the line breaks there.
+            gap = np.concatenate([[False], np.diff(px.radius_px) > 1.0])
+            r_k = np.insert(px.radius_px, np.flatnonzero(gap), np.nan)
+            d_k = np.insert(radial_displacement(made[name], mirror, k, px.radius_px), np.flatnonzero(gap), np.nan)
+            rho += [r_k, [np.nan]]
+            d += [d_k, [np.nan]]
         curves[name] = (np.concatenate(rho), np.concatenate(d))
     plots["displacement"] = F.displacement_plot(curves, tuple(mirror.image_radii_px["lost_ring"]))
     plots["polishing_paper"] = F.polishing_curve_plot(out["polishing"]["paper_program"],

@@ -21,6 +21,8 @@ from .surfaces import machined_surface
 
 #: Polishing-time snapshots per machined surface, as fractions of the time tolerance.
 TIME_NODES = (-1.0, -0.5, 0.0, 0.5, 1.0)
+#: Nose radii of the machined node surfaces, as fractions of the nose tolerance.
+NOSE_NODES = (-1.0, -0.5, 0.0, 0.5, 1.0)
 
 
 @dataclass(frozen=True)
@@ -97,7 +99,10 @@ def prepare(mirror: Mirror, cfg: dict, settings: ToleranceSettings, polish_param
     tol = settings.tolerances
     nose0 = float(cfg.get("tool", {}).get("nose_radius", 0.0))
     dn = tol.get("nose_radius_mm", 0.0)
-    nose_nodes = np.array([nose0 - dn, nose0, nose0 + dn]) if dn > 0 else np.array([nose0])
+    # Five nose nodes: a nose larger than the program's rounds the step's sharp top edge,
+    # a feature that grows non-linearly with the excess; linear interpolation needs the
+    # nodes close together to follow it.
+    nose_nodes = nose0 + dn * np.array(NOSE_NODES) if dn > 0 else np.array([nose0])
     if np.any(nose_nodes < 0):
         from ..errors import InputError
 
@@ -113,7 +118,7 @@ def prepare(mirror: Mirror, cfg: dict, settings: ToleranceSettings, polish_param
         row = []
         for nose in nose_nodes:
             made = machined_surface(mirror, cfg, program, phase=float(ph), nose_radius=float(nose))
-            if ph == 0.0 and nose == nose0:
+            if ph == 0.0 and math.isclose(nose, nose0):
                 source = made.source
             row.append(made.profile)
         machined.append(row)
