@@ -198,16 +198,33 @@ class Mirror:
         return _ray_meets_sheet(self.outer, t)
 
     def fov(self, lobe: Lobe) -> tuple[float, float]:
-        """Elevation range (rad) of world directions the lobe shows: (lowest, highest)."""
+        """Elevation range (rad) of world directions the lobe reflects: (lowest, highest).
+
+        The geometric range of the mirror surface the camera sees; see fov_usable for
+        the part the step wall does not block.
+        """
         if lobe is self.inner:
             return (-math.pi / 2.0, lobe.alpha)
         return (float(lobe.elevation(self.r_outer_visible)), lobe.alpha)
 
+    def fov_usable(self, lobe: Lobe) -> tuple[float, float]:
+        """Elevation range (rad) of world directions that reach the lobe unblocked.
+
+        With the inner lobe recessed, a world ray bound for the inner F1 above the
+        elevation atan((z_outer(R_junction) - 2e_inner) / R_junction) meets the step wall
+        before the inner lobe: the top of the inner lobe's field is lost to the step.
+        """
+        lo, hi = self.fov(lobe)
+        if lobe is self.inner and self.step > 0:
+            zo = self.junction_z[1]
+            hi = min(hi, math.atan2(zo - lobe.focus_z, self.r_junction))
+        return (lo, hi)
+
     @property
     def common_band(self) -> tuple[float, float]:
-        """Elevations (rad) that both lobes see: the stereo band (lowest, highest)."""
-        lo = max(self.fov(self.inner)[0], self.fov(self.outer)[0])
-        hi = min(self.fov(self.inner)[1], self.fov(self.outer)[1])
+        """Elevations (rad) both lobes see unblocked: the stereo band (lowest, highest)."""
+        lo = max(self.fov_usable(self.inner)[0], self.fov_usable(self.outer)[0])
+        hi = min(self.fov_usable(self.inner)[1], self.fov_usable(self.outer)[1])
         return (lo, hi)
 
     @property
@@ -220,8 +237,13 @@ class Mirror:
         outer_start = float(cam.image_radius_px(self.r_outer_visible / self.outer.z(self.r_outer_visible)))
         # Rays between the inner rim and the outer sheet's edge hit the step wall (lost).
         lost = (inner_edge, outer_start) if outer_start > inner_edge else (inner_edge, inner_edge)
+        # Inner pixels whose world ray the step wall blocks (fov_usable's top).
+        el = self.fov_usable(self.inner)[1]
+        p = _sheet_point_seen_from_focus(self.inner, el)
+        blocked_from = float(cam.image_radius_px(p[0] / p[1]))
         return {
             "inner_disc": (0.0, inner_edge),
+            "inner_blocked_by_step": (min(blocked_from, inner_edge), inner_edge),
             "lost_ring": lost,
             "outer_annulus": (max(inner_edge, outer_start), float(self.outer.r_pixel)),
         }
@@ -363,6 +385,7 @@ def design_figures(mirror: Mirror) -> dict:
     lobes = []
     for lobe in mirror.lobes:
         lo, hi = mirror.fov(lobe)
+        ulo, uhi = mirror.fov_usable(lobe)
         lobes.append(
             {
                 "name": lobe.name,
@@ -381,6 +404,7 @@ def design_figures(mirror: Mirror) -> dict:
                 "rim_z": float(lobe.z(lobe.r_top)),
                 "focus_z": lobe.focus_z,
                 "fov_deg": {"min": math.degrees(lo), "max": math.degrees(hi)},
+                "fov_usable_deg": {"min": math.degrees(ulo), "max": math.degrees(uhi)},
                 # Check of the single viewpoint: worst miss of F1 over 2001 reflected rays.
                 "viewpoint_check_mm": float(
                     single_viewpoint_error(lobe, np.linspace(0.0, lobe.r_top, 2001)).max()
@@ -454,6 +478,25 @@ def _ray_meets_sheet(lobe: Lobe, t: float) -> float:
     # The upper sheet has z - e > 0, i.e. r / t > e.
     good = [x for x in roots if x > 0 and x / t > e]
     return min(good)
+
+
+def _sheet_point_seen_from_focus(lobe: Lobe, elevation: float) -> tuple[float, float]:
+    """Point (r, z) of the lobe's sheet seen from F1 at the given elevation (rad).
+
+    P = F1 + t (cos el, sin el) in (z - e)^2 / a^2 - r^2 / b^2 = 1 is a quadratic in t;
+    the sheet's point is its positive root.
+    """
+    a, b, e = lobe.a, lobe.b, lobe.e
+    c, s = math.cos(elevation), math.sin(elevation)
+    qa = s * s / (a * a) - c * c / (b * b)
+    qb = 2.0 * e * s / (a * a)
+    qc = e * e / (a * a) - 1.0
+    if abs(qa) < 1e-15:
+        t = -qc / qb
+    else:
+        disc = math.sqrt(max(qb * qb - 4.0 * qa * qc, 0.0))
+        t = max((-qb + disc) / (2.0 * qa), (-qb - disc) / (2.0 * qa))
+    return (t * c, lobe.focus_z + t * s)
 
 
 def _positive(key: str, value: float, unit: str) -> None:

@@ -25,7 +25,7 @@ def test_design_json_has_table1_and_derived_figures():
         assert key in inner and key in outer
     assert fig["junction"]["recessed"] == "inner"
     assert fig["baseline_mm"] == pytest.approx(12.8, abs=0.01)
-    assert set(fig["image_radii_px"]) == {"inner_disc", "lost_ring", "outer_annulus"}
+    assert set(fig["image_radii_px"]) == {"inner_disc", "inner_blocked_by_step", "lost_ring", "outer_annulus"}
     assert "swapped" in fig["notes"][0]
 
 

@@ -191,3 +191,25 @@ def test_mirror_level_checks():
 def test_design_figures_report_the_viewpoint_check(paper_mirror):
     for lobe in design_figures(paper_mirror)["lobes"]:
         assert 0.0 <= lobe["viewpoint_check_mm"] < 1e-9
+
+
+def test_step_wall_blocks_the_top_of_the_inner_field(paper_mirror):
+    m = paper_mirror
+    # Hand value: a world ray bound for the inner F1 (z = 110.64) clears the top of the
+    # wall (r = 20, z = outer sheet at 20) only below atan((113.786 - 110.64) / 20).
+    z_top = float(m.outer.z(20.0))
+    limit = math.atan((z_top - m.inner.focus_z) / 20.0)
+    assert math.degrees(limit) == pytest.approx(math.degrees(math.atan((113.786 - 110.64) / 20)), abs=5e-3)
+    assert m.fov_usable(m.inner) == pytest.approx((-math.pi / 2, limit), abs=1e-12)
+    assert m.fov_usable(m.outer) == m.fov(m.outer)
+    # The inner pixel at the start of the blocked band sees the sheet point on the line
+    # from F1 through the wall's top edge.
+    lo, hi = m.image_radii_px["inner_blocked_by_step"]
+    assert hi == pytest.approx(307.555, abs=1e-9)
+    t = lo * 0.009 / 16.0  # tan of the camera ray
+    # On the sheet: the camera ray r = t z meets the inner lobe (closed-form quadratic).
+    a, b, e = m.inner.a, m.inner.b, m.inner.e
+    qa, qb, qc = 1 / (t * t * a * a) - 1 / (b * b), -2 * e / (t * a * a), e * e / (a * a) - 1
+    r = max((-qb + s * math.sqrt(qb * qb - 4 * qa * qc)) / (2 * qa) for s in (1, -1))
+    z = r / t
+    assert math.atan2(z - m.inner.focus_z, r) == pytest.approx(limit, abs=1e-12)

@@ -59,6 +59,8 @@ def format_design(fig: dict) -> str:
         lines.append(f"{name:24s}{fmt.format(inner[key]):>14s}{fmt.format(outer[key]):>14s}")
     fov = lambda lobe: f"{lobe['fov_deg']['min']:.2f}..{lobe['fov_deg']['max']:.2f}"  # noqa: E731
     lines.append(f"{'elevation FOV [deg]':24s}{fov(inner):>14s}{fov(outer):>14s}")
+    ufov = lambda lobe: f"{lobe['fov_usable_deg']['min']:.2f}..{lobe['fov_usable_deg']['max']:.2f}"  # noqa: E731
+    lines.append(f"{'  unblocked [deg]':24s}{ufov(inner):>14s}{ufov(outer):>14s}")
     vp = lambda lobe: f"{lobe['viewpoint_check_mm']:.1e}"  # noqa: E731
     lines.append(f"{'rays missing F1 by [mm]':24s}{vp(inner):>14s}{vp(outer):>14s}")
     j = fig["junction"]
@@ -70,7 +72,8 @@ def format_design(fig: dict) -> str:
         f"(inner sheet z = {j['z_inner']:.4f}, outer sheet z = {j['z_outer']:.4f} mm)",
         f"stereo baseline (F1 to F1): {fig['baseline_mm']:.3f} mm; "
         f"common band: {band['min']:.3f} to {band['max']:.3f} deg elevation",
-        f"image radii: inner disc 0..{radii['inner_disc']['max']:.3f} px, lost ring "
+        f"image radii: inner disc 0..{radii['inner_disc']['max']:.3f} px (its world rays are "
+        f"blocked by the step wall from {radii['inner_blocked_by_step']['min']:.3f} px out), lost ring "
         f"{radii['lost_ring']['min']:.3f}..{radii['lost_ring']['max']:.3f} px, outer annulus "
         f"{radii['outer_annulus']['min']:.3f}..{radii['outer_annulus']['max']:.3f} px",
         f"mirror depth (vertex to outer rim): {fig['depth_mm']:.3f} mm",
