@@ -53,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
 
     cad = write_reference_cad(cad_dir, cfg)
     data = compute(cfg, progress=True, renders=not args.no_render)
-    data.figures["outputs"] = {"gcode": [str(p) for p in programs], "cad": [str(p) for p in cad]}
+    data.figures["outputs"] = {kind: [{"path": str(p), "sha256": _sha256(p)} for p in paths]
+                               for kind, paths in (("gcode", programs), ("cad", cad))}
     paths = write_report(data, out_dir)
     if args.json:
         print_json(data.figures)
@@ -62,3 +63,9 @@ def run(args: argparse.Namespace) -> int:
         print("programs: " + ", ".join(str(p) for p in programs))
         print("CAD: " + ", ".join(str(p) for p in cad))
     return 0
+
+
+def _sha256(path) -> str:
+    import hashlib
+
+    return hashlib.sha256(open(path, "rb").read()).hexdigest()

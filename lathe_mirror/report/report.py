@@ -31,6 +31,29 @@ DEPTH_REPORT_M = 2.0
 MIRRORS = ("exact", "paper", "best", "polished")
 
 
+#: What a reader needs to know to read the figures right.
+NOTES = (
+    "Optical figures count, per lobe, the pixel centres whose exact and made rays land on the "
+    "lobe and leave it unobstructed; on this design the step wall vignettes the inner lobe's "
+    "reflected rays beyond r = {r_used:.2f} mm (image radius {rho_used:.0f} px), so those pixels show the wall, "
+    "not the world, and are left out (optics_distortion, kept alongside, counts them).",
+    "Slope error in the tolerance spec and on the polishing curve is over the radii the image "
+    "uses (the inner lobe up to the vignetting radius, where the tool's corner fillet also lies); "
+    "the toolpath tables give it over whole lobes (toolpath.profile_errors).",
+    "Depth error: a point at range R from the stereo centre is imaged at the exact design's pixel "
+    "by each lobe; the made mirror's rays through those two pixels are crossed; error = 100 "
+    "(R_made - R) / R. With a {baseline:.1f} mm baseline the two rays meet at {angle_2m:.2f} deg at 2 m, so ray "
+    "deviations of a tenth of a degree already give tens of percent; the error is heavy-tailed, "
+    "so the median is given with the RMS.",
+    "Monte Carlo: machined surfaces are precomputed at tolerance.lattice_phases lattice phases "
+    "(the Z work zero's offset on the controller's lattice) x 5 nose radii, each polished once "
+    "with snapshots at 5 times; a trial interpolates linearly between them, shifts the surface "
+    "by the tool setting errors, and is traced in 3-D through its misaligned camera on a sparse "
+    "pixel sample (tolerance.bin_px image-radius bins x tolerance.azimuths azimuths, weighted "
+    "by pixel counts).",
+)
+
+
 @dataclass
 class ReportData:
     """What the report shows: JSON-ready figures, plots (PNG bytes) and renders (arrays)."""
@@ -78,7 +101,12 @@ def compute(cfg: dict, *, progress: bool = False, renders: bool = True, toleranc
     steps.start("design")
     mirror = mirror_from_config(cfg)
     out["design"] = design_figures(mirror)
-    out["notes"].append(TABLE1_SWAP_NOTE)
+    from ..tolerance.radial import corner_limit_px, used_extent
+
+    r_used = used_extent(mirror, 0)[1]
+    facts = {"r_used": r_used, "rho_used": corner_limit_px(mirror, mirror.r_junction - r_used),
+             "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
+    out["notes"] += [TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)]
     steps.done()
     # ---- toolpaths and as-machined surfaces
     steps.start("toolpaths")
