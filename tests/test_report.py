@@ -5,7 +5,6 @@ from __future__ import annotations
 import copy
 import html
 import json
-import math
 import re
 
 import numpy as np
@@ -15,7 +14,6 @@ from lathe_mirror.machine import lathe_from_config, tool_from_config
 from lathe_mirror.machining import as_machined
 from lathe_mirror.optics.stereo import depth_error_curve
 from lathe_mirror.polishing import polish, polish_params_from_config
-from lathe_mirror.profile import ExactProfile
 from lathe_mirror.report.report import compute, dumps, render_html, write_report
 from lathe_mirror.tolerance.radial import radial_figures
 from lathe_mirror.toolpath import BEST, Strategy, plan_toolpath, profile_errors

@@ -9,7 +9,6 @@ and evaluates them vectorised (tolerance.perturb). Same config and seed, same JS
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass
 
 import numpy as np
