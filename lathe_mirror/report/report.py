@@ -125,6 +125,7 @@ def compute(cfg: dict, *, progress: bool = False, renders: bool = True, toleranc
         "best_program": curve_best.to_dict(),
     }
     out["polishing"]["summary"] = polish_summary(curve_paper, "paper")
+    out["polishing"]["summary_best"] = polish_summary(curve_best, "best")
     steps.done()
     steps.start("distortion")
     made["exact"] = ExactProfile(mirror)
@@ -252,13 +253,18 @@ def polish_summary(curve, program: str) -> dict:
                                       "at_optimum": float(curve.combined_displacement_px[i])},
         "form_cost_mm": {lb["name"]: f for lb, f in zip(d["lobes"], form)},
         "statement": (
+            f"The {program} program's mirror is best left unpolished: its image displacement, "
+            f"{curve.combined_displacement_px[0]:.2f} px RMS over both lobes as machined, only grows with "
+            f"polishing (to {curve.combined_displacement_px[-1]:.2f} px after "
+            f"{curve.times_s[-1] / 60:.0f} min) as the lap's form change outweighs what it smooths."
+        ) if i == 0 else (
             f"Polishing the {program} program's mirror for {curve.optimum_time_s / 60:.0f} min minimises the "
             f"image displacement (RMS over both lobes {curve.combined_displacement_px[0]:.2f} -> "
             f"{curve.combined_displacement_px[i]:.2f} px); it costs a form change of "
             f"{form[0]['rms'] * 1e3:.1f} um RMS ({form[0]['max'] * 1e3:.1f} um max) on the inner lobe and "
             f"{form[1]['rms'] * 1e3:.1f} um RMS ({form[1]['max'] * 1e3:.1f} um max) on the outer lobe."
-            + ("" if curve.optimum_inside else " The optimum lies at an end of the explored range: "
-               "widen polish.curve_max_s.")),
+            + ("" if curve.optimum_inside else
+               " The optimum lies at the end of the explored range: widen polish.curve_max_s.")),
     }
 
 
@@ -376,7 +382,8 @@ def render_html(data: ReportData) -> str:
         renders_table=_kv_table({f"{k}: {m}": v for k, d in f.get("renders", {}).get("against_exact", {}).items()
                                  for m, v in d.items()}) if f.get("renders") else "",
         displacement_plot=img("displacement", "image displacement against image radius"),
-        polish_statement=html.escape(f["polishing"]["summary"]["statement"]),
+        polish_statement=html.escape(f["polishing"]["summary"]["statement"]) + "</b></p><p><b>"
+        + html.escape(f["polishing"]["summary_best"]["statement"]),
         polishing_plots=img("polishing_paper", "polishing curve, paper program") + img(
             "polishing_best", "polishing curve, best program"),
         depth_table=_depth_table(f["stereo"]),
