@@ -52,7 +52,8 @@ class PolishParams:
     local pressure, mm (smaller: a stiffer pad, faster smoothing). spindle_rpm: rev/min.
     time_s: polishing time, s. grid_step_mm: radial grid of the evolution, mm (finer costs
     time linearly; must resolve the lattice steps). form_degree: degree of the Legendre fit
-    in r that defines "form" per lobe.
+    in r that defines "form" per lobe. corner_mm: width of the band at the foot of the step
+    that the pad cannot reach, mm (left as machined).
     """
 
     preston_coefficient: float = 4e-13
@@ -65,6 +66,7 @@ class PolishParams:
     curve_max_s: float = 7200.0
     curve_points: int = 25
     form_degree: int = 4
+    corner_mm: float = 0.5
 
     def __post_init__(self) -> None:
         for key in ("preston_coefficient", "pressure_kpa", "pad_size_mm", "compliance_mm",
@@ -72,6 +74,8 @@ class PolishParams:
             v = getattr(self, key)
             if not (math.isfinite(v) and v > 0):
                 raise InputError(f"polish.{key} = {v!r} must be a finite number > 0")
+        if not (math.isfinite(self.corner_mm) and 0 <= self.corner_mm <= 5):
+            raise InputError(f"polish.corner_mm = {self.corner_mm!r} must be 0 .. 5 mm")
         if not (math.isfinite(self.time_s) and self.time_s >= 0):
             raise InputError(f"polish.time_s = {self.time_s!r} must be a finite number >= 0 s")
         if self.curve_points < 3:
@@ -114,17 +118,35 @@ def polish(profile: Profile, params: PolishParams, time_s: float | None = None) 
 def polish_series(profile: Profile, params: PolishParams, times_s) -> list[SampledProfile]:
     """The polished surface at each of times_s (s), from one evolution (snapshots).
 
-    Each lobe evolves on its own grid from r = its inner edge to its outer edge.
+    Each lobe evolves on its own grid from r = its inner edge to its outer edge, except a
+    band params.corner_mm wide at the foot of the step (the recessed lobe's edge at the
+    junction), which the pad cannot reach and which stays as machined.
     """
     times = np.asarray(times_s, dtype=float)
     if times.ndim != 1 or times.size == 0 or not np.all(np.isfinite(times)) or np.any(times < 0):
         raise InputError(f"polishing times {times_s!r} must be finite numbers >= 0 s")
     order = np.argsort(times, kind="stable")
+    corner_lobe = _recessed_lobe(profile)
     per_lobe = []
     for k in (0, 1):
         r = _lobe_grid(profile, k, params.grid_step_mm)
         z0 = np.asarray(profile.z(r), dtype=float)
-        per_lobe.append((r, _evolve(r, z0, params, times[order])))
+        # The pad cannot press into the inside corner at the foot of the step: that band
+        # of the recessed lobe stays as machined (with the tool's fillet, if any).
+        reach = np.ones(r.size, bool)
+        if k == corner_lobe and params.corner_mm > 0:
+            reach = (r < profile.r_junction - params.corner_mm) if k == 0 else \
+                (r > profile.r_junction + params.corner_mm)
+        if reach.sum() < 16:
+            per_lobe.append((r, [z0.copy() for _ in times]))
+            continue
+        snaps = _evolve(r[reach], z0[reach], params, times[order])
+        full = []
+        for zs in snaps:
+            z = z0.copy()
+            z[reach] = zs
+            full.append(z)
+        per_lobe.append((r, full))
     out: list[SampledProfile | None] = [None] * times.size
     for j, i in enumerate(order):
         ri, zi = per_lobe[0][0], per_lobe[0][1][j]
@@ -132,6 +154,15 @@ def polish_series(profile: Profile, params: PolishParams, times_s) -> list[Sampl
         out[i] = SampledProfile(LobeSamples(ri, zi), LobeSamples(ro, zo), r_junction=profile.r_junction,
                                 r_max=profile.r_max, vertex_z=profile.vertex_z)
     return out  # type: ignore[return-value]
+
+
+def _recessed_lobe(profile: Profile) -> int:
+    """0 if the inner lobe is recessed at the junction (the step's inside corner is on its
+    edge), 1 if the outer lobe is."""
+    rj = profile.r_junction
+    z_in = float(profile.z(np.array([rj]))[0])
+    z_out = float(profile.z(np.array([np.nextafter(rj, np.inf)]))[0])
+    return 0 if z_in > z_out else 1
 
 
 def removal_rate(r: np.ndarray, params: PolishParams) -> np.ndarray:

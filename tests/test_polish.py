@@ -123,3 +123,18 @@ def test_polish_cli_bad_time_exit_2(tmp_path):
     assert proc.returncode == 2, proc.stderr
     assert "polish.time_s" in proc.stderr and "Traceback" not in proc.stderr
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_the_pad_does_not_reach_the_inside_corner(paper_mirror):
+    """The inner lobe is recessed (paper: 1.821 mm step): its last corner_mm stay as machined."""
+    params = PolishParams(time_s=1200.0, corner_mm=0.5)
+    out = polish(ExactProfile(paper_mirror), params)
+    inner = paper_mirror.inner
+    band = np.linspace(19.55, 20.0, 10)
+    assert np.max(np.abs(out.z(band) - inner.z(band))) < 1e-9
+    # Just inside the pad's reach, the Preston removal k p v t (r = 19.4 mm) is there.
+    omega = 300.0 * 2.0 * math.pi / 60.0
+    expected = 4e-13 * 20e3 * omega * 19.4 * 1200.0 * math.sqrt(1.0 + float(inner.slope(19.4)) ** 2)
+    assert float(out.z(np.array([19.4]))[0] - inner.z(19.4)) == pytest.approx(expected, rel=0.05)
+    # The outer lobe stands proud at the junction: polished right up to its edge.
+    assert float(out.z(np.array([20.01]))[0] - paper_mirror.outer.z(20.01)) > 0.5 * expected
