@@ -54,12 +54,23 @@ def images_side_by_side(images: dict[str, np.ndarray]) -> bytes:
     return png(fig)
 
 
-def profile_deviation_plot(curves: dict[str, tuple[np.ndarray, np.ndarray]], r_junction: float) -> bytes:
-    """Signed height error (um) of each made surface against r (mm)."""
+def profile_deviation_plot(curves: dict[str, tuple[np.ndarray, np.ndarray]], r_junction: float,
+                           used: np.ndarray | None = None) -> bytes:
+    """Signed height error (um) of each made surface against r (mm).
+
+    used: mask of the radii the image uses; the y range is fitted to them, so the tool's
+    fillet in the inside corner (hundreds of um, unused) runs off the scale.
+    """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 3.2))
+    lo, hi = np.inf, -np.inf
     for name, (r, dz) in curves.items():
         ax.plot(r, dz * 1e3, lw=0.7, label=name, color=MIRROR_COLOURS.get(name))
+        sel = dz[used] if used is not None else dz
+        lo, hi = min(lo, float(np.nanmin(sel))), max(hi, float(np.nanmax(sel)))
+    if used is not None and np.isfinite(lo):
+        pad = 0.1 * (hi - lo) + 1e-4
+        ax.set_ylim((lo - pad) * 1e3, (hi + pad) * 1e3)
     ax.axvline(r_junction, color="grey", lw=0.5, ls="--")
     ax.set_xlabel("r (mm)")
     ax.set_ylabel("z made - z exact (um)")

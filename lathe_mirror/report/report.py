@@ -323,8 +323,11 @@ def _plots(out: dict, made: dict, mirror, images: dict) -> dict[str, bytes]:
     r = np.concatenate([np.linspace(0.0, mirror.r_junction, 4001),
                         np.linspace(np.nextafter(mirror.r_junction, 99.0), mirror.r_max, 3001)])
     exact_z = made["exact"].z(r)
+    from ..tolerance.radial import used_extent
+
+    used = (r <= used_extent(mirror, 0)[1]) | (r > mirror.r_junction)
     plots["profile_error"] = F.profile_deviation_plot(
-        {n: (r, made[n].z(r) - exact_z) for n in ("paper", "best", "polished")}, mirror.r_junction)
+        {n: (r, made[n].z(r) - exact_z) for n in ("paper", "best", "polished")}, mirror.r_junction, used)
     curves = {}
     for name in ("paper", "best", "polished"):
         rho, d = [], []
