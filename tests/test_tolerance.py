@@ -224,3 +224,18 @@ def test_tolerance_cli_bad_program_exit_2(tmp_path):
     assert proc.returncode == 2, proc.stderr
     assert "tolerance.programs[1]" in proc.stderr and "Traceback" not in proc.stderr
     assert not out.exists()
+
+
+def test_trial_depth_error_matches_the_stereo_module(ctx, paper_mirror, paper_config):
+    """A nominal (aligned) trial's depth error, traced in 3-D at 4 azimuths, against
+    optics.stereo's meridian triangulation on the same polished surface."""
+    from lathe_mirror.optics.stereo import band_elevations, depth_error_curve
+    from lathe_mirror.polishing import polish
+
+    fig = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s))
+    surf = machined_surface(paper_mirror, paper_config, Program.PAPER).profile
+    polished = polish(surf, polish_params_from_config(paper_config), ctx.nominal_time_s)
+    rng = ctx.settings.spec.depth_range_m
+    curve = depth_error_curve(polished, paper_mirror, [rng],
+                              elevations=band_elevations(paper_mirror, ctx.settings.depth_points))
+    assert fig.depth_error_pct_rms[0] == pytest.approx(curve.at(rng)["rms"], rel=0.05)
