@@ -103,6 +103,12 @@ def test_tolerance_section(report):
         # The verdict's nominal numbers are the sensitivity table's nominal case.
         nominal = prog["sensitivity"]["nominal"]
         assert prog["verdict"]["checks"]["depth_error_pct"]["nominal"] == nominal["depth_error_pct_rms"]
+    # The paper program rounds every point to the lattice: a finer controller (0.0025 mm)
+    # must give a smaller image displacement than a coarser one (0.0075 mm).
+    row = t["programs"]["paper"]["sensitivity"]["rows"][0]
+    assert row["parameter"] == "resolution_mm"
+    assert (row["minus"]["resolution_mm"], row["plus"]["resolution_mm"]) == pytest.approx((0.0025, 0.0075))
+    assert max(row["minus"]["image_displacement_px_rms"]) < max(row["plus"]["image_displacement_px_rms"])
 
 
 def test_renders_side_by_side(report):

@@ -282,7 +282,7 @@ def _renders(made: dict, mirror, cfg: dict):
 def _tolerance(mirror, cfg, params, curve_paper, curve_best, progress: bool) -> dict:
     """Monte Carlo and sensitivity for each toleranced program; the verdict of each."""
     from ..tolerance.montecarlo import prepare, run_monte_carlo
-    from ..tolerance.sensitivity import sensitivity_table
+    from ..tolerance.sensitivity import resolution_row, sensitivity_table
     from ..tolerance.spec import Program, settings_from_config
 
     settings = settings_from_config(cfg)
@@ -293,6 +293,9 @@ def _tolerance(mirror, cfg, params, curve_paper, curve_best, progress: bool) -> 
         ctx = prepare(mirror, cfg, settings, params, curve.optimum_time_s, program, progress=progress)
         mc = run_monte_carlo(ctx, progress=progress)
         sens = sensitivity_table(ctx, progress=progress)
+        row = resolution_row(ctx, cfg, params)
+        if row is not None:
+            sens["rows"].insert(0, row)
         entry = {"surfaces": ctx.source, "nominal_polish_time_s": ctx.nominal_time_s,
                  "monte_carlo": mc.to_dict(), "sensitivity": sens}
         entry["verdict"] = _verdict(entry, settings.spec.__dict__)

@@ -1,6 +1,9 @@
 """Sensitivity table: each parameter at - and + its tolerance, the others nominal.
 
 The lattice phase has no sign: its row gives the best and worst of its realisations.
+The controller's resolution is a row of its own (resolution_row): it does not vary from
+part to part, so the Monte Carlo varies the lattice phase instead, but the table shows
+what a coarser or finer controller would do.
 """
 
 from __future__ import annotations
@@ -73,3 +76,36 @@ def sensitivity_table(ctx: Context, *, progress: bool = False) -> dict:
                      "unit": PARAMETERS[key][1], "minus": case(i_m), "plus": case(i_m + 1)})
     return {"nominal": case(0), "rows": rows,
             "nominal_values": {"nose_radius_mm": ctx.nominal_nose_mm, "polish_time_s": ctx.nominal_time_s}}
+
+
+def resolution_row(ctx: Context, cfg: dict, polish_params, *, progress: bool = False) -> dict | None:
+    """The nominal part re-planned and re-machined on a controller of resolution -/+ the
+    tolerance tolerance.params.resolution_mm (None when that tolerance is 0)."""
+    from ..errors import InputError
+    from .perturb import build_nodes
+    from .surfaces import machined_surface
+
+    d = ctx.settings.tolerances.get("resolution_mm", 0.0)
+    if d <= 0:
+        return None
+    res0 = float(cfg["machine"]["resolution"])
+    if d >= res0:
+        raise InputError(f"tolerance.params.resolution_mm = {d:g} mm must be smaller than "
+                         f"machine.resolution = {res0:g} mm")
+    out = {"parameter": "resolution_mm", "what": "controller resolution (re-planned program)",
+           "tolerance": d, "unit": "mm",
+           "note": "not drawn in the Monte Carlo: one controller makes every part"}
+    for which, res in (("minus", res0 - d), ("plus", res0 + d)):
+        made = machined_surface(ctx.mirror, cfg, ctx.program, resolution=res, nose_radius=ctx.nominal_nose_mm)
+        nodes = build_nodes(ctx.mirror, [[made.profile]], np.array([ctx.nominal_nose_mm]), np.array([0.0]),
+                            polish_params, np.array([ctx.nominal_time_s]))
+        sub = Context(ctx.mirror, ctx.settings, nodes, ctx.samples, ctx.nominal_nose_mm, ctx.nominal_time_s,
+                      made.source, ctx.program)
+        fig = evaluate_trials(sub, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s))
+        ok = judge(fig, ctx.settings)
+        out[which] = {"resolution_mm": res,
+                      "image_displacement_px_rms": [float(x) for x in fig.image_displacement_px_rms[0]],
+                      "slope_error_rad_rms": [float(x) for x in fig.slope_error_rad_rms[0]],
+                      "depth_error_pct_rms": float(fig.depth_error_pct_rms[0]),
+                      "pass": bool(all(v[0] for v in ok.values()))}
+    return out

@@ -41,6 +41,7 @@ class Spec:
 
 #: The toleranced parameters, in table order: key -> (what it is, unit at the edge).
 PARAMETERS: dict[str, tuple[str, str]] = {
+    "resolution_mm": ("controller resolution (sensitivity only)", "mm"),
     "lattice_phase": ("offset of the work zero on the controller's lattice (resolution)", "step"),
     "nose_radius_mm": ("insert nose radius", "mm"),
     "tool_x_mm": ("tool setting error across the axis (radius)", "mm"),
