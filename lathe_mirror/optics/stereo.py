@@ -5,7 +5,7 @@ images it at the pixel whose ray, reflected, passes through the lobe's viewpoint
 (the closed-form inverse map, `ideal_radius_px`). The made (or polished) surface sends
 those same two pixels along slightly different rays; the stereo system, which assumes
 the design, reports W, while the point actually seen at that pixel pair is where the two
-made rays cross. Both rays lie in the pixel pair's meridian plane (the radial epipolar
+made rays cross (traced exactly by optics.trace). Both rays lie in the pixel pair's meridian plane (the radial epipolar
 line of the paper's section 4), so on an aligned camera the triangulation is the
 crossing of two lines in the (r, z) plane.
 
@@ -44,22 +44,25 @@ class DepthCurve:
     error_pct: np.ndarray
 
     def at(self, range_m: float) -> dict:
-        """{"rms", "max", "median"} of |depth error| (%) over the elevations at one range (m).
+        """{"rms", "max", "median", "lost"} of |depth error| (%) over the elevations at one
+        range (m); lost: points the made mirror does not show to both lobes (NaN errors).
 
         The median is given too because near-parallel rays make the error heavy-tailed."""
         i = int(np.argmin(np.abs(self.ranges_m - range_m)))
         if not math.isclose(self.ranges_m[i], range_m, rel_tol=1e-9):
             raise ValueError(f"range {range_m} m is not on the curve")
         e = np.abs(self.error_pct[i])
-        return {"rms": float(np.sqrt(np.mean(e**2))), "max": float(np.max(e)), "median": float(np.median(e))}
+        seen = e[np.isfinite(e)]
+        if seen.size == 0:
+            return {"rms": math.nan, "max": math.nan, "median": math.nan, "lost": int(e.size)}
+        return {"rms": float(np.sqrt(np.mean(seen**2))), "max": float(np.max(seen)),
+                "median": float(np.median(seen)), "lost": int(e.size - seen.size)}
 
     def to_dict(self) -> dict:
-        e = np.abs(self.error_pct)
+        rows = [self.at(float(r)) for r in self.ranges_m]
         return {"ranges_m": [float(x) for x in self.ranges_m],
                 "elevations_deg": [float(math.degrees(x)) for x in self.elevations],
-                "depth_error_pct": {"rms": [float(v) for v in np.sqrt(np.mean(e**2, axis=1))],
-                                    "max": [float(v) for v in np.max(e, axis=1)],
-                                    "median": [float(v) for v in np.median(e, axis=1)]},
+                "depth_error_pct": {key: [row[key] for row in rows] for key in ("rms", "max", "median", "lost")},
                 "signed_error_pct": [[float(v) for v in row] for row in self.error_pct]}
 
 
@@ -84,13 +87,19 @@ def world_points(mirror: Mirror, ranges_mm: np.ndarray, elevations: np.ndarray) 
 
 
 def exact_pixels(mirror: Mirror, w_r: np.ndarray, w_z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Image radii (px) at which the exact inner and outer lobes image the points (w_r, w_z)."""
-    from ..tolerance.radial import ideal_radius_px
+    """Image radii (px) at which the exact inner and outer lobes image the points (w_r, w_z).
+
+    The direction from the lobe's viewpoint F1 to the point, through the exact lobe's
+    closed-form inverse map (optics.distortion.exact_image_point: the focal polar equation
+    of the sheet, P = F1 + b^2 / (a - e u_z) u).
+    """
+    from .distortion import exact_image_point
 
     out = []
-    for lobe in mirror.lobes:
+    for k, lobe in enumerate(mirror.lobes):
         phi = np.arctan2(w_z - lobe.focus_z, w_r)
-        out.append(ideal_radius_px(lobe, mirror.camera, phi))
+        u = np.stack([np.cos(phi), np.zeros_like(phi), np.sin(phi)], axis=-1)
+        out.append(exact_image_point(mirror, k, u)[..., 0])
     return out[0], out[1]
 
 
@@ -113,23 +122,28 @@ def triangulate(p1: np.ndarray, o1: np.ndarray, p2: np.ndarray, o2: np.ndarray) 
     return 0.5 * ((p1 + s[..., None] * o1) + (p2 + u[..., None] * o2))
 
 
-def depth_error_curve(profile: Profile, mirror: Mirror, ranges_m, *, elevations=None,
-                      camera_dz: float = 0.0) -> DepthCurve:
+def depth_error_curve(profile: Profile, mirror: Mirror, ranges_m, *, elevations=None) -> DepthCurve:
     """Depth error (%) of a made surface against range (m), aligned camera.
 
-    elevations: rad (default band_elevations). camera_dz: axial camera offset (mm).
+    elevations: rad (default band_elevations). The made rays are optics.trace's exact
+    meridian trace; a point whose pixel the made mirror sends to the other lobe, the step
+    wall, or into the mirror itself (vignetted) has no depth: NaN.
     """
-    from ..tolerance.radial import trace_lobe
+    from .trace import meridian_hits
 
     ranges_m = np.asarray(ranges_m, dtype=float)
     elev = band_elevations(mirror) if elevations is None else np.asarray(elevations, float)
     w_r, w_z = world_points(mirror, ranges_m * 1e3, elev)
     rho = exact_pixels(mirror, w_r, w_z)
-    rays = [trace_lobe(profile, mirror, k, rho[k].ravel(), camera_dz=camera_dz) for k in (0, 1)]
-    p = [np.stack([ry.r, ry.z], -1) for ry in rays]
-    o = [np.stack([ry.o_r, ry.o_z], -1) for ry in rays]
-    x = triangulate(p[0], o[0], p[1], o[1]).reshape(w_r.shape + (2,))
-    return DepthCurve(ranges_m, elev, _error_pct(mirror, x, ranges_m * 1e3, elev))
+    p, o, ok = [], [], np.ones(w_r.size, bool)
+    for k in (0, 1):
+        h = meridian_hits(profile, rho[k].ravel() * (mirror.camera.t_pixel / mirror.camera.f))
+        ok &= (h.fate == k) & ~h.blocked
+        p.append(np.stack([h.r, h.z], -1))
+        o.append(np.stack([h.out_r, h.out_z], -1))
+    x = triangulate(p[0], o[0], p[1], o[1])
+    x[~ok] = np.nan
+    return DepthCurve(ranges_m, elev, _error_pct(mirror, x.reshape(w_r.shape + (2,)), ranges_m * 1e3, elev))
 
 
 def _error_pct(mirror: Mirror, x: np.ndarray, ranges_mm: np.ndarray, elev: np.ndarray) -> np.ndarray:

@@ -45,6 +45,9 @@ NOTES = (
     "(R_made - R) / R. With a {baseline:.1f} mm baseline the two rays meet at {angle_2m:.2f} deg at 2 m, so ray "
     "deviations of a tenth of a degree already give tens of percent; the error is heavy-tailed, "
     "so the median is given with the RMS.",
+    "Polishing: removal k_p p omega r grows from nothing at the vertex, so facets near the "
+    "axis outlast those at the rim; the band at the foot of the step (polish.corner_mm) is "
+    "out of the pad's reach and stays as machined.",
     "Monte Carlo: machined surfaces are precomputed at tolerance.lattice_phases lattice phases "
     "(the Z work zero's offset on the controller's lattice) x 5 nose radii, each polished once "
     "with snapshots at 5 times; a trial interpolates linearly between them, shifts the surface "
