@@ -45,6 +45,19 @@ def test_run_bad_config_exit_2_writes_nothing(tmp_path):
     assert not out.exists()
 
 
+def test_run_bad_stage_setting_exit_2_writes_nothing(tmp_path):
+    """A bad [tolerance] or [polish] key is caught before the programs and CAD are written."""
+    for text, key in (('[tolerance]\ndistribution = "lognormal"\n', "tolerance.distribution"),
+                      ("[polish]\npressure_kpa = 0.0\n", "polish.pressure_kpa")):
+        cfg = tmp_path / "bad.toml"
+        cfg.write_text(text)
+        out = tmp_path / "out"
+        proc = run_cli("run", "--config", str(cfg), "-o", str(out))
+        assert proc.returncode == 2, proc.stderr
+        assert key in proc.stderr and "Traceback" not in proc.stderr
+        assert not out.exists()
+
+
 def test_polish_command_json(tmp_path):
     cfg = tmp_path / "small.toml"
     cfg.write_text("[polish]\ncurve_points = 7\n")

@@ -21,6 +21,7 @@ def run(args: argparse.Namespace) -> int:
     from ..report.report import compute, write_report
 
     cfg = load(args)
+    check_config(cfg)
     out_dir = args.output or "out"
     prepare_dir(out_dir)
     data = compute(cfg, progress=True, renders=not args.no_render)
@@ -30,6 +31,20 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(summary(data.figures, paths))
     return 0
+
+
+def check_config(cfg: dict) -> None:
+    """Build every stage's settings once, so bad input fails before any file is written."""
+    from ..design import mirror_from_config
+    from ..machine import lathe_from_config, tool_from_config
+    from ..polishing import polish_params_from_config
+    from ..tolerance.spec import settings_from_config
+
+    mirror_from_config(cfg)
+    lathe_from_config(cfg)
+    tool_from_config(cfg)
+    polish_params_from_config(cfg)
+    settings_from_config(cfg)
 
 
 def summary(fig: dict, paths: dict) -> str:

@@ -31,13 +31,12 @@ def run(args: argparse.Namespace) -> int:
     import sys
     from pathlib import Path
 
-    from ..design import mirror_from_config
     from ..export.files import prepare_dir
     from ..report.report import compute, write_report
-    from .report import summary
+    from .report import check_config, summary
 
     cfg = load(args)
-    mirror_from_config(cfg)  # a bad design stops here, before anything is written
+    check_config(cfg)  # bad input stops here, before anything is written
     out_dir = Path(args.output or "out")
     default = args.config is None
     gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")
