@@ -29,6 +29,7 @@ d / l_c) stable and monotone.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -115,7 +116,8 @@ def polish(profile: Profile, params: PolishParams, time_s: float | None = None) 
     return polish_series(profile, params, [t])[0]
 
 
-def polish_series(profile: Profile, params: PolishParams, times_s) -> list[SampledProfile]:
+def polish_series(profile: Profile, params: PolishParams, times_s: Sequence[float] | np.ndarray
+                  ) -> list[SampledProfile]:
     """The polished surface at each of times_s (s), from one evolution (snapshots).
 
     Each lobe evolves on its own grid from r = its inner edge to its outer edge, except a
@@ -244,7 +246,8 @@ class PolishCurve:
         }
 
 
-def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams, times_s=None, *,
+def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams,
+                 times_s: Sequence[float] | np.ndarray | None = None, *,
                  progress: bool = False) -> PolishCurve:
     """Slope error, normal deviation, form change and image displacement against time.
 

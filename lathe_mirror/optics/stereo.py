@@ -19,6 +19,7 @@ Camera frame, mm and radians inside; ranges in metres and errors in percent at t
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -122,7 +123,8 @@ def triangulate(p1: np.ndarray, o1: np.ndarray, p2: np.ndarray, o2: np.ndarray) 
     return 0.5 * ((p1 + s[..., None] * o1) + (p2 + u[..., None] * o2))
 
 
-def depth_error_curve(profile: Profile, mirror: Mirror, ranges_m, *, elevations=None) -> DepthCurve:
+def depth_error_curve(profile: Profile, mirror: Mirror, ranges_m: Sequence[float] | np.ndarray, *,
+                      elevations: Sequence[float] | np.ndarray | None = None) -> DepthCurve:
     """Depth error (%) of a made surface against range (m), aligned camera.
 
     elevations: rad (default band_elevations). The made rays are optics.trace's exact
