@@ -261,10 +261,9 @@ def _poses(tr: Trials) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _trace(mirror: Mirror, nodes: NodeSurfaces, k: int, surfs, tr: Trials, origin, rot, u, v):
-    """Hit points, reflected unit directions (trials, m, 3) and a validity mask (trials, m).
-
-    Invalid: the ray lands off lobe k (the wall, the other lobe, past the rim) or, leaving
-    the recessed inner lobe, runs into the step wall (vignetted).
+    """Hit points, reflected unit directions (trials, m, 3), and masks (trials, m): ok, the
+    ray lands on lobe k (not the wall, the other lobe, past the rim); blocked, leaving the
+    recessed inner lobe it runs into the step wall (vignetted).
     """
     surf = surfs[k]
     cam = mirror.camera
@@ -313,13 +312,17 @@ def _trace(mirror: Mirror, nodes: NodeSurfaces, k: int, surfs, tr: Trials, origi
         z_cross = p[..., 2] + s_wall * out[..., 2]
         q_top = np.clip(np.abs(rj - tr.tool_x_mm), mirror.r_junction, mirror.r_max)
         z_top = _lookup(nodes, 1, surfs[1][0], np.arange(len(tr)), q_top)
-        ok &= ~(z_cross > z_top[:, None])
-    return p, out, ok
+        blocked = z_cross > z_top[:, None]
+    else:
+        blocked = np.zeros(ok.shape, bool)
+    return p, out, ok, blocked
 
 
 def _displacement(mirror, nodes, k, surfs, tr, origin, rot, u, v):
     """|image displacement| (px) of each sample pixel of each trial, and validity."""
-    _, out, ok = _trace(mirror, nodes, k, surfs, tr, origin, rot, u, v)
+    # Image figures on the sample's pixels (the exact design's unvignetted ones) wherever the
+    # made ray lands on the lobe: the rule of radial.radial_figures and optics.distortion.
+    _, out, ok, _ = _trace(mirror, nodes, k, surfs, tr, origin, rot, u, v)
     horiz = np.hypot(out[..., 0], out[..., 1])
     rho_id = ideal_radius_px(mirror.lobes[k], mirror.camera, np.arctan2(out[..., 2], horiz))
     with np.errstate(invalid="ignore"):
@@ -375,8 +378,8 @@ def _depth_error(mirror, nodes, surf, tr, origin, rot, dp) -> np.ndarray:
     rays = []
     for k in (0, 1):
         u, v = dp["pix"][k]
-        p, o, ok = _trace(mirror, nodes, k, surf, tr, origin, rot, u, v)
-        rays.append((p, o, ok))
+        p, o, ok, blocked = _trace(mirror, nodes, k, surf, tr, origin, rot, u, v)
+        rays.append((p, o, ok & ~blocked))  # a vignetted ray sees no point
     x = triangulate(rays[0][0], rays[0][1], rays[1][0], rays[1][1])
     r_made = np.sum((x - np.array([0.0, 0.0, dp["zc"]])) * dp["unit"][None], axis=-1)
     err = 100.0 * (r_made - dp["range"]) / dp["range"]

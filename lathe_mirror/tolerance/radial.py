@@ -188,13 +188,13 @@ def radial_displacement(profile: Profile, mirror: Mirror, k: int, radius_px: np.
     """Radial image displacement (px) of lobe k at image radii radius_px (px).
 
     ARCHITECTURE.md: where the exact lobe would image the direction the made surface sends
-    the pixel to, minus where the pixel is. NaN where the made ray misses lobe k or the
-    step wall blocks it (as optics.distortion counts them: lost or vignetted).
+    the pixel to, minus where the pixel is. NaN where the made ray misses lobe k (lost).
     """
     rays = trace_lobe(profile, mirror, k, radius_px, camera_dz=camera_dz)
     d = ideal_radius_px(mirror.lobes[k], mirror.camera, rays.elevation) - radius_px
-    # Rays that miss their lobe or are vignetted by the step carry no image: NaN.
-    return np.where(rays.usable, d, np.nan)
+    # Rays that miss their lobe carry no image of it: NaN. (Vignetting is judged on the
+    # exact design's pixels, lobe_pixel_radii: the same pixel set for every made surface.)
+    return np.where(rays.ok, d, np.nan)
 
 
 def radial_figures(profile: Profile, mirror: Mirror, *, camera_dz: float = 0.0,
@@ -203,16 +203,16 @@ def radial_figures(profile: Profile, mirror: Mirror, *, camera_dz: float = 0.0,
 
     RMS and max over the pixel centres of each lobe's usable annulus (each distinct radius
     weighted by its pixel count). Aligned camera, optionally shifted along the axis.
-    Pixels count where both the exact and the made ray land on the lobe unobstructed
-    (the rule of optics.distortion; lobe_pixel_radii drops the exact's vignetted ones);
-    corner_mm: see lobe_pixel_radii.
+    Pixels count where the exact ray lands on the lobe unobstructed (lobe_pixel_radii drops
+    the ones the step vignettes on the exact design) and the made ray lands on the lobe:
+    the rule of optics.distortion's "unvignetted" figures. corner_mm: see lobe_pixel_radii.
     """
     lobes = []
     for k, lobe in enumerate(mirror.lobes):
         px = lobe_pixel_radii(mirror, k, bin_px=bin_px, corner_mm=corner_mm)
         made = trace_lobe(profile, mirror, k, px.radius_px, camera_dz=camera_dz)
         exact = trace_lobe(lobe, mirror, k, px.radius_px)
-        use = made.usable
+        use = made.ok
         disp = ideal_radius_px(lobe, mirror.camera, made.elevation) - px.radius_px
         # atan2(|cross|, dot) keeps precision for tiny angles where arccos loses it.
         dev = np.degrees(np.arctan2(np.abs(made.o_r * exact.o_z - made.o_z * exact.o_r),
