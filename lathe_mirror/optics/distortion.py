@@ -18,11 +18,12 @@ Figures (ARCHITECTURE.md, "Shared definitions"), per pixel centre of each lobe:
 * viewpoint_spread (mm): distance of the made reflected ray's line from lobe k's F1.
 
 Pixels count for lobe k where both the exact and the made surface send them to lobe k
-(the usable inner disc / outer annulus; the lost ring and the corners beyond the rim are
-out). RMS and max are over those pixel centres, each pixel once. The recessed inner
-lobe's outer band (image radius above ~281 px on the paper's mirror: elevations above
-~8.94 deg) reflects into the step wall and the outer lobe's material, so it sees no
-scene; figures()["lobes"][k]["unvignetted"] repeats the figures without those pixels.
+and the exact mirror's reflected ray leaves unobstructed: each lobe's usable annulus
+(ARCHITECTURE.md). Out are the lost ring, the corners beyond the rim, and the recessed
+inner lobe's outer band (image radius above 280.96 px on the paper's mirror, elevations
+above 8.94 deg, Mirror.image_radii_px["inner_blocked_by_step"]), whose rays run into the
+step wall and see no scene. RMS and max are over those pixel centres, each pixel once;
+figures()["lobes"][k]["with_vignetted"] repeats the figures counting the blocked band too.
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ class DistortionMaps:
     radial_px: signed radial component of the displacement, px (+ outward).
     viewpoint_spread_mm: mm. blocked: the pixel is vignetted by the mirror itself (the
     EXACT mirror's reflected ray runs into the step: a property of the design, so every
-    made surface is judged on the same "unvignetted" pixels). Figures are NaN where not usable.
+    made surface is judged on the same usable pixels). Figures are NaN where not usable.
     """
 
     camera: Camera
@@ -73,21 +74,21 @@ class DistortionMaps:
         for k, name in enumerate(LOBE_NAMES):
             in_lobe = self.lobe == k
             use = in_lobe & self.usable
+            clear = use & ~self.blocked
             entry = {
                 "name": name,
-                "pixels": int(use.sum()),
+                "pixels": int(clear.sum()),
                 "pixels_lost": int((in_lobe & ~self.usable).sum()),
                 "pixels_vignetted": int((use & self.blocked).sum()),
+                "with_vignetted": {"pixels": int(use.sum())},
             }
-            clear = use & ~self.blocked
-            entry["unvignetted"] = {"pixels": int(clear.sum())}
             for key, arr, scale in (
                 ("ray_deviation_deg", self.ray_deviation_rad, math.degrees(1.0)),
                 ("image_displacement_px", self.image_displacement_px, 1.0),
                 ("viewpoint_spread_mm", self.viewpoint_spread_mm, 1.0),
             ):
-                entry[key] = _rms_max(arr[use] * scale)
-                entry["unvignetted"][key] = _rms_max(arr[clear] * scale)
+                entry[key] = _rms_max(arr[clear] * scale)
+                entry["with_vignetted"][key] = _rms_max(arr[use] * scale)
             lobes.append(entry)
         return {"lobes": lobes}
 
@@ -128,7 +129,8 @@ def distortion_figures(made: Profile, mirror: Mirror, camera: Camera | None = No
 
     {"lobes": [{"name": "inner", "pixels", "pixels_lost", "pixels_vignetted",
     "ray_deviation_deg": {"rms", "max"}, "image_displacement_px": {...},
-    "viewpoint_spread_mm": {...}}, {... "outer"}]}
+    "viewpoint_spread_mm": {...}, "with_vignetted": {...}}, {... "outer"}]},
+    over each lobe's usable annulus (see the module docstring).
     """
     return image_displacement(made, mirror, camera, pose=pose).figures()
 

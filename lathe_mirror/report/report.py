@@ -36,8 +36,9 @@ NOTES = (
     "Optical figures count, per lobe, the pixel centres whose exact and made rays land on the "
     "lobe and leave it unobstructed; on this design the step wall vignettes the inner lobe's "
     "reflected rays beyond r = {r_used:.2f} mm (image radius {rho_used:.0f} px), so those pixels show the wall, "
-    "not the world, and are left out; these are optics.distortion's \"unvignetted\" figures "
-    "(its full figures, which count them too, are kept alongside under optics_distortion).",
+    "not the world, and are left out (each lobe's usable annulus, as optics.distortion counts it; "
+    "its per-pixel figures, with those pixels counted too under with_vignetted, are kept "
+    "alongside under optics_distortion).",
     "Slope error in the tolerance spec and on the polishing curve is over the radii the image "
     "uses (the inner lobe up to the vignetting radius, where the tool's corner fillet also lies); "
     "the toolpath tables give it over whole lobes (toolpath.profile_errors).",
@@ -222,9 +223,9 @@ def _mirror_figures(profile, mirror) -> dict:
 
     Surface figures: toolpath.profile_errors (issue 3). Optical figures: over the pixels
     each lobe images unobstructed on the exact design (tolerance.radial: every pixel
-    centre, aligned camera; equal to optics.distortion's "unvignetted" figures, which the
-    tests check); optics.distortion's full figures (issue 5, which also count the pixels
-    the step wall vignettes) are kept alongside under "optics_distortion".
+    centre, aligned camera; equal to optics.distortion's per-pixel figures over the usable
+    annulus, which the tests check); those per-pixel figures (with the pixels the step wall
+    vignettes counted too under "with_vignetted") are kept alongside under "optics_distortion".
     """
     from ..optics.distortion import distortion_figures
     from ..tolerance.radial import radial_figures

@@ -205,7 +205,7 @@ def radial_figures(profile: Profile, mirror: Mirror, *, camera_dz: float = 0.0,
     weighted by its pixel count). Aligned camera, optionally shifted along the axis.
     Pixels count where the exact ray lands on the lobe unobstructed (lobe_pixel_radii drops
     the ones the step vignettes on the exact design) and the made ray lands on the lobe:
-    the rule of optics.distortion's "unvignetted" figures. corner_mm: see lobe_pixel_radii.
+    the rule of optics.distortion's usable annulus. corner_mm: see lobe_pixel_radii.
     """
     lobes = []
     for k, lobe in enumerate(mirror.lobes):
