@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import sys
 from typing import Any
 
@@ -27,18 +25,7 @@ def load(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def print_json(data: Any) -> None:
-    """JSON on stdout: sorted keys, finite numbers only (NaN/inf become null)."""
-    json.dump(_finite(data), sys.stdout, indent=2, sort_keys=False)
-    sys.stdout.write("\n")
+    """JSON on stdout: finite numbers only (NaN/inf become null)."""
+    from ..export.files import json_text
 
-
-def _finite(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {k: _finite(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_finite(v) for v in x]
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    if hasattr(x, "item") and hasattr(x, "dtype"):  # numpy scalar
-        return _finite(x.item())
-    return x
+    sys.stdout.write(json_text(data))

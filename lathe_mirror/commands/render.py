@@ -37,7 +37,6 @@ def run(args: argparse.Namespace) -> int:
 
     from ..design import mirror_from_config
     from ..errors import InputError
-    from ..optics.camera import CameraPose
     from ..optics.render import image_difference, render_image
     from ..optics.scene import scene_from_config
     from ..optics.surfaces import make_surface
@@ -90,9 +89,7 @@ def run(args: argparse.Namespace) -> int:
         "image_radii_px": {k: {"min": v[0], "max": v[1]} for k, v in mirror.image_radii_px.items()},
     }
     if out is not None:
-        import json
-
-        from ..export.files import write_bytes, write_text
+        from ..export.files import json_text, write_bytes, write_text
         from ..export.povray import write_povray
         from ..optics.plots import displacement_map_png, displacement_vs_radius_png
         from ..optics.render import difference_image
@@ -111,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
         if not same:
             files.append(str(write_povray(out / f"{surface}.pov", made, mirror, scene, pose=pose)))
         figures["files"] = files
-        write_text(out / f"figures_{surface}.json", json.dumps(_jsonable(figures), indent=2) + "\n")
+        write_text(out / f"figures_{surface}.json", json_text(figures))
     if args.json:
         print_json(figures)
     else:
@@ -186,15 +183,3 @@ def _write_png(path, img) -> str:
     return str(write_bytes(path, buf.getvalue()))
 
 
-def _jsonable(x):
-    import math
-
-    if isinstance(x, dict):
-        return {k: _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    if hasattr(x, "item"):
-        return _jsonable(x.item())
-    return x

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import json
+import math
 import os
 import tempfile
 from pathlib import Path
+from typing import Any
 
 from ..errors import InputError
 
@@ -55,3 +58,24 @@ def write_bytes(path: str | Path, data: bytes, what: str = "-o/--output") -> Pat
 def write_text(path: str | Path, text: str, what: str = "-o/--output") -> Path:
     """write_bytes for UTF-8 text with Unix newlines."""
     return write_bytes(path, text.encode("utf-8"), what)
+
+
+def json_ready(x: Any) -> Any:
+    """A copy of x that json can write: str keys, lists for tuples and numpy arrays, Python
+    numbers for numpy scalars, enum values, and null for NaN / inf (JSON has neither)."""
+    if isinstance(x, dict):
+        return {str(k): json_ready(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [json_ready(v) for v in x]
+    if hasattr(x, "tolist") and hasattr(x, "dtype"):  # numpy array or scalar
+        return json_ready(x.tolist())
+    if hasattr(x, "value") and not isinstance(x, (int, float, str)):  # enums
+        return x.value
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def json_text(data: Any, *, indent: int = 2) -> str:
+    """JSON of data (through json_ready), key order kept, ending in a newline."""
+    return json.dumps(json_ready(data), indent=indent, allow_nan=False) + "\n"

@@ -183,7 +183,9 @@ def write_report(data: ReportData, out_dir: str | Path) -> dict[str, Path]:
 
 def dumps(figures: dict) -> str:
     """The report's JSON: finite numbers only (NaN / inf -> null), stable key order."""
-    return json.dumps(_finite(figures), indent=1, allow_nan=False) + "\n"
+    from ..export.files import json_text
+
+    return json_text(figures, indent=1)
 
 
 # --------------------------------------------------------------------------------------
@@ -508,19 +510,3 @@ def _tolerance_html(f: dict, img) -> str:
             "<th>slope inner rad</th><th>slope outer rad</th><th>depth err %</th><th>spec</th></tr>"
             + sens_rows + "</table>")
     return "".join(parts)
-
-
-def _finite(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): _finite(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_finite(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _finite(x.tolist())
-    if isinstance(x, (np.floating, np.integer, np.bool_)):
-        return _finite(x.item())
-    if hasattr(x, "value") and not isinstance(x, (int, float, str)):  # enums
-        return x.value
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
