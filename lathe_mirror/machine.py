@@ -15,6 +15,9 @@ import numpy as np
 
 from .errors import InputError
 
+#: Finest lattice step (mm) a program can carry: G-code words with 4 decimals.
+_FINEST = 0.0001
+
 
 @dataclass(frozen=True)
 class Lathe:
@@ -44,8 +47,14 @@ class Lathe:
 
     def __post_init__(self) -> None:
         _positive("machine.resolution", self.resolution, "mm")
-        if self.resolution > 0.1:
-            raise InputError(f"machine.resolution = {self.resolution:g} mm: allowed 0 < resolution <= 0.1 mm")
+        # Every lattice value must be written exactly in a G-code word: a whole number of
+        # 0.0001 mm (the finest increment LinuxCNC's rs274 reports, 4 decimals).
+        steps = self.resolution / _FINEST
+        if not (_FINEST - 1e-12 <= self.resolution <= 0.1 and abs(steps - round(steps)) < 1e-6):
+            raise InputError(
+                f"machine.resolution = {self.resolution:g} mm: allowed a multiple of {_FINEST:g} mm "
+                f"from {_FINEST:g} to 0.1 mm (G-code words carry at most 4 decimals)"
+            )
         if isinstance(self.max_points, bool) or int(self.max_points) != self.max_points or self.max_points < 4:
             raise InputError(f"machine.max_points = {self.max_points!r}: must be an integer >= 4")
         _positive("machine.travel_x", self.travel_x, "mm")
@@ -81,12 +90,13 @@ class Lathe:
 
     @property
     def decimals(self) -> int:
-        """Decimals that write every lattice value of X (2r in diameter mode) and Z exactly."""
+        """Decimals that write every lattice value of X (2r in diameter mode) and Z exactly
+        (at most 4: the resolution is a multiple of 0.0001 mm)."""
         step = self.resolution  # Z, I, K are on it; X = 2r is on twice it
-        for d in range(0, 7):
+        for d in range(0, 4):
             if abs(round(step * 10**d) - step * 10**d) < 1e-9:
                 return max(d, 1)
-        return 6
+        return 4
 
 
 @dataclass(frozen=True)

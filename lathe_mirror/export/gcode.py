@@ -94,7 +94,8 @@ def program(toolpath: Toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCN
     if depth > options.gouge_tolerance:
         raise InputError(
             f"the {toolpath.strategy.value} toolpath would gouge the part by {depth:.4f} mm "
-            f"(toolpath.gouge_tolerance = {options.gouge_tolerance:g} mm); program refused"
+            f"(toolpath.gouge_tolerance = {options.gouge_tolerance:g} mm); program refused "
+            "(a finer machine.resolution or another strategy cuts closer)"
         )
     from ..machining import as_machined
 
@@ -116,7 +117,7 @@ def program(toolpath: Toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCN
         w.rapid((path[0][0], path[-1][1]))  # back out at the retract height, never diagonal
     w.comment("finish contour approach")
     start = toolpath.segments[0].start
-    w.rapid((start[0], options.clearance))
+    w.rapid((start[0], _ceil(options.clearance, lathe.resolution)))  # on the lattice
     w.feed(lathe.feed_finish)
     w.comment("finish contour begin")
     w.line(start)
@@ -217,7 +218,7 @@ def _roughing_paths(toolpath, stock: Stock, options: ProgramOptions) -> list[lis
         for a, b in zip(edges[::2], edges[1::2]):
             ra, rb = r[a], r[b - 1]
             zl = _ceil(level, res)
-            za = _ceil(prev, res) if b >= len(r) else _ceil(prev, res)
+            za = _ceil(prev, res)
             outer = r_out if b >= len(r) else _floor(rb, res)
             # out at the previous level's height (cleared), down outside the cut, feed in
             paths.append([(outer, za), (outer, zl), (_ceil(ra, res), zl), (_ceil(ra, res), za)])

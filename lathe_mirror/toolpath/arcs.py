@@ -15,7 +15,7 @@ import numpy as np
 from ..machine import Lathe
 from .geometry import _Target, foot_on_sheet
 from .layout import _candidates, _Layout, _pt
-from .moves import Arc, Move
+from .moves import Arc, Line, Move
 
 
 def _arc_moves(layout: _Layout, lathe: Lathe) -> tuple[list, list]:
@@ -53,7 +53,7 @@ def _arc_counts(layout: _Layout, budget: int) -> tuple[int, int]:
     return want[0], want[1]
 
 
-def _lobe_arcs(t: _Target, lathe: Lathe, cols, m: int) -> list[Arc]:
+def _lobe_arcs(t: _Target, lathe: Lathe, cols, m: int) -> list[Move]:
     """Arcs along one lobe, at most m of them.
 
     An end point held to a fixed column (the wall, the rim) can only be the lattice
@@ -96,7 +96,7 @@ def _lobe_arcs(t: _Target, lathe: Lathe, cols, m: int) -> list[Arc]:
     return ([first] if first else []) + arcs + ([last] if last else [])
 
 
-def _end_arc(t: _Target, lathe: Lathe, col: float, *, at_start: bool) -> Arc:
+def _end_arc(t: _Target, lathe: Lathe, col: float, *, at_start: bool) -> Move:
     """The arc from (at_start) or to the fixed column `col`: the best of the column's two
     lattice rows against free ends at each of _END_ARC_LENGTHS."""
     res = lathe.resolution
@@ -123,10 +123,11 @@ def _end_arc(t: _Target, lathe: Lathe, col: float, *, at_start: bool) -> Arc:
 
 def _fit_arcs(t: _Target, ends: np.ndarray | None, lathe: Lathe, *, window: int = 10,
               n_check: int = 9, starts: np.ndarray | None = None,
-              ends_: np.ndarray | None = None) -> tuple[list[Arc], np.ndarray]:
+              ends_: np.ndarray | None = None) -> tuple[list[Move], np.ndarray]:
     """One arc per consecutive pair of end points, its centre the lattice point (within
     `window` steps of the best circle's centre) whose cut arc has the smallest max slope
-    error against the curve, among those within the radius tolerance."""
+    error (rad) against the curve, among those within the radius tolerance; a G1 line
+    where no centre is (score inf). Returns the moves and their scores."""
     res = lathe.resolution
     if ends is not None:
         S, E = ends[:-1], ends[1:]
@@ -169,14 +170,24 @@ def _fit_arcs(t: _Target, ends: np.ndarray | None, lathe: Lathe, *, window: int 
     d, th = t.errors(pr, pz)
     err = np.max(np.abs(ang - th), axis=-1)
     dev = np.max(np.abs(d), axis=-1)
-    score = np.where(ok & (dev < 4 * res), err + 0.1 * dev / 1.0, np.inf)
+    # Radius tolerance: hard (the controller's spiral). Deviation within 4 steps: preferred
+    # (a centre off by more would follow the slope at the cost of the surface's place),
+    # but on a fine lattice a long arc at a fixed column may not get that close to the
+    # hyperbola at all; then the best centre beyond it still beats a chord.
+    score = np.where(ok, err + 0.1 * dev + np.where(dev < 4 * res, 0.0, _FAR), np.inf)
     best = np.argmin(score, axis=1)
-    if not np.all(np.isfinite(score[np.arange(m), best])):
-        bad = np.flatnonzero(~np.isfinite(score[np.arange(m), best]))
-        raise RuntimeError(f"arcs strategy: no lattice centre within the radius tolerance for arcs {bad[:5]} of {m}: S={S[bad[:2]]} E={E[bad[:2]]} c={c_ideal[bad[:2]]} ok={ok[bad[:2]].sum(axis=1)} dev={dev[bad[:2]].min(axis=1)}")
-    arcs = []
+    moves: list[Move] = []
     for i in range(m):
+        if not np.isfinite(score[i, best[i]]):
+            # no lattice centre cuts an arc within the radius tolerance (a coarse lattice):
+            # a G1 chord between the same lattice ends; the gouge check judges it
+            moves.append(Line(_pt(S[i]), _pt(E[i])))
+            continue
         c = cand[i, best[i]]
-        arcs.append(Arc(start=_pt(S[i]), end=_pt(E[i]), centre=_pt(c),
-                        clockwise=bool(sweep[i, best[i]] > 0)))
-    return arcs, score[np.arange(m), best]
+        moves.append(Arc(start=_pt(S[i]), end=_pt(E[i]), centre=_pt(c),
+                         clockwise=bool(sweep[i, best[i]] > 0)))
+    return moves, score[np.arange(m), best]
+
+
+#: Score added to a centre whose arc strays more than 4 lattice steps from the curve.
+_FAR = 1.0e3

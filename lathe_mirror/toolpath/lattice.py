@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from ..machine import Lathe
 from .geometry import _Target
 from .layout import _candidates, _Layout, _split_budget
@@ -77,7 +78,9 @@ def _dp_vertices(t: _Target, s_nom: np.ndarray, res: float, cols, k_best: int = 
         acc = tot[back[i], np.arange(k)]
     j = int(np.argmin(acc))
     if not np.isfinite(acc[j]):
-        raise RuntimeError("lattice strategy: no chain of lattice points advances in r")
+        raise InputError(f"machine.resolution = {res:g} mm: too coarse for the lattice strategy's "
+                         f"{n} points on this lobe (no chain of lattice points advances in r); "
+                         "use a finer resolution or fewer points (machine.max_points)")
     idx = np.empty(n, dtype=np.int64)
     idx[-1] = j
     for i in range(n - 2, -1, -1):

@@ -21,5 +21,9 @@ def _paper_points(layout: _Layout, lathe: Lathe) -> tuple[np.ndarray, np.ndarray
     for t, n in zip(layout.targets(), (n_inner, n_outer)):
         s = np.linspace(0.0, t.length, n)
         p = t.point(t.rs_at_s(s))
-        out.append(lathe.snap(p))
+        q = lathe.snap(p)
+        # points that round to the same lattice point are one point (a zero-length move
+        # is no move); what remains must still advance in r (plan_toolpath checks)
+        keep = np.concatenate([[True], np.any(q[1:] != q[:-1], axis=1)])
+        out.append(q[keep])
     return out[0], out[1]

@@ -47,6 +47,7 @@ def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy =
         segs, lobes = layout.assemble_lines(inner, outer)
     else:
         segs, lobes = _arc_moves(layout, lathe)
+    _check_advancing(segs, lobes, lathe, strategy)
     n_points = 1 + sum(s.n_points for s in segs)
     tp = Toolpath(strategy=strategy, lathe=lathe, tool=tool, mirror=mirror,
                   segments=tuple(segs), lobe_of=tuple(lobes), n_points=n_points)
@@ -54,3 +55,15 @@ def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy =
         raise RuntimeError(f"{strategy.value}: {n_points} points exceed the budget {lathe.max_points}")
     check_travel(tp.points(), lathe, what="the finishing contour")
     return tp
+
+
+def _check_advancing(segs, lobes, lathe: Lathe, strategy: Strategy) -> None:
+    """Raise InputError if a lobe's move does not advance in r: on a lattice too coarse
+    for the points, rounded neighbours share a column and the contour is no z(r)."""
+    for seg, lobe in zip(segs, lobes):
+        if lobe != "junction" and not seg.end[0] > seg.start[0]:
+            raise InputError(
+                f"machine.resolution = {lathe.resolution:g} mm: too coarse for the {strategy.value} "
+                f"strategy's points (two points of the {lobe} lobe share the column r = "
+                f"{seg.start[0]:g} mm); use a finer resolution or fewer points (machine.max_points)"
+            )
