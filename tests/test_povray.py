@@ -14,8 +14,8 @@ from PIL import Image
 from conftest import require_program
 from lathe_mirror.config import merge
 from lathe_mirror.design import Camera
-from lathe_mirror.export.povray import povray_command, povray_scene
-from lathe_mirror.optics.camera import CameraPose
+from lathe_mirror.export.povray import povray_camera, povray_command, povray_scene
+from lathe_mirror.optics.camera import CameraPose, pixel_centres, ray_directions
 from lathe_mirror.optics.render import render_image
 from lathe_mirror.optics.scene import scene_from_config
 from lathe_mirror.optics.surfaces import make_surface
@@ -49,6 +49,40 @@ def _agreement(ours: np.ndarray, theirs: np.ndarray) -> tuple[float, float]:
     same = np.abs(ours.astype(int) - theirs.astype(int)).max(axis=-1) <= 2
     calm = ~_edges(ours)
     return float(same[calm].mean()), float(same.mean())
+
+
+@pytest.mark.parametrize("pose", [
+    CameraPose(),
+    CameraPose(decentre=(0.4, -0.2), axial_offset=0.5, tilt=(math.radians(0.8), math.radians(-0.5))),
+], ids=["aligned", "misaligned"])
+def test_povray_camera_casts_our_ray_through_every_pixel(tmp_path, pose):
+    """The pixel-to-ray mapping itself, pixel by pixel: POV-Ray renders our exported camera
+    looking at the plane z = Z0, painted with a linear ramp of x (then of y) in a 16-bit
+    grey PNG, so each pixel's value is where POV-Ray's ray through it meets the plane. It
+    must be where our ray (camera.ray_directions) meets it, to well under a pixel."""
+    exe = require_program("povray")
+    z0, span = 100.0, 100.0  # plane height and ramp width, mm: 16 bits = 0.0015 mm steps
+    u, v = pixel_centres(SMALL)
+    origin, d = ray_directions(SMALL, u[..., 0], v[..., 0], pose)
+    s = (z0 - origin[2]) / d[..., 2]
+    ours = [origin[i] + s * d[..., i] for i in (0, 1)]
+    pixel_on_plane = z0 * SMALL.t_pixel / SMALL.f  # mm per pixel near the axis
+    for axis, pov_axis in ((0, "x"), (1, "z")):  # our y is POV-Ray's z
+        text = "\n".join([
+            "#version 3.7;", "global_settings { assumed_gamma 1.0 }", povray_camera(SMALL, pose=pose),
+            f"plane {{ <0, 1, 0>, {z0} texture {{ pigment {{ function {{ ({pov_axis} + {span / 2}) / {span} }} "
+            "colour_map { [0 rgb 0] [1 rgb 1] } } finish { ambient 1 diffuse 0 } } }", ""])
+        pov, png = tmp_path / f"ramp{axis}.pov", tmp_path / f"ramp{axis}.png"
+        pov.write_text(text)
+        cmd = povray_command(pov, png, SMALL, povray=exe)
+        cmd[cmd.index("+FN")] = "+FN16"
+        p = subprocess.run(cmd + ["Grayscale_Output=true"], capture_output=True, text=True,
+                           timeout=120, cwd=tmp_path)
+        assert p.returncode == 0, p.stderr[-2000:]
+        grey = np.asarray(Image.open(png), dtype=float)
+        assert grey.shape == u.shape[:2] and np.ptp(grey) > 30000  # 16 bits, a wide ramp
+        theirs = grey / 65535.0 * span - span / 2
+        assert np.abs(theirs - ours[axis]).max() < 0.02 * pixel_on_plane
 
 
 @pytest.fixture(scope="module")

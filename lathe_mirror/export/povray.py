@@ -46,25 +46,13 @@ def povray_scene(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
                  pose: CameraPose = ALIGNED) -> str:
     """The scene description (.pov text) of the room, camera and mirror. Deterministic."""
     camera = camera or mirror.camera
-    w, h = camera.sensor_px
-    rot = pose.rotation
-    location = pose.origin
-    direction = rot @ np.array([0.0, 0.0, camera.f])
-    right = rot @ np.array([w * camera.t_pixel, 0.0, 0.0])
-    up = rot @ np.array([0.0, -h * camera.t_pixel, 0.0])
     light_far = 1e7 * np.array(scene.light)
     lines = [
         "// lathe-mirror: the paper's room seen through the double-lobed mirror (POV-Ray 3.7).",
         "// Units mm; our camera frame (x, y, z) is POV-Ray's <x, z, y>.",
         "#version 3.7;",
         "global_settings { assumed_gamma 1.0 ambient_light rgb 1 max_trace_level 5 }",
-        "camera {",
-        "  perspective",
-        f"  location {_v(location)}",
-        f"  direction {_v(direction)}",
-        f"  right {_v(right)}",
-        f"  up {_v(up)}",
-        "}",
+        povray_camera(camera, pose=pose),
         f"light_source {{ {_v(light_far)} color rgb 1 parallel point_at <0, 0, 0> shadowless }}",
         f"#declare Lit = finish {{ ambient {_f(scene.ambient)} diffuse {_f(scene.diffuse)} }}",
         "#declare Unlit = texture { pigment { rgb 0 } finish { ambient 0 diffuse 0 } }",
@@ -84,6 +72,28 @@ def povray_scene(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
                      f"{_rgb(scene.box_colour)} }} finish {{ Lit }} }} }}")
     lines += _mirror(profile, mirror)
     return "\n".join(lines) + "\n"
+
+
+def povray_camera(camera: Camera, *, pose: CameraPose = ALIGNED) -> str:
+    """The `camera { perspective ... }` block whose ray through each pixel is ours (camera.py).
+
+    direction = the optical axis times f, right = the sensor width W * t_pixel along +u,
+    up = its height H * t_pixel along -v (rows run down), all mm, turned by the pose.
+    """
+    w, h = camera.sensor_px
+    rot = pose.rotation
+    direction = rot @ np.array([0.0, 0.0, camera.f])
+    right = rot @ np.array([w * camera.t_pixel, 0.0, 0.0])
+    up = rot @ np.array([0.0, -h * camera.t_pixel, 0.0])
+    return "\n".join([
+        "camera {",
+        "  perspective",
+        f"  location {_v(pose.origin)}",
+        f"  direction {_v(direction)}",
+        f"  right {_v(right)}",
+        f"  up {_v(up)}",
+        "}",
+    ])
 
 
 def write_povray(path: str | Path, profile: Profile, mirror: Mirror, scene: Scene,
