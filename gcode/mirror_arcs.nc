@@ -10,9 +10,12 @@ O1000 (MIRROR_ARCS)
 (stock: diameter 76 mm, face allowance 1 mm)
 (strategy arcs: 42 moves, 40 arcs, 83 of 528 points used)
 (gouge check: deepest point inside the part 0.0008 mm, tolerance 0.005 mm)
-(junction fillet: the nose cannot reach the inside corner; the inner lobe is filleted from r 19.653 to 20 mm, 0.509 mm up the wall; the figures below include it)
-(as machined inner: normal deviation rms 1.84e-02 max 3.47e-01 mm, slope error rms 1.51e-01 max 2.39e+00 rad)
-(as machined outer: normal deviation rms 1.14e-04 max 8.30e-04 mm, slope error rms 4.97e-04 max 3.49e-02 rad)
+(junction fillet: the nose cannot reach the inside corner; the inner lobe is filleted from r 19.653 to 20 mm, 0.509 mm up the wall; the whole-lobe figures include it)
+(as machined inner, whole lobe: normal deviation rms 1.84e-02 max 3.47e-01 mm, slope error rms 1.51e-01 max 2.39e+00 rad)
+(as machined outer, whole lobe: normal deviation rms 1.14e-04 max 8.30e-04 mm, slope error rms 4.97e-04 max 3.49e-02 rad)
+(used zone: the step wall blocks the camera's view of the inner lobe beyond r 17.931 mm; the fillet lies there, out of the image)
+(as machined inner, used r 0.000..17.931 mm: normal deviation rms 3.53e-05 max 1.09e-04 mm, slope error rms 1.60e-04 max 7.28e-04 rad)
+(as machined outer, used r 20.000..35.000 mm: normal deviation rms 1.14e-04 max 8.30e-04 mm, slope error rms 4.97e-04 max 3.49e-02 rad)
 G18 G21 G40 G97 G99
 G50 S3000
 T0101

@@ -159,7 +159,23 @@ def test_header_states_design_machine_tool_budget_and_figures(plans):
     assert "a 48.3584 b 26.8656" in text  # Table 1's a, b of mirror 01
     assert f"{tp.n_points} of 528 points used" in text
     assert "nose radius 0 mm" in text
-    assert text.count("slope error rms") == 2
+    # per lobe: the whole lobe, and the radii the camera uses
+    assert text.count("whole lobe: normal deviation rms") == 2
+    assert text.count("slope error rms") == 4
+
+
+def test_header_gives_the_used_zone_beside_the_whole_lobe(plans, paper_mirror):
+    """With a 0.2 mm nose the junction fillet dominates the inner lobe's whole-lobe
+    figures (a slope error of radians); the header also gives the radii the camera uses,
+    which the step wall cuts short of the fillet (Mirror.fov_usable)."""
+    tp = plans[(Strategy.ARCS, 0.2)]
+    head = "\n".join(ln for ln in program(tp, STOCK).splitlines() if ln.startswith("("))
+    whole = re.search(r"as machined inner, whole lobe: .* slope error rms \S+ max (\S+) rad", head)
+    used = re.search(r"as machined inner, used r 0.000\.\.(\S+) mm: .* slope error rms \S+ max (\S+) rad", head)
+    assert float(whole.group(1)) > 1.0  # the fillet: the nose's side, nearly vertical
+    assert float(used.group(2)) < 2e-3  # the turned hyperbola itself
+    assert abs(float(used.group(1)) - 17.931) < 0.001  # see test_toolpath's hand calculation
+    assert "the fillet lies there, out of the image" in head
 
 
 def test_same_inputs_same_bytes(paper_mirror):
@@ -235,9 +251,12 @@ def test_cli_json_and_directory_output(tmp_path):
     assert res.returncode == 0, res.stderr
     data = json.loads(res.stdout)
     assert [lb["name"] for lb in data["lobes"]] == ["inner", "outer"]
-    for lb in data["lobes"]:
+    for lb in data["lobes"] + data["usable_lobes"]:
         assert set(lb) >= {"name", "normal_deviation_mm", "slope_error_rad"}
         assert set(lb["slope_error_rad"]) == {"rms", "max"}
+    assert [lb["name"] for lb in data["usable_lobes"]] == ["inner", "outer"]
+    assert data["usable_lobes"][0]["r_range_mm"]["min"] == 0.0
+    assert data["usable_lobes"][1]["r_range_mm"] == {"min": 20.0, "max": 35.0}
     assert data["n_points"] <= 528
     assert (tmp_path / "mirror_arcs.ngc").exists()
 

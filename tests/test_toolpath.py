@@ -11,7 +11,7 @@ from lathe_mirror.errors import InputError
 from lathe_mirror.machine import Lathe, Tool
 from lathe_mirror.profile import ExactProfile, PathProfile, Profile
 from lathe_mirror.toolpath import (BEST, Arc, Line, Strategy, check_junction, check_travel,
-                                   plan_toolpath, plan_toolpath, profile_errors)
+                                   plan_toolpath, profile_errors, usable_ranges)
 
 LATHE = Lathe()  # the paper's machine: 0.005 mm, 528 points
 
@@ -52,7 +52,6 @@ def test_on_the_lattice_and_within_the_budget(plans, strategy, rho):
 def test_paper_method_rounds_points_spread_along_the_profile(plans, paper_mirror):
     tp = plans[(Strategy.PAPER, 0.0)]
     assert tp.n_points == 528  # the paper's 528 points, all used
-    ex = ExactProfile(paper_mirror)
     for name, lobe in (("inner", paper_mirror.inner), ("outer", paper_mirror.outer)):
         segs = tp.lobe_segments(name)
         p = np.array([segs[0].start] + [s.end for s in segs])
@@ -64,7 +63,6 @@ def test_paper_method_rounds_points_spread_along_the_profile(plans, paper_mirror
         # spread evenly: chord lengths equal up to the rounding (+-0.007 mm)
         chords = np.hypot(*np.diff(p, axis=0).T)
         assert chords.max() - chords.min() < 0.015
-    assert ex is not None
 
 
 def test_best_slope_error_is_20x_below_the_paper_method(plans, paper_mirror):
@@ -255,3 +253,42 @@ def test_contour_profile_passes_through_the_points(plans, paper_mirror):
     prof = tp.contour_profile()
     ends = np.array([s.end for s in tp.lobe_segments("inner") + tp.lobe_segments("outer")])
     assert np.allclose(prof.z(ends[:, 0]), paper_mirror.vertex_z - ends[:, 1], atol=1e-9)
+
+
+def test_usable_ranges_by_hand(paper_mirror):
+    """The step wall's top corner (20, z_outer(20)) cuts off the inner lobe's world rays:
+    the last inner point used is where the line from the inner F1 (0, 2e) through that
+    corner meets the inner sheet (z - e)^2 / a^2 - r^2 / b^2 = 1 (a quadratic in t)."""
+    m = paper_mirror
+    lobe = m.inner
+    a, b, e = lobe.a, lobe.b, lobe.e
+    zc = float(m.outer.z(20.0))  # 113.786 in the issue's figures
+    # P(t) = (20 t, 2e + t (zc - 2e)); (e + t dz)^2 / a^2 - (20 t)^2 / b^2 = 1
+    dz = zc - 2 * e
+    roots = np.roots([dz**2 / a**2 - 400.0 / b**2, 2 * e * dz / a**2, e**2 / a**2 - 1.0])
+    t = max(x.real for x in roots if abs(x.imag) < 1e-12)
+    (lo0, hi0), (lo1, hi1) = usable_ranges(m)
+    assert lo0 == 0.0 and abs(hi0 - 20.0 * t) < 1e-9
+    assert 17.0 < hi0 < 20.0
+    assert (lo1, hi1) == (20.0, 35.0)  # the inner lobe is recessed: the outer seen from r = 20
+
+
+def test_used_zone_figures_leave_out_the_fillet(plans, paper_mirror):
+    """The junction fillet (nose 0.2 mm) lies beyond the used radii: there the inner
+    lobe's figures are those of the turned hyperbola, the outer lobe's unchanged."""
+    from lathe_mirror.machining import as_machined, junction_fillet
+
+    tp = plans[(BEST, 0.2)]
+    made = as_machined(tp)
+    whole = profile_errors(made, paper_mirror)
+    used = profile_errors(made, paper_mirror, r_ranges=usable_ranges(paper_mirror))
+    assert junction_fillet(tp)["r_start_mm"] > used["lobes"][0]["r_range_mm"]["max"]
+    assert whole["lobes"][0]["slope_error_rad"]["max"] > 1.0
+    assert used["lobes"][0]["slope_error_rad"]["max"] < 2e-3
+    assert used["lobes"][1]["slope_error_rad"] == whole["lobes"][1]["slope_error_rad"]
+    # a sub-range by hand: the exact profile shifted by d judged on r in [0, 1] only
+    e = profile_errors(_Shifted(paper_mirror, dz=0.001), paper_mirror, r_ranges=((0.0, 1.0), (20.0, 35.0)))
+    r = np.linspace(0.0, 1.0, 20001)
+    s = paper_mirror.inner.slope(r)
+    assert abs(e["lobes"][0]["normal_deviation_mm"]["rms"] - math.sqrt(np.mean(1e-6 / (1 + s**2)))) < 1e-7
+    assert e["lobes"][0]["r_range_mm"] == {"min": 0.0, "max": 1.0}

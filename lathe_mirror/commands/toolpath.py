@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     from ..export.gcode import Dialect, options_from_config, parse_dialect, program
     from ..machine import lathe_from_config, stock_from_config, tool_from_config
     from ..machining import as_machined, gouge_depth, junction_fillet
-    from ..toolpath import Strategy, plan_toolpath, profile_errors
+    from ..toolpath import Strategy, plan_toolpath, profile_errors, usable_ranges
 
     cfg = load(args)
     dialect = parse_dialect(args.dialect)
@@ -52,8 +52,7 @@ def run(args: argparse.Namespace) -> int:
     mirror = mirror_from_config(cfg)
     lathe, tool, stock = lathe_from_config(cfg), tool_from_config(cfg), stock_from_config(cfg)
     opts = options_from_config(cfg)
-    tp = plan_toolpath(mirror, lathe, tool, strategy,
-                            max_deviation=float(cfg["toolpath"]["max_deviation"]))
+    tp = plan_toolpath(mirror, lathe, tool, strategy, max_deviation=float(cfg["toolpath"]["max_deviation"]))
     text = program(tp, stock, dialect, options=opts, name=f"mirror_{strategy.value}")
     if args.output:
         from ..export.files import prepare_dir, write_text
@@ -63,7 +62,9 @@ def run(args: argparse.Namespace) -> int:
             ext = "ngc" if dialect is Dialect.LINUXCNC else "nc"
             out = prepare_dir(out) / f"mirror_{strategy.value}.{ext}"
         write_text(out, text)
-    figures = profile_errors(as_machined(tp), mirror)
+    made = as_machined(tp)
+    figures = profile_errors(made, mirror)
+    used = profile_errors(made, mirror, r_ranges=usable_ranges(mirror))
     contour = profile_errors(tp.contour_profile(), mirror) if tp.nose_radius > 0 else figures
     result = {
         "strategy": strategy.value,
@@ -78,6 +79,9 @@ def run(args: argparse.Namespace) -> int:
         "junction_fillet": junction_fillet(tp),
         "lobes": figures["lobes"],
         "contour_lobes": contour["lobes"],
+        # the radii the camera uses (the step wall hides the inner lobe's rim and with it
+        # the junction fillet): what the image sees of the as-machined surface
+        "usable_lobes": used["lobes"],
     }
     if args.json:
         print_json(result)
@@ -95,5 +99,10 @@ def format_figures(res: dict) -> str:
     for lobe in res["lobes"]:
         nd, se = lobe["normal_deviation_mm"], lobe["slope_error_rad"]
         lines.append(f"  {lobe['name']:5s} normal deviation rms {nd['rms']:.2e} max {nd['max']:.2e} mm; "
-                     f"slope error rms {se['rms']:.2e} max {se['max']:.2e} rad")
+                     f"slope error rms {se['rms']:.2e} max {se['max']:.2e} rad (whole lobe)")
+    for lobe in res["usable_lobes"]:
+        nd, se, rr = lobe["normal_deviation_mm"], lobe["slope_error_rad"], lobe["r_range_mm"]
+        lines.append(f"  {lobe['name']:5s} normal deviation rms {nd['rms']:.2e} max {nd['max']:.2e} mm; "
+                     f"slope error rms {se['rms']:.2e} max {se['max']:.2e} rad "
+                     f"(used r {rr['min']:.3f}..{rr['max']:.3f} mm)")
     return "\n".join(lines)

@@ -80,7 +80,7 @@ def program(toolpath: Toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCN
     """The whole program as text. Raises InputError if it would gouge the part, leave
     the lathe's travel, or the stock cannot hold the mirror."""
     from ..machining import gouge_depth
-    from ..toolpath import check_travel, profile_errors
+    from ..toolpath import check_travel, profile_errors, usable_ranges
 
     lathe, m = toolpath.lathe, toolpath.mirror
     if stock.radius <= m.r_max:
@@ -99,13 +99,15 @@ def program(toolpath: Toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCN
         )
     from ..machining import as_machined
 
-    figures = profile_errors(as_machined(toolpath), m)
+    made = as_machined(toolpath)
+    figures = profile_errors(made, m)
+    used = profile_errors(made, m, r_ranges=usable_ranges(m))
     rough_paths = _roughing_paths(toolpath, stock, options)
     rough = np.concatenate([np.asarray(p, dtype=float) for p in rough_paths])
     finish_exit = _finish_exit(toolpath, stock, options)
     check_travel(np.concatenate([toolpath.points(), rough, finish_exit]), lathe, what="the program")
     w = _Writer(lathe, dialect)
-    w.header(toolpath, stock, options, figures, depth, name)
+    w.header(toolpath, stock, options, figures, used, depth, name)
     w.setup()
     w.comment("roughing: Z levels, then a semi-finishing pass")
     w.feed(lathe.feed_rough)
@@ -297,7 +299,7 @@ class _Writer:
         # neither dialect allows parentheses inside a comment
         self.emit("(" + text.replace("(", "[").replace(")", "]") + ")")
 
-    def header(self, tp, stock, options, figures, depth, name) -> None:
+    def header(self, tp, stock, options, figures, used, depth, name) -> None:
         lathe, tool, m = tp.lathe, tp.tool, tp.mirror
         if self.dialect is Dialect.FANUC:
             self.emit("%")
@@ -328,11 +330,19 @@ class _Writer:
         if fillet is not None:
             c(f"junction fillet: the nose cannot reach the inside corner; the inner lobe is "
               f"filleted from r {fillet['r_start_mm']:.3f} to {fillet['r_end_mm']:g} mm, "
-              f"{fillet['height_mm']:.3f} mm up the wall; the figures below include it")
+              f"{fillet['height_mm']:.3f} mm up the wall; the whole-lobe figures include it")
         for lobe in figures["lobes"]:
             nd, se = lobe["normal_deviation_mm"], lobe["slope_error_rad"]
-            c(f"as machined {lobe['name']}: normal deviation rms {nd['rms']:.2e} max {nd['max']:.2e} mm, "
-              f"slope error rms {se['rms']:.2e} max {se['max']:.2e} rad")
+            c(f"as machined {lobe['name']}, whole lobe: normal deviation rms {nd['rms']:.2e} max "
+              f"{nd['max']:.2e} mm, slope error rms {se['rms']:.2e} max {se['max']:.2e} rad")
+        inner_hi = used["lobes"][0]["r_range_mm"]["max"]
+        hidden = fillet is not None and fillet["r_start_mm"] >= inner_hi
+        c(f"used zone: the step wall blocks the camera's view of the inner lobe beyond r {inner_hi:.3f} mm"
+          + ("; the fillet lies there, out of the image" if hidden else ""))
+        for lobe in used["lobes"]:
+            nd, se, rr = lobe["normal_deviation_mm"], lobe["slope_error_rad"], lobe["r_range_mm"]
+            c(f"as machined {lobe['name']}, used r {rr['min']:.3f}..{rr['max']:.3f} mm: normal deviation "
+              f"rms {nd['rms']:.2e} max {nd['max']:.2e} mm, slope error rms {se['rms']:.2e} max {se['max']:.2e} rad")
 
     def setup(self) -> None:
         lathe = self.lathe

@@ -35,17 +35,19 @@ Modules:
 - geometry.py  a lobe's sheet in the machine frame (foot_on_sheet, normals) and the
                nose-centre curve
 - checks.py    check_junction, check_travel
-- metrics.py   profile_errors (normal deviation, slope error)
+- metrics.py   profile_errors (normal deviation, slope error), usable_ranges (the
+               radii the camera uses: the step wall blocks the inner lobe's rim)
 """
 
 from .checks import check_junction, check_travel
 from .geometry import foot_on_sheet
-from .metrics import _signed_distance_camera, profile_errors
+from .metrics import _signed_distance_camera, profile_errors, usable_ranges
 from .moves import BEST, Arc, Line, Move, Strategy, Toolpath
 from .plan import plan_toolpath
 
 __all__ = [
     "BEST", "Arc", "Line", "Move", "Strategy", "Toolpath",
     "check_junction", "check_travel", "foot_on_sheet", "plan_toolpath", "profile_errors",
+    "usable_ranges",
 ]
 # _signed_distance_camera is imported from here by machining.gouge_depth.
