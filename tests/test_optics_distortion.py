@@ -10,7 +10,7 @@ import pytest
 
 from lathe_mirror.optics.distortion import (distortion_figures, exact_image_point,
                                             image_displacement)
-from lathe_mirror.optics.trace import Fate, trace_pixels
+from lathe_mirror.optics.trace import trace_pixels
 from lathe_mirror.profile import ExactProfile, Profile
 
 FIGURES = ("ray_deviation_deg", "image_displacement_px", "viewpoint_spread_mm")
@@ -95,7 +95,7 @@ def test_displacement_is_radial_for_an_aligned_camera(paper_mirror):
 
 def test_misaligned_camera_uses_the_3d_path(paper_mirror):
     """A camera decentred by 0.1 mm: the exact mirror no longer has a single viewpoint."""
-    from lathe_mirror.optics.camera import CameraPose, pixel_centres
+    from lathe_mirror.optics.camera import CameraPose
     from lathe_mirror.design import Camera
 
     exact = ExactProfile(paper_mirror)

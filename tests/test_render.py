@@ -4,7 +4,6 @@ form, supersampling against a finer sensor, determinism, and bad input (exit 2).
 from __future__ import annotations
 
 import json
-import math
 
 import numpy as np
 import pytest
@@ -37,7 +36,11 @@ def test_floor_below_and_wall_ahead_by_hand(scene, paper_config):
     floor_shade = sc["ambient"] + sc["diffuse"] * max(0.0, light[2])
     assert rgb[0] == pytest.approx(np.array(sc["floor_colours"][:3]) * floor_shade)
     # Wall point (2150, 0, 100): 7 + 0 + 0 odd: the second (black) colour.
-    assert rgb[1] == pytest.approx(np.array(sc["x_wall_colours"][3:]) * 0.0 + 0.0)
+    assert rgb[1].tolist() == sc["x_wall_colours"][3:] == [0.0, 0.0, 0.0]
+    # Wall point (2150, 0, 400): 7 + 0 + 1 even: red, lit through the wall's normal -x.
+    o2, d2 = np.array([[0.0, 0.0, 400.0]]), np.array([[1.0, 0.0, 0.0]])
+    red_shade = sc["ambient"] + sc["diffuse"] * max(0.0, -light[0])
+    assert shade(scene, o2, d2)[0] == pytest.approx(np.array(sc["x_wall_colours"][:3]) * red_shade)
 
 
 def test_box_face_hit_by_hand(scene, paper_config):
@@ -67,16 +70,53 @@ def test_centre_pixel_sees_the_floor_under_the_mirror(scene, paper_mirror, paper
     assert img[0, 1].max() == 0 and img[1, 0].max() == 0
 
 
-def test_lost_ring_and_corners_are_black(scene, paper_mirror):
-    img = render_image(ExactProfile(paper_mirror), paper_mirror, scene)
-    assert img.shape == (1018, 1008, 3)
+@pytest.fixture(scope="module")
+def exact_image(scene, paper_mirror):
+    return render_image(ExactProfile(paper_mirror), paper_mirror, scene)
+
+
+def _image_radius() -> np.ndarray:
+    """Image radius (px) of every pixel centre of the paper's 1008 x 1018 sensor."""
     u = np.arange(1008) + 0.5 - 504
     v = np.arange(1018) + 0.5 - 509
-    rho = np.hypot(u[None, :], v[:, None])
+    return np.hypot(u[None, :], v[:, None])
+
+
+def test_lost_ring_and_corners_are_black(exact_image):
+    img = exact_image
+    assert img.shape == (1018, 1008, 3)
+    rho = _image_radius()
     lost = (rho > 307.6) & (rho < 312.4)
     corners = rho > 504.1
     assert img[lost].max() == 0 and img[corners].max() == 0
     assert (img[rho < 280].max(axis=-1) > 0).mean() > 0.4  # the inner disc shows the room
+
+
+def test_both_lobes_see_the_floor_both_walls_and_the_boxes(exact_image, paper_config):
+    """Issue 5, item 3: the mirror sits at a small robot's height so that both lobes see
+    the floor, the red and the green walls and the blue boxes. Each face's colour is its
+    pigment times ambient + diffuse * max(0, n . l) (computed here); each must cover over
+    5 % of the inner disc (inside the step's vignetting, 280.96 px) and of the outer
+    annulus (312.48..504 px)."""
+    sc = paper_config["scene"]
+    light = -np.asarray(sc["light_direction"]) / np.linalg.norm(sc["light_direction"])
+
+    def lit(colour, normal):
+        return np.rint(255 * np.asarray(colour) * (sc["ambient"] + sc["diffuse"] * max(0.0, np.dot(normal, light))))
+
+    axes = np.eye(3)
+    kinds = {
+        "floor": [lit(sc["floor_colours"][:3], axes[2])],
+        "red wall": [lit(sc["x_wall_colours"][:3], s * axes[0]) for s in (1, -1)],
+        "green wall": [lit(sc["y_wall_colours"][:3], s * axes[1]) for s in (1, -1)],
+        "box": [lit(sc["box_colour"], s * axes[i]) for i in range(3) for s in (1, -1)],
+    }
+    rho = _image_radius()
+    for region in (rho < 280.9, (rho > 312.5) & (rho < 504.0)):
+        pixels = exact_image[region].astype(float)
+        for kind, colours in kinds.items():
+            count = sum(int(np.all(pixels == c, axis=1).sum()) for c in colours)
+            assert count > 0.05 * len(pixels), kind
 
 
 def test_supersampling_is_the_mean_of_a_finer_sensor(scene, paper_mirror):
@@ -126,14 +166,14 @@ def test_render_command_writes_images_figures_and_is_reproducible(tmp_path):
 
 @pytest.mark.parametrize("args, toml, words", [
     (["--surface", "mirror42"], "", "unknown surface"),
-    (["--surface", "exact"], "[[scene.boxes]]\n", None),  # placeholder replaced below
+    (["--surface", "exact"], "[scene]\nboxes = []\n", "scene.boxes is empty"),
     (["--surface", "exact"], "[camera_pose]\ndecentre = [400.0, 0.0]\n", "no pixel sees the mirror"),
+    (["--surface", "exact"], "[camera_pose]\ntilt_deg = [44.0, 0.0]\n", "tilt [44.0, 0.0] deg"),
+    (["--surface", "exact"], "[scene]\nambient = -0.2\n", "scene.ambient"),
     (["--surface", "exact", "--supersample", "0"], "", "--supersample"),
     (["--surface", "exact", "--nose-radius", "0.2"], "", "--nose-radius"),
-])
+], ids=["surface", "empty scene", "decentred", "tilted", "ambient", "supersample", "nose"])
 def test_bad_input_one_line_exit_2_nothing_written(tmp_path, args, toml, words):
-    if words is None:  # an empty scene: no boxes at all
-        toml, words = "[scene]\nboxes = []\n", "scene.boxes is empty"
     cfg = tmp_path / "c.toml"
     cfg.write_text(toml)
     out = tmp_path / "out"

@@ -103,9 +103,3 @@ def ray_directions(camera: Camera, u: np.ndarray, v: np.ndarray,
         d = d @ pose.rotation.T
     return pose.origin, d
 
-
-def image_point(camera: Camera, direction: np.ndarray) -> np.ndarray:
-    """Image coordinates (u, v) in px where an aligned camera images a direction (..., 3)."""
-    direction = np.asarray(direction, float)
-    k = camera.f / (camera.t_pixel * direction[..., 2])
-    return np.stack([direction[..., 0] * k, direction[..., 1] * k], axis=-1)

@@ -36,7 +36,7 @@ import numpy as np
 from ..design import Camera, Mirror
 from ..profile import ExactProfile, Profile
 from .camera import ALIGNED, CameraPose, pixel_centres
-from .trace import Fate, RayHits, trace_pixels
+from .trace import RayHits, trace_pixels
 
 LOBE_NAMES = ("inner", "outer")
 
@@ -160,7 +160,7 @@ def viewpoint_distance(point: np.ndarray, direction: np.ndarray, focus_z: float)
 
 
 def _figures_of(mirror: Mirror, camera: Camera, hm: RayHits, he: RayHits, xy: np.ndarray) -> dict:
-    lobe = np.where(he.fate <= Fate.OUTER, he.fate, -1).astype(np.int8)
+    lobe = he.lobe
     usable = (lobe >= 0) & (hm.fate == he.fate)
     cosang = np.clip(np.sum(hm.direction * he.direction, axis=-1), -1.0, 1.0)
     sinang = np.linalg.norm(np.cross(hm.direction, he.direction), axis=-1)

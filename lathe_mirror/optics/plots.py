@@ -14,11 +14,10 @@ def displacement_vs_radius_png(maps: DistortionMaps, *, title: str = "") -> byte
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 4), dpi=120)
     for k, name in enumerate(LOBE_NAMES):
-        use = (maps.lobe == k) & maps.usable
         # Every pixel of one image radius has the same displacement on an aligned camera:
         # plot each distinct radius once.
-        rho, idx = np.unique(np.round(maps.radius_px[use], 6), return_index=True)
-        ax.plot(rho, maps.radial_px[use][idx], ".", ms=1.5, label=f"{name} lobe")
+        rho, idx = np.unique(np.round(maps.lobe_values(k, "radius_px"), 6), return_index=True)
+        ax.plot(rho, maps.lobe_values(k, "radial_px")[idx], ".", ms=1.5, label=f"{name} lobe")
     vig = maps.blocked & (maps.lobe >= 0)
     if vig.any():  # the exact design's pixels whose view the step wall blocks
         ax.axvspan(float(maps.radius_px[vig].min()), float(maps.radius_px[vig].max()),

@@ -117,6 +117,9 @@ def scene_from_config(cfg: dict, *, mirror_top: float = 0.0, mirror_radius: floa
                 f"axis; keep it clear of the mirror (radius {mirror_radius:g} mm)"
             )
         boxes.append(Box(lo, hi))
+    for key in ("ambient", "diffuse"):
+        if not 0 <= sc[key] <= 1:
+            raise InputError(f"scene.{key} = {sc[key]:g}: allowed 0..1 (fraction of the pigment)")
     light = np.asarray(sc["light_direction"], float)
     if light.shape != (3,) or not np.linalg.norm(light) > 0:
         raise InputError(f"scene.light_direction = {sc['light_direction']}: give a non-zero (x, y, z)")

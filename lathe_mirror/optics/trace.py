@@ -33,7 +33,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from ..design import Camera, Lobe, Mirror
+from ..design import Camera, Lobe
 from ..profile import ExactProfile, PolylineProfile, Profile
 
 try:  # the toolpath issue's profiles: tool-nose envelopes and programmed moves
@@ -125,9 +125,7 @@ def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None 
     rho = np.hypot(u, v)
     t = rho * (camera.t_pixel / camera.f)
     m = meridian_hits(profile, t)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.where(rho > 0, u / np.where(rho > 0, rho, 1.0), 1.0)
-        sin = np.where(rho > 0, v / np.where(rho > 0, rho, 1.0), 0.0)
+    cos, sin = _azimuth(u, v, rho)
     point = np.stack([m.r * cos, m.r * sin, m.z], axis=-1)
     direction = np.stack([m.out_r * cos, m.out_r * sin, m.out_z], axis=-1)
     return RayHits(fate=m.fate, point=point, direction=direction, blocked=m.blocked)
@@ -223,6 +221,14 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
 
 # --------------------------------------------------------------------------------------
 # Meridian roots
+
+
+def _azimuth(x: np.ndarray, y: np.ndarray, r: np.ndarray, *,
+             on_axis: tuple[float, float] = (1.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """(cos, sin) of the azimuth of points (x, y) at radius r = hypot(x, y); `on_axis`
+    where r = 0 (any meridian will do there)."""
+    safe = np.where(r > 0, r, 1.0)
+    return np.where(r > 0, x / safe, on_axis[0]), np.where(r > 0, y / safe, on_axis[1])
 
 
 def _meridian_root(profile: Profile, t: np.ndarray, k: int) -> np.ndarray:
@@ -384,9 +390,7 @@ def _trace_chunk(profile, origin, d, z_lo, z_hi, steps):
     r = np.hypot(p[:, 0], p[:, 1])
     k = profile.lobe_index(r)
     slope = profile.slope(r)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cx = np.where(r > 0, p[:, 0] / np.where(r > 0, r, 1.0), 0.0)
-        cy = np.where(r > 0, p[:, 1] / np.where(r > 0, r, 1.0), 0.0)
+    cx, cy = _azimuth(p[:, 0], p[:, 1], r, on_axis=(0.0, 0.0))  # on the axis the normal is -z
     nvec = np.stack([slope * cx, slope * cy, -np.ones_like(r)], axis=-1)
     nvec /= np.linalg.norm(nvec, axis=-1, keepdims=True)
     o = dd - 2.0 * np.sum(dd * nvec, axis=-1, keepdims=True) * nvec
@@ -421,7 +425,3 @@ def _reflected_blocked(profile: Profile, p: np.ndarray, o: np.ndarray, samples: 
         hit |= (lam_exit > 0) & (_gap(profile, q) > 0)
     return hit
 
-
-def _check_mirror(mirror: Mirror) -> None:  # pragma: no cover - helper for callers
-    if not isinstance(mirror, Mirror):
-        raise TypeError("expected a Mirror")
