@@ -218,6 +218,12 @@ class Meridian:
 # Building meridians
 
 
+#: Largest body length accepted (mm): a sanity bound, not a machine limit (the lathe's
+#: travel is checked by the toolpath); it keeps a typo such as 3e30 from writing a file
+#: of overflowed coordinates.
+MAX_LENGTH = 10_000.0
+
+
 def body_spec_from_config(cfg: dict[str, Any]) -> BodySpec:
     """BodySpec from the [cad] section (validated: the message names the key)."""
     c = cfg["cad"]
@@ -228,8 +234,8 @@ def body_spec_from_config(cfg: dict[str, Any]) -> BodySpec:
             f"cad.mount = {c['mount']!r}: allowed {', '.join(repr(m.value) for m in Mount)}"
         ) from None
     for key in ("blank_diameter", "thickness", "mount_diameter", "mount_depth", "min_wall"):
-        if not c[key] > 0:
-            raise ConfigError(f"cad.{key} = {c[key]:g} mm must be > 0")
+        if not 0 < c[key] <= MAX_LENGTH:
+            raise ConfigError(f"cad.{key} = {c[key]:g} mm: allowed > 0 and <= {MAX_LENGTH:g} mm")
     return BodySpec(
         blank_diameter=float(c["blank_diameter"]), thickness=float(c["thickness"]),
         mount=mount, mount_diameter=float(c["mount_diameter"]),
@@ -390,13 +396,16 @@ def programmed_parts(cfg: dict[str, Any], mirror: Mirror, spec: BodySpec
     from .machine import lathe_from_config, tool_from_config
     from .toolpath import Strategy, plan_toolpath
 
-    strategy_name = cfg.get("toolpath", {}).get("strategy", "arcs")
+    strategy_name = cfg["toolpath"]["strategy"]
     try:
         strategy = Strategy(strategy_name)
     except ValueError:
         allowed = ", ".join(s.value for s in Strategy)
         raise ConfigError(f"toolpath.strategy = {strategy_name!r}: allowed {allowed}") from None
-    tp = plan_toolpath(mirror, lathe_from_config(cfg), tool_from_config(cfg), strategy)
+    # The same call as `lathe-mirror toolpath`: the config's max_deviation decides whether
+    # the point budget can hold the profile, so both commands accept the same configs.
+    tp = plan_toolpath(mirror, lathe_from_config(cfg), tool_from_config(cfg), strategy,
+                       max_deviation=float(cfg["toolpath"]["max_deviation"]))
     centre = moves_as_segments(tp.segments, role=Role.MIRROR)
     contour = programmed_contour(centre, tp.nose_radius)
     figures = {

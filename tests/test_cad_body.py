@@ -180,3 +180,17 @@ def test_programmed_contour_is_the_machining_envelope(paper_config, paper_mirror
     sel = ((r > 0.01) & (r < 19.99)) | ((r > 20.01) & (r < 34.9))  # off the wall and the rim
     dz = Z[sel] - env.to_machine_z(env.z(r[sel]))
     assert np.abs(dz).max() < bound
+
+
+def test_programmed_mirror_honours_the_toolpath_max_deviation(paper_config, paper_mirror):
+    """The same toolpath settings as `lathe-mirror toolpath`: 528 points cannot hold lines
+    within 1e-5 mm of the profile (the planner's own count says 673), so the programmed
+    mirror is refused too, naming the budget."""
+    import copy
+
+    from lathe_mirror.cad_body import programmed_parts
+
+    cfg = copy.deepcopy(paper_config)
+    cfg["toolpath"]["max_deviation"] = 1e-5
+    with pytest.raises(InputError, match="machine.max_points"):
+        programmed_parts(cfg, paper_mirror, BodySpec())

@@ -33,18 +33,22 @@ def test_body_thinner_than_the_profile_is_refused(tmp_path):
     assert not out.exists() and list(tmp_path.iterdir()) == [cfg]
 
 
-@pytest.mark.parametrize("toml, key", [
-    ('mount = "flange"', "cad.mount"),
-    ('step_schema = "AP203"', "cad.step_schema"),
-    ('product_name = "Spiegel \u00fc"', "cad.product_name"),
-    ("mount_depth = 27.0", "cad.mount_depth"),
+@pytest.mark.parametrize("toml, key, suffix", [
+    ('mount = "flange"', "cad.mount", "step"),
+    ('step_schema = "AP203"', "cad.step_schema", "step"),
+    ('product_name = "Spiegel \u00fc"', "cad.product_name", "step"),
+    ('product_name = ""', "cad.product_name", "stl"),        # checked whatever the format
+    ("mount_depth = 27.0", "cad.mount_depth", "step"),
+    ("thickness = 1e308", "cad.thickness", "stl"),           # was: an STL of inf coordinates
+    ("stl_tolerance = 100.0", "cad.stl_tolerance", "stl"),   # was: a 5 kB mesh of the body
+    ("stl_tolerance = 1e-6", "cad.stl_tolerance", "stl"),    # ~2e8 triangles: refused
 ])
-def test_bad_cad_settings_are_refused(tmp_path, toml, key):
+def test_bad_cad_settings_are_refused(tmp_path, toml, key, suffix):
     cfg = tmp_path / "bad.toml"
     cfg.write_text(f"[cad]\n{toml}\n", encoding="utf-8")
-    out = tmp_path / "m.step"
+    out = tmp_path / f"m.{suffix}"
     _assert_refused(run_cli("cad", "--config", str(cfg), "-o", str(out)), key)
-    assert not out.exists()
+    assert list(tmp_path.iterdir()) == [cfg]
 
 
 def test_unwritable_path_is_refused(tmp_path):
@@ -54,16 +58,19 @@ def test_unwritable_path_is_refused(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("args, needle", [
-    (["--format", "obj"], "--format 'obj'"),
-    (["--which", "polished"], "--which 'polished'"),
-    (["--schema", "AP203"], "--schema"),
-    (["--stl-tolerance", "0", "--format", "stl"], "--stl-tolerance"),
+@pytest.mark.parametrize("args, name, needle", [
+    (["--format", "obj"], "m.step", "--format 'obj'"),
+    (["--which", "polished"], "m.step", "--which 'polished'"),
+    (["--schema", "AP203"], "m.step", "--schema"),
+    (["--stl-tolerance", "0"], "m.stl", "--stl-tolerance = 0.0 mm: allowed 0.001 to 1 mm"),
+    (["--stl-tolerance", "nan"], "m.stl", "--stl-tolerance"),
+    (["--format", "stl"], "m.step", "a '.step' file cannot hold --format stl"),
+    (["--schema", "AP242"], "m.stl", "--schema applies to --format step only"),
+    (["--stl-tolerance", "0.1"], "m.dxf", "--stl-tolerance applies to --format stl only"),
 ])
-def test_unknown_choices_are_refused(tmp_path, args, needle):
-    out = tmp_path / "m.step"
-    _assert_refused(run_cli("cad", *args, "-o", str(out)), needle)
-    assert not out.exists()
+def test_unknown_choices_are_refused(tmp_path, args, name, needle):
+    _assert_refused(run_cli("cad", *args, "-o", str(tmp_path / name)), needle)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_unknown_suffix_is_refused(tmp_path):
@@ -102,3 +109,35 @@ def test_reference_cad_is_current(tmp_path):
         committed = REPO / "cad" / name
         assert committed.exists(), f"cad/{name} is missing"
         assert (tmp_path / name).read_bytes() == committed.read_bytes(), f"cad/{name} is stale"
+
+
+def test_check_cad_config_refuses_before_anything_is_planned(paper_config):
+    """The cheap check `lathe-mirror run` can call before it writes its programs."""
+    import copy
+
+    from lathe_mirror.errors import InputError
+    from lathe_mirror.export.cad import check_cad_config
+
+    check_cad_config(paper_config)  # the paper default passes
+    for key, value in (("thickness", 15.0), ("stl_tolerance", 5.0), ("product_name", "it's")):
+        cfg = copy.deepcopy(paper_config)
+        cfg["cad"][key] = value
+        with pytest.raises(InputError, match=f"cad.{key}"):
+            check_cad_config(cfg)
+
+
+def test_a_file_failing_its_read_back_check_is_removed(tmp_path, paper_config, monkeypatch):
+    """If the written file does not read back as what it should be, the export fails
+    (RuntimeError: exit 1) and leaves nothing behind."""
+    import lathe_mirror.export.cad as cad
+
+    real = cad.check_file
+
+    def broken(path, fmt):
+        fig = real(path, fmt)
+        return dict(fig, watertight=False)
+
+    monkeypatch.setattr(cad, "check_file", broken)
+    with pytest.raises(RuntimeError, match="read-back check"):
+        cad.export_cad(paper_config, cad.Which.DESIGN, cad.CadFormat.STL, tmp_path / "m.stl")
+    assert list(tmp_path.iterdir()) == []

@@ -247,3 +247,4 @@ def test_cadquery_reads_the_step(design_step, paper_mirror):
     assert solids[0].Volume() == pytest.approx(integrated_volume(paper_mirror, BodySpec()), rel=1e-6)
     wrapped = as_cadquery(read_step(design_step))  # our solid handed to cadquery users
     assert wrapped.isValid() and wrapped.Volume() == pytest.approx(solids[0].Volume(), rel=1e-12)
+

@@ -52,6 +52,36 @@ def parse_enum(enum: type[Enum], value: str, what: str) -> Any:
 
 
 @dataclass(frozen=True)
+class CadSettings:
+    """The [cad] export settings, checked: STEP protocol and product name, STL tolerance
+    (mm, the facets' largest distance from the surface)."""
+
+    schema: Any  # export.step.StepSchema (imported lazily with the module)
+    product_name: str
+    stl_tolerance: float
+
+
+def cad_settings_from_config(cfg: dict[str, Any]) -> CadSettings:
+    """CadSettings from [cad] (InputError naming the key otherwise). Light: no CAD
+    kernel is imported."""
+    from .mesh import check_stl_tolerance
+    from .step import check_product_name, parse_schema
+
+    c = cfg["cad"]
+    return CadSettings(schema=parse_schema(c["step_schema"]),
+                       product_name=check_product_name(c["product_name"]),
+                       stl_tolerance=check_stl_tolerance(c["stl_tolerance"]))
+
+
+def check_cad_config(cfg: dict[str, Any]) -> None:
+    """Check every [cad] setting and that the body holds the designed mirror, so bad
+    input fails before any file is written (what `lathe-mirror run` needs before it
+    writes its programs). Takes ~1 ms; plans no toolpath, imports no CAD kernel."""
+    cad_settings_from_config(cfg)
+    design_meridian(mirror_from_config(cfg), body_spec_from_config(cfg))
+
+
+@dataclass(frozen=True)
 class CadModel:
     """The meridians behind every CAD file of one configuration."""
 
@@ -78,19 +108,18 @@ def build_model(cfg: dict[str, Any], *, programmed: bool) -> CadModel:
 
 def cad_bytes(model: CadModel, which: Which, fmt: CadFormat, cfg: dict[str, Any]) -> bytes:
     """The file's bytes (deterministic for a given configuration)."""
-    c = cfg["cad"]
+    settings = cad_settings_from_config(cfg)
     meridian = model.design if which is Which.DESIGN else model.programmed
     if meridian is None:
-        raise InputError("--which programmed needs the toolpath (internal: not built)")
+        raise RuntimeError("cad_bytes: the model was built without the programmed mirror")
     if fmt is CadFormat.STEP:
-        from .step import parse_schema, step_bytes
+        from .step import step_bytes
 
-        return step_bytes(meridian, schema=parse_schema(c["step_schema"]),
-                          product_name=str(c["product_name"]))
+        return step_bytes(meridian, schema=settings.schema, product_name=settings.product_name)
     if fmt is CadFormat.STL:
         from .mesh import stl_bytes
 
-        return stl_bytes(meridian, float(c["stl_tolerance"]))
+        return stl_bytes(meridian, settings.stl_tolerance)
     from .dxf import dxf_bytes
 
     return dxf_bytes(model.mirror, model.design, programmed=model.programmed,
@@ -98,12 +127,20 @@ def cad_bytes(model: CadModel, which: Which, fmt: CadFormat, cfg: dict[str, Any]
 
 
 def export_cad(cfg: dict[str, Any], which: Which, fmt: CadFormat, path: str | Path) -> dict[str, Any]:
-    """Write one CAD file; returns its figures (JSON-ready). Nothing is written on error."""
+    """Write one CAD file; returns its figures (JSON-ready). Nothing is written on bad
+    input; a file that fails its own read-back check (check_file, ok_figures) is removed
+    and RuntimeError raised (an internal failure, exit 1)."""
     check_writable(path)
+    cad_settings_from_config(cfg)
     # The DXF carries the toolpath layers whenever a toolpath can be planned.
     model = build_model(cfg, programmed=(which is Which.PROGRAMMED or fmt is CadFormat.DXF))
     data = cad_bytes(model, which, fmt, cfg)
     write_bytes(path, data)
+    check = check_file(path, fmt)
+    if not ok_figures(check, fmt):
+        Path(path).unlink(missing_ok=True)
+        raise RuntimeError(f"{fmt.value} of the {which.value} mirror failed its read-back "
+                           f"check {check}; nothing written")
     meridian = model.design if which is Which.DESIGN else model.programmed
     out: dict[str, Any] = {
         "which": which.value,
@@ -115,7 +152,7 @@ def export_cad(cfg: dict[str, Any], which: Which, fmt: CadFormat, path: str | Pa
         "volume_mm3": meridian.volume(),
         "features_mm": dict(meridian.features),
     }
-    out["check"] = check_file(path, fmt)
+    out["check"] = check
     if model.toolpath_figures is not None:
         out["toolpath"] = model.toolpath_figures
     return out
@@ -139,17 +176,26 @@ def check_file(path: str | Path, fmt: CadFormat) -> dict[str, Any]:
     return {"audit_errors": audit(path)}
 
 
+def ok_figures(check: dict[str, Any], fmt: CadFormat) -> bool:
+    """Whether check_file's figures pass: one valid STEP solid, a watertight STL, a DXF
+    without audit errors."""
+    if fmt is CadFormat.STEP:
+        return check["solids"] == 1 and check["valid"]
+    if fmt is CadFormat.STL:
+        return check["watertight"] and check["winding_consistent"] and check["volume_mm3"] > 0
+    return not check["audit_errors"]
+
+
 def write_reference_cad(out_dir: str | Path = "cad", cfg: dict[str, Any] | None = None) -> list[Path]:
     """Write the paper mirror's reference CAD into out_dir: the designed and the
     programmed STEP and the meridian DXF (REFERENCE_FILES). Returns the paths."""
     from ..config import default_config
 
     cfg = default_config() if cfg is None else cfg
-    out = prepare_dir(out_dir)
     model = build_model(cfg, programmed=True)
     jobs = [(Which.DESIGN, CadFormat.STEP), (Which.PROGRAMMED, CadFormat.STEP),
             (Which.DESIGN, CadFormat.DXF)]
-    paths = []
-    for name, (which, fmt) in zip(REFERENCE_FILES, jobs):
-        paths.append(write_bytes(out / name, cad_bytes(model, which, fmt, cfg)))
-    return paths
+    # Every file's bytes first: a failure leaves no mix of new and old reference files.
+    data = [cad_bytes(model, which, fmt, cfg) for which, fmt in jobs]
+    out = prepare_dir(out_dir)
+    return [write_bytes(out / name, d) for name, d in zip(REFERENCE_FILES, data)]

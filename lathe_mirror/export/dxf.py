@@ -30,7 +30,6 @@ from typing import Iterator, Sequence
 
 from ..cad_body import Meridian, Role, Segment, SegmentKind
 from ..design import Mirror
-from .files import check_writable, write_bytes
 
 #: The dimension style of the drawing (mm, three decimals).
 DIMSTYLE = "LATHE_MIRROR_MM"
@@ -99,14 +98,6 @@ def dxf_bytes(mirror: Mirror, design: Meridian, *, programmed: Meridian | None =
         stream = io.StringIO()
         doc.write(stream)
     return stream.getvalue().encode("utf-8")
-
-
-def write_dxf(path: str | Path, mirror: Mirror, design: Meridian, *,
-              programmed: Meridian | None = None,
-              tool_centre: Sequence[Segment] | None = None) -> Path:
-    """Write the meridian's DXF to path atomically."""
-    check_writable(path)
-    return write_bytes(path, dxf_bytes(mirror, design, programmed=programmed, tool_centre=tool_centre))
 
 
 def audit(path_or_bytes: str | Path | bytes) -> list[str]:

@@ -7,21 +7,36 @@ and the tolerance. Machine frame, mm: the axis along Z, the vertex at the origin
 
 Tolerance: the meridian's chords and the revolution's chords each stay within half of
 `tolerance` of the exact curve, so the facets stay within about `tolerance` of the
-surface. Cost: the triangle count grows as 1 / tolerance (the meridian) times
-1 / sqrt(tolerance) (the circle); 0.01 mm gives ~25 k triangles, 0.001 mm ~0.5 M.
+surface. Cost: the triangle count grows as 1 / tolerance (the meridian's chords and
+the circle's each as 1 / sqrt(tolerance)); measured on the paper mirror: 1 mm 480,
+0.1 mm 3.1 k, 0.01 mm 26 k, 0.001 mm 0.24 M triangles (12 MB of STL).
 """
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..cad_body import Meridian, _pieces
 from ..errors import InputError
-from .files import check_writable, write_bytes
+
+
+#: Allowed STL tolerances (mm). Finer than 0.001 mm the mesh passes 0.24 M triangles
+#: (12 MB, growing as 1 / tolerance: viewers and slicers suffer); coarser than 1 mm the
+#: facets no longer resolve the 1.8 mm step between the lobes.
+STL_TOLERANCE_RANGE = (0.001, 1.0)
+
+
+def check_stl_tolerance(tolerance: Any, key: str = "cad.stl_tolerance") -> float:
+    """The tolerance (mm) as a float if within STL_TOLERANCE_RANGE (InputError naming
+    `key` otherwise)."""
+    lo, hi = STL_TOLERANCE_RANGE
+    ok = isinstance(tolerance, (int, float)) and not isinstance(tolerance, bool)
+    if not (ok and lo <= tolerance <= hi):
+        raise InputError(f"{key} = {tolerance!r} mm: allowed {lo:g} to {hi:g} mm")
+    return float(tolerance)
 
 
 def meridian_mesh(meridian: Meridian, tolerance: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
@@ -29,8 +44,7 @@ def meridian_mesh(meridian: Meridian, tolerance: float = 0.01) -> tuple[np.ndarr
 
     tolerance: largest distance (mm) of the facets from the exact surface (about).
     """
-    if not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance) and tolerance > 0):
-        raise InputError(f"cad.stl_tolerance = {tolerance!r} mm must be a number > 0")
+    check_stl_tolerance(tolerance)
     loop = meridian.polyline(tolerance / 2.0)  # closed loop, last point != first
     r, z = loop[:, 0], loop[:, 1]
     on_axis = r <= 1e-12
@@ -84,12 +98,6 @@ def stl_bytes(meridian: Meridian, tolerance: float = 0.01) -> bytes:
     verts, tris = meridian_mesh(meridian, tolerance)
     mesh = trimesh.Trimesh(vertices=verts, faces=tris, process=False)
     return trimesh.exchange.stl.export_stl(mesh)
-
-
-def write_stl(path: str | Path, meridian: Meridian, tolerance: float = 0.01) -> Path:
-    """Write the meridian's binary STL to path atomically."""
-    check_writable(path)
-    return write_bytes(path, stl_bytes(meridian, tolerance))
 
 
 def mesh_figures(mesh: Any) -> dict[str, Any]:

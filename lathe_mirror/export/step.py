@@ -6,8 +6,12 @@ fluent layer: `import cadquery` alone costs ~2.6 s on the project machine, `OCP`
 and the benchmark target is under 3 s for both solids in a fresh process. `as_cadquery`
 wraps a solid as a `cadquery.Solid` for users who want to keep modelling.
 
-Exactness: a lobe is a `gp_Hypr` arc (an exact conic, STEP `HYPERBOLA`), a programmed arc
-a circle arc, a line a line; revolving them about Z gives exact surfaces of revolution.
+Exactness: a lobe is its hyperbola arc written as the conic's exact rational quadratic
+B-spline (Segment.conic_bezier: exact to rounding, ~1e-14 mm), a programmed arc a circle
+arc, a line a line; revolving them about Z gives exact surfaces of revolution. Not STEP's
+HYPERBOLA entity: written from a `gp_Hypr`, OCC 7.9's own STEP reader transfers the
+revolved solid as a null shape (measured on the paper mirror), and FreeCAD 0.20 imports
+it empty.
 Machine frame (ARCHITECTURE.md): the axis along Z, the vertex at the origin, part in -Z,
 the meridian in the XZ plane with X = r. Units: mm.
 
@@ -28,7 +32,6 @@ from typing import Any
 
 from ..cad_body import Meridian, SegmentKind
 from ..errors import InputError
-from .files import check_writable, write_bytes
 
 #: The FILE_NAME time stamp written into every STEP (ISO 8601): fixed, not "now".
 FIXED_TIMESTAMP = "2000-01-01T00:00:00"
@@ -40,18 +43,6 @@ class StepSchema(str, Enum):
 
     AP214 = "AP214"
     AP242 = "AP242"
-
-
-class LobeCurve(str, Enum):
-    """How a lobe's hyperbola arc is written; both are exact to rounding (~1e-14 mm).
-
-    NURBS: a rational quadratic B-spline (the conic's exact NURBS form); every reader
-    takes it, FreeCAD 0.20 (OCC 7.6) included. HYPERBOLA: STEP's HYPERBOLA entity; OCC 7.9
-    reads it back, but FreeCAD 0.20 imports the revolved solid as an empty shape.
-    """
-
-    NURBS = "nurbs"
-    HYPERBOLA = "hyperbola"
 
 
 # Values of OCC's "write.step.schema" static for each protocol.
@@ -74,7 +65,19 @@ def parse_schema(value: str, key: str = "cad.step_schema") -> StepSchema:
         ) from None
 
 
-def meridian_solid(meridian: Meridian, *, lobe_curve: LobeCurve = LobeCurve.NURBS) -> Any:
+def check_product_name(name: str, key: str = "cad.product_name") -> str:
+    """The name if a STEP string can hold it as written (InputError naming `key`
+    otherwise): 1 to 80 printable ASCII characters, no quote (STEP escapes it as '')."""
+    if not (isinstance(name, str) and name and name.isascii() and name.isprintable()
+            and "'" not in name and len(name) <= 80):
+        raise InputError(
+            f"{key} = {name!r}: allowed 1 to 80 printable ASCII characters without "
+            "quotes (STEP strings)"
+        )
+    return name
+
+
+def meridian_solid(meridian: Meridian) -> Any:
     """The solid of revolution of a meridian loop (an OCP TopoDS_Solid), axis Z."""
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace, BRepBuilderAPI_MakeWire
     from OCP.BRepPrimAPI import BRepPrimAPI_MakeRevol
@@ -85,7 +88,7 @@ def meridian_solid(meridian: Meridian, *, lobe_curve: LobeCurve = LobeCurve.NURB
 
     wire_maker = BRepBuilderAPI_MakeWire()
     for seg in meridian.segments:
-        wire_maker.Add(_edge(seg, lobe_curve))
+        wire_maker.Add(_edge(seg))
         if not wire_maker.IsDone():
             raise RuntimeError(f"STEP: the meridian does not connect at {seg.start} ({seg.kind.value})")
     face = BRepBuilderAPI_MakeFace(wire_maker.Wire(), True)
@@ -102,8 +105,7 @@ def meridian_solid(meridian: Meridian, *, lobe_curve: LobeCurve = LobeCurve.NURB
 
 
 def step_bytes(meridian: Meridian, *, schema: StepSchema = StepSchema.AP214,
-               product_name: str = "lathe-mirror", lobe_curve: LobeCurve = LobeCurve.NURBS,
-               solid: Any = None) -> bytes:
+               product_name: str = "lathe-mirror") -> bytes:
     """The STEP file (bytes) of the meridian's solid: mm, the given protocol, one product
     named `product_name`, a fixed header (same bytes for the same meridian)."""
     from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
@@ -112,14 +114,8 @@ def step_bytes(meridian: Meridian, *, schema: StepSchema = StepSchema.AP214,
     from OCP.STEPControl import STEPControl_AsIs, STEPControl_Controller, STEPControl_Writer
     from OCP.TCollection import TCollection_HAsciiString
 
-    if not (product_name and product_name.isascii() and product_name.isprintable()
-            and "'" not in product_name and len(product_name) <= 80):
-        raise InputError(
-            f"cad.product_name = {product_name!r}: allowed 1 to 80 printable ASCII "
-            "characters without quotes (STEP strings)"
-        )
-    if solid is None:
-        solid = meridian_solid(meridian, lobe_curve=lobe_curve)
+    check_product_name(product_name)
+    solid = meridian_solid(meridian)
     _quiet()
     # The STEP statics exist only once the controller is initialised (setting an unknown
     # static fails silently); they are process-global: set every one, every time.
@@ -155,13 +151,6 @@ def step_bytes(meridian: Meridian, *, schema: StepSchema = StepSchema.AP214,
         if writer.Write(out) != IFSelect_RetDone:
             raise RuntimeError("STEP: OCC could not write the file")
         return Path(out).read_bytes()
-
-
-def write_step(path: str | Path, meridian: Meridian, *, schema: StepSchema = StepSchema.AP214,
-               product_name: str = "lathe-mirror") -> Path:
-    """Write the meridian's STEP to path atomically (nothing is left on failure)."""
-    check_writable(path)
-    return write_bytes(path, step_bytes(meridian, schema=schema, product_name=product_name))
 
 
 def read_step(path: str | Path) -> Any:
@@ -225,11 +214,11 @@ def _quiet() -> None:
         printer.SetTraceLevel(Message_Gravity.Message_Fail)
 
 
-def _edge(seg: Any, lobe_curve: LobeCurve = LobeCurve.NURBS) -> Any:
+def _edge(seg: Any) -> Any:
     """The exact OCC edge of a meridian segment, in the XZ plane (X = r)."""
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge
-    from OCP.GC import GC_MakeArcOfCircle, GC_MakeArcOfHyperbola, GC_MakeSegment
-    from OCP.gp import gp_Ax2, gp_Dir, gp_Hypr, gp_Pnt
+    from OCP.GC import GC_MakeArcOfCircle, GC_MakeSegment
+    from OCP.gp import gp_Pnt
 
     p = lambda rz: gp_Pnt(float(rz[0]), 0.0, float(rz[1]))  # noqa: E731
     if seg.kind is SegmentKind.LINE:
@@ -241,7 +230,7 @@ def _edge(seg: Any, lobe_curve: LobeCurve = LobeCurve.NURBS) -> Any:
         # Through start, the arc's midpoint and end: the arc passes exactly through the
         # programmed end points, as the controller's move does.
         curve = GC_MakeArcOfCircle(p(seg.start), p(mid), p(seg.end)).Value()
-    elif lobe_curve is LobeCurve.NURBS:
+    else:  # HYPERBOLA: the conic's exact NURBS form (see the module note)
         from OCP.Geom import Geom_BSplineCurve
         from OCP.TColgp import TColgp_Array1OfPnt
         from OCP.TColStd import TColStd_Array1OfInteger, TColStd_Array1OfReal
@@ -255,12 +244,6 @@ def _edge(seg: Any, lobe_curve: LobeCurve = LobeCurve.NURBS) -> Any:
         knots.SetValue(1, 0.0), knots.SetValue(2, 1.0)
         mults.SetValue(1, 3), mults.SetValue(2, 3)
         curve = Geom_BSplineCurve(poles, weights, knots, mults, 2)
-    else:
-        # Hyperbola frame: X direction -Z (the sheet opens toward -Z in the machine frame),
-        # normal -Y so that Y = N x X = +X (the radius): P(u) = (b sinh u, 0, zc - a cosh u).
-        frame = gp_Ax2(gp_Pnt(0.0, 0.0, seg.centre[1]), gp_Dir(0, -1, 0), gp_Dir(0, 0, -1))
-        u0, u1 = seg.hyperbola_params()
-        curve = GC_MakeArcOfHyperbola(gp_Hypr(frame, seg.a, seg.b), u0, u1, True).Value()
     maker = BRepBuilderAPI_MakeEdge(curve)
     if not maker.IsDone():
         raise RuntimeError(f"STEP: cannot make the {seg.kind.value} edge {seg.start} -> {seg.end}")
