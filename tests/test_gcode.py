@@ -57,14 +57,18 @@ def canonical_contour(out: str) -> list[tuple]:
     return moves
 
 
-def rebuild_points(moves, n=33) -> tuple[np.ndarray, list]:
-    """Points along the rebuilt contour (arcs as LinuxCNC's spiral), per move."""
+def rebuild_points(moves, n=33, *, step: float | None = None) -> list[np.ndarray]:
+    """Points along the rebuilt contour (arcs as LinuxCNC's spiral), per move: n per
+    move, or with `step` (mm) at least one every step along it."""
     cur = np.array(moves[0][1])
     pieces = []
     for mv in moves[1:]:
         end = np.array(mv[1])
+        k = n
+        if step is not None:  # an arc is at most half a circle longer than its chord
+            k = max(n, int(math.ceil(np.hypot(*(end - cur)) * math.pi / 2 / step)) + 1)
         if mv[0] == "line":
-            t = np.linspace(0, 1, n)[:, None]
+            t = np.linspace(0, 1, k)[:, None]
             pieces.append((1 - t) * cur + t * end)
         else:
             c = np.array(mv[2])
@@ -79,7 +83,7 @@ def rebuild_points(moves, n=33) -> tuple[np.ndarray, list]:
                 while sweep <= 0:
                     sweep += 2 * math.pi
             r0, r1 = np.hypot(*(cur - c)), np.hypot(*(end - c))
-            u = np.linspace(0, 1, n)
+            u = np.linspace(0, 1, k)
             rad = r0 + (r1 - r0) * u
             phi = a0 + sweep * u
             pieces.append(c + rad[:, None] * np.stack([np.cos(phi), np.sin(phi)], -1))
@@ -204,13 +208,49 @@ def test_reference_programs_are_current():
 
 
 @pytest.mark.parametrize("name", ["mirror_paper.ngc", "mirror_arcs.ngc"])
-def test_reference_programs_pass_rs274(tmp_path, name):
-    out = rs274(tmp_path, (REPO / "gcode" / name).read_text())
+def test_reference_programs_pass_rs274(tmp_path, name, paper_mirror):
+    text = (REPO / "gcode" / name).read_text()
+    out = rs274(tmp_path, text)
     moves = canonical_contour(out)
     pts = np.array([m[1] for m in moves] + [m[2] for m in moves if m[0] == "arc"])
     assert np.all(np.abs(pts / 0.005 - np.rint(pts / 0.005)) < 1e-6)
     n_points = 1 + sum(1 if m[0] == "line" else 2 for m in moves[1:])
     assert n_points <= 528
+    # no gouge: the 0.2 mm nose swept along rs274's own moves stays out of the part
+    pieces = rebuild_points(moves, 3, step=0.004)
+    depth = nose_depth_into_part(pieces, 0.2, paper_mirror)
+    assert depth <= ProgramOptions().gouge_tolerance  # the stated tolerance, 0.005 mm
+    # the check sees a gouge: a nose 0.05 mm larger than planned cuts 0.05 mm deeper
+    assert abs(nose_depth_into_part(pieces, 0.25, paper_mirror) - (depth + 0.05)) < 1e-3
+    # and the header's figure (machining.gouge_depth) agrees with this brute force
+    stated = float(re.search(r"deepest point inside the part (\S+) mm", text).group(1))
+    assert abs(depth - stated) < 1e-4, (depth, stated)
+
+
+def nose_depth_into_part(pieces, rho: float, mirror) -> float:
+    """Deepest (mm, normal to the surface) any point of a nose circle of radius rho on
+    the path reaches inside the exact part: the lower half circle sampled every 0.75 deg
+    at every path point, against each lobe's sheet z = e + a sqrt(1 + r^2 / b^2)
+    (camera frame) written out here; beside the step wall the part's boundary is the
+    wall, r = 20."""
+    path = np.concatenate(pieces)
+    phi = np.linspace(math.pi, 2 * math.pi, 241)
+    p = (path[:, None, :] + rho * np.stack([np.cos(phi), np.sin(phi)], -1)[None]).reshape(-1, 2)
+    p = p[(p[:, 0] >= 0.0) & (p[:, 0] <= mirror.r_max)]
+    r, zm = p[:, 0], p[:, 1]
+    depth = np.full(r.shape, -np.inf)
+    top_inner = None
+    for lobe, sel in ((mirror.inner, r <= mirror.r_junction), (mirror.outer, r > mirror.r_junction)):
+        a, b, e = lobe.a, lobe.b, lobe.e
+        q = np.sqrt(1 + (r[sel] / b) ** 2)
+        z_part = mirror.vertex_z - (e + a * q)  # machine Z of the part's top
+        slope = a * r[sel] / (b * b * q)
+        depth[sel] = (z_part - zm[sel]) / np.sqrt(1 + slope**2)  # vertical -> normal depth
+        if top_inner is None:
+            top_inner = mirror.vertex_z - (e + a * math.sqrt(1 + (mirror.r_junction / b) ** 2))
+    wall = (r > mirror.r_junction) & (zm >= top_inner)
+    depth[wall] = np.minimum(depth[wall], r[wall] - mirror.r_junction)
+    return max(0.0, float(depth.max()))
 
 
 # --------------------------------------------------------------------------------------
@@ -232,6 +272,30 @@ def test_cli_bad_inputs(tmp_path, args, phrase):
     assert len(err) == 1 and phrase in err[0], res.stderr
     assert "Traceback" not in res.stderr
     assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_cli_lattice_too_coarse_for_the_points(tmp_path):
+    """0.1 mm steps under 0.076 mm chords: rounded neighbours share a column."""
+    out = tmp_path / "p.ngc"
+    res = run_cli("toolpath", "--strategy", "paper", "--resolution", "0.1", "-o", str(out))
+    assert res.returncode == 2, res.stderr
+    assert "machine.resolution = 0.1 mm: too coarse" in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1 and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("resolution", [0.003, 0.0001])
+def test_other_lattices_pass_rs274(tmp_path, paper_mirror, resolution):
+    """A step that does not divide the program's round figures (clearance 2 mm, r 35 mm),
+    and the finest step a word can carry: every word on the lattice, rs274 rebuilds it."""
+    lathe = Lathe(resolution=resolution)
+    tp = plan_toolpath(paper_mirror, lathe, Tool(nose_radius=0.2), Strategy.ARCS)
+    text = program(tp, STOCK)
+    for word, val in re.findall(r"\b([XZIK])(-?\d+\.\d+)", text):
+        step = 2 * resolution if word == "X" else resolution
+        assert abs(float(val) / step - round(float(val) / step)) < 1e-6, (word, val)
+    moves = canonical_contour(rs274(tmp_path, text))
+    assert np.allclose([mv[1] for mv in moves[1:]], [s.end for s in tp.segments], atol=1e-4)
+    assert tp.n_points <= 528
 
 
 def test_cli_travel_exceeded(tmp_path):

@@ -26,12 +26,13 @@ def test_paper_machine_from_the_default_config(paper_config):
 
 def test_lattice_arithmetic():
     lathe = Lathe()
-    assert lathe.to_units(11.9275).item() == 2386 or lathe.to_units(11.9275).item() == 2385
+    assert lathe.to_units(11.93).item() == 2386 and lathe.to_units(-11.9274).item() == -2385
     assert lathe.snap(-11.929) == pytest.approx(-11.93)
     assert lathe.on_lattice([0.005, 20.0, -19.78])
     assert not lathe.on_lattice([0.0051])
     assert lathe.decimals == 3
     assert Lathe(resolution=0.01).decimals == 2
+    assert Lathe(resolution=0.0025).decimals == 4 and Lathe(resolution=0.0001).decimals == 4
     assert np.all(lathe.from_units([1, -2]) == np.array([0.005, -0.01]))
 
 
@@ -42,6 +43,10 @@ def test_lattice_arithmetic():
     ({"travel_x": 0.0}, "machine.travel_x"),
     ({"travel_z_min": 1.0}, "travel_z_min"),
     ({"spindle_max_rpm": 0}, "machine.spindle_max_rpm"),
+    # a G-code word carries 4 decimals: finer or odd steps cannot be written exactly
+    ({"resolution": 1e-7}, "allowed a multiple of 0.0001 mm"),
+    ({"resolution": 0.00333}, "allowed a multiple of 0.0001 mm"),
+    ({"resolution": 0.2}, "machine.resolution = 0.2"),
 ])
 def test_bad_lathe(kwargs, phrase):
     with pytest.raises(InputError, match=phrase):
