@@ -8,6 +8,7 @@ import math
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,6 +20,8 @@ from lathe_mirror.profile import ExactProfile
 
 from conftest import require_program
 from test_cad_body import integrated_volume
+
+REPO = Path(__file__).resolve().parents[1]
 
 FREECAD_SCRIPT = r'''
 import json, os, sys
@@ -248,3 +251,59 @@ def test_cadquery_reads_the_step(design_step, paper_mirror):
     wrapped = as_cadquery(read_step(design_step))  # our solid handed to cadquery users
     assert wrapped.isValid() and wrapped.Volume() == pytest.approx(solids[0].Volume(), rel=1e-12)
 
+
+
+def test_committed_program_cuts_the_committed_programmed_step(tmp_path, paper_config):
+    """Two reference outputs against each other through an independent interpreter:
+    LinuxCNC's rs274 runs gcode/mirror_arcs.ngc (the paper program, nose centre
+    programmed), and the nose centre along its finishing moves (arcs as LinuxCNC's
+    spirals) stays one nose radius from cad/mirror_programmed.step's faces: within 1e-4
+    mm on the lobes (the STEP's circle through a spiral's ends and middle is within a
+    quarter of its <= 0.0002 mm radius mismatch), never closer anywhere (the junction's
+    moves may cut air)."""
+    import re
+
+    from lathe_mirror.machine import tool_from_config
+
+    exe = require_program("rs274")
+    program = REPO / "gcode" / "mirror_arcs.ngc"
+    (tmp_path / "tools.tbl").write_text("T1 P1 X0 Z0 D0 Q2\n")  # offsets zero: nose centre
+    res = subprocess.run([exe, "-t", str(tmp_path / "tools.tbl"), "-g", str(program)],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=60,
+                         env=dict(os.environ, HOME=str(tmp_path)))
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    lines = res.stdout.splitlines()
+    i0 = next(i for i, ln in enumerate(lines) if 'COMMENT("finish contour begin")' in ln)
+    i1 = next(i for i, ln in enumerate(lines) if 'COMMENT("finish contour end")' in ln)
+    pts, cur = [], None
+    for ln in lines[i0 + 1:i1]:
+        m = re.search(r"(STRAIGHT_FEED|ARC_FEED)\(([^)]*)\)", ln)
+        if not m:
+            continue
+        v = [float(x) for x in m.group(2).split(",")]
+        if m.group(1) == "STRAIGHT_FEED":  # G7: X is the radius
+            end = np.array([v[0], v[2]])
+            if cur is not None:
+                pts += [cur + t * (end - cur) for t in (0.25, 0.5, 0.75)]
+        else:  # XZ plane: (first, second) = (Z, X); rotation +1 = clockwise in (r, Z)
+            end, c = np.array([v[1], v[0]]), np.array([v[3], v[2]])
+            a0, a1 = (math.atan2(p[1] - c[1], p[0] - c[0]) for p in (cur, end))
+            sweep = (a1 - a0 + math.pi) % (2 * math.pi) - math.pi  # under half a turn
+            assert (sweep < 0) == (v[4] > 0)
+            r0, r1 = np.hypot(*(cur - c)), np.hypot(*(end - c))
+            pts += [c + (r0 + (r1 - r0) * t) * np.array([math.cos(a0 + sweep * t),
+                                                         math.sin(a0 + sweep * t)])
+                    for t in (0.25, 0.5, 0.75)]
+        cur = end
+    rho = tool_from_config(paper_config).nose_radius
+    shell = _shell(read_step(REPO / "cad" / "mirror_programmed.step"))
+    pts = [p for p in pts if p[0] > 0.0]  # the plunge along the axis cuts nothing
+    d = np.array([_distance(shell, np.array([p[0] * math.cos(2.0), p[0] * math.sin(2.0), p[1]]))
+                  for p in pts]) - rho
+    r = np.array([p[0] for p in pts])
+    lobes = np.abs(r - 20.0) > 0.5
+    print(f"rs274 nose centre to the committed programmed STEP: {len(pts)} points, "
+          f"max |d - rho| on the lobes {np.abs(d[lobes]).max():.3g} mm")
+    assert lobes.sum() > 60
+    assert np.abs(d[lobes]).max() < 1e-4
+    assert d.min() > -1e-4
