@@ -115,12 +115,15 @@ def test_tool_centre_path_lies_one_nose_radius_from_the_programmed_faces(program
     _assert_nose_touches(shell, tp, step=5)
 
 
-def test_freecad_opens_both_steps_as_one_valid_solid(tmp_path, design_step, programmed_step,
+def test_freecad_opens_the_steps_as_one_valid_solid(tmp_path, design_step, programmed_step,
                                                      design, programmed, paper_mirror):
     freecad = require_program("freecadcmd")
     script = tmp_path / "check_step.py"
     script.write_text(FREECAD_SCRIPT)
+    ap242 = tmp_path / "design_ap242.step"  # the protocol on request reads the same
+    ap242.write_bytes(step_bytes(design, schema=StepSchema.AP242))
     expected = {design_step: integrated_volume(paper_mirror, BodySpec()),
+                ap242: integrated_volume(paper_mirror, BodySpec()),
                 programmed_step: programmed[0].volume()}
     for path, volume in expected.items():
         env = dict(os.environ, LATHE_MIRROR_STEP=str(path))
