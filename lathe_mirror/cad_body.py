@@ -331,9 +331,10 @@ SNAP = 1e-6
 
 
 def programmed_contour(centre_path: list[Segment], nose_radius: float) -> list[Segment]:
-    """The contour a nose of radius rho cuts when its centre follows `centre_path`: the
-    path offset by rho to its right (the part's side, for a path running outward from the
-    axis), lines staying lines and arcs concentric arcs (radius R + rho counter-clockwise,
+    """The contour a nose of radius rho (`nose_radius`, mm) cuts when its centre follows
+    `centre_path` (machine frame (r, Z), mm): the path offset by rho to its right (the
+    part's side, for a path running outward from the axis), lines staying lines and
+    arcs concentric arcs (radius R + rho counter-clockwise,
     R - rho clockwise). Where the path turns left (the step wall's foot) the nose leaves
     an arc of radius rho about the vertex; where it turns right the two offsets are cut
     at their intersection. This is the exact envelope of the nose, as in cutter-radius

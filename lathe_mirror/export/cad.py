@@ -132,7 +132,8 @@ def export_cad(cfg: dict[str, Any], which: Which, fmt: CadFormat, path: str | Pa
     and RuntimeError raised (an internal failure, exit 1)."""
     check_writable(path)
     cad_settings_from_config(cfg)
-    # The DXF carries the toolpath layers whenever a toolpath can be planned.
+    # The DXF always carries the toolpath layers: it plans the toolpath (and fails, exit
+    # 2, on a toolpath setting it cannot plan with, as `lathe-mirror toolpath` would).
     model = build_model(cfg, programmed=(which is Which.PROGRAMMED or fmt is CadFormat.DXF))
     data = cad_bytes(model, which, fmt, cfg)
     write_bytes(path, data)
