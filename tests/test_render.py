@@ -182,3 +182,18 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path, args, toml, words):
     lines = p.stderr.strip().splitlines()
     assert len(lines) == 1 and words in lines[0] and "Traceback" not in p.stderr
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_thread_count_does_not_change_the_image(scene, paper_mirror, paper_config, monkeypatch):
+    """Chunks shade in a thread pool, each into its own slice: 1 or 3 threads, same pixels."""
+    from lathe_mirror.optics import render
+    from lathe_mirror.optics.surfaces import make_surface
+
+    made = make_surface("uniform528", paper_mirror, paper_config)
+    cam = Camera(16.0, 0.018, (504, 508))
+    monkeypatch.setattr(render, "CHUNK_RAYS", 4096)  # many chunks in flight
+    images = []
+    for threads in (1, 3):
+        monkeypatch.setattr(render, "RENDER_THREADS", threads)
+        images.append(render_image(made, paper_mirror, scene, cam))
+    assert images[0].any() and np.array_equal(images[0], images[1])
