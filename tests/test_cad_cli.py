@@ -55,7 +55,21 @@ def test_unwritable_path_is_refused(tmp_path):
     out = tmp_path / "no_such_dir" / "m.step"
     _assert_refused(run_cli("cad", "-o", str(out)), "does not exist")
     _assert_refused(run_cli("cad", "-o", str(tmp_path)), "is a directory")
+    # os.access says yes (the tests may run as root), the write says no: still exit 2
+    _assert_refused(run_cli("cad", "-o", "/proc/lathe_mirror_cad_test.step"), "cannot write")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_special_file_is_not_replaced(tmp_path):
+    """An existing FIFO (a stand-in for /dev/null: never test on that) is refused and
+    stays a FIFO: the atomic rename would otherwise put a regular file in its place."""
+    import stat
+
+    fifo = tmp_path / "m.step"
+    os.mkfifo(fifo)
+    _assert_refused(run_cli("cad", "-o", str(fifo)), "not a regular file")
+    assert stat.S_ISFIFO(fifo.stat().st_mode)
+    assert list(tmp_path.iterdir()) == [fifo]
 
 
 @pytest.mark.parametrize("args, name, needle", [

@@ -130,13 +130,16 @@ def export_cad(cfg: dict[str, Any], which: Which, fmt: CadFormat, path: str | Pa
     """Write one CAD file; returns its figures (JSON-ready). Nothing is written on bad
     input; a file that fails its own read-back check (check_file, ok_figures) is removed
     and RuntimeError raised (an internal failure, exit 1)."""
-    check_writable(path)
+    _check_target(path)
     cad_settings_from_config(cfg)
     # The DXF always carries the toolpath layers: it plans the toolpath (and fails, exit
     # 2, on a toolpath setting it cannot plan with, as `lathe-mirror toolpath` would).
     model = build_model(cfg, programmed=(which is Which.PROGRAMMED or fmt is CadFormat.DXF))
     data = cad_bytes(model, which, fmt, cfg)
-    write_bytes(path, data)
+    try:
+        write_bytes(path, data)
+    except OSError as exc:  # e.g. /proc, a read-only file system: os.access said yes
+        raise InputError(f"-o/--output {path}: cannot write ({exc.strerror})") from None
     check = check_file(path, fmt)
     if not ok_figures(check, fmt):
         Path(path).unlink(missing_ok=True)
@@ -157,6 +160,17 @@ def export_cad(cfg: dict[str, Any], which: Which, fmt: CadFormat, path: str | Pa
     if model.toolpath_figures is not None:
         out["toolpath"] = model.toolpath_figures
     return out
+
+
+def _check_target(path: str | Path) -> None:
+    """InputError unless path can take a new regular file. An existing device, FIFO or
+    socket is refused: the atomic write renames over it (as root, `-o /dev/null` would
+    replace the system's null device with a regular file)."""
+    check_writable(path)
+    p = Path(path)
+    if p.exists() and not p.is_file():
+        raise InputError(f"-o/--output {path}: not a regular file (a device, FIFO or "
+                         "socket); allowed a new or an existing regular file")
 
 
 def check_file(path: str | Path, fmt: CadFormat) -> dict[str, Any]:
