@@ -12,10 +12,10 @@ O1000 (MIRROR_ARCS)
 (gouge check: deepest point inside the part 0.0008 mm, tolerance 0.005 mm)
 (junction fillet: the nose cannot reach the inside corner; the inner lobe is filleted from r 19.653 to 20 mm, 0.509 mm up the wall; the whole-lobe figures include it)
 (as machined inner, whole lobe: normal deviation rms 1.84e-02 max 3.47e-01 mm, slope error rms 1.51e-01 max 2.39e+00 rad)
-(as machined outer, whole lobe: normal deviation rms 1.14e-04 max 8.30e-04 mm, slope error rms 4.97e-04 max 3.49e-02 rad)
+(as machined outer, whole lobe: normal deviation rms 1.09e-04 max 8.30e-04 mm, slope error rms 2.46e-04 max 3.34e-03 rad)
 (used zone: the step wall blocks the camera's view of the inner lobe beyond r 17.931 mm; the fillet lies there, out of the image)
 (as machined inner, used r 0.000..17.931 mm: normal deviation rms 3.53e-05 max 1.09e-04 mm, slope error rms 1.60e-04 max 7.28e-04 rad)
-(as machined outer, used r 20.000..35.000 mm: normal deviation rms 1.14e-04 max 8.30e-04 mm, slope error rms 4.97e-04 max 3.49e-02 rad)
+(as machined outer, used r 20.000..35.000 mm: normal deviation rms 1.09e-04 max 8.30e-04 mm, slope error rms 2.46e-04 max 3.34e-03 rad)
 G18 G21 G40 G97 G99
 G50 S3000
 T0101
@@ -249,9 +249,9 @@ G3 X64.220 Z-17.400 I-76.240 K-108.105
 G3 X65.440 Z-17.840 I-80.275 K-111.975
 G3 X67.570 Z-18.620 I-84.690 K-116.770
 G3 X68.150 Z-18.835 I-89.080 K-120.430
-G3 X70.230 Z-19.615 I-92.690 K-124.650
+G3 X70.270 Z-19.630 I-92.730 K-124.725
 (finish contour end)
-G1 X80.000 Z-19.615
+G1 X80.000 Z-19.630
 G0 X80.000 Z3.000
 G0 X0.000 Z3.000
 M5

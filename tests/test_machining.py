@@ -107,3 +107,18 @@ def test_junction_fillet_extent_by_hand(tp02, paper_mirror):
     assert abs(f["height_mm"] - tangent) < 0.02 * tangent
     assert abs((20.0 - f["r_start_mm"]) - tangent * math.cos(phi)) < 0.02 * tangent
     assert junction_fillet(tp02, nose_radius=0.0) is None
+
+
+def test_the_nose_cuts_the_rim_with_its_offset_not_its_side(tp02, paper_mirror):
+    """The best program's last point lies past the rim's nose centre (35 + rho sin of
+    the rim's slope angle, by hand), so the rim's last microns are cut by the nose's
+    contact point and keep the hyperbola's slope (a point short of it would leave the
+    nose's side there, 0.035 rad off on the paper's machine)."""
+    m = paper_mirror
+    s = float(m.outer.slope(35.0))
+    centre_r = 35.0 + 0.2 * s / math.sqrt(1 + s * s)  # outward normal's r component
+    assert tp02.segments[-1].end[0] >= centre_r
+    r = np.linspace(34.99, 35.0, 101)
+    made = as_machined(tp02)
+    err = np.abs(np.arctan(made.slope(r)) - np.arctan(m.outer.slope(r)))
+    assert err.max() < 2e-3

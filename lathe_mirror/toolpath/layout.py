@@ -18,7 +18,7 @@ from .moves import Line, Move
 class _Layout:
     """Where each lobe's path starts and ends on the lattice, and the junction moves."""
 
-    def __init__(self, mirror: Mirror, lathe: Lathe, rho: float) -> None:
+    def __init__(self, mirror: Mirror, lathe: Lathe, rho: float, *, past_rim: bool = True) -> None:
         self.mirror, self.lathe, self.rho = mirror, lathe, rho
         res = lathe.resolution
         zero = mirror.vertex_z
@@ -27,7 +27,14 @@ class _Layout:
         self.r_wall = math.floor((rj - rho) / res + 1e-9) * res
         rs_end = rj if rho == 0.0 else _solve_rs_for_centre_r(mirror.inner, rho, self.r_wall)
         self.inner = _Target(mirror.inner, zero, rho, 0.0, rs_end)
-        self.outer = _Target(mirror.outer, zero, rho, rj, mirror.r_max)
+        # With a nose the outer path's last point floats to the lattice point nearest the
+        # curve, up to ~1.5 steps short of the target: past_rim aims 2 steps past the rim
+        # so that the nose's offset, not its side, cuts the rim's last microns (the side
+        # left a 5 um band of 0.035 rad slope error). Beyond the rim is the shoulder,
+        # faced at the last point's height by the exit move anyway. (The paper's method
+        # keeps its target, the rim.)
+        rs_rim = mirror.r_max + (2 * res if rho > 0.0 and past_rim else 0.0)
+        self.outer = _Target(mirror.outer, zero, rho, rj, rs_rim)
         # fixed columns of the end points: the axis, the wall; for a sharp tool also the
         # rim; with a nose the outer ends float (nearest lattice point to the target)
         self.inner_cols = (0.0, self.r_wall)

@@ -32,7 +32,7 @@ def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy =
     rho = tool.nose_radius
     check_junction(mirror, tool)
     tool.check_reach(_normal_angles(mirror), what="the mirror's profile")
-    layout = _Layout(mirror, lathe, rho)
+    layout = _Layout(mirror, lathe, rho, past_rim=strategy is not Strategy.PAPER)
     need = layout.min_points(max_deviation)
     if lathe.max_points < need:
         raise InputError(
