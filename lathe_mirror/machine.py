@@ -72,11 +72,11 @@ class Lathe:
     # The lattice: integer multiples of the resolution. Working in integer lattice units
     # keeps "on the lattice" exact instead of a float comparison.
     def to_units(self, v: np.ndarray | float) -> np.ndarray:
-        """Lattice coordinates (float, mm) -> integer lattice units (rounded)."""
+        """Coordinates (mm) -> integer lattice units (nearest; units of `resolution`)."""
         return np.rint(np.asarray(v, dtype=float) / self.resolution).astype(np.int64)
 
     def from_units(self, k: np.ndarray | int) -> np.ndarray:
-        """Integer lattice units -> mm."""
+        """Integer lattice units (of `resolution`) -> coordinates, mm."""
         return np.asarray(k, dtype=np.int64) * self.resolution
 
     def snap(self, v: np.ndarray | float) -> np.ndarray:
@@ -177,6 +177,7 @@ class Stock:
 
     @property
     def radius(self) -> float:
+        """Bar radius, mm."""
         return self.diameter / 2.0
 
 

@@ -13,12 +13,11 @@ inside corner, which it cannot reach.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from typing import TYPE_CHECKING
-
-from .profile import PathProfile, Profile, TabulatedProfile
+from .profile import PathProfile, Profile, TabulatedProfile, _spiral_at_r
 
 if TYPE_CHECKING:
     from .toolpath import Toolpath
@@ -148,8 +147,6 @@ def _piece_move(seg, rho: float, r: np.ndarray, zbest, sbest) -> None:
         if i1 <= i0:
             return
         idx = np.arange(i0, i1)
-        from .profile import _spiral_at_r
-
         z, s = _spiral_at_r(r[idx], np.full(idx.size, c[0]), np.full(idx.size, c[1]),
                             np.full(idx.size, R0), np.full(idx.size, R1),
                             np.full(idx.size, phis[0]), np.full(idx.size, phis[1]))

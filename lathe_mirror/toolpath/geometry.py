@@ -17,8 +17,9 @@ from ..design import Lobe, Mirror
 def foot_on_sheet(lobe: Lobe, pr, pz, *, zero: float, r0=None) -> np.ndarray:
     """Radius of the point of the sheet (machine frame) nearest to points (pr, pz).
 
-    Newton's method on d/dr of the squared distance; the points lie within a fraction of
-    the radius of curvature (>= b^2/a... 15 mm) of the sheet, where it converges fast.
+    Radii in mm. Newton's method on d/dr of the squared distance; the points lie within
+    a fraction of the radius of curvature (>= b^2 / a, about 15 mm on the paper's lobes)
+    of the sheet, where it converges fast.
     """
     pr = np.asarray(pr, dtype=float)
     pz = np.asarray(pz, dtype=float)
@@ -116,6 +117,7 @@ class _Target:
         self.length = float(self.s_tab[-1])
 
     def point(self, rs) -> np.ndarray:
+        """Nose centre (..., 2) machine (r, Z), mm, for surface radii rs (mm)."""
         rs = np.asarray(rs, dtype=float)
         return np.stack(_nose_centre(self.lobe, rs, self.zero, self.rho), axis=-1)
 
@@ -130,6 +132,7 @@ class _Target:
         return k / (1.0 + self.rho * k)
 
     def rs_at_s(self, s) -> np.ndarray:
+        """Surface radius (mm) at arc length s (mm) along the curve from its start."""
         return np.interp(s, self.s_tab, self.rs)
 
     def rs_at_r(self, r) -> np.ndarray:
@@ -147,6 +150,7 @@ class _Target:
         return rs
 
     def z_at_r(self, r) -> np.ndarray:
+        """Machine Z (mm) of the curve at radius r (mm)."""
         return self.point(self.rs_at_r(r))[..., 1]
 
     def errors(self, pr, pz) -> tuple[np.ndarray, np.ndarray]:

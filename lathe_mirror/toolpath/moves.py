@@ -64,10 +64,12 @@ class Arc:
 
     @property
     def radius(self) -> float:
+        """|start - centre|, mm."""
         return self._distance_from_centre(self.start)
 
     @property
     def end_radius(self) -> float:
+        """|end - centre|, mm (LinuxCNC cuts a spiral when it differs from radius)."""
         return self._distance_from_centre(self.end)
 
     @property
@@ -123,6 +125,7 @@ class Toolpath:
         return self.tool.nose_radius
 
     def lobe_segments(self, name: str) -> tuple[Move, ...]:
+        """The moves of "inner", "junction" or "outer", in cutting order (machine frame, mm)."""
         return tuple(s for s, k in zip(self.segments, self.lobe_of) if k == name)
 
     def points(self) -> np.ndarray:
