@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lathe_mirror.cad_body import BodySpec, design_meridian, programmed_parts
+from lathe_mirror.cad_body import BodySpec, Mount, design_meridian, programmed_parts
 from lathe_mirror.export.step import (SCHEMA_NAMES, StepSchema, as_cadquery, read_step,
                                       solid_figures, step_bytes)
 from lathe_mirror.profile import ExactProfile
@@ -310,3 +310,17 @@ def test_committed_program_cuts_the_committed_programmed_step(tmp_path, paper_co
     assert lobes.sum() > 60
     assert np.abs(d[lobes]).max() < 1e-4
     assert d.min() > -1e-4
+
+
+@pytest.mark.parametrize("spec", [
+    BodySpec(blank_diameter=70.0, thickness=25.0, mount=Mount.BOSS, mount_diameter=30.0, mount_depth=10.0),
+    BodySpec(blank_diameter=90.0, thickness=40.0, mount=Mount.NONE),
+])
+def test_other_bodies_give_one_valid_solid_of_the_integrated_volume(tmp_path, paper_mirror, spec):
+    """The body is configurable: a boss on a blank exactly the mirror's diameter (no
+    shoulder), and a plain thick disc, each through STEP and back."""
+    path = tmp_path / "body.step"
+    path.write_bytes(step_bytes(design_meridian(paper_mirror, spec)))
+    fig = solid_figures(read_step(path))
+    assert fig["solids"] == 1 and fig["valid"]
+    assert fig["volume_mm3"] == pytest.approx(integrated_volume(paper_mirror, spec), rel=1e-6)
