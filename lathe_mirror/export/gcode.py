@@ -95,7 +95,7 @@ def program(toolpath: Toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCN
         raise InputError(
             f"the {toolpath.strategy.value} toolpath would gouge the part by {depth:.4f} mm "
             f"(toolpath.gouge_tolerance = {options.gouge_tolerance:g} mm); program refused "
-            "(a finer machine.resolution or another strategy cuts closer)"
+            "(more points, a finer machine.resolution or another strategy cut closer)"
         )
     from ..machining import as_machined
 
