@@ -262,7 +262,7 @@ def nose_depth_into_part(pieces, rho: float, mirror) -> float:
     (["--resolution", "0"], "machine.resolution = 0"),
     (["--nose-radius", "1.0"], "too large for the junction"),
     (["--dialect", "heidenhain"], "unknown dialect"),
-    (["--strategy", "spline"], "--strategy 'spline'"),
+    (["--strategy", "spline"], "--strategy 'spline': allowed paper, lattice, arcs, best"),
 ])
 def test_cli_bad_inputs(tmp_path, args, phrase):
     out = tmp_path / "p.ngc"
@@ -323,6 +323,9 @@ def test_cli_json_and_directory_output(tmp_path):
     assert data["usable_lobes"][1]["r_range_mm"] == {"min": 20.0, "max": 35.0}
     assert data["n_points"] <= 528
     assert (tmp_path / "mirror_arcs.ngc").exists()
+    # "best" names the default strategy, as in `lathe-mirror render --surface best`
+    res = run_cli("toolpath", "--strategy", "best", "--nose-radius", "0", "--json")
+    assert res.returncode == 0 and json.loads(res.stdout)["strategy"] == "arcs"
 
 
 def canonical_moves(out: str) -> list[tuple[str, tuple[float, float], bool]]:

@@ -15,7 +15,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "report the profile errors per lobe.")
     add_common(p, output_help="G-code file, or a directory (gets mirror_<strategy>.ngc/.nc)")
     p.add_argument("--strategy", default=None,
-                   help="paper | lattice | arcs (default: the config's, arcs = the best)")
+                   help="paper | lattice | arcs | best (= arcs; default: the config's toolpath.strategy)")
     p.add_argument("--dialect", default="linuxcnc", help="linuxcnc | fanuc (default linuxcnc)")
     p.add_argument("--points", type=int, default=None, metavar="N",
                    help="point budget of the finishing contour (machine.max_points, default 528)")
@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     from ..export.gcode import Dialect, options_from_config, parse_dialect, program
     from ..machine import lathe_from_config, stock_from_config, tool_from_config
     from ..machining import as_machined, gouge_depth, junction_fillet
-    from ..toolpath import Strategy, plan_toolpath, profile_errors, usable_ranges
+    from ..toolpath import BEST, Strategy, plan_toolpath, profile_errors, usable_ranges
 
     cfg = load(args)
     dialect = parse_dialect(args.dialect)
@@ -46,9 +46,10 @@ def run(args: argparse.Namespace) -> int:
             set_value(cfg, key, value, source=flag)
     name = args.strategy or cfg["toolpath"]["strategy"]
     try:
-        strategy = Strategy(name)
+        strategy = BEST if name == "best" else Strategy(name)
     except ValueError:
-        raise InputError(f"--strategy {name!r}: allowed {', '.join(s.value for s in Strategy)}") from None
+        allowed = ", ".join([s.value for s in Strategy] + ["best"])
+        raise InputError(f"--strategy {name!r}: allowed {allowed}") from None
     mirror = mirror_from_config(cfg)
     lathe, tool, stock = lathe_from_config(cfg), tool_from_config(cfg), stock_from_config(cfg)
     opts = options_from_config(cfg)
