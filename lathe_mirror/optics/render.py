@@ -16,7 +16,7 @@ from ..design import Camera, Mirror
 from ..errors import InputError
 from ..profile import Profile
 from .camera import ALIGNED, CameraPose, pixel_centres
-from .scene import Scene, shade_columns
+from .scene import Scene, pigment_index, pigment_table
 from .trace import Fate, meridian_hits, trace_pixels
 
 #: Rays per chunk: bounds memory (a few hundred bytes per ray) and paces the progress bar.
@@ -49,6 +49,10 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
 
         bar = tqdm(total=u.size, unit="ray", unit_scale=True, desc="render", leave=False)
     aligned = _aligned_meridian(profile, camera, u, v, n) if pose.aligned else None
+    # Every hit shows one of the scene's 24 shaded pigments: quantise those once, not per ray.
+    colours = pigment_table(scene)
+    if n == 1:
+        colours = _to_uint8(colours)
 
     def render_chunk(sl: slice) -> int:
         """Shade one chunk of rays into its own slice of rgb; returns rays seeing a lobe."""
@@ -61,8 +65,7 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
             oc = [np.ascontiguousarray(hits.point[lit, i]) for i in range(3)]
             dc = [np.ascontiguousarray(hits.direction[lit, i]) for i in range(3)]
         if lit.any():
-            colour = shade_columns(scene, oc, dc)
-            rgb[sl][lit] = _to_uint8(colour) if n == 1 else colour
+            rgb[sl][lit] = colours[pigment_index(scene, oc, dc)]
         return n_seen
 
     # numpy releases the GIL inside its loops: chunks shade in parallel threads, each into
