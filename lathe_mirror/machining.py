@@ -183,7 +183,7 @@ def gouge_depth(toolpath: Toolpath, nose_radius: float | None = None) -> float:
     and from the step's top corner to the nose along the junction moves (the one place
     the part's boundary is not a lobe sheet that the nose passes).
     """
-    from .toolpath import _signed_distance_camera
+    from .toolpath.metrics import _signed_distance_camera
 
     rho = toolpath.nose_radius if nose_radius is None else float(nose_radius)
     m = toolpath.mirror

@@ -41,7 +41,7 @@ Modules:
 
 from .checks import check_junction, check_travel
 from .geometry import foot_on_sheet
-from .metrics import _signed_distance_camera, profile_errors, usable_ranges
+from .metrics import profile_errors, usable_ranges
 from .moves import BEST, Arc, Line, Move, Strategy, Toolpath
 from .plan import plan_toolpath
 
@@ -50,4 +50,3 @@ __all__ = [
     "check_junction", "check_travel", "foot_on_sheet", "plan_toolpath", "profile_errors",
     "usable_ranges",
 ]
-# _signed_distance_camera is imported from here by machining.gouge_depth.
