@@ -155,3 +155,21 @@ def test_a_file_failing_its_read_back_check_is_removed(tmp_path, paper_config, m
     with pytest.raises(RuntimeError, match="read-back check"):
         cad.export_cad(paper_config, cad.Which.DESIGN, cad.CadFormat.STL, tmp_path / "m.stl")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_blank_exactly_the_mirrors_diameter(tmp_path, paper_config):
+    """blank_diameter = 2 r_top (70 mm, no shoulder) holds the design: its DXF is drawn
+    with the toolpath layers (the finishing pass runs past the rim, into air). The
+    programmed solid cannot sit on it: refused naming the key and the program's reach."""
+    import copy
+
+    from lathe_mirror.errors import InputError
+    from lathe_mirror.export.cad import CadFormat, Which, export_cad
+
+    cfg = copy.deepcopy(paper_config)
+    cfg["cad"]["blank_diameter"] = 70.0
+    fig = export_cad(cfg, Which.DESIGN, CadFormat.DXF, tmp_path / "m.dxf")
+    assert fig["check"]["audit_errors"] == [] and fig["features_mm"]["blank_radius"] == 35.0
+    with pytest.raises(InputError, match="cad.blank_diameter = 70 mm is smaller"):
+        export_cad(cfg, Which.PROGRAMMED, CadFormat.STEP, tmp_path / "p.step")
+    assert [p.name for p in tmp_path.iterdir()] == ["m.dxf"]

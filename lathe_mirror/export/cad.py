@@ -92,17 +92,28 @@ class CadModel:
     toolpath_figures: dict[str, Any] | None
 
 
-def build_model(cfg: dict[str, Any], *, programmed: bool) -> CadModel:
+def build_model(cfg: dict[str, Any], *, programmed: bool,
+                programmed_face_only: bool = False) -> CadModel:
     """The design meridian and, when asked, the programmed one and the tool-centre path
-    (these plan the toolpath: lathe_mirror.toolpath)."""
+    (these plan the toolpath: lathe_mirror.toolpath).
+
+    programmed_face_only: only the programmed contour is wanted (the design DXF's
+    TOOLPATH layer), so it is closed on a body large enough for any program: the finishing
+    pass runs a few lattice steps past the rim, and a blank exactly the mirror's diameter
+    (a legitimate body for the design) must not stop the design's drawing.
+    """
     mirror = mirror_from_config(cfg)
     spec = body_spec_from_config(cfg)
     design = design_meridian(mirror, spec)
     if not programmed:
         return CadModel(mirror, design, None, None, None)
-    from ..cad_body import programmed_parts
+    from dataclasses import replace
 
-    prog, centre, figures = programmed_parts(cfg, mirror, spec)
+    from ..cad_body import MAX_LENGTH, Mount, programmed_parts
+
+    prog_spec = (replace(spec, blank_diameter=MAX_LENGTH, thickness=MAX_LENGTH, mount=Mount.NONE)
+                 if programmed_face_only else spec)
+    prog, centre, figures = programmed_parts(cfg, mirror, prog_spec)
     return CadModel(mirror, design, prog, centre, figures)
 
 
@@ -134,7 +145,8 @@ def export_cad(cfg: dict[str, Any], which: Which, fmt: CadFormat, path: str | Pa
     cad_settings_from_config(cfg)
     # The DXF always carries the toolpath layers: it plans the toolpath (and fails, exit
     # 2, on a toolpath setting it cannot plan with, as `lathe-mirror toolpath` would).
-    model = build_model(cfg, programmed=(which is Which.PROGRAMMED or fmt is CadFormat.DXF))
+    model = build_model(cfg, programmed=(which is Which.PROGRAMMED or fmt is CadFormat.DXF),
+                        programmed_face_only=(which is Which.DESIGN))
     data = cad_bytes(model, which, fmt, cfg)
     try:
         write_bytes(path, data)
