@@ -292,3 +292,21 @@ def test_used_zone_figures_leave_out_the_fillet(plans, paper_mirror):
     s = paper_mirror.inner.slope(r)
     assert abs(e["lobes"][0]["normal_deviation_mm"]["rms"] - math.sqrt(np.mean(1e-6 / (1 + s**2)))) < 1e-7
     assert e["lobes"][0]["r_range_mm"] == {"min": 0.0, "max": 1.0}
+
+
+def test_contour_profile_follows_the_spirals(plans, paper_mirror):
+    """Between its ends an arc whose two radii differ is LinuxCNC's spiral (radius linear
+    in the swept angle): the profile's z(r), solved for r by Newton's method, meets the
+    spiral's points sampled by angle; its slope is the spiral's dZ/dphi / dr/dphi."""
+    tp = plans[(BEST, 0.0)]
+    prof = tp.contour_profile()
+    spirals = [s for s in tp.segments if s.kind == "arc" and s.end_radius != s.radius]
+    assert spirals  # the lattice centres make most arcs spirals
+    for s in spirals:
+        p = s.sample(9)[1:-1]
+        assert np.allclose(prof.z(p[:, 0]), paper_mirror.vertex_z - p[:, 1], atol=1e-9)
+        # slope by a central difference along the spiral's own parameter
+        q0, q1 = s.sample(2001)[999], s.sample(2001)[1001]
+        mid = s.sample(2001)[1000]
+        want = -(q1[1] - q0[1]) / (q1[0] - q0[0])  # camera frame: dz/dr = -dZ/dr
+        assert abs(prof.slope(np.array([mid[0]]))[0] - want) < 1e-6
