@@ -298,6 +298,15 @@ def test_other_lattices_pass_rs274(tmp_path, paper_mirror, resolution):
     assert tp.n_points <= 528
 
 
+def test_cli_bad_strategy_in_the_config(tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('[toolpath]\nstrategy = "spline"\n')
+    res = run_cli("toolpath", "--config", str(cfg), "-o", str(tmp_path / "p.ngc"))
+    assert res.returncode == 2
+    assert "toolpath.strategy = 'spline': allowed paper, lattice, arcs, best" in res.stderr
+    assert not (tmp_path / "p.ngc").exists()
+
+
 def test_cli_travel_exceeded(tmp_path):
     cfg = tmp_path / "small.toml"
     cfg.write_text("[machine]\ntravel_x = 30.0\n")

@@ -152,6 +152,12 @@ def test_budget_too_small(paper_mirror):
         assert tp.n_points <= 120
 
 
+@pytest.mark.parametrize("max_dev", [0.0, -1.0, float("nan")])
+def test_max_deviation_must_be_positive(paper_mirror, max_dev):
+    with pytest.raises(InputError, match="toolpath.max_deviation"):
+        plan_toolpath(paper_mirror, LATHE, Tool(), max_deviation=max_dev)
+
+
 def test_travel(paper_mirror):
     with pytest.raises(InputError, match="machine.travel_x = 30"):
         plan_toolpath(paper_mirror, Lathe(travel_x=30.0), Tool())

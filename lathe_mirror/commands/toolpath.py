@@ -49,7 +49,8 @@ def run(args: argparse.Namespace) -> int:
         strategy = BEST if name == "best" else Strategy(name)
     except ValueError:
         allowed = ", ".join([s.value for s in Strategy] + ["best"])
-        raise InputError(f"--strategy {name!r}: allowed {allowed}") from None
+        source = "--strategy" if args.strategy else "toolpath.strategy ="
+        raise InputError(f"{source} {name!r}: allowed {allowed}") from None
     mirror = mirror_from_config(cfg)
     lathe, tool, stock = lathe_from_config(cfg), tool_from_config(cfg), stock_from_config(cfg)
     opts = options_from_config(cfg)

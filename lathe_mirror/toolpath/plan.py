@@ -5,6 +5,8 @@ The strategies themselves are in paper.py, lattice.py and arcs.py (see the packa
 
 from __future__ import annotations
 
+import math
+
 from ..design import Mirror
 from ..errors import InputError
 from ..machine import Lathe, Tool
@@ -27,6 +29,8 @@ def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy =
     cannot fit the junction, the tool's flanks would rub the profile, or the contour
     leaves the lathe's travel.
     """
+    if not (isinstance(max_deviation, (int, float)) and math.isfinite(max_deviation) and max_deviation > 0):
+        raise InputError(f"toolpath.max_deviation = {max_deviation!r} mm: must be a finite number > 0")
     if not isinstance(strategy, Strategy):
         raise InputError(f"strategy {strategy!r}: allowed {', '.join(s.value for s in Strategy)}")
     rho = tool.nose_radius
@@ -37,7 +41,7 @@ def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy =
     if lathe.max_points < need:
         raise InputError(
             f"machine.max_points = {lathe.max_points}: too small to hold the profile; lines "
-            f"within {max_deviation:g} mm of it need at least {need} points"
+            f"within {max_deviation:g} mm of it (toolpath.max_deviation) need at least {need} points"
         )
     if strategy is Strategy.PAPER:
         inner, outer = _paper_points(layout, lathe)
