@@ -18,12 +18,16 @@ is the contour itself). Each strategy puts that path on the lattice:
   the controller actually cuts (LinuxCNC's spiral when the two radii differ) follow
   the curve's slope best. An arc follows a smooth curve's turning tangent, a chord
   cannot: on the paper's machine the max slope error falls ~80x, and the lattice,
-  not the budget, is then the limit (about 80 of the 528 points are used).
+  not the budget, is then the limit (about 80 of the 528 points are used). Where no
+  lattice centre cuts an arc within `Lathe.arc_radius_tolerance` (a very coarse
+  lattice) the move is a G1 chord, and the gouge check judges it.
 
 The junction: the contour runs out along the inner lobe, up the step wall (r =
 r_junction, the inner lobe recessed), then out along the outer lobe. A nose of radius
 rho touches the wall at r = r_junction - rho and cannot reach the inside corner at the
-wall's foot: it leaves a fillet there (see machining.as_machined).
+wall's foot: it leaves a fillet there (see machining.as_machined). The fillet lies where
+the step wall already hides the inner lobe from the camera (usable_ranges), so the
+G-code header and `--json` give the figures over those radii beside the whole lobe's.
 
 Modules:
 
