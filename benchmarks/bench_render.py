@@ -8,7 +8,9 @@ Both render the same thing: the paper strategy's programmed contour for a sharp 
 the paper's room, the aligned camera. Ours: `python -m lathe_mirror render --surface paper
 --image-only` (start-up, config, toolpath planning, tracing, PNG writing). POV-Ray:
 `povray -D -V +FN +W1008 +H1018 +WT<threads> File_Gamma=1.0` on the exported .pov.
-Wall-clock times, best of --repeat runs; the images are compared pixel by pixel.
+Wall-clock times, best of --repeat runs (the target's measure), and each process's CPU
+time (user + sys over all its threads: less skewed when others load the machine); the
+images are compared pixel by pixel.
 
 Ours is timed twice: in the environment as it is, and with Python's default bytecode
 caching (PYTHONDONTWRITEBYTECODE unset, one warm-up run writing the caches first). This
@@ -21,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -65,19 +68,27 @@ def main() -> int:
     pov_png = work / "povray.png"
     pov_cmd = povray_command(pov, pov_png, mirror.camera, threads=args.threads, povray=povray)
 
-    def timed(cmd, env=None) -> float:
+    cpu: dict[str, list[float]] = {"ours": [], "cached": [], "povray": []}
+
+    def timed(cmd, key: str, env=None) -> float:
+        """Wall-clock seconds of one run; its CPU seconds (user + sys) go to cpu[key]."""
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         p = subprocess.run(cmd, capture_output=True, text=True, env=env)
         dt = time.perf_counter() - t0
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
         if p.returncode != 0:
             raise SystemExit(f"{cmd[0]} failed: {p.stderr[-1000:]}")
+        cpu[key].append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
         return dt
 
-    ours_t = [timed(ours_cmd) for _ in range(args.repeat)]
+    ours_t = [timed(ours_cmd, "ours") for _ in range(args.repeat)]
     cached_env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    timed(ours_cmd, cached_env)  # warm-up: writes the bytecode caches
-    cached_t = [timed(ours_cmd, cached_env) for _ in range(args.repeat)]
-    pov_t = [timed(pov_cmd) for _ in range(args.repeat)]
+    timed(ours_cmd, "cached", cached_env)  # warm-up: writes the bytecode caches
+    cpu["cached"].clear()
+    cached_t = [timed(ours_cmd, "cached", cached_env) for _ in range(args.repeat)]
+    pov_t = [timed(pov_cmd, "povray") for _ in range(args.repeat)]
+    load = os.getloadavg()[0]
     a = np.asarray(Image.open(work / "ours" / "paper.png").convert("RGB")).astype(int)
     b = np.asarray(Image.open(pov_png).convert("RGB")).astype(int)
     same = np.abs(a - b).max(axis=-1) <= 2
@@ -87,6 +98,8 @@ def main() -> int:
         "ours_s": {"best": min(ours_t), "runs": ours_t},
         "povray_s": {"best": min(pov_t), "runs": pov_t, "threads": args.threads},
         "ours_bytecode_cached_s": {"best": min(cached_t), "runs": cached_t},
+        "cpu_s": {k: min(v) for k, v in cpu.items()},  # user + sys, all threads
+        "load_average_1min": load,  # other work on the machine skews the wall-clock ratio
         "speedup": min(pov_t) / min(ours_t),
         "speedup_bytecode_cached": min(pov_t) / min(cached_t),
         "pixels_matching": float(same.mean()),
