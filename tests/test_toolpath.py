@@ -316,3 +316,15 @@ def test_contour_profile_follows_the_spirals(plans, paper_mirror):
         mid = s.sample(2001)[1000]
         want = -(q1[1] - q0[1]) / (q1[0] - q0[0])  # camera frame: dz/dr = -dZ/dr
         assert abs(prof.slope(np.array([mid[0]]))[0] - want) < 1e-6
+
+
+def test_arcs_fall_back_to_chords_without_a_lattice_centre(paper_mirror):
+    """No lattice point is a centre equidistant (to 1e-9 mm) from two lattice ends of a
+    1 mm arc of this curvature: each such move becomes a G1 chord between the same
+    ends (the gouge check then judges it), not an internal error."""
+    tp = plan_toolpath(paper_mirror, Lathe(arc_radius_tolerance=1e-9), Tool(nose_radius=0.0), Strategy.ARCS)
+    kinds = {s.kind for s in tp.lobe_segments("inner") + tp.lobe_segments("outer")}
+    assert "line" in kinds
+    for s in tp.segments:
+        if s.kind == "arc":
+            assert abs(s.end_radius - s.radius) <= 1e-9
