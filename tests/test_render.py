@@ -197,3 +197,31 @@ def test_thread_count_does_not_change_the_image(scene, paper_mirror, paper_confi
         monkeypatch.setattr(render, "RENDER_THREADS", threads)
         images.append(render_image(made, paper_mirror, scene, cam))
     assert images[0].any() and np.array_equal(images[0], images[1])
+
+
+def test_box_intersection_matches_a_plain_slab_test(scene):
+    """intersect() tests each box only on the rays whose plan direction can reach it (a
+    conservative cone): against the plain slab test (Kay & Kajiya) of every ray against
+    every box, written here, it must find the same first hits."""
+    rng = np.random.default_rng(21)
+    n = 200_000
+    rad, az = 35.0 * np.sqrt(rng.uniform(size=n)), rng.uniform(0, 2 * np.pi, n)
+    o = np.stack([rad * np.cos(az), rad * np.sin(az), rng.uniform(100, 125, n)], axis=1)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d[:50, 2] = 0.0  # horizontal rays, and a few straight down
+    d[50:100] = [0.0, 0.0, -1.0]
+    dist, surface = intersect(scene, o, d)
+    best = np.full(n, np.inf)
+    for box in scene.boxes:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t1 = (np.array(box.lo) - o) / d
+            t2 = (np.array(box.hi) - o) / d
+        near = np.fmin(t1, t2).max(axis=1)
+        far = np.fmax(t1, t2).min(axis=1)
+        hit = (near <= far) & (near > 0)
+        best = np.where(hit, np.minimum(best, near), best)
+    on_box = best < dist + 1e-9
+    assert on_box.sum() > 5000  # the boxes are seen
+    assert np.all(surface[on_box] >= BOX_FACE0) and np.all(surface[~on_box] < BOX_FACE0)
+    assert np.allclose(dist[on_box], best[on_box], rtol=1e-12, atol=1e-9)
