@@ -41,6 +41,9 @@ from .profile import LobeSamples, Profile, SampledProfile
 
 #: Time step as a fraction of the fastest e-folding time of a short error (see _evolve).
 ACCURACY = 0.05
+#: Most explicit time steps one polishing run may take (~1 ms each on the paper mirror's
+#: 0.005 mm grid, both lobes): the paper default's 0 .. 7200 s curve takes ~320.
+MAX_STEPS = 20_000
 
 
 @dataclass(frozen=True)
@@ -97,6 +100,25 @@ class PolishParams:
         """Spindle speed, rad/s."""
         return self.spindle_rpm * 2.0 * math.pi / 60.0
 
+    def time_steps(self, r_max_mm: float, time_s: float) -> float:
+        """Explicit time steps (see _evolve) to polish a part of outer radius r_max_mm (mm)
+        for time_s (s): the step is ACCURACY l_c over the fastest removal rate, at the rim."""
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            rate = float(removal_rate(np.array([r_max_mm]), self)[0])
+            n = time_s * rate / (ACCURACY * self.compliance_mm)
+        return float(n) if math.isfinite(n) else math.inf
+
+    def check_time(self, r_max_mm: float, time_s: float) -> None:
+        """InputError when polishing for time_s (s) would take more than MAX_STEPS steps."""
+        n = self.time_steps(r_max_mm, time_s)
+        if n > MAX_STEPS:
+            raise InputError(
+                f"polishing for {time_s:g} s (polish.time_s / polish.curve_max_s) would take {n:.3g} time "
+                f"steps, at most {MAX_STEPS} allowed (the removal rate k_p p0 omega r at r = {r_max_mm:g} mm "
+                f"against a compliance of {self.compliance_mm:g} mm sets the step); shorten the time, or "
+                f"lower polish.preston_coefficient, "
+                f"pressure_kpa or spindle_rpm, or raise compliance_mm")
+
     @property
     def curve_times(self) -> np.ndarray:
         """Times (s) of the polishing curve: 0 .. curve_max_s, evenly spaced."""
@@ -127,6 +149,7 @@ def polish_series(profile: Profile, params: PolishParams, times_s: Sequence[floa
     times = np.asarray(times_s, dtype=float)
     if times.ndim != 1 or times.size == 0 or not np.all(np.isfinite(times)) or np.any(times < 0):
         raise InputError(f"polishing times {times_s!r} must be finite numbers >= 0 s")
+    params.check_time(profile.r_max, float(times.max()))
     order = np.argsort(times, kind="stable")
     corner_lobe = _recessed_lobe(profile)
     per_lobe = []

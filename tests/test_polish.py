@@ -138,3 +138,21 @@ def test_the_pad_does_not_reach_the_inside_corner(paper_mirror):
     assert float(out.z(np.array([19.4]))[0] - inner.z(19.4)) == pytest.approx(expected, rel=0.05)
     # The outer lobe stands proud at the junction: polished right up to its edge.
     assert float(out.z(np.array([20.01]))[0] - paper_mirror.outer.z(20.01)) > 0.5 * expected
+
+
+def test_polishing_time_that_would_never_finish_is_refused(paper_mirror, tmp_path):
+    """The explicit step is 0.05 l_c over the rim's removal rate k p0 omega r_max (by hand:
+    4e-13 * 20e3 Pa * 31.4 rad/s * 35 mm = 8.80e-6 mm/s, step 22.7 s): 1e9 s would take
+    4.4e7 steps. Refused with the keys named, before any directory is made."""
+    params = PolishParams()
+    omega = 300.0 * 2.0 * math.pi / 60.0
+    step = 0.05 * 0.004 / (4e-13 * 20e3 * omega * 35.0)
+    assert params.time_steps(35.0, 7200.0) == pytest.approx(7200.0 / step, rel=1e-12)
+    with pytest.raises(InputError, match="polish.time_s"):
+        polish(ExactProfile(paper_mirror), params, 1e9)
+    cfg = tmp_path / "long.toml"
+    cfg.write_text("[polish]\ncurve_max_s = 1e12\n")
+    out = tmp_path / "out"
+    proc = run_cli("polish", "--config", str(cfg), "-o", str(out))
+    assert proc.returncode == 2 and "polish.curve_max_s" in proc.stderr and "Traceback" not in proc.stderr
+    assert not out.exists()

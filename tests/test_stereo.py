@@ -34,7 +34,7 @@ def test_triangulate_hand_cases():
 
 def test_exact_mirror_has_no_depth_error(paper_mirror):
     curve = depth_error_curve(ExactProfile(paper_mirror), paper_mirror, RANGES_M)
-    assert curve.error_pct.shape == (RANGES_M.size, 9)
+    assert curve.error_pct.shape == (RANGES_M.size, 33)
     assert np.max(np.abs(curve.error_pct)) < 1e-6
     assert curve.at(2.0)["max"] < 1e-6
 
@@ -54,18 +54,24 @@ def test_exact_pixels_see_the_point(paper_mirror):
         assert np.max(dist) < 1e-8
 
 
-def test_depth_error_of_a_refocused_outer_lobe_matches_closed_form(paper_camera_mirror):
-    """Made mirror = the paper's, but its outer lobe a true hyperbola with e 0.02 mm larger.
+@pytest.mark.parametrize("de", [0.02, -0.1])
+def test_depth_error_of_a_refocused_outer_lobe_matches_closed_form(paper_mirror, de):
+    """Made mirror = the paper's, but its outer lobe a true hyperbola with e shifted by de mm.
 
     Independently: the exact outer lobe's pixel rho, the made sheet's hit by the design's own
     closed-form ray-sheet intersection, the reflected line through the made lobe's F1 (the
     focal property), the inner ray through the exact F1, and the crossing of the two lines.
+    de = -0.1 mm lowers the outer viewpoint far enough that the rays turn parallel between
+    1 and 2 m and cross behind beyond: the band's figures must cap those points at 100 %.
     """
-    mirror, made_mirror = paper_camera_mirror
+    mirror = paper_mirror
+    outer = mirror.outer
+    made_outer = design_lobe("outer", mirror.camera, outer.r_top, outer.r_pixel, e=outer.e + de)
+    made_mirror = design_mirror(mirror.camera, mirror.inner, made_outer)
     elev = np.radians([-20.0, -10.0, -3.0])
     curve = depth_error_curve(ExactProfile(made_mirror), mirror, RANGES_M, elevations=elev)
-    cam = mirror.camera
     zc = stereo_centre_z(mirror)
+    expected = np.empty((RANGES_M.size, elev.size))
     for i, rng in enumerate(RANGES_M * 1e3):
         for j, el in enumerate(elev):
             w = np.array([rng * math.cos(el), zc + rng * math.sin(el)])
@@ -83,15 +89,29 @@ def test_depth_error_of_a_refocused_outer_lobe_matches_closed_form(paper_camera_
             a, _ = np.linalg.solve(m, f_out - f_in)
             x = f_in + a * (w - f_in)
             r_made = (x[0] * math.cos(el) + (x[1] - zc) * math.sin(el))
-            expected = 100.0 * (r_made - rng) / rng
-            assert curve.error_pct[i, j] == pytest.approx(expected, rel=1e-6, abs=1e-7), (rng, el)
-    # A 0.02 mm shift of one viewpoint is a real error, and it grows with range.
+            expected[i, j] = 100.0 * (r_made - rng) / rng
+    assert curve.error_pct == pytest.approx(expected, rel=1e-6, abs=1e-7)
+    # The band's figures: |error| capped at 100 % per point, by hand.
+    for i, rng in enumerate(RANGES_M):
+        capped = [min(abs(v), 100.0) for v in expected[i]]
+        at = curve.at(float(rng))
+        assert at["rms"] == pytest.approx(math.sqrt(sum(v * v for v in capped) / len(capped)), rel=1e-9)
+        assert at["max"] == pytest.approx(max(capped), rel=1e-9)
+        assert at["failed"] == sum(abs(v) >= 100.0 for v in expected[i]) and at["lost"] == 0
     e2 = np.abs(curve.error_pct).mean(axis=1)
-    assert e2[0] > 1e-3 and np.all(np.diff(e2) > 0)
+    if de > 0:
+        # A 0.02 mm shift of one viewpoint is a real error, and it grows with range.
+        assert e2[0] > 1e-3 and np.all(np.diff(e2) > 0)
+    else:
+        # The rays do pass parallel: some point's error exceeds 100 % and is capped.
+        assert np.max(np.abs(expected)) > 100.0 and curve.at(5.0)["failed"] > 0
 
 
-@pytest.fixture()
-def paper_camera_mirror(paper_mirror):
-    outer = paper_mirror.outer
-    made_outer = design_lobe("outer", paper_mirror.camera, outer.r_top, outer.r_pixel, e=outer.e + 0.02)
-    return paper_mirror, design_mirror(paper_mirror.camera, paper_mirror.inner, made_outer)
+def test_lost_points_count_as_failed(paper_mirror):
+    """A point a lobe does not see (NaN) counts at the cap, as the Monte Carlo counts it."""
+    from lathe_mirror.optics.stereo import DepthCurve
+
+    c = DepthCurve(np.array([1.0]), np.radians([-10.0, -5.0, -1.0]), np.array([[3.0, np.nan, -250.0]]))
+    at = c.at(1.0)
+    assert at["rms"] == pytest.approx(math.sqrt((9.0 + 100.0**2 + 100.0**2) / 3.0))
+    assert (at["median"], at["max"], at["failed"], at["lost"], at["points"]) == (100.0, 100.0, 2, 1, 3)

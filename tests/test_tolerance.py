@@ -225,3 +225,18 @@ def test_trial_depth_error_matches_the_stereo_module(ctx, paper_mirror, paper_co
     curve = depth_error_curve(polished, paper_mirror, [rng],
                               elevations=band_elevations(paper_mirror, ctx.settings.depth_points))
     assert fig.depth_error_pct_rms[0] == pytest.approx(curve.at(rng)["rms"], rel=0.05)
+
+
+def test_tolerance_cli_bad_tolerances_exit_2_before_writing(tmp_path):
+    """Tolerances that would put a node at a zero nose or a zero controller step, and a pixel
+    sample too large for memory, are refused before the output directory is made."""
+    for text, key in (("[tolerance.params]\nresolution_mm = 0.005\n", "tolerance.params.resolution_mm"),
+                      ("[tolerance.params]\nnose_radius_mm = 0.25\n", "tolerance.params.nose_radius_mm"),
+                      ("[tolerance]\nazimuths = 100000\n", "tolerance.azimuths")):
+        cfg = tmp_path / "bad.toml"
+        cfg.write_text(text)
+        out = tmp_path / "out"
+        proc = run_cli("tolerance", "--config", str(cfg), "-o", str(out))
+        assert proc.returncode == 2, proc.stderr
+        assert key in proc.stderr and "Traceback" not in proc.stderr
+        assert not out.exists()

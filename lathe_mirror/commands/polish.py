@@ -27,6 +27,7 @@ def run(args: argparse.Namespace) -> int:
     from ..tolerance.radial import radial_figures
     from ..tolerance.spec import Program
     from ..tolerance.surfaces import machined_surface
+    from .report import check_config
 
     cfg = load(args)
     try:
@@ -34,6 +35,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError:
         raise InputError(f"--program {args.program!r}: allowed paper, best") from None
     params = polish_params_from_config(cfg)
+    check_config(cfg, tolerance=False)  # bad input stops here, before the output directory is made
     if args.output:
         from ..export.files import prepare_dir
 

@@ -26,12 +26,14 @@ def run(args: argparse.Namespace) -> int:
     from ..report.report import _tolerance
     from ..tolerance.spec import Program, settings_from_config
     from ..tolerance.surfaces import machined_surface
+    from .report import check_config
 
     cfg = load(args)
     if args.trials is not None:
         set_value(cfg, "tolerance.trials", args.trials, source="--trials")
     if args.seed is not None:
         set_value(cfg, "tolerance.seed", args.seed, source="--seed")
+    check_config(cfg)  # bad input stops here, before the output directory is made
     settings = settings_from_config(cfg)
     params = polish_params_from_config(cfg)
     if args.output:

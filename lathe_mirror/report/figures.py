@@ -120,14 +120,15 @@ def polishing_curve_plot(curve: dict, title: str) -> bytes:
 
 
 def depth_error_plot(curves: dict[str, dict]) -> bytes:
-    """RMS |depth error| (%) over the common band against range (m), one line per mirror."""
+    """RMS |depth error| (%, each point capped at 100) over the common band against range (m),
+    one line per mirror."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.4))
     for name, c in curves.items():
         y = np.maximum(np.asarray(c["depth_error_pct"]["rms"]), 1e-12)
         ax.plot(c["ranges_m"], y, marker=".", label=name, color=MIRROR_COLOURS.get(name))
     ax.set_xlabel("range (m)")
-    ax.set_ylabel("RMS |depth error| (%)")
+    ax.set_ylabel("RMS |depth error| (%, each point capped at 100)")
     ax.set_yscale("log")
     ax.grid(alpha=0.3, which="both")
     ax.legend(loc="best")

@@ -44,9 +44,16 @@ NOTES = (
     "the toolpath tables give it over whole lobes (toolpath.profile_errors).",
     "Depth error: a point at range R from the stereo centre is imaged at the exact design's pixel "
     "by each lobe; the made mirror's rays through those two pixels are crossed; error = 100 "
-    "(R_made - R) / R. With a {baseline:.1f} mm baseline the two rays meet at {angle_2m:.2f} deg at 2 m, so ray "
-    "deviations of a tenth of a degree already give tens of percent; the error is heavy-tailed, "
-    "so the median is given with the RMS.",
+    "(R_made - R) / R. With a {baseline:.1f} mm baseline the two rays meet at only {angle_2m:.2f} deg at 2 m "
+    "(the parallax gamma), and a difference delta between the two lobes' ray errors gives "
+    "R_made / R = gamma / (gamma - delta): where delta nears gamma the rays turn parallel and the error "
+    "diverges, past it they cross behind. So each point's |error| is capped at 100 % (no usable depth, "
+    "like a point one lobe does not see; 'failed' counts them) before the RMS over the band: uncapped, "
+    "the RMS of a mirror whose delta crosses gamma in the band grows without bound as the band is "
+    "sampled more finely (it is set by whichever sample falls nearest the pole), while the capped RMS "
+    "and the median converge. This is why polishing the paper program's mirror, which cuts its ray "
+    "deviation about tenfold, can still leave many points failed: its low-order form change bends the "
+    "two lobes' rays by a few tenths of a degree, the size of the parallax itself.",
     "Polishing: removal k_p p omega r grows from nothing at the vertex, so facets near the "
     "axis outlast those at the rim; the band at the foot of the step (polish.corner_mm) is "
     "out of the pad's reach and stays as machined.",
@@ -144,7 +151,9 @@ def compute(cfg: dict, *, progress: bool = False, renders: bool = True, toleranc
     depth = {name: depth_error_curve(made[name], mirror, DEPTH_RANGES_M) for name in MIRRORS}
     out["stereo"] = {
         "definition": "depth error = 100 (R_made - R) / R, R from the stereo centre (midway between "
-                      "the viewpoints), points across the common band; RMS and max over the band",
+                      "the viewpoints), points across the common band; RMS, median and max over the band "
+                      "of |depth error| capped at 100 % per point (a point not seen by both lobes counts "
+                      "100 %); failed: points at the cap",
         "baseline_mm": mirror.baseline,
         "curves": {name: c.to_dict() for name, c in depth.items()},
         f"at_{DEPTH_REPORT_M:g}_m": {name: c.at(DEPTH_REPORT_M) for name, c in depth.items()},
@@ -467,10 +476,12 @@ def _mirrors_table(m: dict) -> str:
 def _depth_table(st: dict) -> str:
     key = f"at_{DEPTH_REPORT_M:g}_m"
     rows = "".join(f"<tr><th>{n}</th><td>{_fmt(v['rms'])}</td><td>{_fmt(v['median'])}</td>"
-                   f"<td>{_fmt(v['max'])}</td></tr>" for n, v in st[key].items())
+                   f"<td>{_fmt(v['max'])}</td><td>{v['failed']} of {v['points']}</td></tr>"
+                   for n, v in st[key].items())
     return (f"<p>{html.escape(st['definition'])}; baseline {_fmt(st['baseline_mm'])} mm.</p>"
             f"<table><tr><th>mirror</th><th>RMS |depth error| at {DEPTH_REPORT_M:g} m (%)</th>"
-            f"<th>median (%)</th><th>max (%)</th></tr>{rows}</table>")
+            f"<th>median (%)</th><th>max (%)</th><th>points failed (|error| &ge; 100 % or not seen)</th></tr>"
+            f"{rows}</table>")
 
 
 def _tolerance_html(f: dict, img) -> str:

@@ -101,12 +101,8 @@ def prepare(mirror: Mirror, cfg: dict, settings: ToleranceSettings, polish_param
     # Five nose nodes: a nose larger than the program's rounds the step's sharp top edge,
     # a feature that grows non-linearly with the excess; linear interpolation needs the
     # nodes close together to follow it.
+    # (settings_from_config has checked dn <= nose0: no node has a negative nose.)
     nose_nodes = nose0 + dn * np.array(NOSE_NODES) if dn > 0 else np.array([nose0])
-    if np.any(nose_nodes < 0):
-        from ..errors import InputError
-
-        raise InputError(f"tolerance.params.nose_radius_mm = {dn:g} mm exceeds the nominal nose "
-                         f"radius {nose0:g} mm: the nose cannot be negative")
     dt = tol.get("polish_time_s", 0.0)
     times = np.unique(np.clip([nominal_time_s + f * dt for f in TIME_NODES], 0.0, None))
     phases = np.arange(settings.lattice_phases) / settings.lattice_phases

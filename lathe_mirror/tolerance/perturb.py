@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..design import Mirror
-from ..optics.stereo import band_elevations, stereo_centre_z
+from ..optics.stereo import band_elevations, capped_abs_error, stereo_centre_z
 from ..profile import Profile
 from .radial import ideal_radius_px, lobe_pixel_radii, used_extent
 
@@ -37,6 +37,8 @@ from .radial import ideal_radius_px, lobe_pixel_radii, used_extent
 _MAX_ITER = 40
 #: A hit this far (mm) outside its lobe's radial extent landed on the wall or the other lobe.
 _LOBE_SLACK = 1e-6
+#: Rays x trials per vectorised batch of evaluate (memory: ~0.25 kB each).
+_BATCH_RAYS = 200_000
 
 
 @dataclass(frozen=True)
@@ -184,6 +186,8 @@ def evaluate(mirror: Mirror, nodes: NodeSurfaces, trials: Trials, samples: tuple
     lost = np.empty(n)
     kept: list = []
     depth_pix = _depth_pixels(mirror, depth_range_m, depth_points)
+    # Each batch holds ~10 arrays of (trials, rays, 3) floats: keep it near 2e5 rays x trials.
+    chunk = max(1, min(chunk, _BATCH_RAYS // max(samples[0].u.size, samples[1].u.size, 1)))
     for a in range(0, n, chunk):
         sl = slice(a, min(n, a + chunk))
         tr = trials.take(sl)
@@ -372,7 +376,8 @@ def _depth_pixels(mirror: Mirror, range_m: float, n_elev: int, n_azimuth: int = 
 
 
 def _depth_error(mirror, nodes, surf, tr, origin, rot, dp) -> np.ndarray:
-    """RMS over the depth points of the depth error (%) of each trial."""
+    """RMS over the depth points of |depth error| (%) of each trial, each point capped at
+    optics.stereo.FAILED_PCT (a lost point counts at the cap)."""
     from ..optics.stereo import triangulate
 
     rays = []
@@ -383,7 +388,7 @@ def _depth_error(mirror, nodes, surf, tr, origin, rot, dp) -> np.ndarray:
     x = triangulate(rays[0][0], rays[0][1], rays[1][0], rays[1][1])
     r_made = np.sum((x - np.array([0.0, 0.0, dp["zc"]])) * dp["unit"][None], axis=-1)
     err = 100.0 * (r_made - dp["range"]) / dp["range"]
-    ok = rays[0][2] & rays[1][2] & np.isfinite(err)
-    # A point a lobe cannot see counts as a total failure (100 %), not as a success.
-    err = np.where(ok, err, 100.0)
-    return np.sqrt(np.mean(err**2, axis=1))
+    # A point a lobe cannot see counts as a total failure, not as a success; so does one whose
+    # rays cross (nearly) parallel or behind, where the error diverges: optics.stereo's cap.
+    err = np.where(rays[0][2] & rays[1][2], err, np.nan)
+    return np.sqrt(np.mean(capped_abs_error(err) ** 2, axis=1))

@@ -30,8 +30,10 @@ class Program(str, Enum):
 
 @dataclass(frozen=True)
 class Spec:
-    """Limits (defaults: lathe_mirror/data/tolerance.toml). image_displacement_px: per-lobe RMS, px. depth_error_pct: RMS |depth error|
-    over the common band at depth_range_m (m), %. slope_error_rad: per-lobe RMS, rad."""
+    """Limits (defaults: lathe_mirror/data/tolerance.toml). image_displacement_px: per-lobe
+    RMS, px. depth_error_pct: RMS |depth error| over the common band at depth_range_m (m),
+    each point capped at 100 % (optics.stereo.FAILED_PCT), %. slope_error_rad: per-lobe RMS
+    over the radii the image uses, rad."""
 
     image_displacement_px: float
     depth_error_pct: float
@@ -53,6 +55,10 @@ PARAMETERS: dict[str, tuple[str, str]] = {
 }
 
 
+#: Largest sparse pixel sample per lobe (rays): image-radius bins x azimuths.
+MAX_SAMPLE_RAYS = 200_000
+
+
 @dataclass(frozen=True)
 class ToleranceSettings:
     """Everything the tolerance analysis reads from [tolerance]."""
@@ -70,7 +76,8 @@ class ToleranceSettings:
 
 
 def settings_from_config(cfg: dict) -> ToleranceSettings:
-    """Validated ToleranceSettings; an InputError names the offending key."""
+    """Validated ToleranceSettings (reads [tolerance], and [tool] nose_radius and [machine]
+    resolution to bound their tolerances); an InputError names the offending key."""
     t = cfg["tolerance"]
     _int_at_least("tolerance.trials", t["trials"], 1)
     _int_at_least("tolerance.lattice_phases", t["lattice_phases"], 1)
@@ -79,6 +86,14 @@ def settings_from_config(cfg: dict) -> ToleranceSettings:
     _int_at_least("tolerance.seed", t["seed"], 0)
     if not (math.isfinite(t["bin_px"]) and 0.05 <= t["bin_px"] <= 50):
         raise InputError(f"tolerance.bin_px = {t['bin_px']!r} must be 0.05 .. 50 px")
+    # The sparse pixel sample is image-radius bins x azimuths per lobe: bound its size so a
+    # trial's rays fit in memory (the default, 504 / 4 px x 12, is ~1500).
+    r_pixel = max((float(lb.get("r_pixel", 0.0)) for lb in cfg.get("lobes", {}).values()), default=504.0)
+    rays = t["azimuths"] * r_pixel / t["bin_px"]
+    if rays > MAX_SAMPLE_RAYS:
+        raise InputError(f"tolerance.azimuths = {t['azimuths']} with tolerance.bin_px = {t['bin_px']:g} px gives "
+                         f"{rays:.3g} sample rays per lobe, at most {MAX_SAMPLE_RAYS} allowed: fewer azimuths or "
+                         f"wider bins")
     programs = tuple(_enum(f"tolerance.programs[{i}]", v, Program) for i, v in enumerate(t["programs"]))
     if not programs:
         raise InputError("tolerance.programs = []: name at least one of \"paper\", \"best\"")
@@ -93,6 +108,16 @@ def settings_from_config(cfg: dict) -> ToleranceSettings:
         if not (math.isfinite(value) and value >= 0):
             raise InputError(f"tolerance.params.{key} = {value!r} must be a finite number >= 0")
         tol[key] = float(value)
+    # The nodes span the nominal -/+ each tolerance: a nose or a controller step cannot go
+    # to zero or below.
+    nose0 = float(cfg.get("tool", {}).get("nose_radius", 0.0))
+    if tol.get("nose_radius_mm", 0.0) > nose0:
+        raise InputError(f"tolerance.params.nose_radius_mm = {tol['nose_radius_mm']:g} mm exceeds the nominal "
+                         f"nose radius tool.nose_radius = {nose0:g} mm: the nose cannot be negative")
+    res0 = float(cfg.get("machine", {}).get("resolution", 0.005))
+    if tol.get("resolution_mm", 0.0) >= res0:
+        raise InputError(f"tolerance.params.resolution_mm = {tol['resolution_mm']:g} mm must be smaller than "
+                         f"machine.resolution = {res0:g} mm")
     return ToleranceSettings(
         seed=int(t["seed"]), trials=int(t["trials"]), programs=programs, distribution=dist,
         lattice_phases=int(t["lattice_phases"]), azimuths=int(t["azimuths"]),
