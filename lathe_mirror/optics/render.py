@@ -97,7 +97,8 @@ def _to_uint8(rgb: np.ndarray) -> np.ndarray:
 
 def _aligned_meridian(profile: Profile, camera: Camera, u: np.ndarray, v: np.ndarray, n: int):
     """Trace each distinct image radius once (an aligned camera's rays depend on the
-    radius only, and about 8 pixels share each); returns chunk -> RayHits.
+    radius only, and about 8 pixels share each); returns chunk(slice) -> (lit mask, hit
+    point columns x, y, z (mm), reflected direction columns, rays seeing a lobe).
 
     Sample points sit at odd multiples of 1 / (2n) px from the principal point, so
     (2n u)^2 + (2n v)^2 is an exact integer key of the radius.
@@ -111,17 +112,17 @@ def _aligned_meridian(profile: Profile, camera: Camera, u: np.ndarray, v: np.nda
     rho_u = np.sqrt(uniq) / (2 * n)
     m = meridian_hits(profile, rho_u * (camera.t_pixel / camera.f))
 
-    fate = m.fate
-    lit_u = (fate <= Fate.OUTER) & ~m.blocked
+    seen_u = m.fate <= Fate.OUTER
+    lit_u = seen_u & ~m.blocked
+    # On the axis (an odd sensor's centre pixel) any meridian will do: cos = sin = 0.
+    rho_safe = np.where(rho_u > 0, rho_u, np.inf)
 
     def chunk(sl: slice):
-        """(lit mask, hit point columns, reflected direction columns, rays seeing a lobe)."""
         i = index[key[sl]]
         lit = lit_u[i]
-        n_seen = int(np.count_nonzero(fate[i] <= Fate.OUTER))
+        n_seen = int(np.count_nonzero(seen_u[i]))
         j = i[lit]
-        # On the axis (an odd sensor's centre pixel) any meridian will do: cos = sin = 0.
-        rho = np.where(rho_u[j] > 0, rho_u[j], np.inf)
+        rho = rho_safe[j]
         cos, sin = u[sl][lit] / rho, v[sl][lit] / rho
         r, orr = m.r[j], m.out_r[j]
         return lit, [r * cos, r * sin, m.z[j]], [orr * cos, orr * sin, m.out_z[j]], n_seen
