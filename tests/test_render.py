@@ -162,6 +162,18 @@ def test_render_command_writes_images_figures_and_is_reproducible(tmp_path):
                     "--image-only", "--no-progress")
     assert again.returncode == 0, again.stderr
     assert (tmp_path / "s" / "uniform528.png").read_bytes() == (out / "uniform528.png").read_bytes()
+    # The PNG holds this process's render of the same surface, pixel for pixel.
+    from PIL import Image
+
+    from lathe_mirror.config import default_config
+    from lathe_mirror.design import mirror_from_config
+    from lathe_mirror.optics.surfaces import make_surface
+
+    cfg = default_config()
+    mirror = mirror_from_config(cfg)
+    scene = scene_from_config(cfg, mirror_top=mirror.outer.h, mirror_radius=mirror.r_max)
+    ours = render_image(make_surface("uniform528", mirror, cfg), mirror, scene)
+    assert np.array_equal(np.asarray(Image.open(out / "uniform528.png")), ours)
 
 
 @pytest.mark.parametrize("args, toml, words", [
@@ -225,3 +237,20 @@ def test_box_intersection_matches_a_plain_slab_test(scene):
     assert on_box.sum() > 5000  # the boxes are seen
     assert np.all(surface[on_box] >= BOX_FACE0) and np.all(surface[~on_box] < BOX_FACE0)
     assert np.allclose(dist[on_box], best[on_box], rtol=1e-12, atol=1e-9)
+
+
+def test_png_bytes_decode_in_pillow_to_the_same_pixels():
+    """Our PNG writer against an independent decoder (Pillow checks every chunk's CRC)."""
+    import io
+
+    from PIL import Image
+
+    from lathe_mirror.commands.render import png_bytes
+
+    img = np.random.default_rng(8).integers(0, 256, size=(37, 53, 3), dtype=np.uint8)
+    data = png_bytes(img)
+    back = Image.open(io.BytesIO(data))
+    back.load()
+    assert back.mode == "RGB" and back.size == (53, 37)
+    assert np.array_equal(np.asarray(back), img)
+    assert png_bytes(img) == data
