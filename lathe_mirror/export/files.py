@@ -30,6 +30,9 @@ def check_writable(path: str | Path, what: str = "-o/--output") -> Path:
     parent = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
         raise InputError(f"{what} {path}: is a directory, expected a file name")
+    if path.exists() and not path.is_file():
+        # A device, FIFO or socket: the atomic rename would replace it with a regular file.
+        raise InputError(f"{what} {path}: is not a regular file (a device, FIFO or socket)")
     if not parent.is_dir():
         raise InputError(f"{what} {path}: directory {parent} does not exist")
     if not os.access(parent, os.W_OK):
@@ -40,17 +43,22 @@ def check_writable(path: str | Path, what: str = "-o/--output") -> Path:
 def write_bytes(path: str | Path, data: bytes, what: str = "-o/--output") -> Path:
     """Write data to path through a temporary name in the same directory, then rename."""
     path = check_writable(path, what)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent or ".")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent or ".")
+    except OSError as exc:
+        raise InputError(f"{what} {path}: cannot write ({exc.strerror})") from None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
         os.chmod(tmp, 0o644)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(exc, OSError):
+            raise InputError(f"{what} {path}: cannot write ({exc.strerror})") from None
         raise
     return path
 
