@@ -90,7 +90,7 @@ def scene(paper_config, paper_mirror):
     return scene_from_config(paper_config, mirror_top=paper_mirror.outer.h, mirror_radius=35.0)
 
 
-@pytest.mark.parametrize("surface", ["exact", "paper"])
+@pytest.mark.parametrize("surface", ["exact", "paper", "best"])
 def test_povray_agrees_with_our_render(tmp_path, paper_config, paper_mirror, scene, surface):
     # The paper's own simulation: its programmed points as the surface (a sharp tool).
     cfg = merge(paper_config, {"tool": {"nose_radius": 0.0}})
