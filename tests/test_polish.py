@@ -99,7 +99,8 @@ def test_polishing_curve_has_an_inside_optimum_and_costs_form(paper_mirror, pape
     # The form keeps growing with time on the outer lobe (v = omega r): the cost.
     form = curve.lobes[1]["form_change_mm"]["rms"]
     assert np.all(np.diff(form) > 0)
-    # Form change recomputed independently at the optimum: the Legendre fit of the same surface.
+    # Bookkeeping: the curve's entry at the optimum belongs to the optimum's profile (the value
+    # itself is checked against the Preston closed form in test_form_change_of_a_smooth_surface_...).
     again = form_change(curve.profiles[i], paper_mirror, degree=params.form_degree)
     assert again["lobes"][1]["form_change_mm"]["rms"] == pytest.approx(form[i], rel=1e-12)
     # Slope error falls from the facetted start (the facets are what the pad removes).
@@ -156,3 +157,17 @@ def test_polishing_time_that_would_never_finish_is_refused(paper_mirror, tmp_pat
     proc = run_cli("polish", "--config", str(cfg), "-o", str(out))
     assert proc.returncode == 2 and "polish.curve_max_s" in proc.stderr and "Traceback" not in proc.stderr
     assert not out.exists()
+
+
+def test_form_change_of_a_smooth_surface_is_the_preston_removal(paper_mirror):
+    """On the exact surface the pad presses evenly, so the whole change is form: the Preston
+    removal k p0 omega r t along the normal, dz = that * sqrt(1 + slope^2) (a smooth function
+    of r that a degree-4 fit holds). Its RMS over the outer lobe, by hand, is the form change."""
+    t = 1800.0
+    out = polish(ExactProfile(paper_mirror), PolishParams(time_s=t))
+    form = form_change(out, paper_mirror, degree=4)["lobes"][1]["form_change_mm"]
+    omega = 300.0 * 2.0 * math.pi / 60.0
+    r = np.linspace(paper_mirror.r_junction, paper_mirror.r_max, 20001)[1:]
+    dz = 4e-13 * 20e3 * omega * r * t * np.sqrt(1.0 + paper_mirror.outer.slope(r) ** 2)
+    assert form["rms"] == pytest.approx(math.sqrt(float(np.mean(dz**2))), rel=0.01)
+    assert form["max"] == pytest.approx(float(dz.max()), rel=0.01)

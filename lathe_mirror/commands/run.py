@@ -66,5 +66,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _sha256(path) -> str:
     import hashlib
+    from pathlib import Path
 
-    return hashlib.sha256(open(path, "rb").read()).hexdigest()
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()

@@ -116,6 +116,7 @@ def polishing_curve_plot(curve: dict, title: str) -> bytes:
     axes[0].set_yscale("log")
     axes[1].set_yscale("log")
     fig.suptitle(title)
+    fig.tight_layout()  # the middle panel's label otherwise runs into the first panel
     return png(fig)
 
 
