@@ -44,9 +44,17 @@ def test_exact_mirror_has_no_distortion(paper_mirror):
     v = np.arange(1018) + 0.5 - 509
     rho = np.hypot(u[None, :], v[:, None])
     radii = paper_mirror.image_radii_px
-    # The tracer's vignetting (exact rays into the step wall) starts at the design's
-    # closed-form radius of the blocked band.
-    assert fig["lobes"][0]["pixels"] == int((rho < radii["inner_blocked_by_step"][0]).sum())
+    # The tracer's vignetting (exact rays into the step wall) starts where the ray from F1
+    # grazing the outer lobe's edge (r = 20 mm) meets the inner sheet, by hand: elevation
+    # phi = atan((z_outer(20) - 2e) / 20); the focal polar equation of the sheet gives the
+    # point F1 + lam (cos phi, sin phi), lam = b^2 / (a - e sin phi); Eq. 6's pinhole its radius.
+    inner = paper_mirror.inner
+    phi = math.atan((float(paper_mirror.outer.z(20.0)) - 2 * inner.e) / 20.0)
+    lam = inner.b**2 / (inner.a - inner.e * math.sin(phi))
+    rho_blocked = 16.0 / 0.009 * lam * math.cos(phi) / (2 * inner.e + lam * math.sin(phi))
+    assert rho_blocked == pytest.approx(280.96, abs=0.01)  # the house plan's blocked band
+    assert rho_blocked == pytest.approx(radii["inner_blocked_by_step"][0], abs=1e-6)
+    assert fig["lobes"][0]["pixels"] == int((rho < rho_blocked).sum())
     assert fig["lobes"][0]["with_vignetted"]["pixels"] == int((rho <= radii["inner_disc"][1]).sum())
     lo, hi = radii["outer_annulus"]
     assert fig["lobes"][1]["pixels"] == int(((rho > lo) & (rho <= hi)).sum())
