@@ -234,8 +234,8 @@ def radial_figures(profile: Profile, mirror: Mirror, *, camera_dz: float = 0.0,
 def surface_errors(profile: Profile, mirror: Mirror, *, n: int = 4001, used: bool = False) -> dict:
     """Per-lobe slope_error_rad and normal_deviation_mm ({rms, max}) on n radii per lobe.
 
-    Uniform in r over each lobe (used=True: over the extent the image uses, used_extent). Slope error: angle between the made and exact normals
-    at the same r. Normal deviation: |dz| cos(beta) with beta the exact surface's slope
+    Uniform in r over each lobe (used=True: over the extent the image uses, used_extent).
+    Slope error: angle between the made and exact normals at the same r. Normal deviation: |dz| cos(beta) with beta the exact surface's slope
     angle, the distance to the exact surface to first order in dz / (radius of curvature).
     """
     exact_lobes = mirror.lobes
