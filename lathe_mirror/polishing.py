@@ -82,8 +82,12 @@ class PolishParams:
             raise InputError(f"polish.corner_mm = {self.corner_mm!r} must be 0 .. 5 mm")
         if not (math.isfinite(self.time_s) and self.time_s >= 0):
             raise InputError(f"polish.time_s = {self.time_s!r} must be a finite number >= 0 s")
-        if self.curve_points < 3:
-            raise InputError(f"polish.curve_points = {self.curve_points} must be >= 3")
+        # Each point of the curve keeps its polished surface (~0.1 MB on the default grid).
+        if not 3 <= self.curve_points <= 1000:
+            raise InputError(f"polish.curve_points = {self.curve_points} must be 3 .. 1000")
+        if self.grid_step_mm < 0.0005:
+            raise InputError(f"polish.grid_step_mm = {self.grid_step_mm:g} mm must be at least 0.0005 mm "
+                             f"(70 000 points over 35 mm; the cost grows linearly as it shrinks)")
         if not 0 <= self.form_degree <= 12:
             raise InputError(f"polish.form_degree = {self.form_degree} must be 0..12")
         if self.grid_step_mm * 8 > self.pad_size_mm:

@@ -114,6 +114,10 @@ def test_bad_parameters_are_refused():
         PolishParams(pressure_kpa=-1.0)
     with pytest.raises(InputError, match="polish.grid_step_mm"):
         PolishParams(grid_step_mm=2.0)
+    with pytest.raises(InputError, match="polish.grid_step_mm"):
+        PolishParams(grid_step_mm=1e-5)
+    with pytest.raises(InputError, match="polish.curve_points"):
+        PolishParams(curve_points=100_000)
 
 
 def test_polish_cli_bad_time_exit_2(tmp_path):
