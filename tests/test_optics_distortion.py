@@ -101,22 +101,37 @@ def test_displacement_is_radial_for_an_aligned_camera(paper_mirror):
     assert np.nanmax(maps.image_displacement_px) > 1.0  # the perturbation is visible
 
 
-def test_misaligned_camera_uses_the_3d_path(paper_mirror):
-    """A camera decentred by 0.1 mm: the exact mirror no longer has a single viewpoint."""
-    from lathe_mirror.optics.camera import CameraPose
+def test_misaligned_camera_viewpoint_spread_by_hand(paper_mirror):
+    """A misaligned camera goes through the 3-D tracer. By hand: a ray from the pinhole
+    C = F2 + delta meets the exact sheet at P; the ray from F2 to P would reflect through
+    F1, and reflection keeps angles, so the reflected ray misses F1 by |P F1| sin(alpha),
+    alpha the angle at P between the rays from C and from F2: sin(alpha) =
+    |delta x d_in| / |P F2|, d_in the unit ray from C. A tilt alone keeps the pinhole at
+    F2: still a single viewpoint."""
     from lathe_mirror.design import Camera
+    from lathe_mirror.optics.camera import CameraPose
 
     exact = ExactProfile(paper_mirror)
     cam = Camera(16.0, 0.009 * 8, (126, 127))  # a coarse sensor with the same field of view
-    pose = CameraPose(decentre=(0.1, 0.0))
+    delta = np.array([0.1, -0.05, 0.2])  # mm
+    pose = CameraPose(decentre=(0.1, -0.05), axial_offset=0.2, tilt=(0.01, -0.02))
     maps = image_displacement(exact, paper_mirror, cam, pose=pose)
-    fig = maps.figures()
-    for lobe in fig["lobes"]:
-        assert lobe["pixels"] > 1000
-        assert lobe["viewpoint_spread_mm"]["max"] > 0.01  # of the order of the decentre
-        assert lobe["viewpoint_spread_mm"]["max"] < 0.2
-    aligned = image_displacement(exact, paper_mirror, cam).figures()
-    assert aligned["lobes"][0]["viewpoint_spread_mm"]["max"] < 1e-9
+    u, v = np.meshgrid(np.arange(126) + 0.5 - 63, np.arange(127) + 0.5 - 63.5)
+    hits = trace_pixels(exact, cam, np.stack([u, v], -1), pose=pose)
+    checked = 0
+    for k, lobe in enumerate(paper_mirror.lobes):
+        m = (maps.lobe == k) & maps.usable
+        p = hits.point[m]
+        d_in = (p - delta) / np.linalg.norm(p - delta, axis=1, keepdims=True)
+        pf1 = np.linalg.norm(p - [0.0, 0.0, 2 * lobe.e], axis=1)
+        expected = np.linalg.norm(np.cross(delta, d_in), axis=1) * pf1 / np.linalg.norm(p, axis=1)
+        assert np.abs(maps.viewpoint_spread_mm[m] - expected).max() < 1e-9
+        assert expected.max() > 0.01  # a visible spread: of the order of the decentre
+        checked += m.sum()
+    assert checked > 5000
+    tilted = image_displacement(exact, paper_mirror, cam, pose=CameraPose(tilt=(0.01, -0.02))).figures()
+    for lobe in tilted["lobes"]:
+        assert lobe["pixels"] > 1000 and lobe["viewpoint_spread_mm"]["max"] < 1e-9
 
 
 def test_issue_targets_paper_program_against_best(paper_mirror, paper_config):
