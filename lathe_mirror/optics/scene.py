@@ -204,6 +204,35 @@ def intersect_columns(scene: Scene, oc, dc) -> tuple[np.ndarray, np.ndarray]:
     return dist, surface
 
 
+def shade_columns(scene: Scene, oc, dc) -> np.ndarray:
+    """shade() on the coordinates as three 1-D arrays each (x, y, z)."""
+    return pigment_table(scene)[pigment_index(scene, oc, dc)]
+
+
+def pigment_table(scene: Scene) -> np.ndarray:
+    """Linear RGB seen on each surface id and checker parity (N_SURFACES, 2, 3): the
+    pigment (even squares, odd squares) times the face's Lambert shade. Every hit shows
+    one of these 24 colours."""
+    table = np.zeros((N_SURFACES, 2, 3))
+    table[FLOOR] = scene.floor_colours
+    table[CEILING] = (scene.ceiling_colour, scene.ceiling_colour)
+    table[[X_LO, X_HI]] = scene.x_wall_colours
+    table[[Y_LO, Y_HI]] = scene.y_wall_colours
+    table[BOX_FACE0:] = (scene.box_colour, scene.box_colour)
+    return table * scene.shades()[:, None, None]
+
+
+def pigment_index(scene: Scene, oc, dc) -> tuple[np.ndarray, np.ndarray]:
+    """(surface id, checker parity) of what rays (coordinate columns, mm) see: an index
+    into pigment_table."""
+    dist, surface = intersect_columns(scene, oc, dc)
+    inv_size = np.where(surface == FLOOR, 1.0 / scene.floor_square, 1.0 / scene.wall_square)
+    cells = np.floor((oc[0] + dist * dc[0]) * inv_size)
+    cells += np.floor((oc[1] + dist * dc[1]) * inv_size)
+    cells += np.floor((oc[2] + dist * dc[2]) * inv_size)  # small integers: exact in float
+    return surface, cells.astype(np.int64) & 1
+
+
 def _box_candidates(boxes, oc, dc) -> list[np.ndarray | None]:
     """Per box, the indices of the rays that may hit it (None: all of them). Conservative.
 
@@ -233,35 +262,6 @@ def _box_candidates(boxes, oc, dc) -> list[np.ndarray | None]:
         cos_limit = np.sqrt(1.0 - rho * rho) - 1e-9  # margin for rounding
         out.append(np.flatnonzero(dc[0] * (cx / c) + dc[1] * (cy / c) >= cos_limit * d_xy))
     return out
-
-
-def shade_columns(scene: Scene, oc, dc) -> np.ndarray:
-    """shade() on the coordinates as three 1-D arrays each (x, y, z)."""
-    return pigment_table(scene)[pigment_index(scene, oc, dc)]
-
-
-def pigment_table(scene: Scene) -> np.ndarray:
-    """Linear RGB seen on each surface id and checker parity (N_SURFACES, 2, 3): the
-    pigment (even squares, odd squares) times the face's Lambert shade. Every hit shows
-    one of these 24 colours."""
-    table = np.zeros((N_SURFACES, 2, 3))
-    table[FLOOR] = scene.floor_colours
-    table[CEILING] = (scene.ceiling_colour, scene.ceiling_colour)
-    table[[X_LO, X_HI]] = scene.x_wall_colours
-    table[[Y_LO, Y_HI]] = scene.y_wall_colours
-    table[BOX_FACE0:] = (scene.box_colour, scene.box_colour)
-    return table * scene.shades()[:, None, None]
-
-
-def pigment_index(scene: Scene, oc, dc) -> tuple[np.ndarray, np.ndarray]:
-    """(surface id, checker parity) of what rays (coordinate columns, mm) see: an index
-    into pigment_table."""
-    dist, surface = intersect_columns(scene, oc, dc)
-    inv_size = np.where(surface == FLOOR, 1.0 / scene.floor_square, 1.0 / scene.wall_square)
-    cells = np.floor((oc[0] + dist * dc[0]) * inv_size)
-    cells += np.floor((oc[1] + dist * dc[1]) * inv_size)
-    cells += np.floor((oc[2] + dist * dc[2]) * inv_size)  # small integers: exact in float
-    return surface, cells.astype(np.int64) & 1
 
 
 def _columns(a: np.ndarray) -> list[np.ndarray]:
