@@ -15,7 +15,7 @@ crossing measured along the same direction (negative when the rays cross behind)
 
 Why the band's figures cap each point at FAILED_PCT: the two viewpoints see W at the
 parallax angle gamma = B cos(elevation) / R (B the baseline, 12.8 mm on the paper mirror:
-0.34 deg at 2 m). A differential ray error delta between the lobes gives R_made / R =
+0.37 deg at 2 m on the horizon). A differential ray error delta between the lobes gives R_made / R =
 gamma / (gamma - delta) to first order: the error diverges as delta approaches gamma (the
 rays turn parallel) and the rays cross behind beyond it. A made surface whose delta runs
 through gamma somewhere in the band therefore has a depth error whose sum of squares over
