@@ -242,6 +242,7 @@ class PolishCurve:
 
     @property
     def optimum_index(self) -> int:
+        """Index of the time with the least combined image displacement."""
         return int(np.nanargmin(self.combined_displacement_px))
 
     @property
@@ -254,6 +255,7 @@ class PolishCurve:
         return 0 < self.optimum_index < self.times_s.size - 1
 
     def to_dict(self) -> dict:
+        """JSON-ready curve (times s; figures in the units their names carry) and its optimum."""
         i = self.optimum_index
         return {
             "times_s": [float(t) for t in self.times_s],

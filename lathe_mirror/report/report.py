@@ -258,6 +258,8 @@ def _mirror_figures(profile, mirror) -> dict:
 
 
 def polish_summary(curve, program: str) -> dict:
+    """The optimum of a polishing curve (s), the image displacement before and at it (px RMS,
+    both lobes), the form it costs per lobe (mm) and a sentence stating them (min, um)."""
     i = curve.optimum_index
     d = curve.to_dict()["optimum"]
     form = [lb["form_change_mm"] for lb in d["lobes"]]

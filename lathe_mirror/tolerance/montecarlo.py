@@ -60,6 +60,9 @@ class MonteCarloResult:
         return float(np.mean(self.pass_all))
 
     def to_dict(self, *, per_trial: bool = True) -> dict:
+        """JSON-ready: yield, pass fraction per criterion, distributions (mean, p05, p50, p95,
+        max) of the per-lobe figures (px, rad, mm) and of the depth error (%); per_trial adds
+        every trial's parameters and figures."""
         f = self.figures
         lobes = []
         for k, name in enumerate(("inner", "outer")):
@@ -152,6 +155,8 @@ def draw_trials(ctx: Context, n: int | None = None, seed: int | None = None) -> 
 
 def evaluate_trials(ctx: Context, trials: Trials, *, progress: bool = False, desc: str = "tolerance: trials",
                     **kw) -> TrialFigures:
+    """Figures of each trial (tolerance.perturb.evaluate) at the spec's depth range (m), with
+    a progress bar on stderr when asked."""
     bar = _bar(len(trials), desc, progress)
     fig = evaluate(ctx.mirror, ctx.nodes, trials, ctx.samples, depth_range_m=ctx.settings.spec.depth_range_m,
                    depth_points=ctx.settings.depth_points, progress=bar, **kw)
@@ -170,6 +175,8 @@ def judge(figures: TrialFigures, settings: ToleranceSettings) -> dict[str, np.nd
 
 
 def run_monte_carlo(ctx: Context, *, progress: bool = False) -> MonteCarloResult:
+    """Draw settings.trials trials from settings.seed, evaluate them and judge them: same
+    context and seed, same result to the bit."""
     trials = draw_trials(ctx)
     fig = evaluate_trials(ctx, trials, progress=progress)
     return MonteCarloResult(trials, fig, judge(fig, ctx.settings), ctx.settings, ctx.program)
