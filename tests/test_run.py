@@ -48,7 +48,9 @@ def test_run_bad_config_exit_2_writes_nothing(tmp_path):
 def test_run_bad_stage_setting_exit_2_writes_nothing(tmp_path):
     """A bad [tolerance] or [polish] key is caught before the programs and CAD are written."""
     for text, key in (('[tolerance]\ndistribution = "lognormal"\n', "tolerance.distribution"),
-                      ("[polish]\npressure_kpa = 0.0\n", "polish.pressure_kpa")):
+                      ("[polish]\npressure_kpa = 0.0\n", "polish.pressure_kpa"),
+                      ("[cad]\nthickness = 15.0\n", "cad.thickness"),
+                      ("[stock]\ndiameter = -1.0\n", "stock.diameter")):
         cfg = tmp_path / "bad.toml"
         cfg.write_text(text)
         out = tmp_path / "out"

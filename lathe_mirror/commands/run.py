@@ -37,6 +37,11 @@ def run(args: argparse.Namespace) -> int:
 
     cfg = load(args)
     check_config(cfg)  # bad input stops here, before anything is written
+    from ..export.cad import check_cad_config
+    from ..machine import stock_from_config
+
+    stock_from_config(cfg)  # the programs' stock, and the CAD body, checked up front too
+    check_cad_config(cfg)
     out_dir = Path(args.output or "out")
     default = args.config is None
     gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")
