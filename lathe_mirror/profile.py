@@ -191,6 +191,15 @@ class PathProfile(Profile):
         self.vertex_z = float(vertex_z)
         self._lobes = tuple(_MoveTable(moves) for moves in (inner, outer))
 
+    def vertices(self, k: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """(r, z) move ends of lobe k (mm, camera frame) if its moves are G1 lines end to
+        end (the surface is then that polyline), else None."""
+        t = self._lobes[k]
+        if t.is_arc.any() or np.any(t.r1[:-1] != t.r0[1:]) or np.any(t.z1[:-1] != t.z0[1:]):
+            return None
+        return (np.concatenate([t.r0, t.r1[-1:]]),
+                self.from_machine_z(np.concatenate([t.z0, t.z1[-1:]])))
+
     def breakpoints(self, k: int) -> np.ndarray:
         """Radii (mm) where lobe k's moves join (where the slope jumps)."""
         t = self._lobes[k]

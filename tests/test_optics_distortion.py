@@ -183,3 +183,25 @@ def test_paper_reference_model_is_within_its_hand_bound(paper_mirror, paper_conf
         kappa = lobe.a / lobe.b**2  # the sheet's largest curvature: at its vertex
         bound = 2 * (h * kappa / 2 + 2 * 1e-6 / h)
         assert 0 < lobe_fig["ray_deviation_deg"]["max"] <= math.degrees(bound)
+
+
+def test_polished_surface_is_the_polishing_curves_optimum(paper_mirror, paper_config):
+    """`--surface polished`: the per-pixel tracer's RMS image displacement of the polished
+    surface equals the polishing curve's optimum, which tolerance.radial computes on the
+    1-D set of image radii (another code path); and polishing beats the machined mirror."""
+    from lathe_mirror.machine import lathe_from_config, tool_from_config
+    from lathe_mirror.machining import as_machined
+    from lathe_mirror.optics.surfaces import make_surface
+    from lathe_mirror.polishing import polish_curve, polish_params_from_config
+    from lathe_mirror.toolpath import Strategy, plan_toolpath
+
+    machined = as_machined(plan_toolpath(paper_mirror, lathe_from_config(paper_config),
+                                         tool_from_config(paper_config), Strategy.PAPER))
+    curve = polish_curve(machined, paper_mirror, polish_params_from_config(paper_config))
+    i = curve.optimum_index
+    polished = distortion_figures(make_surface("polished", paper_mirror, paper_config), paper_mirror)
+    made = distortion_figures(machined, paper_mirror)
+    for k, lobe in enumerate(polished["lobes"]):
+        assert lobe["image_displacement_px"]["rms"] == pytest.approx(
+            curve.lobes[k]["image_displacement_px"]["rms"][i], rel=1e-6)
+        assert lobe["image_displacement_px"]["rms"] < made["lobes"][k]["image_displacement_px"]["rms"] / 3

@@ -17,8 +17,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "image_displacement_px, viewpoint_spread_mm), plots, and the POV-Ray 3.7 scene.")
     add_common(p, output_help="output directory for the PNGs, plots, figures.json and .pov")
     p.add_argument("--surface", metavar="NAME", default=None,
-                   help="made surface: exact, reference, uniform528, or a toolpath strategy "
-                   "(paper, best, ...); default [render] surface")
+                   help="made surface: exact, reference, uniform528, a toolpath strategy "
+                   "(paper, best, ...), or polished (the paper program as machined, polished at "
+                   "the polishing optimum); default [render] surface")
     p.add_argument("--nose-radius", metavar="MM", type=float, default=None,
                    help="trace the as-machined surface of a tool with this nose radius (mm) "
                    "instead of the programmed contour; default [render] nose_radius")
@@ -119,8 +120,15 @@ def run(args: argparse.Namespace) -> int:
 
 def format_figures(fig: dict) -> str:
     """The figures as a short table."""
-    lines = [f"surface {fig['surface']}" + (f", as machined with nose radius {fig['nose_radius_mm']:g} mm"
-                                            if fig["nose_radius_mm"] else ", programmed contour")]
+    if fig["surface"] == "polished":
+        what = ", the paper program as machined, polished at the polishing curve's optimum"
+    elif fig["surface"] in ("exact", "reference", "uniform528"):
+        what = ""
+    elif fig["nose_radius_mm"]:
+        what = f", as machined with nose radius {fig['nose_radius_mm']:g} mm"
+    else:
+        what = ", programmed contour"
+    lines = [f"surface {fig['surface']}{what}"]
     lines.append(f"{'lobe':8s}{'pixels':>9s}{'ray dev. deg rms/max':>24s}{'image disp. px rms/max':>26s}"
                  f"{'viewpoint mm rms/max':>24s}")
     for lobe in fig["lobes"]:

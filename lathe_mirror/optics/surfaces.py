@@ -12,6 +12,9 @@
               configured [tool] (Toolpath.contour_profile), or with nose_radius > 0 the
               as-machined surface of a tool of that nose radius along its own program
               (machining.as_machined)
+  polished    the paper program's as-machined surface (the [tool] nose, or nose_radius)
+              polished for the time that minimises its image displacement on the
+              polishing curve ([polish]; the report's "polished" mirror); costs ~2 s
 """
 
 from __future__ import annotations
@@ -27,7 +30,8 @@ BUILTIN = ("exact", "reference", "uniform528")
 
 def surface_names() -> tuple[str, ...]:
     """Every name make_surface accepts (the toolpath strategies once toolpath.py exists)."""
-    return BUILTIN + _strategies()
+    strategies = _strategies()
+    return BUILTIN + strategies + (("polished",) if strategies else ())
 
 
 def make_surface(name: str, mirror: Mirror, cfg: dict, *, nose_radius: float = 0.0) -> Profile:
@@ -49,6 +53,8 @@ def make_surface(name: str, mirror: Mirror, cfg: dict, *, nose_radius: float = 0
         return lattice_polyline(exact, (4001, 4001), resolution=1e-6)
     if name == "uniform528":
         return lattice_polyline(exact, _share(exact, 528), resolution=0.005)
+    if name == "polished":
+        return _polished_surface(mirror, cfg, nose_radius)
     return _toolpath_surface(name, mirror, cfg, nose_radius)
 
 
@@ -103,3 +109,20 @@ def _toolpath_surface(name: str, mirror: Mirror, cfg: dict, nose_radius: float) 
         tool = dataclasses.replace(tool, nose_radius=nose_radius)
         return as_machined(plan_toolpath(mirror, lathe_from_config(cfg), tool, strategy), nose_radius)
     return plan_toolpath(mirror, lathe_from_config(cfg), tool, strategy).contour_profile()
+
+
+def _polished_surface(mirror: Mirror, cfg: dict, nose_radius: float) -> Profile:
+    """The paper program's as-machined surface polished at its polishing curve's optimum."""
+    import dataclasses
+
+    from ..machine import lathe_from_config, tool_from_config
+    from ..machining import as_machined
+    from ..polishing import polish_curve, polish_params_from_config
+    from ..toolpath import Strategy, plan_toolpath
+
+    tool = tool_from_config(cfg)
+    if nose_radius > 0:
+        tool = dataclasses.replace(tool, nose_radius=nose_radius)
+    machined = as_machined(plan_toolpath(mirror, lathe_from_config(cfg), tool, Strategy.PAPER))
+    curve = polish_curve(machined, mirror, polish_params_from_config(cfg))
+    return curve.profiles[curve.optimum_index]

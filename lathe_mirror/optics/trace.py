@@ -257,11 +257,7 @@ def polyline_vertices(profile: Profile, k: int) -> tuple[np.ndarray, np.ndarray]
         r, z, _ = profile.lobes[k]
         return r, z
     if PathProfile is not None and isinstance(profile, PathProfile):
-        tab = profile._lobes[k]
-        if tab.is_arc.any() or np.any(tab.r1[:-1] != tab.r0[1:]) or np.any(tab.z1[:-1] != tab.z0[1:]):
-            return None
-        r = np.concatenate([tab.r0, tab.r1[-1:]])
-        return r, profile.from_machine_z(np.concatenate([tab.z0, tab.z1[-1:]]))
+        return profile.vertices(k)
     return None
 
 
