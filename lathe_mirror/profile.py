@@ -31,6 +31,11 @@ class Profile(ABC):
     r_max: float
     vertex_z: float
 
+    def __init__(self, *, r_junction: float, r_max: float, vertex_z: float) -> None:
+        self.r_junction = float(r_junction)
+        self.r_max = float(r_max)
+        self.vertex_z = float(vertex_z)
+
     @abstractmethod
     def z(self, r: np.ndarray) -> np.ndarray:
         """Height of the surface at radius r (mm)."""
@@ -70,9 +75,7 @@ class ExactProfile(Profile):
 
     def __init__(self, mirror: Mirror):
         self.mirror = mirror
-        self.r_junction = mirror.r_junction
-        self.r_max = mirror.r_max
-        self.vertex_z = mirror.vertex_z
+        super().__init__(r_junction=mirror.r_junction, r_max=mirror.r_max, vertex_z=mirror.vertex_z)
 
     def z(self, r: np.ndarray) -> np.ndarray:
         r = np.asarray(r, dtype=float)
@@ -107,9 +110,7 @@ class PolylineProfile(Profile):
     def __init__(self, inner: LobeSamples, outer: LobeSamples, *, r_junction: float,
                  r_max: float, vertex_z: float):
         self.lobes = (inner, outer)
-        self.r_junction = float(r_junction)
-        self.r_max = float(r_max)
-        self.vertex_z = float(vertex_z)
+        super().__init__(r_junction=r_junction, r_max=r_max, vertex_z=vertex_z)
 
     def z(self, r: np.ndarray) -> np.ndarray:
         return self._eval(r, derivative=False)
@@ -143,9 +144,7 @@ class SampledProfile(Profile):
 
         self.lobes = (inner, outer)
         self._splines = tuple(CubicSpline(s.r, s.z, extrapolate=True) for s in (inner, outer))
-        self.r_junction = float(r_junction)
-        self.r_max = float(r_max)
-        self.vertex_z = float(vertex_z)
+        super().__init__(r_junction=r_junction, r_max=r_max, vertex_z=vertex_z)
 
     def z(self, r: np.ndarray) -> np.ndarray:
         return self._eval(r, 0)
@@ -186,9 +185,7 @@ class PathProfile(Profile):
     """
 
     def __init__(self, inner, outer, *, r_junction: float, r_max: float, vertex_z: float):
-        self.r_junction = float(r_junction)
-        self.r_max = float(r_max)
-        self.vertex_z = float(vertex_z)
+        super().__init__(r_junction=r_junction, r_max=r_max, vertex_z=vertex_z)
         self._lobes = tuple(_MoveTable(moves) for moves in (inner, outer))
 
     def vertices(self, k: int) -> tuple[np.ndarray, np.ndarray] | None:
@@ -304,9 +301,7 @@ class TabulatedProfile(Profile):
             if np.any(np.diff(r) < 0):
                 raise ValueError("TabulatedProfile: r must be non-decreasing")
         self.lobes = (inner, outer)
-        self.r_junction = float(r_junction)
-        self.r_max = float(r_max)
-        self.vertex_z = float(vertex_z)
+        super().__init__(r_junction=r_junction, r_max=r_max, vertex_z=vertex_z)
 
     def z(self, r: np.ndarray) -> np.ndarray:
         return self._eval(r, 1)
