@@ -238,9 +238,10 @@ class Mirror:
         # Rays between the inner rim and the outer sheet's edge hit the step wall (lost).
         lost = (inner_edge, outer_start) if outer_start > inner_edge else (inner_edge, inner_edge)
         # Inner pixels whose world ray the step wall blocks (fov_usable's top).
-        el = self.fov_usable(self.inner)[1]
-        p = _sheet_point_seen_from_focus(self.inner, el)
-        blocked_from = float(cam.image_radius_px(p[0] / p[1]))
+        blocked_from = inner_edge
+        if self.step > 0:
+            p = _sheet_point_seen_from_focus(self.inner, self.fov_usable(self.inner)[1])
+            blocked_from = float(cam.image_radius_px(p[0] / p[1]))
         return {
             "inner_disc": (0.0, inner_edge),
             "inner_blocked_by_step": (min(blocked_from, inner_edge), inner_edge),

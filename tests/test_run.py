@@ -50,7 +50,12 @@ def test_run_bad_stage_setting_exit_2_writes_nothing(tmp_path):
     for text, key in (('[tolerance]\ndistribution = "lognormal"\n', "tolerance.distribution"),
                       ("[polish]\npressure_kpa = 0.0\n", "polish.pressure_kpa"),
                       ("[cad]\nthickness = 15.0\n", "cad.thickness"),
-                      ("[stock]\ndiameter = -1.0\n", "stock.diameter")):
+                      ("[stock]\ndiameter = -1.0\n", "stock.diameter"),
+                      # A design whose OUTER lobe is recessed at the step: no program cuts it yet.
+                      ("[camera]\nf = 6.0\nt_pixel = 0.003\nsensor_px = [1280, 1024]\n"
+                       "[lobes.inner]\nr_top = 12.0\nr_pixel = 265.0\na_over_b = 2.0\n"
+                       "[lobes.outer]\nr_top = 25.0\nr_pixel = 500.0\nalpha_deg = 5.0\n",
+                       "outer lobe is recessed")):
         cfg = tmp_path / "bad.toml"
         cfg.write_text(text)
         out = tmp_path / "out"

@@ -72,12 +72,23 @@ def format_design(fig: dict) -> str:
         f"(inner sheet z = {j['z_inner']:.4f}, outer sheet z = {j['z_outer']:.4f} mm)",
         f"stereo baseline (F1 to F1): {fig['baseline_mm']:.3f} mm; "
         f"common band: {band['min']:.3f} to {band['max']:.3f} deg elevation",
-        f"image radii: inner disc 0..{radii['inner_disc']['max']:.3f} px (its world rays are "
-        f"blocked by the step wall from {radii['inner_blocked_by_step']['min']:.3f} px out), lost ring "
-        f"{radii['lost_ring']['min']:.3f}..{radii['lost_ring']['max']:.3f} px, outer annulus "
-        f"{radii['outer_annulus']['min']:.3f}..{radii['outer_annulus']['max']:.3f} px",
+        "image radii: " + _radii_text(radii),
         f"mirror depth (vertex to outer rim): {fig['depth_mm']:.3f} mm",
     ]
     for note in fig.get("notes", []):
         lines.append(f"note: {note}")
     return "\n".join(lines)
+
+
+def _radii_text(radii: dict) -> str:
+    """The image radii sentence; empty bands (blocked, lost) are left out."""
+    inner = f"inner disc 0..{radii['inner_disc']['max']:.3f} px"
+    blocked = radii["inner_blocked_by_step"]
+    if blocked["max"] > blocked["min"]:
+        inner += f" (its world rays are blocked by the step wall from {blocked['min']:.3f} px out)"
+    parts = [inner]
+    lost = radii["lost_ring"]
+    if lost["max"] > lost["min"]:
+        parts.append(f"lost ring {lost['min']:.3f}..{lost['max']:.3f} px")
+    parts.append(f"outer annulus {radii['outer_annulus']['min']:.3f}..{radii['outer_annulus']['max']:.3f} px")
+    return ", ".join(parts)

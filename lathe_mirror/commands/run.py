@@ -31,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
     from pathlib import Path
 
-    from ..export.files import prepare_dir
+    from ..export.files import prepare_dir, write_text
     from ..report.report import compute, write_report
     from .report import check_config, summary
 
@@ -42,6 +42,9 @@ def run(args: argparse.Namespace) -> int:
 
     stock_from_config(cfg)  # the programs' stock, and the CAD body, checked up front too
     check_cad_config(cfg)
+    from ..export.gcode import reference_programs
+
+    texts = reference_programs(cfg)  # plans both programs: a design no program can cut stops here
     out_dir = Path(args.output or "out")
     default = args.config is None
     gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")
@@ -49,9 +52,7 @@ def run(args: argparse.Namespace) -> int:
     for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir")):
         prepare_dir(d, what)
     print("lathe-mirror run: programs", file=sys.stderr)
-    from ..export.gcode import write_reference_programs
-
-    programs = write_reference_programs(gcode_dir, cfg)
+    programs = [write_text(gcode_dir / name, text) for name, text in texts.items()]
     print("lathe-mirror run: CAD", file=sys.stderr)
     from ..export.cad import write_reference_cad
 
