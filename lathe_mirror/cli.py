@@ -19,8 +19,15 @@ from .errors import InputError
 COMMANDS = ("design", "toolpath", "cad", "render", "polish", "tolerance", "report", "run")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with the one-line error of every other bad input (no usage block)."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="lathe-mirror",
         description="Design a double-lobed hyperbolic mirror for an omnidirectional camera, "
         "turn it on a CNC lathe within its limits, and predict what the made mirror does "
@@ -42,19 +49,24 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .commands._common import remove_made_dirs
+
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
     except InputError as exc:
+        remove_made_dirs()  # a failed command leaves no empty output directory behind
         print(f"lathe-mirror {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        remove_made_dirs()
         print("lathe-mirror: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:
         return 0
     except Exception as exc:  # an internal failure: say so, keep the trace on request
+        remove_made_dirs()
         if os.environ.get("LATHE_MIRROR_DEBUG"):
             traceback.print_exc()
         print(

@@ -118,3 +118,16 @@ def test_infinite_and_boolean_values_are_rejected():
         merge(load_config(), {"lobes": {"outer": {"alpha_deg": math.inf}}})
     with pytest.raises(ConfigError, match="must be a number"):
         merge(load_config(), {"camera": {"t_pixel": True}})
+
+
+@pytest.mark.parametrize("args, message", [
+    (("toolpath", "--points", "abc"), "invalid int value"),
+    (("tolerance", "--trials", "1.5"), "invalid int value"),
+    (("design", "--bogus"), "unrecognized arguments"),
+    ((), "required: COMMAND"),
+])
+def test_bad_flag_gives_one_line_and_exit_2(args, message):
+    """argparse's own errors are one line too, like every other bad input (no usage block)."""
+    proc = run_cli(*args)
+    assert proc.returncode == 2
+    assert message in proc.stderr and len(proc.stderr.strip().splitlines()) == 1

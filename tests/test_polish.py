@@ -196,3 +196,20 @@ def test_the_pad_spares_wavelengths_longer_than_itself(paper_mirror, lam):
     omega = 300.0 * 2.0 * math.pi / 60.0
     expected = math.exp(-4e-13 * 20e3 * omega * 27.5 * 900.0 * (1.0 - h) / 0.004)
     assert math.hypot(*coef) / a0 == pytest.approx(expected, rel=0.08)
+
+
+# A design whose OUTER lobe is recessed at the step: it designs, but no program cuts it, and
+# the error comes after the output directory is made (README "Your own design").
+RECESSED_OUTER = ("[camera]\nf = 6.0\nt_pixel = 0.003\nsensor_px = [1280, 1024]\n"
+                  "[lobes.inner]\nr_top = 12.0\nr_pixel = 265.0\na_over_b = 2.0\n"
+                  "[lobes.outer]\nr_top = 25.0\nr_pixel = 500.0\nalpha_deg = 5.0\n")
+
+
+def test_polish_cli_uncuttable_design_leaves_no_output_dir(tmp_path):
+    cfg = tmp_path / "recessed.toml"
+    cfg.write_text(RECESSED_OUTER)
+    out = tmp_path / "out" / "polish"
+    proc = run_cli("polish", "--config", str(cfg), "-o", str(out))
+    assert proc.returncode == 2, proc.stderr
+    assert "outer lobe is recessed" in proc.stderr and "Traceback" not in proc.stderr
+    assert not (tmp_path / "out").exists()

@@ -74,3 +74,21 @@ def test_polish_command_json(tmp_path):
     assert data == json.loads((tmp_path / "p" / "polish.json").read_text())
     assert data["summary"]["optimum_time_s"] == data["curve"]["optimum"]["time_s"]
     assert len(data["curve"]["times_s"]) == 7
+
+
+def test_run_unwritable_gcode_dir_leaves_no_output_dir(tmp_path):
+    """-o is made before --gcode-dir; when --gcode-dir cannot be made, -o goes again."""
+    blocker = tmp_path / "file"
+    blocker.write_text("a file, not a directory\n")
+    out = tmp_path / "out" / "report"
+    proc = run_cli("run", "--config", str(_small(tmp_path)), "-o", str(out),
+                   "--gcode-dir", str(blocker / "gcode"))
+    assert proc.returncode == 2, proc.stderr
+    assert "--gcode-dir" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists()
+
+
+def _small(tmp_path):
+    cfg = tmp_path / "small.toml"
+    cfg.write_text(SMALL)
+    return cfg

@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from typing import Any
+
+# Directories this process made for its output, outermost first: a command that fails
+# after making them leaves nothing behind (cli.main calls remove_made_dirs).
+_MADE_DIRS: list[Path] = []
 
 
 def add_common(parser: argparse.ArgumentParser, *, output_help: str | None = None) -> None:
@@ -29,3 +34,30 @@ def print_json(data: Any) -> None:
     from ..export.files import json_text
 
     sys.stdout.write(json_text(data))
+
+
+def output_dir(path: str | Path, what: str = "-o/--output") -> Path:
+    """Create an output directory (and parents) as export.files.prepare_dir does, and
+    remember the ones that did not exist, so remove_made_dirs can take them away again
+    if the command fails later."""
+    from ..export.files import prepare_dir
+
+    path = Path(path)
+    missing = []
+    q = path
+    while not q.exists() and not q.is_symlink() and q != q.parent:
+        missing.append(q)
+        q = q.parent
+    _MADE_DIRS.extend(reversed(missing))
+    return prepare_dir(path, what)
+
+
+def remove_made_dirs() -> None:
+    """Remove the directories output_dir made, innermost first, where they are still
+    empty (a file a command did write is never removed)."""
+    while _MADE_DIRS:
+        d = _MADE_DIRS.pop()
+        try:
+            d.rmdir()
+        except OSError:
+            pass

@@ -37,9 +37,9 @@ def run(args: argparse.Namespace) -> int:
     params = polish_params_from_config(cfg)
     check_config(cfg, tolerance=False)  # bad input stops here, before the output directory is made
     if args.output:
-        from ..export.files import prepare_dir
+        from ._common import output_dir
 
-        prepare_dir(args.output)
+        output_dir(args.output)
     mirror = mirror_from_config(cfg)
     made = machined_surface(mirror, cfg, program)
     curve = polish_curve(made.profile, mirror, params, progress=True)

@@ -60,9 +60,9 @@ def run(args: argparse.Namespace) -> int:
     progress = not args.no_progress  # tqdm on stderr
     out = None
     if args.output:
-        from ..export.files import prepare_dir
+        from ._common import output_dir
 
-        out = prepare_dir(args.output)
+        out = output_dir(args.output)
     made_img = render_image(made, mirror, scene, pose=pose, supersample=n, progress=progress)
     files = []
     if args.image_only:

@@ -17,13 +17,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..export.files import prepare_dir
     from ..report.report import compute, write_report
+    from ._common import output_dir
 
     cfg = load(args)
     check_config(cfg)
     out_dir = args.output or "out"
-    prepare_dir(out_dir)
+    output_dir(out_dir)
     data = compute(cfg, progress=True, renders=not args.no_render)
     paths = write_report(data, out_dir)
     if args.json:

@@ -31,8 +31,9 @@ def run(args: argparse.Namespace) -> int:
     import sys
     from pathlib import Path
 
-    from ..export.files import prepare_dir, write_text
+    from ..export.files import write_text
     from ..report.report import compute, write_report
+    from ._common import output_dir
     from .report import check_config, summary
 
     cfg = load(args)
@@ -50,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")
     cad_dir = Path(args.cad_dir) if args.cad_dir else (Path("cad") if default else out_dir / "cad")
     for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir")):
-        prepare_dir(d, what)
+        output_dir(d, what)  # one that cannot be made takes the ones before it away
     print("lathe-mirror run: programs", file=sys.stderr)
     programs = [write_text(gcode_dir / name, text) for name, text in texts.items()]
     print("lathe-mirror run: CAD", file=sys.stderr)

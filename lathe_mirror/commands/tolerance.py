@@ -37,9 +37,9 @@ def run(args: argparse.Namespace) -> int:
     settings = settings_from_config(cfg)
     params = polish_params_from_config(cfg)
     if args.output:
-        from ..export.files import prepare_dir
+        from ._common import output_dir
 
-        prepare_dir(args.output)
+        output_dir(args.output)
     mirror = mirror_from_config(cfg)
     curves = {}
     for program in (Program.PAPER, Program.BEST):

@@ -57,12 +57,13 @@ def run(args: argparse.Namespace) -> int:
     tp = plan_toolpath(mirror, lathe, tool, strategy, max_deviation=float(cfg["toolpath"]["max_deviation"]))
     text = program(tp, stock, dialect, options=opts, name=f"mirror_{strategy.value}")
     if args.output:
-        from ..export.files import prepare_dir, write_text
+        from ..export.files import write_text
+        from ._common import output_dir
 
         out = Path(args.output)
         if out.is_dir() or args.output.endswith("/"):
             ext = "ngc" if dialect is Dialect.LINUXCNC else "nc"
-            out = prepare_dir(out) / f"mirror_{strategy.value}.{ext}"
+            out = output_dir(out) / f"mirror_{strategy.value}.{ext}"
         write_text(out, text)
     made = as_machined(tp)
     figures = profile_errors(made, mirror)
