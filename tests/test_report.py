@@ -166,4 +166,5 @@ def test_report_cli_uncuttable_design_leaves_no_output_dir(tmp_path):
     proc = run_cli("report", "--config", str(cfg), "-o", str(out), "--no-render")
     assert proc.returncode == 2, proc.stderr
     assert "outer lobe is recessed" in proc.stderr and "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1  # refused before the progress display
     assert not (tmp_path / "out").exists()

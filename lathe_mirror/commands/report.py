@@ -40,10 +40,13 @@ def check_config(cfg: dict, *, tolerance: bool = True) -> None:
     from ..machine import lathe_from_config, tool_from_config
     from ..polishing import polish_params_from_config
     from ..tolerance.spec import settings_from_config
+    from ..toolpath import check_junction
 
     mirror = mirror_from_config(cfg)
     lathe_from_config(cfg)
-    tool_from_config(cfg)
+    # Every program needs a junction the toolpath can cut (an inner lobe recessed, a nose
+    # that reaches the wall): checked here, before a progress display or a directory.
+    check_junction(mirror, tool_from_config(cfg))
     params = polish_params_from_config(cfg)
     params.check_time(mirror.r_max, max(params.time_s, params.curve_max_s))
     if not tolerance:
