@@ -131,6 +131,30 @@ def test_supersampling_is_the_mean_of_a_finer_sensor(scene, paper_mirror):
     assert np.abs(a - block).max() <= 1.0  # rounding before vs after the mean
 
 
+def test_supersample_8_keys_radii_by_the_sub_grid_step(scene, paper_mirror):
+    """--supersample 8 (the largest allowed): the aligned tracer's radius key counts in
+    steps of 1 / (2 * 8) px, not 1 / (2 * 64) (the 64 samples per pixel), which needed a
+    31 GiB table on the full sensor. A window at the outer rim needs the table up to its
+    radius; the result is the 8 x 8 block mean of a sensor 8 times finer."""
+    import tracemalloc
+
+    exact = ExactProfile(paper_mirror)
+    tracemalloc.start()
+    try:
+        rim = render_image(exact, paper_mirror, scene, supersample=8, window=(994, 509, 2, 2))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert rim.shape == (2, 2, 3)
+    assert peak < 1.0e9, f"{peak / 1e9:.1f} GB traced"
+    coarse = Camera(16.0, 0.072, (126, 128))
+    fine = Camera(16.0, 0.009, (1008, 1024))
+    a = render_image(exact, paper_mirror, scene, coarse, supersample=8).astype(float)
+    b = render_image(exact, paper_mirror, scene, fine).astype(float)
+    block = b.reshape(128, 8, 126, 8, 3).mean(axis=(1, 3))
+    assert np.abs(a - block).max() <= 1.0  # rounding before vs after the mean
+
+
 def test_ssim_and_rms_closed_form():
     """Two flat images x = 100, y = 150: RMS 50; SSIM = (2 x y + C1) / (x^2 + y^2 + C1)
     (the contrast-structure term is C2 / C2 = 1), Wang et al. 2004 with L = 255."""

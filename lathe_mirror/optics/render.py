@@ -48,7 +48,9 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
         from tqdm import tqdm
 
         bar = tqdm(total=u.size, unit="ray", unit_scale=True, desc="render", leave=False)
-    aligned = _aligned_meridian(profile, camera, u, v, n) if pose.aligned else None
+    # The radius key needs the sub-grid step 1 / (2 supersample), not the n = supersample^2
+    # samples per pixel (a key range n times too large: 31 GiB at --supersample 8).
+    aligned = _aligned_meridian(profile, camera, u, v, int(supersample)) if pose.aligned else None
     # Every hit shows one of the scene's 24 shaded pigments: quantise those once, not per ray.
     colours = pigment_table(scene)
     if n == 1:
@@ -100,8 +102,9 @@ def _aligned_meridian(profile: Profile, camera: Camera, u: np.ndarray, v: np.nda
     radius only, and about 8 pixels share each); returns chunk(slice) -> (lit mask, hit
     point columns x, y, z (mm), reflected direction columns, rays seeing a lobe).
 
-    Sample points sit at odd multiples of 1 / (2n) px from the principal point, so
-    (2n u)^2 + (2n v)^2 is an exact integer key of the radius.
+    n is the supersampling factor (n x n samples per pixel): sample points sit at integer
+    multiples of 1 / (2n) px from the principal point, so (2n u)^2 + (2n v)^2 is an exact
+    integer key of the radius.
     """
     key = np.rint((2 * n * u) ** 2 + (2 * n * v) ** 2).astype(np.int64)
     present = np.zeros(int(key.max()) + 1, dtype=bool)
