@@ -213,3 +213,18 @@ def test_polish_cli_uncuttable_design_leaves_no_output_dir(tmp_path):
     assert proc.returncode == 2, proc.stderr
     assert "outer lobe is recessed" in proc.stderr and "Traceback" not in proc.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_polish_cli_json_at_time_has_the_five_figures(tmp_path):
+    """polish --json: the figures after polish.time_s carry ARCHITECTURE.md's five figures
+    per lobe, inner first, as the report's mirrors do (not the optical three alone)."""
+    cfg = tmp_path / "small.toml"
+    cfg.write_text("[polish]\ncurve_points = 3\n")
+    proc = run_cli("polish", "--config", str(cfg), "--json")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    at = json.loads(proc.stdout)["at_time_s"]
+    assert [lb["name"] for lb in at["lobes"]] == ["inner", "outer"]
+    for lb in at["lobes"]:
+        for k in ("slope_error_rad", "normal_deviation_mm", "ray_deviation_deg",
+                  "image_displacement_px", "viewpoint_spread_mm"):
+            assert set(lb[k]) == {"rms", "max"} and lb[k]["rms"] <= lb[k]["max"], k

@@ -45,10 +45,14 @@ def run(args: argparse.Namespace) -> int:
     curve = polish_curve(made.profile, mirror, params, progress=True)
     polished = polish(made.profile, params)
     from ..report.report import polish_summary
+    from ..toolpath import profile_errors
 
+    # The five figures of ARCHITECTURE.md per lobe, surface then optics, as the report's.
+    at_time = [{**s, **{k: v for k, v in o.items() if k != "name"}} for s, o in
+               zip(profile_errors(polished, mirror)["lobes"], radial_figures(polished, mirror)["lobes"])]
     out = {"program": program.value, "surface": made.source, "params": dict(params.__dict__),
            "summary": polish_summary(curve, program.value), "curve": curve.to_dict(),
-           "at_time_s": {"time_s": params.time_s, **radial_figures(polished, mirror)}}
+           "at_time_s": {"time_s": params.time_s, "lobes": at_time}}
     if args.output:
         from pathlib import Path
 
