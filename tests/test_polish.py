@@ -228,3 +228,12 @@ def test_polish_cli_json_at_time_has_the_five_figures(tmp_path):
         for k in ("slope_error_rad", "normal_deviation_mm", "ray_deviation_deg",
                   "image_displacement_px", "viewpoint_spread_mm"):
             assert set(lb[k]) == {"rms", "max"} and lb[k]["rms"] <= lb[k]["max"], k
+
+
+def test_polish_cli_no_progress_keeps_stderr_empty(tmp_path):
+    """--no-progress (as render's): nothing on stderr on success, the figures on stdout."""
+    cfg = tmp_path / "quick.toml"
+    cfg.write_text("[polish]\ncurve_points = 3\n[tolerance]\ntrials = 20\nlattice_phases = 1\n")
+    proc = run_cli("polish", "--config", str(cfg), "--no-progress")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stderr == "" and proc.stdout.strip()

@@ -168,3 +168,12 @@ def test_report_cli_uncuttable_design_leaves_no_output_dir(tmp_path):
     assert "outer lobe is recessed" in proc.stderr and "Traceback" not in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1  # refused before the progress display
     assert not (tmp_path / "out").exists()
+
+
+def test_report_cli_no_progress_keeps_stderr_empty(tmp_path):
+    """--no-progress (as render's): nothing on stderr on success, the figures on stdout."""
+    cfg = tmp_path / "quick.toml"
+    cfg.write_text("[polish]\ncurve_points = 3\n[tolerance]\ntrials = 20\nlattice_phases = 1\n")
+    proc = run_cli("report", "--config", str(cfg), "--no-progress", "--no-render", "-o", str(tmp_path / "out"))
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stderr == "" and proc.stdout.strip()

@@ -257,3 +257,12 @@ def test_tolerance_cli_uncuttable_design_leaves_no_output_dir(tmp_path):
     assert proc.returncode == 2, proc.stderr
     assert "outer lobe is recessed" in proc.stderr and "Traceback" not in proc.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_tolerance_cli_no_progress_keeps_stderr_empty(tmp_path):
+    """--no-progress (as render's): nothing on stderr on success, the figures on stdout."""
+    cfg = tmp_path / "quick.toml"
+    cfg.write_text("[polish]\ncurve_points = 3\n[tolerance]\ntrials = 20\nlattice_phases = 1\n")
+    proc = run_cli("tolerance", "--config", str(cfg), "--no-progress")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stderr == "" and proc.stdout.strip()

@@ -22,6 +22,11 @@ def add_common(parser: argparse.ArgumentParser, *, output_help: str | None = Non
                         help="print the stage's figures as JSON on stdout")
 
 
+def add_no_progress(parser: argparse.ArgumentParser) -> None:
+    """--no-progress: no progress display on stderr (the stages that take seconds)."""
+    parser.add_argument("--no-progress", action="store_true", help="no progress display on stderr")
+
+
 def load(args: argparse.Namespace) -> dict[str, Any]:
     """The validated configuration for a command (defaults + --config)."""
     from ..config import load_config

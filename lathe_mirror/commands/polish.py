@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_common, load, print_json
+from ._common import add_common, add_no_progress, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -17,6 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--program", default="paper", metavar="paper|best",
                    help="which program's as-machined surface to polish (default: paper, the paper's "
                         "528-point program that section 6 proposes to polish)")
+    add_no_progress(p)
     p.set_defaults(func=run)
 
 
@@ -42,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
         output_dir(args.output)
     mirror = mirror_from_config(cfg)
     made = machined_surface(mirror, cfg, program)
-    curve = polish_curve(made.profile, mirror, params, progress=True)
+    curve = polish_curve(made.profile, mirror, params, progress=not args.no_progress)
     polished = polish(made.profile, params)
     from ..report.report import polish_summary
     from ..toolpath import profile_errors

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_common, load, print_json
+from ._common import add_common, add_no_progress, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -13,6 +13,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "report.json and report.html (figures embedded, opens without a network).")
     add_common(p, output_help="output directory (default: out/)")
     p.add_argument("--no-render", action="store_true", help="skip the renders side by side")
+    add_no_progress(p)
     p.set_defaults(func=run)
 
 
@@ -24,7 +25,7 @@ def run(args: argparse.Namespace) -> int:
     check_config(cfg)
     out_dir = args.output or "out"
     output_dir(out_dir)
-    data = compute(cfg, progress=True, renders=not args.no_render)
+    data = compute(cfg, progress=not args.no_progress, renders=not args.no_render)
     paths = write_report(data, out_dir)
     if args.json:
         print_json(data.figures)

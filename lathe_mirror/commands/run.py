@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_common, load, print_json
+from ._common import add_common, add_no_progress, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -24,6 +24,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cad-dir", metavar="DIR", help="where STEP and DXF go (default: cad/ on the "
                    "paper default, OUTPUT/cad with --config)")
     p.add_argument("--no-render", action="store_true", help="skip the renders side by side")
+    add_no_progress(p)
     p.set_defaults(func=run)
 
 
@@ -52,13 +53,14 @@ def run(args: argparse.Namespace) -> int:
     cad_dir = Path(args.cad_dir) if args.cad_dir else (Path("cad") if default else out_dir / "cad")
     for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir")):
         output_dir(d, what)  # one that cannot be made takes the ones before it away
-    print("lathe-mirror run: programs", file=sys.stderr)
+    say = (lambda m: None) if args.no_progress else (lambda m: print(m, file=sys.stderr))
+    say("lathe-mirror run: programs")
     programs = [write_text(gcode_dir / name, text) for name, text in texts.items()]
-    print("lathe-mirror run: CAD", file=sys.stderr)
+    say("lathe-mirror run: CAD")
     from ..export.cad import write_reference_cad
 
     cad = write_reference_cad(cad_dir, cfg)
-    data = compute(cfg, progress=True, renders=not args.no_render)
+    data = compute(cfg, progress=not args.no_progress, renders=not args.no_render)
     data.figures["outputs"] = {kind: [{"path": str(p), "sha256": _sha256(p)} for p in paths]
                                for kind, paths in (("gcode", programs), ("cad", cad))}
     paths = write_report(data, out_dir)

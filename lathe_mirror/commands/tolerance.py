@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_common, load, print_json
+from ._common import add_common, add_no_progress, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -16,6 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_common(p, output_help="directory for tolerance.json")
     p.add_argument("--trials", type=int, default=None, metavar="N", help="override tolerance.trials")
     p.add_argument("--seed", type=int, default=None, metavar="S", help="override tolerance.seed")
+    add_no_progress(p)
     p.set_defaults(func=run)
 
 
@@ -46,7 +47,8 @@ def run(args: argparse.Namespace) -> int:
         if program in settings.programs:
             made = machined_surface(mirror, cfg, program)
             curves[program] = polish_curve(made.profile, mirror, params)
-    out = _tolerance(mirror, cfg, params, curves.get(Program.PAPER), curves.get(Program.BEST), True)
+    out = _tolerance(mirror, cfg, params, curves.get(Program.PAPER), curves.get(Program.BEST),
+                     not args.no_progress)
     if args.output:
         from pathlib import Path
 
