@@ -18,6 +18,13 @@ from lathe_mirror.design import mirror_from_config
 
 IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
 
+#: A design whose OUTER lobe is recessed at the step (README "Your own design", with
+#: r_pixel = 265): it designs, but no program cuts it, so every stage that needs a
+#: program refuses it with one line before it writes anything.
+RECESSED_OUTER = ("[camera]\nf = 6.0\nt_pixel = 0.003\nsensor_px = [1280, 1024]\n"
+                  "[lobes.inner]\nr_top = 12.0\nr_pixel = 265.0\na_over_b = 2.0\n"
+                  "[lobes.outer]\nr_top = 25.0\nr_pixel = 500.0\nalpha_deg = 5.0\n")
+
 
 def require_program(name: str) -> str:
     """Path of an external program; skip (laptop) or fail (CI=true) when it is missing."""

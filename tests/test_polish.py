@@ -13,7 +13,7 @@ from lathe_mirror.errors import InputError
 from lathe_mirror.polishing import PolishParams, form_change, polish, polish_curve, polish_params_from_config
 from lathe_mirror.profile import ExactProfile, LobeSamples, PolylineProfile, SampledProfile
 
-from conftest import run_cli
+from conftest import RECESSED_OUTER, run_cli
 
 
 def paper_polyline(mirror, n: int = 528, res: float = 0.005) -> PolylineProfile:
@@ -198,11 +198,6 @@ def test_the_pad_spares_wavelengths_longer_than_itself(paper_mirror, lam):
     assert math.hypot(*coef) / a0 == pytest.approx(expected, rel=0.08)
 
 
-# A design whose OUTER lobe is recessed at the step: it designs, but no program cuts it, and
-# the error comes after the output directory is made (README "Your own design").
-RECESSED_OUTER = ("[camera]\nf = 6.0\nt_pixel = 0.003\nsensor_px = [1280, 1024]\n"
-                  "[lobes.inner]\nr_top = 12.0\nr_pixel = 265.0\na_over_b = 2.0\n"
-                  "[lobes.outer]\nr_top = 25.0\nr_pixel = 500.0\nalpha_deg = 5.0\n")
 
 
 def test_polish_cli_uncuttable_design_leaves_no_output_dir(tmp_path):

@@ -18,7 +18,7 @@ from lathe_mirror.report.report import compute, dumps, render_html, write_report
 from lathe_mirror.tolerance.radial import radial_figures
 from lathe_mirror.toolpath import BEST, Strategy, plan_toolpath, profile_errors
 
-from conftest import run_cli
+from conftest import RECESSED_OUTER, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -152,11 +152,6 @@ def test_same_config_same_json(small_cfg, report):
     assert dumps(a) == dumps(b)
 
 
-# A design whose OUTER lobe is recessed at the step: it designs, but no program cuts it, and
-# the error comes after the output directory is made (README "Your own design").
-RECESSED_OUTER = ("[camera]\nf = 6.0\nt_pixel = 0.003\nsensor_px = [1280, 1024]\n"
-                  "[lobes.inner]\nr_top = 12.0\nr_pixel = 265.0\na_over_b = 2.0\n"
-                  "[lobes.outer]\nr_top = 25.0\nr_pixel = 500.0\nalpha_deg = 5.0\n")
 
 
 def test_report_cli_uncuttable_design_leaves_no_output_dir(tmp_path):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from conftest import run_cli
+from conftest import RECESSED_OUTER, run_cli
 
 SMALL = """
 [polish]
@@ -52,10 +52,7 @@ def test_run_bad_stage_setting_exit_2_writes_nothing(tmp_path):
                       ("[cad]\nthickness = 15.0\n", "cad.thickness"),
                       ("[stock]\ndiameter = -1.0\n", "stock.diameter"),
                       # A design whose OUTER lobe is recessed at the step: no program cuts it yet.
-                      ("[camera]\nf = 6.0\nt_pixel = 0.003\nsensor_px = [1280, 1024]\n"
-                       "[lobes.inner]\nr_top = 12.0\nr_pixel = 265.0\na_over_b = 2.0\n"
-                       "[lobes.outer]\nr_top = 25.0\nr_pixel = 500.0\nalpha_deg = 5.0\n",
-                       "outer lobe is recessed")):
+                      (RECESSED_OUTER, "outer lobe is recessed")):
         cfg = tmp_path / "bad.toml"
         cfg.write_text(text)
         out = tmp_path / "out"

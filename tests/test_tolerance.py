@@ -33,7 +33,7 @@ from lathe_mirror.tolerance.sensitivity import sensitivity_table
 from lathe_mirror.tolerance.spec import Program, settings_from_config
 from lathe_mirror.tolerance.surfaces import machined_surface
 
-from conftest import run_cli
+from conftest import RECESSED_OUTER, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -242,11 +242,6 @@ def test_tolerance_cli_bad_tolerances_exit_2_before_writing(tmp_path):
         assert not out.exists()
 
 
-# A design whose OUTER lobe is recessed at the step: it designs, but no program cuts it, and
-# the error comes after the output directory is made (README "Your own design").
-RECESSED_OUTER = ("[camera]\nf = 6.0\nt_pixel = 0.003\nsensor_px = [1280, 1024]\n"
-                  "[lobes.inner]\nr_top = 12.0\nr_pixel = 265.0\na_over_b = 2.0\n"
-                  "[lobes.outer]\nr_top = 25.0\nr_pixel = 500.0\nalpha_deg = 5.0\n")
 
 
 def test_tolerance_cli_uncuttable_design_leaves_no_output_dir(tmp_path):
