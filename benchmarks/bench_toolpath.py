@@ -20,7 +20,7 @@ def main() -> None:
     from lathe_mirror.config import default_config
     from lathe_mirror.design import mirror_from_config
     from lathe_mirror.export.gcode import Dialect, options_from_config, program
-    from lathe_mirror.machine import lathe_from_config, stock_from_config, tool_from_config
+    from lathe_mirror.lathe import lathe_from_config, stock_from_config, tool_from_config
     from lathe_mirror.toolpath import BEST, Strategy, plan_toolpath
 
     cfg = default_config()

@@ -22,6 +22,7 @@ import numpy as np
 
 from .design import Lobe, Mirror
 from .errors import ConfigError, InputError
+from .path import Arc
 
 
 class SegmentKind(str, Enum):
@@ -124,7 +125,7 @@ class Segment:
             return np.array([self.start, self.end], dtype=float)
         if self.kind is SegmentKind.ARC:
             t0, t1 = self.arc_angles()
-            n = _pieces(abs(t1 - t0), self.radius, tolerance)
+            n = arc_chords(abs(t1 - t0), self.radius, tolerance)
             t = np.linspace(t0, t1, n + 1)
             pts = np.stack([self.centre[0] + self.radius * np.cos(t),
                             self.centre[1] + self.radius * np.sin(t)], axis=-1)
@@ -292,7 +293,7 @@ def programmed_meridian(face: list[Segment], mirror: Mirror, spec: BodySpec) -> 
 
 
 def moves_as_segments(moves: Iterable[Any], role: Role = Role.MIRROR) -> list[Segment]:
-    """Toolpath moves (kind "line"|"arc", start, end, centre; machine frame (r, Z), mm)
+    """Toolpath moves (path.Line | path.Arc: start, end, centre; machine frame (r, Z), mm)
     as meridian segments.
 
     LinuxCNC cuts an arc whose end radius differs from its start radius (by at most the
@@ -302,12 +303,11 @@ def moves_as_segments(moves: Iterable[Any], role: Role = Role.MIRROR) -> list[Se
     """
     out = []
     for m in moves:
-        kind = str(getattr(m.kind, "value", m.kind))
         start = (float(m.start[0]), float(m.start[1]))
         end = (float(m.end[0]), float(m.end[1]))
         if math.dist(start, end) == 0.0:
             continue
-        if kind == "arc":
+        if isinstance(m, Arc):
             c = (float(m.centre[0]), float(m.centre[1]))
             r0, r1 = math.dist(start, c), math.dist(end, c)
             a0 = math.atan2(start[1] - c[1], start[0] - c[0])
@@ -394,7 +394,7 @@ def programmed_parts(cfg: dict[str, Any], mirror: Mirror, spec: BodySpec
     """Plan the finishing toolpath of the configuration (lathe_mirror.toolpath) and
     return the programmed meridian, the tool-centre path (the programmed moves) and the
     toolpath's figures."""
-    from .machine import lathe_from_config, tool_from_config
+    from .lathe import lathe_from_config, tool_from_config
     from .toolpath import Strategy, plan_toolpath
 
     strategy_name = cfg["toolpath"]["strategy"]
@@ -412,7 +412,7 @@ def programmed_parts(cfg: dict[str, Any], mirror: Mirror, spec: BodySpec
     figures = {
         "strategy": strategy.value,
         "moves": len(tp.segments),
-        "arcs": sum(1 for s in tp.segments if s.kind == "arc"),
+        "arcs": sum(1 for s in tp.segments if isinstance(s, Arc)),
         "points": int(tp.n_points),
         "nose_radius_mm": float(tp.nose_radius),
         "contour_segments": len(contour),
@@ -621,7 +621,7 @@ def _check_direction(s: Segment) -> None:
         raise RuntimeError(f"toolpath contour: an arc turned inside out at {s.start}")
 
 
-def _pieces(sweep: float, radius: float, tolerance: float) -> int:
+def arc_chords(sweep: float, radius: float, tolerance: float) -> int:
     """Chords needed on a circular arc of `sweep` rad so that each sagitta <= tolerance:
     a chord over angle p has sagitta R (1 - cos(p / 2))."""
     if sweep <= 0.0:

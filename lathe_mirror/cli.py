@@ -49,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from .commands._common import remove_made_dirs
+    from .commands.common import remove_made_dirs
 
     parser = build_parser()
     args = parser.parse_args(argv)

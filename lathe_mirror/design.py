@@ -240,7 +240,7 @@ class Mirror:
         # Inner pixels whose world ray the step wall blocks (fov_usable's top).
         blocked_from = inner_edge
         if self.step > 0:
-            p = _sheet_point_seen_from_focus(self.inner, self.fov_usable(self.inner)[1])
+            p = sheet_point_seen_from_focus(self.inner, self.fov_usable(self.inner)[1])
             blocked_from = float(cam.image_radius_px(p[0] / p[1]))
         return {
             "inner_disc": (0.0, inner_edge),
@@ -481,7 +481,7 @@ def _ray_meets_sheet(lobe: Lobe, t: float) -> float:
     return min(good)
 
 
-def _sheet_point_seen_from_focus(lobe: Lobe, elevation: float) -> tuple[float, float]:
+def sheet_point_seen_from_focus(lobe: Lobe, elevation: float) -> tuple[float, float]:
     """Point (r, z) of the lobe's sheet seen from F1 at the given elevation (rad).
 
     P = F1 + t (cos el, sin el) in (z - e)^2 / a^2 - r^2 / b^2 = 1 is a quadratic in t;

@@ -37,6 +37,7 @@ import numpy as np
 from .design import Mirror
 from .errors import InputError
 from .profile import LobeSamples, Profile, SampledProfile
+from .progress import bar as progress_bar
 
 
 #: Time step as a fraction of the fastest e-folding time of a short error (see _evolve).
@@ -203,13 +204,13 @@ def form_change(profile: Profile, mirror: Mirror, *, degree: int = 4, n: int = 2
     """Per-lobe form change: the low-order part of (profile - design), mm.
 
     A least-squares Legendre fit of the given degree in r over the extent of each lobe the
-    image uses (tolerance.radial.used_extent: the inner lobe stops where the step wall
+    image uses (optics.radial.used_extent: the inner lobe stops where the step wall
     starts to vignette its rays, which also leaves out the tool's corner fillet); returns
     {"rms", "max"} of that fit (all terms, piston included: the lap removes nothing at
     the vertex, so its piston is real removal) under "form_change_mm", plus the fit's
     peak-to-valley "form_pv_mm".
     """
-    from .tolerance.radial import used_extent
+    from .optics.radial import used_extent
 
     lobes = []
     for k, lobe in enumerate(mirror.lobes):
@@ -281,10 +282,10 @@ def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams,
     """Slope error, normal deviation, form change and image displacement against time.
 
     times_s: s (default params.curve_times). Image displacement is the aligned camera's
-    (tolerance.radial: exact per-pixel RMS over each lobe's usable pixels); slope error and
-    normal deviation over the radii the image uses (tolerance.radial.used_extent).
+    (optics.radial: exact per-pixel RMS over each lobe's usable pixels); slope error and
+    normal deviation over the radii the image uses (optics.radial.used_extent).
     """
-    from .tolerance.radial import lobe_pixel_radii, radial_displacement, surface_errors
+    from .optics.radial import lobe_pixel_radii, radial_displacement, surface_errors
 
     times = params.curve_times if times_s is None else np.asarray(times_s, dtype=float)
     profiles = polish_series(profile, params, times)
@@ -292,7 +293,7 @@ def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams,
     lobes = [{"name": lb.name, **{key: {"rms": [], "max": []} for key in keys}} for lb in mirror.lobes]
     px = [lobe_pixel_radii(mirror, k) for k in (0, 1)]
     combined = []
-    bar = _progress(len(profiles), "polishing curve", progress)
+    bar = progress_bar(len(profiles), "polishing curve", progress)
     for prof in profiles:
         surf = surface_errors(prof, mirror, used=True)
         form = form_change(prof, mirror, degree=params.form_degree)
@@ -389,21 +390,3 @@ class _PadFit:
         out[:h] = self.v_left @ (self.pinv @ z[:w])
         out[self.n - h:] = self.v_right @ (self.pinv @ z[self.n - w:])
         return out
-
-
-def _progress(total: int, desc: str, enabled: bool):
-    if enabled:
-        import sys
-
-        from tqdm import tqdm
-
-        return tqdm(total=total, desc=desc, file=sys.stderr, leave=False)
-    return _NoBar()
-
-
-class _NoBar:
-    def update(self, n: int = 1) -> None:
-        pass
-
-    def close(self) -> None:
-        pass

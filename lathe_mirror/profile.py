@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .design import Mirror
+from .path import Arc
 
 
 class Profile(ABC):
@@ -235,12 +236,12 @@ class _MoveTable:
             raise ValueError("PathProfile: every move of a lobe must advance in r")
         self.z0 = np.array([m.start[1] for m in moves], dtype=float)
         self.z1 = np.array([m.end[1] for m in moves], dtype=float)
-        self.is_arc = np.array([m.kind == "arc" for m in moves])
+        self.is_arc = np.array([isinstance(m, Arc) for m in moves])
         nan = float("nan")
-        self.cr = np.array([m.centre[0] if m.kind == "arc" else nan for m in moves])
-        self.cz = np.array([m.centre[1] if m.kind == "arc" else nan for m in moves])
-        self.rad0 = np.array([m.radius if m.kind == "arc" else nan for m in moves])
-        self.rad1 = np.array([m.end_radius if m.kind == "arc" else nan for m in moves])
+        self.cr = np.array([m.centre[0] if isinstance(m, Arc) else nan for m in moves])
+        self.cz = np.array([m.centre[1] if isinstance(m, Arc) else nan for m in moves])
+        self.rad0 = np.array([m.radius if isinstance(m, Arc) else nan for m in moves])
+        self.rad1 = np.array([m.end_radius if isinstance(m, Arc) else nan for m in moves])
         self.phi0 = np.arctan2(self.z0 - self.cz, self.r0 - self.cr)
         self.phi1 = np.arctan2(self.z1 - self.cz, self.r1 - self.cr)
 
@@ -257,14 +258,14 @@ class _MoveTable:
             dz[~arc] = s
         aj = j[arc]
         if aj.size:
-            zm[arc], dz[arc] = _spiral_at_r(
+            zm[arc], dz[arc] = spiral_at_r(
                 r[arc], self.cr[aj], self.cz[aj], self.rad0[aj], self.rad1[aj],
                 self.phi0[aj], self.phi1[aj],
             )
         return zm, dz
 
 
-def _spiral_at_r(r, cr, cz, rad0, rad1, phi0, phi1):
+def spiral_at_r(r, cr, cz, rad0, rad1, phi0, phi1):
     """Z and dZ/dr of the arc point at radius r: R(phi) = rad0 + (rad1 - rad0) t, t the
     fraction of the sweep (LinuxCNC's spiral); the point lies in the upper half (0 < phi <
     pi) about its centre, as a lathe contour's arcs about centres below the surface do."""

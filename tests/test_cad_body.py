@@ -12,6 +12,7 @@ from scipy.integrate import quad
 from lathe_mirror.cad_body import (BodySpec, Mount, Role, Segment, SegmentKind,
                                    design_meridian, moves_as_segments, programmed_contour)
 from lathe_mirror.errors import InputError
+from lathe_mirror.path import Arc
 from lathe_mirror.profile import ExactProfile
 
 
@@ -106,11 +107,8 @@ def test_offset_of_arcs_by_hand():
 
 
 def test_spiral_arc_becomes_the_circle_through_its_ends_and_middle():
-    class Move:  # a LinuxCNC spiral: end radius 0.0002 mm larger than the start radius
-        kind, start, centre = "arc", (10.0, 0.0), (0.0, 0.0)
-        end = (0.0, 10.0002)
-
-    (s,) = moves_as_segments([Move()])
+    # a LinuxCNC spiral: end radius 0.0002 mm larger than the start radius
+    (s,) = moves_as_segments([Arc((10.0, 0.0), (0.0, 10.0002), (0.0, 0.0), clockwise=False)])
     mid = (10.0001 * math.cos(math.pi / 4), 10.0001 * math.sin(math.pi / 4))
     for p in (s.start, s.end, mid):
         assert math.dist(p, s.centre) == pytest.approx(s.radius, abs=1e-12)
@@ -154,15 +152,15 @@ def test_a_move_that_cuts_air_drops_out_of_the_contour():
 
 @pytest.mark.parametrize("strategy", ["paper", "lattice", "arcs"])
 def test_programmed_contour_is_the_machining_envelope(paper_config, paper_mirror, strategy):
-    """The exact contour (lines and arcs) against lathe_mirror.machining's independent
+    """The exact contour (lines and arcs) against lathe_mirror.nose_envelope's independent
     envelope (the lowest nose point over a 0.0005 mm grid of radii, linearly
     interpolated). Linear interpolation across a corner of the envelope, where the
     slope dZ/dr jumps by ds between two moves, errs by up to GRID * ds / 4: the bound."""
     import copy
 
     from lathe_mirror.cad_body import _tangent, programmed_parts
-    from lathe_mirror.machine import lathe_from_config, tool_from_config
-    from lathe_mirror.machining import GRID, as_machined
+    from lathe_mirror.lathe import lathe_from_config, tool_from_config
+    from lathe_mirror.nose_envelope import GRID, as_machined
     from lathe_mirror.toolpath import Strategy, plan_toolpath
 
     cfg = copy.deepcopy(paper_config)

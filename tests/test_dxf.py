@@ -12,6 +12,7 @@ import pytest
 
 from lathe_mirror.cad_body import BodySpec, design_meridian, programmed_parts
 from lathe_mirror.export.dxf import LAYERS, audit, dxf_bytes
+from lathe_mirror.path import Arc
 
 
 @pytest.fixture(scope="module")
@@ -58,7 +59,7 @@ def test_lobe_splines_lie_on_the_hyperbolas(drawing, paper_mirror):
 def test_arcs_are_drawn_the_way_the_tool_moves(drawing, paper_config, paper_mirror):
     """Every TOOL_CENTRE ARC passes through its move's ends and its middle (a DXF arc
     runs counter-clockwise: a clockwise move must be drawn from its end)."""
-    from lathe_mirror.machine import lathe_from_config, tool_from_config
+    from lathe_mirror.lathe import lathe_from_config, tool_from_config
     from lathe_mirror.toolpath import Strategy, plan_toolpath
 
     _, doc, _, _ = drawing
@@ -70,7 +71,7 @@ def test_arcs_are_drawn_the_way_the_tool_moves(drawing, paper_config, paper_mirr
     n_arcs = 0
     for e, m in zip(entities, moves):
         mid = m.sample(3)[1]
-        if m.kind == "arc":
+        if isinstance(m, Arc):
             n_arcs += 1
             assert e.dxftype() == "ARC"
             ends = [tuple(e.start_point)[:2], tuple(e.end_point)[:2]]

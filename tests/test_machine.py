@@ -9,7 +9,7 @@ import pytest
 
 from lathe_mirror.config import load_config
 from lathe_mirror.errors import ConfigError, InputError
-from lathe_mirror.machine import (Lathe, Stock, Tool, lathe_from_config, stock_from_config,
+from lathe_mirror.lathe import (Lathe, Stock, Tool, lathe_from_config, stock_from_config,
                                   tool_from_config)
 
 

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from lathe_mirror.machine import Lathe, Tool
-from lathe_mirror.machining import as_machined, gouge_depth
+from lathe_mirror.lathe import Lathe, Tool
+from lathe_mirror.nose_envelope import as_machined, contour_profile, gouge_depth
 from lathe_mirror.profile import PathProfile
 from lathe_mirror.toolpath import Strategy, plan_toolpath, profile_errors
 
@@ -74,7 +74,7 @@ def test_zero_nose_is_the_programmed_contour(paper_mirror):
     tp = plan_toolpath(paper_mirror, LATHE, Tool(nose_radius=0.0), Strategy.ARCS)
     assert isinstance(as_machined(tp), PathProfile)
     r = np.linspace(0.1, 34.9, 101)
-    assert np.allclose(as_machined(tp).z(r), tp.contour_profile().z(r))
+    assert np.allclose(as_machined(tp).z(r), contour_profile(tp).z(r))
 
 
 def test_nose_compensated_path_cuts_the_surface(tp02, paper_mirror):
@@ -98,7 +98,7 @@ def test_gouge_check(tp02, paper_mirror):
 def test_junction_fillet_extent_by_hand(tp02, paper_mirror):
     """Tangent lengths of a circle in a corner of opening theta are rho / tan(theta / 2):
     up the wall, and back along the inner lobe (whose slope angle there is 90 - theta)."""
-    from lathe_mirror.machining import junction_fillet
+    from lathe_mirror.nose_envelope import junction_fillet
 
     m = paper_mirror
     phi = math.atan(float(m.inner.slope(20.0)))  # the inner rim's slope angle

@@ -187,10 +187,10 @@ def test_paper_reference_model_is_within_its_hand_bound(paper_mirror, paper_conf
 
 def test_polished_surface_is_the_polishing_curves_optimum(paper_mirror, paper_config):
     """`--surface polished`: the per-pixel tracer's RMS image displacement of the polished
-    surface equals the polishing curve's optimum, which tolerance.radial computes on the
+    surface equals the polishing curve's optimum, which optics.radial computes on the
     1-D set of image radii (another code path); and polishing beats the machined mirror."""
-    from lathe_mirror.machine import lathe_from_config, tool_from_config
-    from lathe_mirror.machining import as_machined
+    from lathe_mirror.lathe import lathe_from_config, tool_from_config
+    from lathe_mirror.nose_envelope import as_machined
     from lathe_mirror.optics.surfaces import make_surface
     from lathe_mirror.polishing import polish_curve, polish_params_from_config
     from lathe_mirror.toolpath import Strategy, plan_toolpath

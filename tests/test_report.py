@@ -10,12 +10,12 @@ import re
 import numpy as np
 import pytest
 
-from lathe_mirror.machine import lathe_from_config, tool_from_config
-from lathe_mirror.machining import as_machined
+from lathe_mirror.lathe import lathe_from_config, tool_from_config
+from lathe_mirror.nose_envelope import as_machined
 from lathe_mirror.optics.stereo import depth_error_curve
 from lathe_mirror.polishing import polish, polish_params_from_config
 from lathe_mirror.report.report import compute, dumps, render_html, write_report
-from lathe_mirror.tolerance.radial import radial_figures
+from lathe_mirror.optics.radial import radial_figures
 from lathe_mirror.toolpath import BEST, Strategy, plan_toolpath, profile_errors
 
 from conftest import RECESSED_OUTER, run_cli

@@ -104,7 +104,7 @@ def test_programmed_step_is_one_valid_solid(programmed_step, programmed):
 def test_tool_centre_path_lies_one_nose_radius_from_the_programmed_faces(programmed_step, programmed,
                                                                         paper_config, paper_mirror):
     """The nose (radius rho) touches the surface it cuts (see _assert_nose_touches)."""
-    from lathe_mirror.machine import lathe_from_config, tool_from_config
+    from lathe_mirror.lathe import lathe_from_config, tool_from_config
     from lathe_mirror.toolpath import Strategy, plan_toolpath
 
     cfg = paper_config
@@ -229,7 +229,7 @@ def test_line_strategies_give_valid_programmed_solids(paper_config, paper_mirror
     import copy
 
     from lathe_mirror.export.step import meridian_solid
-    from lathe_mirror.machine import lathe_from_config, tool_from_config
+    from lathe_mirror.lathe import lathe_from_config, tool_from_config
     from lathe_mirror.toolpath import Strategy, plan_toolpath
 
     cfg = copy.deepcopy(paper_config)
@@ -266,7 +266,7 @@ def test_committed_program_cuts_the_committed_programmed_step(tmp_path, paper_co
     moves may cut air)."""
     import re
 
-    from lathe_mirror.machine import tool_from_config
+    from lathe_mirror.lathe import tool_from_config
 
     exe = require_program("rs274")
     program = REPO / "gcode" / "mirror_arcs.ngc"

@@ -17,7 +17,7 @@ from lathe_mirror.optics.stereo import (
     world_points,
 )
 from lathe_mirror.profile import ExactProfile
-from lathe_mirror.tolerance.radial import trace_lobe
+from lathe_mirror.optics.radial import trace_lobe
 
 RANGES_M = np.array([0.5, 1.0, 2.0, 3.5, 5.0])
 

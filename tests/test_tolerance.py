@@ -21,7 +21,7 @@ from lathe_mirror.polishing import PolishParams, polish_params_from_config
 from lathe_mirror.profile import ExactProfile
 from lathe_mirror.tolerance.montecarlo import draw_trials, evaluate_trials, judge, prepare, run_monte_carlo
 from lathe_mirror.tolerance.perturb import Trials, build_nodes, evaluate, pixel_sample
-from lathe_mirror.tolerance.radial import (
+from lathe_mirror.optics.radial import (
     ideal_radius_px,
     lobe_pixel_radii,
     radial_displacement,

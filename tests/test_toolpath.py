@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from lathe_mirror.errors import InputError
-from lathe_mirror.machine import Lathe, Tool
+from lathe_mirror.lathe import Lathe, Tool
+from lathe_mirror.nose_envelope import contour_profile
 from lathe_mirror.profile import ExactProfile, PathProfile, Profile
 from lathe_mirror.toolpath import (BEST, Arc, Line, Strategy, check_junction, check_travel,
                                    plan_toolpath, profile_errors, usable_ranges)
@@ -45,7 +46,7 @@ def test_on_the_lattice_and_within_the_budget(plans, strategy, rho):
     assert tp.segments[0].start[0] == 0.0
     # arcs: the two radii within the machine's tolerance (LinuxCNC cuts the spiral)
     for s in tp.segments:
-        if s.kind == "arc":
+        if isinstance(s, Arc):
             assert abs(s.end_radius - s.radius) <= LATHE.arc_radius_tolerance + 1e-12
 
 
@@ -67,8 +68,8 @@ def test_paper_method_rounds_points_spread_along_the_profile(plans, paper_mirror
 
 def test_best_slope_error_is_20x_below_the_paper_method(plans, paper_mirror):
     """The issue's 'done when': max slope error, nose radius 0, each lobe."""
-    paper = profile_errors(plans[(Strategy.PAPER, 0.0)].contour_profile(), paper_mirror)
-    best = profile_errors(plans[(BEST, 0.0)].contour_profile(), paper_mirror)
+    paper = profile_errors(contour_profile(plans[(Strategy.PAPER, 0.0)]), paper_mirror)
+    best = profile_errors(contour_profile(plans[(BEST, 0.0)]), paper_mirror)
     for p, b in zip(paper["lobes"], best["lobes"]):
         ratio = p["slope_error_rad"]["max"] / b["slope_error_rad"]["max"]
         print(f"{p['name']}: paper max slope error {p['slope_error_rad']['max']:.3e} rad, "
@@ -82,9 +83,9 @@ def test_paper_slope_error_matches_the_rounding_estimate(plans, paper_mirror):
     """Rounding to 0.005 mm on chords ~0.076 mm long: slope errors of order
     0.005 / 0.076 = 0.066 rad (the brief's hand estimate); the RMS of a uniform rounding
     error difference over a chord, sqrt(2 * 0.005^2 / 12) / 0.076 ~ 0.027 rad."""
-    e = profile_errors(plans[(Strategy.PAPER, 0.0)].contour_profile(), paper_mirror)
+    e = profile_errors(contour_profile(plans[(Strategy.PAPER, 0.0)]), paper_mirror)
     length = sum(np.hypot(*np.diff(np.array([s.start, s.end]), axis=0)[0])
-                 for s in plans[(Strategy.PAPER, 0.0)].segments if s.kind == "line")
+                 for s in plans[(Strategy.PAPER, 0.0)].segments if isinstance(s, Line))
     chord = length / 527
     for lobe in e["lobes"]:
         assert 0.5 * 0.005 / chord < lobe["slope_error_rad"]["max"] < 2.0 * 0.005 / chord
@@ -93,8 +94,8 @@ def test_paper_slope_error_matches_the_rounding_estimate(plans, paper_mirror):
 
 
 def test_lattice_beats_rounding_in_rms(plans, paper_mirror):
-    paper = profile_errors(plans[(Strategy.PAPER, 0.0)].contour_profile(), paper_mirror)
-    lat = profile_errors(plans[(Strategy.LATTICE, 0.0)].contour_profile(), paper_mirror)
+    paper = profile_errors(contour_profile(plans[(Strategy.PAPER, 0.0)]), paper_mirror)
+    lat = profile_errors(contour_profile(plans[(Strategy.LATTICE, 0.0)]), paper_mirror)
     for p, q in zip(paper["lobes"], lat["lobes"]):
         assert q["slope_error_rad"]["rms"] < 0.5 * p["slope_error_rad"]["rms"]
         assert q["slope_error_rad"]["max"] < p["slope_error_rad"]["max"]
@@ -166,12 +167,12 @@ def test_travel(paper_mirror):
 
 
 def test_coarser_lattice_is_worse(paper_mirror):
-    fine = profile_errors(plan_toolpath(paper_mirror, LATHE, Tool(nose_radius=0.0), Strategy.PAPER)
-                          .contour_profile(), paper_mirror)
+    fine = profile_errors(contour_profile(plan_toolpath(paper_mirror, LATHE, Tool(nose_radius=0.0),
+                                                        Strategy.PAPER)), paper_mirror)
     coarse_lathe = Lathe(resolution=0.02)
     tp = plan_toolpath(paper_mirror, coarse_lathe, Tool(nose_radius=0.0), Strategy.PAPER)
     assert coarse_lathe.on_lattice(tp.points())
-    coarse = profile_errors(tp.contour_profile(), paper_mirror)
+    coarse = profile_errors(contour_profile(tp), paper_mirror)
     for f, c in zip(fine["lobes"], coarse["lobes"]):
         assert c["slope_error_rad"]["rms"] > 2.5 * f["slope_error_rad"]["rms"]
 
@@ -256,7 +257,7 @@ def test_arc_profile_is_the_circle(paper_mirror):
 
 def test_contour_profile_passes_through_the_points(plans, paper_mirror):
     tp = plans[(BEST, 0.0)]
-    prof = tp.contour_profile()
+    prof = contour_profile(tp)
     ends = np.array([s.end for s in tp.lobe_segments("inner") + tp.lobe_segments("outer")])
     assert np.allclose(prof.z(ends[:, 0]), paper_mirror.vertex_z - ends[:, 1], atol=1e-9)
 
@@ -282,7 +283,7 @@ def test_usable_ranges_by_hand(paper_mirror):
 def test_used_zone_figures_leave_out_the_fillet(plans, paper_mirror):
     """The junction fillet (nose 0.2 mm) lies beyond the used radii: there the inner
     lobe's figures are those of the turned hyperbola, the outer lobe's unchanged."""
-    from lathe_mirror.machining import as_machined, junction_fillet
+    from lathe_mirror.nose_envelope import as_machined, junction_fillet
 
     tp = plans[(BEST, 0.2)]
     made = as_machined(tp)
@@ -305,8 +306,8 @@ def test_contour_profile_follows_the_spirals(plans, paper_mirror):
     in the swept angle): the profile's z(r), solved for r by Newton's method, meets the
     spiral's points sampled by angle; its slope is the spiral's dZ/dphi / dr/dphi."""
     tp = plans[(BEST, 0.0)]
-    prof = tp.contour_profile()
-    spirals = [s for s in tp.segments if s.kind == "arc" and s.end_radius != s.radius]
+    prof = contour_profile(tp)
+    spirals = [s for s in tp.segments if isinstance(s, Arc) and s.end_radius != s.radius]
     assert spirals  # the lattice centres make most arcs spirals
     for s in spirals:
         p = s.sample(9)[1:-1]
@@ -323,8 +324,7 @@ def test_arcs_fall_back_to_chords_without_a_lattice_centre(paper_mirror):
     1 mm arc of this curvature: each such move becomes a G1 chord between the same
     ends (the gouge check then judges it), not an internal error."""
     tp = plan_toolpath(paper_mirror, Lathe(arc_radius_tolerance=1e-9), Tool(nose_radius=0.0), Strategy.ARCS)
-    kinds = {s.kind for s in tp.lobe_segments("inner") + tp.lobe_segments("outer")}
-    assert "line" in kinds
+    assert any(isinstance(s, Line) for s in tp.lobe_segments("inner") + tp.lobe_segments("outer"))
     for s in tp.segments:
-        if s.kind == "arc":
+        if isinstance(s, Arc):
             assert abs(s.end_radius - s.radius) <= 1e-9

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_common, load, print_json
+from .common import add_common, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_no_progress, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -25,7 +25,7 @@ def run(args: argparse.Namespace) -> int:
     from ..design import mirror_from_config
     from ..errors import InputError
     from ..polishing import polish, polish_curve, polish_params_from_config
-    from ..tolerance.radial import radial_figures
+    from ..optics.radial import radial_figures
     from ..tolerance.spec import Program
     from ..tolerance.surfaces import machined_surface
     from .report import check_config
@@ -38,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     params = polish_params_from_config(cfg)
     check_config(cfg, tolerance=False)  # bad input stops here, before the output directory is made
     if args.output:
-        from ._common import output_dir
+        from .common import output_dir
 
         output_dir(args.output)
     mirror = mirror_from_config(cfg)

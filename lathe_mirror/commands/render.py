@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_common, load, print_json
+from .common import add_common, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     progress = not args.no_progress  # tqdm on stderr
     out = None
     if args.output:
-        from ._common import output_dir
+        from .common import output_dir
 
         out = output_dir(args.output)
     made_img = render_image(made, mirror, scene, pose=pose, supersample=n, progress=progress)

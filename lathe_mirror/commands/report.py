@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_no_progress, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -19,7 +19,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..report.report import compute, write_report
-    from ._common import output_dir
+    from .common import output_dir
 
     cfg = load(args)
     check_config(cfg)
@@ -38,7 +38,7 @@ def check_config(cfg: dict, *, tolerance: bool = True) -> None:
     """Build every stage's settings once, so bad input fails before any file is written
     (tolerance=False: up to polishing, for `lathe-mirror polish`)."""
     from ..design import mirror_from_config
-    from ..machine import lathe_from_config, tool_from_config
+    from ..lathe import lathe_from_config, tool_from_config
     from ..polishing import polish_params_from_config
     from ..tolerance.spec import settings_from_config
     from ..toolpath import check_junction

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_no_progress, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -34,13 +34,13 @@ def run(args: argparse.Namespace) -> int:
 
     from ..export.files import write_text
     from ..report.report import compute, write_report
-    from ._common import output_dir
+    from .common import output_dir
     from .report import check_config, summary
 
     cfg = load(args)
     check_config(cfg)  # bad input stops here, before anything is written
     from ..export.cad import check_cad_config
-    from ..machine import stock_from_config
+    from ..lathe import stock_from_config
 
     stock_from_config(cfg)  # the programs' stock, and the CAD body, checked up front too
     check_cad_config(cfg)

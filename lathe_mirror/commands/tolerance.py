@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_no_progress, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     settings = settings_from_config(cfg)
     params = polish_params_from_config(cfg)
     if args.output:
-        from ._common import output_dir
+        from .common import output_dir
 
         output_dir(args.output)
     mirror = mirror_from_config(cfg)

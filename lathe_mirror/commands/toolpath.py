@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_common, load, print_json
+from ..path import Arc
+from .common import add_common, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -33,8 +34,8 @@ def run(args: argparse.Namespace) -> int:
     from ..design import mirror_from_config
     from ..errors import InputError
     from ..export.gcode import Dialect, options_from_config, parse_dialect, program
-    from ..machine import lathe_from_config, stock_from_config, tool_from_config
-    from ..machining import as_machined, gouge_depth, junction_fillet
+    from ..lathe import lathe_from_config, stock_from_config, tool_from_config
+    from ..nose_envelope import as_machined, contour_profile, gouge_depth, junction_fillet
     from ..toolpath import BEST, Strategy, plan_toolpath, profile_errors, usable_ranges
 
     cfg = load(args)
@@ -58,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     text = program(tp, stock, dialect, options=opts, name=f"mirror_{strategy.value}")
     if args.output:
         from ..export.files import write_text
-        from ._common import output_dir
+        from .common import output_dir
 
         out = Path(args.output)
         if out.is_dir() or args.output.endswith("/"):
@@ -68,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     made = as_machined(tp)
     figures = profile_errors(made, mirror)
     used = profile_errors(made, mirror, r_ranges=usable_ranges(mirror))
-    contour = profile_errors(tp.contour_profile(), mirror) if tp.nose_radius > 0 else figures
+    contour = profile_errors(contour_profile(tp), mirror) if tp.nose_radius > 0 else figures
     result = {
         "strategy": strategy.value,
         "dialect": dialect.value,
@@ -77,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
         "resolution_mm": lathe.resolution,
         "nose_radius_mm": tool.nose_radius,
         "moves": len(tp.segments),
-        "arcs": sum(1 for s in tp.segments if s.kind == "arc"),
+        "arcs": sum(1 for s in tp.segments if isinstance(s, Arc)),
         "gouge_depth_mm": gouge_depth(tp),
         "junction_fillet": junction_fillet(tp),
         "lobes": figures["lobes"],

@@ -26,7 +26,8 @@ import numpy as np
 from typing import TYPE_CHECKING
 
 from ..errors import InputError
-from ..machine import Stock
+from ..lathe import Stock
+from ..path import Arc, Line
 
 if TYPE_CHECKING:
     from ..toolpath import Toolpath
@@ -79,7 +80,7 @@ def program(toolpath: Toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCN
             options: ProgramOptions = ProgramOptions(), name: str = "mirror") -> str:
     """The whole program as text. Raises InputError if it would gouge the part, leave
     the lathe's travel, or the stock cannot hold the mirror."""
-    from ..machining import gouge_depth
+    from ..nose_envelope import gouge_depth
     from ..toolpath import check_travel, profile_errors, usable_ranges
 
     lathe, m = toolpath.lathe, toolpath.mirror
@@ -97,7 +98,7 @@ def program(toolpath: Toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCN
             f"(toolpath.gouge_tolerance = {options.gouge_tolerance:g} mm); program refused "
             "(more points, a finer machine.resolution or another strategy cut closer)"
         )
-    from ..machining import as_machined
+    from ..nose_envelope import as_machined
 
     made = as_machined(toolpath)
     figures = profile_errors(made, m)
@@ -124,7 +125,7 @@ def program(toolpath: Toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCN
     w.comment("finish contour begin")
     w.line(start)
     for seg in toolpath.segments:
-        if seg.kind == "line":
+        if isinstance(seg, Line):
             w.line(seg.end)
         else:
             w.arc(seg)
@@ -149,7 +150,7 @@ def reference_programs(cfg: dict | None = None) -> dict[str, str]:
     strategy, in both dialects, with the configuration's tool (default: the paper's)."""
     from ..config import default_config
     from ..design import mirror_from_config
-    from ..machine import lathe_from_config, stock_from_config, tool_from_config
+    from ..lathe import lathe_from_config, stock_from_config, tool_from_config
     from ..toolpath import BEST, Strategy, plan_toolpath
 
     cfg = default_config() if cfg is None else cfg
@@ -320,11 +321,11 @@ class _Writer:
         c(f"tool T1: nose radius {tool.nose_radius:g} mm, included {math.degrees(tool.included_angle):g} deg, "
           f"approach {math.degrees(tool.approach_angle):g} deg; offsets set to the NOSE CENTRE")
         c(f"stock: diameter {stock.diameter:g} mm, face allowance {stock.face_allowance:g} mm")
-        n_arcs = sum(1 for s in tp.segments if s.kind == "arc")
+        n_arcs = sum(1 for s in tp.segments if isinstance(s, Arc))
         c(f"strategy {tp.strategy.value}: {len(tp.segments)} moves, {n_arcs} arcs, "
           f"{tp.n_points} of {lathe.max_points} points used")
         c(f"gouge check: deepest point inside the part {depth:.4f} mm, tolerance {options.gouge_tolerance:g} mm")
-        from ..machining import junction_fillet
+        from ..nose_envelope import junction_fillet
 
         fillet = junction_fillet(tp)
         if fillet is not None:

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..cad_body import Meridian, _pieces
+from ..cad_body import Meridian, arc_chords
 from ..errors import InputError
 
 
@@ -49,7 +49,7 @@ def meridian_mesh(meridian: Meridian, tolerance: float = 0.01) -> tuple[np.ndarr
     r, z = loop[:, 0], loop[:, 1]
     on_axis = r <= 1e-12
     r_max = float(r.max())
-    n_theta = max(8, _pieces(2.0 * math.pi, r_max, tolerance / 2.0))
+    n_theta = max(8, arc_chords(2.0 * math.pi, r_max, tolerance / 2.0))
     theta = 2.0 * math.pi * np.arange(n_theta) / n_theta
 
     # Vertex index of (meridian point i, angle j): one pole per axis point, a ring of

@@ -9,7 +9,7 @@
               rounded to the lathe lattice (0.005 mm), straight segments
   paper, lattice, arcs, best (= toolpath.BEST)
               the programmed contour of that toolpath strategy (toolpath.py) for the
-              configured [tool] (Toolpath.contour_profile), or with nose_radius > 0 the
+              configured [tool] (nose_envelope.contour_profile), or with nose_radius > 0 the
               as-machined surface of a tool of that nose radius along its own program
               (machining.as_machined)
   polished    the paper program's as-machined surface (the [tool] nose, or nose_radius)
@@ -97,26 +97,25 @@ def _strategies() -> tuple[str, ...]:
 def _toolpath_surface(name: str, mirror: Mirror, cfg: dict, nose_radius: float) -> Profile:
     import dataclasses
 
-    from ..machine import lathe_from_config, tool_from_config
+    from ..lathe import lathe_from_config, tool_from_config
+    from ..nose_envelope import as_machined, contour_profile
     from ..toolpath import BEST, Strategy, plan_toolpath
 
     strategy = BEST if name == "best" else Strategy(name)
     tool = tool_from_config(cfg)
     if nose_radius > 0:
-        from ..machining import as_machined
-
         # The program for that tool (its path is offset by the nose), and what the nose cuts.
         tool = dataclasses.replace(tool, nose_radius=nose_radius)
         return as_machined(plan_toolpath(mirror, lathe_from_config(cfg), tool, strategy), nose_radius)
-    return plan_toolpath(mirror, lathe_from_config(cfg), tool, strategy).contour_profile()
+    return contour_profile(plan_toolpath(mirror, lathe_from_config(cfg), tool, strategy))
 
 
 def _polished_surface(mirror: Mirror, cfg: dict, nose_radius: float) -> Profile:
     """The paper program's as-machined surface polished at its polishing curve's optimum."""
     import dataclasses
 
-    from ..machine import lathe_from_config, tool_from_config
-    from ..machining import as_machined
+    from ..lathe import lathe_from_config, tool_from_config
+    from ..nose_envelope import as_machined, contour_profile
     from ..polishing import polish_curve, polish_params_from_config
     from ..toolpath import Strategy, plan_toolpath
 

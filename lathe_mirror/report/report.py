@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from ..progress import Stages
+
 #: Ranges (m) of the depth-error curve (the issue: 0.5 m to 5 m).
 DEPTH_RANGES_M = (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0)
 #: The range (m) at which the report states the depth error of every mirror.
@@ -75,29 +77,6 @@ class ReportData:
     images: dict[str, np.ndarray] = field(default_factory=dict)
 
 
-class _Steps:
-    """A progress display of the pipeline's stages on stderr (tqdm)."""
-
-    def __init__(self, names: list[str], enabled: bool):
-        self.bar = None
-        if enabled:
-            from tqdm import tqdm
-
-            self.bar = tqdm(total=len(names), desc="lathe-mirror", unit="stage", file=sys.stderr)
-
-    def start(self, name: str) -> None:
-        if self.bar is not None:
-            self.bar.set_postfix_str(name)
-
-    def done(self) -> None:
-        if self.bar is not None:
-            self.bar.update(1)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
-
-
 STAGES = ["design", "toolpaths", "polishing", "distortion", "stereo", "renders", "tolerance", "plots"]
 
 
@@ -107,13 +86,13 @@ def compute(cfg: dict, *, progress: bool = False, renders: bool = True, toleranc
     from ..polishing import polish_curve, polish_params_from_config
     from ..profile import ExactProfile
 
-    steps = _Steps(STAGES, progress)
+    steps = Stages(STAGES, progress)
     out: dict[str, Any] = {"schema": "lathe-mirror report 1", "notes": []}
     # ---- design
     steps.start("design")
     mirror = mirror_from_config(cfg)
     out["design"] = design_figures(mirror)
-    from ..tolerance.radial import corner_limit_px, used_extent
+    from ..optics.radial import corner_limit_px, used_extent
 
     r_used = used_extent(mirror, 0)[1]
     facts = {"r_used": r_used, "rho_used": corner_limit_px(mirror, mirror.r_junction - r_used),
@@ -203,8 +182,8 @@ def dumps(figures: dict) -> str:
 
 def _toolpaths(mirror, cfg: dict):
     """As-machined profile per strategy; machine/tool table; toolpath figures per strategy."""
-    from ..machine import lathe_from_config, tool_from_config
-    from ..machining import as_machined
+    from ..lathe import lathe_from_config, tool_from_config
+    from ..nose_envelope import as_machined, contour_profile
     from ..toolpath import BEST, Strategy, plan_toolpath, profile_errors
 
     lathe, tool = lathe_from_config(cfg), tool_from_config(cfg)
@@ -219,7 +198,7 @@ def _toolpaths(mirror, cfg: dict):
         row = {"strategy": strategy.value, "best": strategy is BEST, "n_points": int(tp.n_points),
                "moves": {"G1": sum(1 for s in tp.segments if type(s).__name__ == "Line"),
                          "G2/G3": sum(1 for s in tp.segments if type(s).__name__ == "Arc")},
-               "programmed": profile_errors(tp.contour_profile(), mirror),
+               "programmed": profile_errors(contour_profile(tp), mirror),
                "as_machined": profile_errors(prof, mirror)}
         table.append(row)
         if strategy is Strategy.PAPER:
@@ -233,13 +212,13 @@ def _mirror_figures(profile, mirror) -> dict:
     """The five figures per lobe (ARCHITECTURE.md), surface and optics.
 
     Surface figures: toolpath.profile_errors (issue 3). Optical figures: over the pixels
-    each lobe images unobstructed on the exact design (tolerance.radial: every pixel
+    each lobe images unobstructed on the exact design (optics.radial: every pixel
     centre, aligned camera; equal to optics.distortion's per-pixel figures over the usable
     annulus, which the tests check); those per-pixel figures (with the pixels the step wall
     vignettes counted too under "with_vignetted") are kept alongside under "optics_distortion".
     """
     from ..optics.distortion import distortion_figures
-    from ..tolerance.radial import radial_figures
+    from ..optics.radial import radial_figures
     from ..toolpath import profile_errors
 
     surf = profile_errors(profile, mirror)
@@ -338,14 +317,14 @@ def _verdict(t: dict, spec: dict) -> dict:
 
 
 def _plots(out: dict, made: dict, mirror, images: dict) -> dict[str, bytes]:
-    from ..tolerance.radial import lobe_pixel_radii, radial_displacement
-    from . import figures as F
+    from ..optics.radial import lobe_pixel_radii, radial_displacement
+    from . import plots as F
 
     plots = {}
     r = np.concatenate([np.linspace(0.0, mirror.r_junction, 4001),
                         np.linspace(np.nextafter(mirror.r_junction, 99.0), mirror.r_max, 3001)])
     exact_z = made["exact"].z(r)
-    from ..tolerance.radial import used_extent
+    from ..optics.radial import used_extent
 
     used = (r <= used_extent(mirror, 0)[1]) | (r > mirror.r_junction)
     plots["profile_error"] = F.profile_deviation_plot(

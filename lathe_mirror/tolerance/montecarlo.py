@@ -189,6 +189,6 @@ def _dist(x: np.ndarray) -> dict:
 
 
 def _bar(total: int, desc: str, enabled: bool):
-    from ..polishing import _progress
+    from ..progress import bar
 
-    return _progress(total, desc, enabled)
+    return bar(total, desc, enabled)

@@ -1,7 +1,7 @@
 """The made surfaces the analysis starts from: program -> as-machined profile.
 
 The toolpath and the tool-nose envelope are issue 3's (lathe_mirror.toolpath,
-lathe_mirror.machining); this module only picks the program and sets the lattice phase.
+lathe_mirror.nose_envelope); this module only picks the program and sets the lattice phase.
 
 The lattice phase is where the part's Z work zero (the face touch-off, arbitrary to
 within one step) falls on the controller's lattice: phase_z in units of the step shifts
@@ -32,8 +32,8 @@ def machined_surface(mirror: Mirror, cfg: dict, program: Program, *, resolution:
                      phase: float = 0.0, nose_radius: float | None = None) -> MadeSurface:
     """The as-machined surface of `program`, resolution (mm) and nose radius (mm) default to
     the config's [machine] resolution and [tool] nose_radius; phase: Z lattice offset in steps."""
-    from ..machine import lathe_from_config, tool_from_config
-    from ..machining import as_machined
+    from ..lathe import lathe_from_config, tool_from_config
+    from ..nose_envelope import as_machined
     from ..toolpath import BEST, Strategy, plan_toolpath
 
     lathe = lathe_from_config(cfg)

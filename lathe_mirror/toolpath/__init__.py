@@ -44,7 +44,7 @@ Modules:
 """
 
 from .checks import check_junction, check_travel
-from .geometry import foot_on_sheet
+from ..sheet import foot_on_sheet
 from .metrics import profile_errors, usable_ranges
 from .moves import BEST, Arc, Line, Move, Strategy, Toolpath
 from .plan import plan_toolpath

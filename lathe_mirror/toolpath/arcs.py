@@ -12,13 +12,13 @@ import math
 
 import numpy as np
 
-from ..machine import Lathe
-from .geometry import _Target, foot_on_sheet
-from .layout import _candidates, _Layout, _pt
+from ..lathe import Lathe
+from ..sheet import Target, foot_on_sheet
+from .layout import lattice_candidates, Layout, as_point
 from .moves import Arc, Line, Move
 
 
-def _arc_moves(layout: _Layout, lathe: Lathe) -> tuple[list, list]:
+def arc_moves(layout: Layout, lathe: Lathe) -> tuple[list, list]:
     """G2/G3 arcs per lobe, end points and centres on the lattice (see module doc)."""
     budget = lathe.max_points - 1 - (1 + layout.junction_extra())  # start, junction
     n_arcs = _arc_counts(layout, budget)
@@ -42,7 +42,7 @@ _ARC_LENGTH = 1.0
 _END_ARC_LENGTHS = (0.4, 0.6, 0.8, 1.0, 1.3, 1.6, 2.0, 2.5, 3.0, 4.0)
 
 
-def _arc_counts(layout: _Layout, budget: int) -> tuple[int, int]:
+def _arc_counts(layout: Layout, budget: int) -> tuple[int, int]:
     """Arcs per lobe: one per `_ARC_LENGTH` mm, fewer (shared by length) if the budget
     (2 points per arc) cannot hold that many."""
     want = [max(1, int(math.ceil(t.length / _ARC_LENGTH))) + 2 for t in layout.targets()]
@@ -53,7 +53,7 @@ def _arc_counts(layout: _Layout, budget: int) -> tuple[int, int]:
     return want[0], want[1]
 
 
-def _lobe_arcs(t: _Target, lathe: Lathe, cols, m: int) -> list[Move]:
+def _lobe_arcs(t: Target, lathe: Lathe, cols, m: int) -> list[Move]:
     """Arcs along one lobe, at most m of them.
 
     An end point held to a fixed column (the wall, the rim) can only be the lattice
@@ -86,7 +86,7 @@ def _lobe_arcs(t: _Target, lathe: Lathe, cols, m: int) -> list[Move]:
         end_cols = (cols[0], end_cols[1])
     if last is None:
         end_cols = (end_cols[0], cols[1])
-    cr, cz, _, _, _ = _candidates(t, s_nom, res, end_cols, k_best=2)
+    cr, cz, _, _, _ = lattice_candidates(t, s_nom, res, end_cols, k_best=2)
     ends = np.stack([cr[:, 0], cz[:, 0]], axis=-1)
     if first is not None:
         ends[0] = first.end
@@ -96,7 +96,7 @@ def _lobe_arcs(t: _Target, lathe: Lathe, cols, m: int) -> list[Move]:
     return ([first] if first else []) + arcs + ([last] if last else [])
 
 
-def _end_arc(t: _Target, lathe: Lathe, col: float, *, at_start: bool) -> Move:
+def _end_arc(t: Target, lathe: Lathe, col: float, *, at_start: bool) -> Move:
     """The arc from (at_start) or to the fixed column `col`: the best of the column's two
     lattice rows against free ends at each of _END_ARC_LENGTHS."""
     res = lathe.resolution
@@ -105,12 +105,12 @@ def _end_arc(t: _Target, lathe: Lathe, col: float, *, at_start: bool) -> Move:
     s_free = lens if at_start else t.length - lens[::-1]
     # the fixed column's two lattice rows
     if at_start:
-        fr, fz, _, _, _ = _candidates(t, np.array([0.0, 0.1]), res, (col, None), k_best=2)
+        fr, fz, _, _, _ = lattice_candidates(t, np.array([0.0, 0.1]), res, (col, None), k_best=2)
         fixed = np.stack([fr[0], fz[0]], axis=-1)  # (2, 2)
     else:
-        fr, fz, _, _, _ = _candidates(t, np.array([t.length - 0.1, t.length]), res, (None, col), k_best=2)
+        fr, fz, _, _, _ = lattice_candidates(t, np.array([t.length - 0.1, t.length]), res, (None, col), k_best=2)
         fixed = np.stack([fr[-1], fz[-1]], axis=-1)
-    gr, gz, _, _, _ = _candidates(t, np.concatenate([[s_fixed], s_free]) if at_start
+    gr, gz, _, _, _ = lattice_candidates(t, np.concatenate([[s_fixed], s_free]) if at_start
                                   else np.concatenate([s_free, [s_fixed]]), res, (None, None), k_best=1)
     free = np.stack([gr[:, 0], gz[:, 0]], axis=-1)
     free = free[1:] if at_start else free[:-1]
@@ -121,7 +121,7 @@ def _end_arc(t: _Target, lathe: Lathe, col: float, *, at_start: bool) -> Move:
     return arcs[int(np.argmin(err))]
 
 
-def _fit_arcs(t: _Target, ends: np.ndarray | None, lathe: Lathe, *, window: int = 10,
+def _fit_arcs(t: Target, ends: np.ndarray | None, lathe: Lathe, *, window: int = 10,
               n_check: int = 9, starts: np.ndarray | None = None,
               ends_: np.ndarray | None = None) -> tuple[list[Move], np.ndarray]:
     """One arc per consecutive pair of end points, its centre the lattice point (within
@@ -181,10 +181,10 @@ def _fit_arcs(t: _Target, ends: np.ndarray | None, lathe: Lathe, *, window: int 
         if not np.isfinite(score[i, best[i]]):
             # no lattice centre cuts an arc within the radius tolerance (a coarse lattice):
             # a G1 chord between the same lattice ends; the gouge check judges it
-            moves.append(Line(_pt(S[i]), _pt(E[i])))
+            moves.append(Line(as_point(S[i]), as_point(E[i])))
             continue
         c = cand[i, best[i]]
-        moves.append(Arc(start=_pt(S[i]), end=_pt(E[i]), centre=_pt(c),
+        moves.append(Arc(start=as_point(S[i]), end=as_point(E[i]), centre=as_point(c),
                          clockwise=bool(sweep[i, best[i]] > 0)))
     return moves, score[np.arange(m), best]
 

@@ -11,8 +11,8 @@ import numpy as np
 
 from ..design import Mirror
 from ..errors import InputError
-from ..machine import Lathe, Tool
-from .geometry import _nose_centre, _solve_rs_for_centre_r
+from ..lathe import Lathe, Tool
+from ..sheet import nose_centre, solve_rs_for_centre_r
 
 
 def check_junction(mirror: Mirror, tool: Tool) -> float:
@@ -33,8 +33,8 @@ def check_junction(mirror: Mirror, tool: Tool) -> float:
 
     def centre_z(rho: float) -> float:
         # nose centre at r = rj - rho touching the inner lobe: on its offset curve
-        rs = _solve_rs_for_centre_r(mirror.inner, rho, rj - rho)
-        return float(_nose_centre(mirror.inner, rs, mirror.vertex_z, rho)[1])
+        rs = solve_rs_for_centre_r(mirror.inner, rho, rj - rho)
+        return float(nose_centre(mirror.inner, rs, mirror.vertex_z, rho)[1])
 
     lo, hi = 0.0, float(abs(mirror.step)) * 2
     for _ in range(60):

@@ -11,12 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..machine import Lathe
-from .geometry import _Target
-from .layout import _candidates, _Layout, _split_budget
+from ..lathe import Lathe
+from ..sheet import Target
+from .layout import lattice_candidates, Layout, split_budget
 
 
-def _lattice_points(layout: _Layout, lathe: Lathe) -> tuple[np.ndarray, np.ndarray]:
+def lattice_points(layout: Layout, lathe: Lathe) -> tuple[np.ndarray, np.ndarray]:
     """Lines whose vertices are lattice points chosen for the smallest slope errors.
 
     Vertex positions are spread along each lobe (see _LATTICE_P/_C), the budget shared
@@ -33,7 +33,7 @@ def _lattice_points(layout: _Layout, lathe: Lathe) -> tuple[np.ndarray, np.ndarr
     dens = [_vertex_density(t, mean_k) for t in layout.targets()]
     # each lobe's share of the budget: its integral of the density
     weights = [np.trapezoid(d, t.s_tab) for t, d in zip(layout.targets(), dens)]
-    counts = _split_budget(layout, total, weights)
+    counts = split_budget(layout, total, weights)
     out = []
     for t, d, n, cols in zip(layout.targets(), dens, counts, (layout.inner_cols, layout.outer_cols)):
         cum = np.concatenate([[0.0], np.cumsum(0.5 * (d[1:] + d[:-1]) * np.diff(t.s_tab))])
@@ -52,15 +52,15 @@ _LATTICE_C = 1.0
 _DEV_WEIGHT = 5.0
 
 
-def _vertex_density(t: _Target, mean_k: float) -> np.ndarray:
+def _vertex_density(t: Target, mean_k: float) -> np.ndarray:
     """Vertex density at each of t's tabulated points (see _LATTICE_P/_C)."""
     kappa = np.abs(np.gradient(t.theta_tab, t.s_tab))
     return (kappa / mean_k) ** _LATTICE_P + _LATTICE_C
 
 
-def _dp_vertices(t: _Target, s_nom: np.ndarray, res: float, cols, k_best: int = 24) -> np.ndarray:
+def _dp_vertices(t: Target, s_nom: np.ndarray, res: float, cols, k_best: int = 24) -> np.ndarray:
     """The chain of lattice candidates (one per nominal vertex) of least total chord cost."""
-    cr, cz, d, th, valid = _candidates(t, s_nom, res, cols, k_best)
+    cr, cz, d, th, valid = lattice_candidates(t, s_nom, res, cols, k_best)
     n, k = cr.shape
     # cost[i, a, b]: chord from candidate a of vertex i to candidate b of vertex i+1
     dr = cr[1:, None, :] - cr[:-1, :, None]

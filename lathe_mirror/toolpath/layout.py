@@ -10,12 +10,12 @@ import math
 import numpy as np
 
 from ..design import Mirror
-from ..machine import Lathe
-from .geometry import _solve_rs_for_centre_r, _Target
+from ..lathe import Lathe
+from ..sheet import solve_rs_for_centre_r, Target
 from .moves import Line, Move
 
 
-class _Layout:
+class Layout:
     """Where each lobe's path starts and ends on the lattice, and the junction moves."""
 
     def __init__(self, mirror: Mirror, lathe: Lathe, rho: float, *, past_rim: bool = True) -> None:
@@ -25,8 +25,8 @@ class _Layout:
         rj = mirror.r_junction
         # the nose centre's column on the wall: at or inside rj - rho (never into the wall)
         self.r_wall = math.floor((rj - rho) / res + 1e-9) * res
-        rs_end = rj if rho == 0.0 else _solve_rs_for_centre_r(mirror.inner, rho, self.r_wall)
-        self.inner = _Target(mirror.inner, zero, rho, 0.0, rs_end)
+        rs_end = rj if rho == 0.0 else solve_rs_for_centre_r(mirror.inner, rho, self.r_wall)
+        self.inner = Target(mirror.inner, zero, rho, 0.0, rs_end)
         # With a nose the outer path's last point floats to the lattice point nearest the
         # curve, up to ~1.5 steps short of the target: past_rim aims 2 steps past the rim
         # so that the nose's offset, not its side, cuts the rim's last microns (the side
@@ -34,13 +34,13 @@ class _Layout:
         # faced at the last point's height by the exit move anyway. (The paper's method
         # keeps its target, the rim.)
         rs_rim = mirror.r_max + (2 * res if rho > 0.0 and past_rim else 0.0)
-        self.outer = _Target(mirror.outer, zero, rho, rj, rs_rim)
+        self.outer = Target(mirror.outer, zero, rho, rj, rs_rim)
         # fixed columns of the end points: the axis, the wall; for a sharp tool also the
         # rim; with a nose the outer ends float (nearest lattice point to the target)
         self.inner_cols = (0.0, self.r_wall)
         self.outer_cols = (rj, mirror.r_max) if rho == 0.0 else (None, None)
 
-    def targets(self) -> tuple[_Target, _Target]:
+    def targets(self) -> tuple[Target, Target]:
         return self.inner, self.outer
 
     def junction_extra(self) -> int:
@@ -60,13 +60,13 @@ class _Layout:
         segs: list[Move] = []
         lobes: list[str] = []
         for a, b in zip(inner[:-1], inner[1:]):
-            segs.append(Line(_pt(a), _pt(b)))
+            segs.append(Line(as_point(a), as_point(b)))
             lobes.append("inner")
         segs_j = self.junction_moves(inner[-1], outer[0])
         segs += segs_j
         lobes += ["junction"] * len(segs_j)
         for a, b in zip(outer[:-1], outer[1:]):
-            segs.append(Line(_pt(a), _pt(b)))
+            segs.append(Line(as_point(a), as_point(b)))
             lobes.append("outer")
         return segs, lobes
 
@@ -79,7 +79,7 @@ class _Layout:
         tangents, the corner left sharp).
         """
         if self.rho == 0.0:
-            return [Line(_pt(inner_end), _pt(outer_start))]
+            return [Line(as_point(inner_end), as_point(outer_start))]
         res = self.lathe.resolution
         lobe = self.mirror.outer
         s0 = float(lobe.slope(self.mirror.r_junction))
@@ -88,10 +88,10 @@ class _Layout:
         z2 = outer_start[1] + (outer_start[0] - self.r_wall) * s0
         z2 = math.ceil(z2 / res - 1e-9) * res
         p2 = np.array([self.r_wall, z2])
-        return [Line(_pt(inner_end), _pt(p2)), Line(_pt(p2), _pt(outer_start))]
+        return [Line(as_point(inner_end), as_point(p2)), Line(as_point(p2), as_point(outer_start))]
 
 
-def _split_budget(layout: _Layout, total: int, weights) -> tuple[int, int]:
+def split_budget(layout: Layout, total: int, weights) -> tuple[int, int]:
     """Points per lobe: `total` shared in proportion to `weights`, at least 2 each."""
     w = np.asarray(weights, dtype=float)
     n0 = int(round(total * w[0] / w.sum()))
@@ -99,7 +99,7 @@ def _split_budget(layout: _Layout, total: int, weights) -> tuple[int, int]:
     return n0, total - n0
 
 
-def _candidates(t: _Target, s_nom: np.ndarray, res: float, cols, k_best: int):
+def lattice_candidates(t: Target, s_nom: np.ndarray, res: float, cols, k_best: int):
     """Up to k_best lattice points near each nominal vertex, those nearest the curve."""
     rs = t.rs_at_s(s_nom)
     p = t.point(rs)
@@ -134,5 +134,5 @@ def _candidates(t: _Target, s_nom: np.ndarray, res: float, cols, k_best: int):
     return take(cand_r), take(cand_z), take(d), take(th), np.isfinite(take(score))
 
 
-def _pt(p) -> tuple[float, float]:
+def as_point(p) -> tuple[float, float]:
     return (float(p[0]), float(p[1]))

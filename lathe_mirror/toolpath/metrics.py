@@ -1,8 +1,8 @@
 """Profile-error figures of a made surface against the exact lobes (ARCHITECTURE.md names).
 
 profile_errors gives each lobe's normal deviation (mm) and slope error (rad), RMS and max;
-_signed_distance_camera is the camera-frame distance it measures (machining.gouge_depth
-uses it too).
+(the distance itself is sheet.signed_distance_camera, which nose_envelope.gouge_depth
+uses too).
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 
 from ..design import Lobe, Mirror
 from ..profile import ExactProfile, Profile
-from .geometry import _signed_distance_m
+from ..sheet import signed_distance_camera
 
 
 def profile_errors(profile: Profile, mirror: Mirror, *, n: int = 20001,
@@ -42,7 +42,7 @@ def profile_errors(profile: Profile, mirror: Mirror, *, n: int = 20001,
             rr = np.concatenate([r, bp - eps, bp + eps])
         z = profile.z(rr)
         s = profile.slope(rr)
-        dist = np.abs(_signed_distance_camera(lobe, rr, z))
+        dist = np.abs(signed_distance_camera(lobe, rr, z))
         slope_err = np.abs(np.arctan(s) - np.arctan(exact.slope(rr)))
         m = r.size  # the uniform samples come first: RMS over them
         entry = {"name": lobe.name}
@@ -63,16 +63,10 @@ def usable_ranges(mirror: Mirror) -> tuple[tuple[float, float], tuple[float, flo
     Mirror.image_radii_px["inner_blocked_by_step"]), so a junction fillet there costs
     no image. The outer lobe from Mirror.r_outer_visible to the rim.
     """
-    from ..design import _sheet_point_seen_from_focus
+    from ..design import sheet_point_seen_from_focus
 
     r_inner = mirror.r_junction
     if mirror.step > 0:
         el = mirror.fov_usable(mirror.inner)[1]
-        r_inner = min(r_inner, float(_sheet_point_seen_from_focus(mirror.inner, el)[0]))
+        r_inner = min(r_inner, float(sheet_point_seen_from_focus(mirror.inner, el)[0]))
     return (0.0, r_inner), (float(mirror.r_outer_visible), float(mirror.r_max))
-
-
-def _signed_distance_camera(lobe: Lobe, r: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Signed distance (mm) of camera-frame points from the lobe's sheet (+ toward the camera)."""
-    # In the machine frame with any vertex height the geometry is the same; use Z = -z.
-    return _signed_distance_m(lobe, r, -np.asarray(z), 0.0)[0]

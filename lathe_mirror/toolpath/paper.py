@@ -8,14 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..machine import Lathe
-from .layout import _Layout, _split_budget
+from ..lathe import Lathe
+from .layout import Layout, split_budget
 
 
-def _paper_points(layout: _Layout, lathe: Lathe) -> tuple[np.ndarray, np.ndarray]:
+def paper_points(layout: Layout, lathe: Lathe) -> tuple[np.ndarray, np.ndarray]:
     """The paper's method: points evenly spaced along the whole profile's length, each
     coordinate rounded to the lattice (section 6: 528 points, 0.005 mm)."""
-    n_inner, n_outer = _split_budget(layout, lathe.max_points - layout.junction_extra(),
+    n_inner, n_outer = split_budget(layout, lathe.max_points - layout.junction_extra(),
                                      weights=[t.length for t in layout.targets()])
     out = []
     for t, n in zip(layout.targets(), (n_inner, n_outer)):

@@ -9,14 +9,14 @@ import math
 
 from ..design import Mirror
 from ..errors import InputError
-from ..machine import Lathe, Tool
-from .arcs import _arc_moves
+from ..lathe import Lathe, Tool
+from .arcs import arc_moves
 from .checks import check_junction, check_travel
-from .geometry import _normal_angles
-from .lattice import _lattice_points
-from .layout import _Layout
+from ..sheet import normal_angles
+from .lattice import lattice_points
+from .layout import Layout
 from .moves import BEST, Strategy, Toolpath
-from .paper import _paper_points
+from .paper import paper_points
 
 
 def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
@@ -35,8 +35,8 @@ def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy =
         raise InputError(f"strategy {strategy!r}: allowed {', '.join(s.value for s in Strategy)}")
     rho = tool.nose_radius
     check_junction(mirror, tool)
-    tool.check_reach(_normal_angles(mirror), what="the mirror's profile")
-    layout = _Layout(mirror, lathe, rho, past_rim=strategy is not Strategy.PAPER)
+    tool.check_reach(normal_angles(mirror), what="the mirror's profile")
+    layout = Layout(mirror, lathe, rho, past_rim=strategy is not Strategy.PAPER)
     need = layout.min_points(max_deviation)
     if lathe.max_points < need:
         raise InputError(
@@ -44,13 +44,13 @@ def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy =
             f"within {max_deviation:g} mm of it (toolpath.max_deviation) need at least {need} points"
         )
     if strategy is Strategy.PAPER:
-        inner, outer = _paper_points(layout, lathe)
+        inner, outer = paper_points(layout, lathe)
         segs, lobes = layout.assemble_lines(inner, outer)
     elif strategy is Strategy.LATTICE:
-        inner, outer = _lattice_points(layout, lathe)
+        inner, outer = lattice_points(layout, lathe)
         segs, lobes = layout.assemble_lines(inner, outer)
     else:
-        segs, lobes = _arc_moves(layout, lathe)
+        segs, lobes = arc_moves(layout, lathe)
     _check_advancing(segs, lobes, lathe, strategy)
     n_points = 1 + sum(s.n_points for s in segs)
     tp = Toolpath(strategy=strategy, lathe=lathe, tool=tool, mirror=mirror,

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from ..design import Lobe, Mirror
+from .design import Lobe, Mirror
 
 
 def foot_on_sheet(lobe: Lobe, pr, pz, *, zero: float, r0=None) -> np.ndarray:
@@ -57,7 +57,7 @@ def _normal_m(lobe: Lobe, r):
     return s * k, k
 
 
-def _signed_distance_m(lobe: Lobe, pr, pz, zero: float) -> tuple[np.ndarray, np.ndarray]:
+def signed_distance_m(lobe: Lobe, pr, pz, zero: float) -> tuple[np.ndarray, np.ndarray]:
     """Signed distance (mm, + on the free side, +Z) of machine-frame points (pr, pz) from
     the sheet, and the radius of each point's foot on it."""
     rf = foot_on_sheet(lobe, pr, pz, zero=zero)
@@ -66,13 +66,13 @@ def _signed_distance_m(lobe: Lobe, pr, pz, zero: float) -> tuple[np.ndarray, np.
     return d, rf
 
 
-def _nose_centre(lobe: Lobe, rs, zero: float, rho: float):
+def nose_centre(lobe: Lobe, rs, zero: float, rho: float):
     """(r, Z) of the centre of a nose of radius rho touching the sheet at surface radius rs."""
     nr, nz = _normal_m(lobe, rs)
     return rs + rho * nr, _zm(lobe, rs, zero) + rho * nz
 
 
-def _solve_rs_for_centre_r(lobe: Lobe, rho: float, r_centre: float) -> float:
+def solve_rs_for_centre_r(lobe: Lobe, rho: float, r_centre: float) -> float:
     """Surface radius whose nose centre (offset rho outward) lies at radius r_centre."""
     lo, hi = 0.0, lobe.r_top * 2 + 10.0
     for _ in range(80):
@@ -85,7 +85,7 @@ def _solve_rs_for_centre_r(lobe: Lobe, rho: float, r_centre: float) -> float:
     return 0.5 * (lo + hi)
 
 
-def _normal_angles(mirror: Mirror) -> np.ndarray:
+def normal_angles(mirror: Mirror) -> np.ndarray:
     """Directions (rad, from +r toward +Z) of the outward normals of the whole profile."""
     angles = []
     for lobe, (lo, hi) in ((mirror.inner, (0.0, mirror.r_junction)),
@@ -97,7 +97,7 @@ def _normal_angles(mirror: Mirror) -> np.ndarray:
     return np.concatenate(angles)
 
 
-class _Target:
+class Target:
     """One lobe's nose-centre curve: the sheet offset outward by rho (machine frame).
 
     Parametrised by the surface radius rs in [rs_lo, rs_hi]; tabulated densely for arc
@@ -119,7 +119,7 @@ class _Target:
     def point(self, rs) -> np.ndarray:
         """Nose centre (..., 2) machine (r, Z), mm, for surface radii rs (mm)."""
         rs = np.asarray(rs, dtype=float)
-        return np.stack(_nose_centre(self.lobe, rs, self.zero, self.rho), axis=-1)
+        return np.stack(nose_centre(self.lobe, rs, self.zero, self.rho), axis=-1)
 
     def theta(self, rs) -> np.ndarray:
         """Tangent direction (rad) of the curve (toward +r) at surface radius rs."""
@@ -155,5 +155,11 @@ class _Target:
 
     def errors(self, pr, pz) -> tuple[np.ndarray, np.ndarray]:
         """Signed offset error (mm, + outside) and target tangent angle at the foot."""
-        d, rf = _signed_distance_m(self.lobe, pr, pz, self.zero)
+        d, rf = signed_distance_m(self.lobe, pr, pz, self.zero)
         return d - self.rho, self.theta(rf)
+
+
+def signed_distance_camera(lobe: Lobe, r: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Signed distance (mm) of camera-frame points from the lobe's sheet (+ toward the camera)."""
+    # In the machine frame with any vertex height the geometry is the same; use Z = -z.
+    return signed_distance_m(lobe, r, -np.asarray(z), 0.0)[0]

@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .profile import PathProfile, Profile, TabulatedProfile, _spiral_at_r
+from .path import Line
+from .profile import PathProfile, Profile, TabulatedProfile, spiral_at_r
 
 if TYPE_CHECKING:
     from .toolpath import Toolpath
@@ -25,6 +26,19 @@ if TYPE_CHECKING:
 #: Radial spacing (mm) of the envelope's samples; the envelope is piecewise smooth,
 #: so linear interpolation between them errs by ~ spacing^2 / (8 rho) (< 2e-7 mm).
 GRID = 0.0005
+
+
+def contour_profile(toolpath: Toolpath) -> Profile:
+    """The surface the programmed contour describes, camera frame.
+
+    For a zero nose radius: the moves themselves, exactly (a PathProfile, the same as
+    as_machined). For a nose radius rho > 0: the envelope of the nose along each lobe's
+    moves (the path offset back by rho, without the junction's inside-corner fillet,
+    which as_machined adds).
+    """
+    if toolpath.nose_radius == 0.0:
+        return as_machined(toolpath)
+    return nose_envelope(toolpath, toolpath.nose_radius, include_junction=False)
 
 
 def as_machined(toolpath: Toolpath, nose_radius: float | None = None) -> Profile:
@@ -114,7 +128,7 @@ def _take_lower(r_idx: np.ndarray, z: np.ndarray, s: np.ndarray, zbest, sbest) -
 
 def _piece_move(seg, rho: float, r: np.ndarray, zbest, sbest) -> None:
     """Lower offset of one move (toward -Z) by rho, closed form, on the grid r."""
-    if seg.kind == "line":
+    if isinstance(seg, Line):
         (r0, z0), (r1, z1) = seg.start, seg.end
         dr, dz = r1 - r0, z1 - z0
         ln = math.hypot(dr, dz)
@@ -147,7 +161,7 @@ def _piece_move(seg, rho: float, r: np.ndarray, zbest, sbest) -> None:
         if i1 <= i0:
             return
         idx = np.arange(i0, i1)
-        z, s = _spiral_at_r(r[idx], np.full(idx.size, c[0]), np.full(idx.size, c[1]),
+        z, s = spiral_at_r(r[idx], np.full(idx.size, c[0]), np.full(idx.size, c[1]),
                             np.full(idx.size, R0), np.full(idx.size, R1),
                             np.full(idx.size, phis[0]), np.full(idx.size, phis[1]))
         _take_lower(idx, z, s, zbest, sbest)
@@ -183,7 +197,7 @@ def gouge_depth(toolpath: Toolpath, nose_radius: float | None = None) -> float:
     and from the step's top corner to the nose along the junction moves (the one place
     the part's boundary is not a lobe sheet that the nose passes).
     """
-    from .toolpath.metrics import _signed_distance_camera
+    from .sheet import signed_distance_camera
 
     rho = toolpath.nose_radius if nose_radius is None else float(nose_radius)
     m = toolpath.mirror
@@ -198,7 +212,7 @@ def gouge_depth(toolpath: Toolpath, nose_radius: float | None = None) -> float:
             bp = prof.breakpoints(k)
             r = np.concatenate([r, bp[(bp > lo) & (bp <= hi)]])
         z = prof.z(r)
-        inside = -_signed_distance_camera(lobe, r, z)  # > 0: inside the part, below the sheet
+        inside = -signed_distance_camera(lobe, r, z)  # > 0: inside the part, below the sheet
         if k == 1:
             # beside the step wall the part's nearest boundary may be the wall itself
             zi, zo = m.junction_z
@@ -224,7 +238,7 @@ def junction_fillet(toolpath: Toolpath, nose_radius: float | None = None) -> dic
     foot the fillet meets the wall (r = r_junction). The camera sees this band of the
     inner lobe's rim through a fillet, not the designed sheet.
     """
-    from .toolpath import foot_on_sheet
+    from .sheet import foot_on_sheet
 
     rho = toolpath.nose_radius if nose_radius is None else float(nose_radius)
     if rho == 0.0:

@@ -1,0 +1,55 @@
+"""Progress display on stderr (tqdm, imported only when a bar is shown).
+
+`bar(total, desc, enabled)` counts steps of one computation; `Stages` names the stages of
+a pipeline run as it goes. Disabled, both are silent no-ops, so a command's stderr stays
+empty on success with `--no-progress`.
+"""
+
+from __future__ import annotations
+
+import sys
+
+
+def bar(total: int, desc: str, enabled: bool):
+    """A tqdm bar of `total` steps (left behind: no), or a silent stand-in when disabled."""
+    if enabled:
+        from tqdm import tqdm
+
+        return tqdm(total=total, desc=desc, file=sys.stderr, leave=False)
+    return NoBar()
+
+
+class NoBar:
+    """A bar that shows nothing."""
+
+    def update(self, n: int = 1) -> None:
+        pass
+
+    def set_postfix_str(self, text: str) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+class Stages:
+    """A progress display of a pipeline's named stages on stderr."""
+
+    def __init__(self, names: list[str], enabled: bool):
+        self.bar = None
+        if enabled:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=len(names), desc="lathe-mirror", unit="stage", file=sys.stderr)
+
+    def start(self, name: str) -> None:
+        if self.bar is not None:
+            self.bar.set_postfix_str(name)
+
+    def done(self) -> None:
+        if self.bar is not None:
+            self.bar.update(1)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
