@@ -8,24 +8,23 @@ trials themselves, per program, and the yield.
 from __future__ import annotations
 
 import sys
+from lathe_mirror.settings import from_config
 import time
 
 
 def main() -> None:
     from lathe_mirror.config import default_config
-    from lathe_mirror.design import mirror_from_config
-    from lathe_mirror.polishing import polish_curve, polish_params_from_config
+    from lathe_mirror.polishing import polish_curve
     from lathe_mirror.tolerance.montecarlo import prepare, run_monte_carlo
     from lathe_mirror.tolerance.sensitivity import sensitivity_table
-    from lathe_mirror.tolerance.spec import settings_from_config
     from lathe_mirror.tolerance.surfaces import machined_surface
 
     cfg = default_config()
     if len(sys.argv) > 1:
         cfg["tolerance"]["trials"] = int(sys.argv[1])
-    mirror = mirror_from_config(cfg)
-    settings = settings_from_config(cfg)
-    params = polish_params_from_config(cfg)
+    mirror = from_config(cfg).mirror()
+    settings = from_config(cfg).tolerance
+    params = from_config(cfg).polish
     for program in settings.programs:
         t0 = time.perf_counter()
         made = machined_surface(mirror, cfg, program)

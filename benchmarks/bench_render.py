@@ -45,21 +45,21 @@ def main() -> int:
         print("povray is not installed", file=sys.stderr)
         return 1
 
-    from lathe_mirror.config import load_config
-    from lathe_mirror.design import mirror_from_config
+    from lathe_mirror.config import load
+    from lathe_mirror.enums import Surface
     from lathe_mirror.export.povray import povray_command, povray_scene
-    from lathe_mirror.optics.scene import scene_from_config
-    from lathe_mirror.optics.surfaces import make_surface
+    from lathe_mirror.optics.scene import build_scene
+    from lathe_mirror.pipeline import named_surface
     from lathe_mirror.optics.trace import polyline_vertices
 
     work = Path(tempfile.mkdtemp(prefix="bench_render_"))
     cfg_path = work / "sharp.toml"
     cfg_path.write_text("[tool]\nnose_radius = 0.0\n")
-    cfg = load_config(cfg_path)
-    mirror = mirror_from_config(cfg)
-    made = make_surface("paper", mirror, cfg)
+    settings = load(cfg_path)
+    mirror = settings.mirror()
+    made = named_surface(Surface.PAPER, mirror, settings)
     points = sum(polyline_vertices(made, k)[0].size for k in (0, 1))
-    scene = scene_from_config(cfg, mirror_top=mirror.outer.h, mirror_radius=mirror.r_max)
+    scene = build_scene(settings.scene, mirror_top=mirror.outer.h, mirror_radius=mirror.r_max)
     pov = work / "paper.pov"
     pov.write_text(povray_scene(made, mirror, scene))
 

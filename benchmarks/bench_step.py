@@ -26,18 +26,18 @@ t0 = time.perf_counter()
 if sys.argv[2] == "cadquery":
     import cadquery  # what a cadquery-based writer would pay; ours needs OCP only
 t_cq = time.perf_counter() - t0
-from lathe_mirror.config import default_config
-from lathe_mirror.design import mirror_from_config
-from lathe_mirror.cad_body import body_spec_from_config, design_meridian, programmed_parts
+from lathe_mirror.body import design_meridian, programmed_parts
+from lathe_mirror.config import load
 from lathe_mirror.export.step import step_bytes
-cfg = default_config()
-mirror = mirror_from_config(cfg)
-spec = body_spec_from_config(cfg)
+from lathe_mirror.pipeline import design, plan
+settings = load()
+mirror = design(settings)
+spec = settings.body
 t1 = time.perf_counter()
 design = design_meridian(mirror, spec)
 b1 = step_bytes(design)            # first call pays the OCP imports
 t2 = time.perf_counter()
-prog, centre, fig = programmed_parts(cfg, mirror, spec)
+prog, centre, fig = programmed_parts(plan(mirror, settings.machine, settings.tool, settings.toolpath.strategy), mirror, spec)
 t3 = time.perf_counter()
 b2 = step_bytes(prog)
 t4 = time.perf_counter()

@@ -8,6 +8,7 @@ under 2 s together. Prints the median and best of N runs per step.
 from __future__ import annotations
 
 import argparse
+from lathe_mirror.settings import from_config
 import statistics
 import time
 
@@ -18,14 +19,12 @@ def main() -> None:
     args = ap.parse_args()
 
     from lathe_mirror.config import default_config
-    from lathe_mirror.design import mirror_from_config
     from lathe_mirror.export.gcode import Dialect, options_from_config, program
-    from lathe_mirror.lathe import lathe_from_config, stock_from_config, tool_from_config
     from lathe_mirror.toolpath import BEST, Strategy, plan_toolpath
 
     cfg = default_config()
-    mirror = mirror_from_config(cfg)
-    lathe, tool, stock = lathe_from_config(cfg), tool_from_config(cfg), stock_from_config(cfg)
+    mirror = from_config(cfg).mirror()
+    lathe, tool, stock = from_config(cfg).machine, from_config(cfg).tool, from_config(cfg).stock
     opts = options_from_config(cfg)
 
     rows: dict[str, list[float]] = {}

@@ -1,5 +1,9 @@
 """Configuration: TOML files merged over the embedded defaults, validated key by key.
 
+`load()` is the entry point: it returns the typed, frozen `settings.Settings`. The dict
+functions below (load_config, merge, set_value) check names and types only; settings.py
+checks the values and builds the typed sections.
+
 The defaults are every `*.toml` in `lathe_mirror/data/` (`paper.toml` holds the paper's
 design; each later stage ships its own section file). A user's file may override any
 part of them; it may not add keys the defaults do not have (except the exclusive design
@@ -15,9 +19,12 @@ import math
 import tomllib
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .errors import ConfigError
+
+if TYPE_CHECKING:
+    from .settings import Settings
 
 #: Keys of which a section takes exactly one; a user's section that names any of them
 #: replaces the default's choice instead of adding to it.
@@ -40,6 +47,19 @@ def default_config() -> dict[str, Any]:
                 raise RuntimeError(f"default section [{key}] is defined twice (data/{entry.name})")
             merged[key] = value
     return merged
+
+
+def load(path: str | Path | None = None, *,
+         overrides: list[tuple[str, Any, str]] | None = None) -> Settings:
+    """The Settings of a configuration: the defaults, the user's TOML file (if any) merged
+    over them, then `overrides` (dotted key, value, source: e.g. a command-line flag),
+    every key and value checked once (one ConfigError / InputError line naming the key)."""
+    from .settings import from_config
+
+    cfg = load_config(path)
+    for dotted, value, source in overrides or ():
+        set_value(cfg, dotted, value, source=source)
+    return from_config(cfg)
 
 
 def load_config(path: str | Path | None = None) -> dict[str, Any]:

@@ -355,29 +355,24 @@ def design_mirror(camera: Camera, inner: Lobe, outer: Lobe) -> Mirror:
     return mirror
 
 
-def mirror_from_config(cfg: dict) -> Mirror:
-    """Mirror from a validated configuration (sections [camera] and [lobes.inner/outer])."""
-    cam_cfg = cfg["camera"]
-    camera = Camera(
-        f=float(cam_cfg["f"]),
-        t_pixel=float(cam_cfg["t_pixel"]),
-        sensor_px=tuple(int(n) for n in cam_cfg["sensor_px"]),
-    )
-    lobes = []
-    for name in ("inner", "outer"):
-        lc = cfg["lobes"][name]
-        lobes.append(
-            design_lobe(
-                name,
-                camera,
-                float(lc["r_top"]),
-                float(lc["r_pixel"]),
-                alpha_deg=lc.get("alpha_deg"),
-                a_over_b=lc.get("a_over_b"),
-                e=lc.get("e"),
-            )
-        )
-    return design_mirror(camera, *lobes)
+@dataclass(frozen=True)
+class LobeSpec:
+    """What the user gives for one lobe: r_top (mm) and r_pixel (px), plus exactly one of
+    alpha_deg (Table 1's rim angle above F1's horizon, deg), a_over_b, or e (mm)."""
+
+    name: str
+    r_top: float
+    r_pixel: float
+    alpha_deg: float | None = None
+    a_over_b: float | None = None
+    e: float | None = None
+
+
+def mirror_from_specs(camera: Camera, lobes: tuple[LobeSpec, LobeSpec]) -> Mirror:
+    """The two-lobe mirror of `camera` from the lobes' specs, inner first (Eqs. 3-6)."""
+    return design_mirror(camera, *(
+        design_lobe(s.name, camera, s.r_top, s.r_pixel, alpha_deg=s.alpha_deg, a_over_b=s.a_over_b, e=s.e)
+        for s in lobes))
 
 
 def design_figures(mirror: Mirror) -> dict:

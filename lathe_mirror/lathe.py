@@ -181,44 +181,6 @@ class Stock:
         return self.diameter / 2.0
 
 
-def lathe_from_config(cfg: dict) -> Lathe:
-    """Lathe from a validated configuration's [machine] section."""
-    m = cfg["machine"]
-    return Lathe(
-        resolution=float(m["resolution"]),
-        max_points=int(m["max_points"]),
-        diameter_mode=bool(m["diameter_mode"]),
-        travel_x=float(m["travel_x"]),
-        travel_z_min=float(m["travel_z_min"]),
-        travel_z_max=float(m["travel_z_max"]),
-        spindle_max_rpm=int(m["spindle_max_rpm"]),
-        surface_speed=float(m["surface_speed"]),
-        feed_rough=float(m["feed_rough"]),
-        feed_finish=float(m["feed_finish"]),
-        arc_radius_tolerance=float(m["arc_radius_tolerance"]),
-    )
-
-
-def tool_from_config(cfg: dict) -> Tool:
-    """Tool from a validated configuration's [tool] section (angles in degrees there)."""
-    t = cfg["tool"]
-    return Tool(
-        nose_radius=float(t["nose_radius"]),
-        included_angle=math.radians(float(t["included_angle"])),
-        approach_angle=math.radians(float(t["approach_angle"])),
-    )
-
-
-def stock_from_config(cfg: dict) -> Stock:
-    """Stock from a validated configuration's [stock] section."""
-    s = cfg["stock"]
-    return Stock(
-        diameter=float(s["diameter"]),
-        face_allowance=float(s["face_allowance"]),
-        length=float(s["length"]),
-    )
-
-
 def _positive(key: str, value: float, unit: str) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise InputError(f"{key} = {value!r} must be a finite number ({unit})")

@@ -13,8 +13,8 @@ import sys
 
 import pytest
 
+from lathe_mirror.settings import from_config
 from lathe_mirror.config import default_config
-from lathe_mirror.design import mirror_from_config
 
 IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
 
@@ -52,4 +52,4 @@ def paper_config() -> dict:
 
 @pytest.fixture(scope="session")
 def paper_mirror(paper_config):
-    return mirror_from_config(paper_config)
+    return from_config(paper_config).mirror()

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from lathe_mirror.cad_body import (BodySpec, Mount, Role, Segment, SegmentKind,
+from lathe_mirror.settings import from_config
+from lathe_mirror.enums import Mount
+from lathe_mirror.body import (BodySpec, Role, Segment, SegmentKind,
                                    design_meridian, moves_as_segments, programmed_contour)
 from lathe_mirror.errors import InputError
 from lathe_mirror.path import Arc
@@ -158,18 +160,16 @@ def test_programmed_contour_is_the_machining_envelope(paper_config, paper_mirror
     slope dZ/dr jumps by ds between two moves, errs by up to GRID * ds / 4: the bound."""
     import copy
 
-    from lathe_mirror.cad_body import _tangent, programmed_parts
-    from lathe_mirror.lathe import lathe_from_config, tool_from_config
+    from lathe_mirror.body import programmed_parts, segment_tangent
     from lathe_mirror.nose_envelope import GRID, as_machined
     from lathe_mirror.toolpath import Strategy, plan_toolpath
 
-    cfg = copy.deepcopy(paper_config)
-    cfg["toolpath"]["strategy"] = strategy
-    mer, centre, _ = programmed_parts(cfg, paper_mirror, BodySpec())
-    tp = plan_toolpath(paper_mirror, lathe_from_config(cfg), tool_from_config(cfg), Strategy(strategy))
+    settings = from_config(paper_config)
+    tp = plan_toolpath(paper_mirror, settings.machine, settings.tool, Strategy(strategy))
+    mer, centre, _ = programmed_parts(tp, paper_mirror, BodySpec())
     env = as_machined(tp)
     jumps = [abs(b[1] / b[0] - a[1] / a[0])  # dZ/dr after minus before, at each vertex
-             for a, b in ((_tangent(p, end=True), _tangent(q, end=False))
+             for a, b in ((segment_tangent(p, end=True), segment_tangent(q, end=False))
                           for p, q, lp, lq in zip(centre, centre[1:], tp.lobe_of, tp.lobe_of[1:])
                           if lp == lq != "junction")]
     bound = GRID * max(jumps) / 4 + 1e-6
@@ -186,9 +186,9 @@ def test_programmed_mirror_honours_the_toolpath_max_deviation(paper_config, pape
     mirror is refused too, naming the budget."""
     import copy
 
-    from lathe_mirror.cad_body import programmed_parts
+    from lathe_mirror.pipeline import cad_model
 
     cfg = copy.deepcopy(paper_config)
     cfg["toolpath"]["max_deviation"] = 1e-5
     with pytest.raises(InputError, match="machine.max_points"):
-        programmed_parts(cfg, paper_mirror, BodySpec())
+        cad_model(from_config(cfg), paper_mirror, programmed=True)

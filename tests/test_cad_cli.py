@@ -11,6 +11,8 @@ import pytest
 
 from conftest import run_cli
 from lathe_mirror.export.cad import REFERENCE_FILES, write_reference_cad
+from lathe_mirror.pipeline import cad_model
+from lathe_mirror.settings import from_config
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -117,8 +119,12 @@ def test_json_figures_and_same_bytes_twice(tmp_path):
 
 def test_reference_cad_is_current(tmp_path):
     """cad/ holds what write_reference_cad writes today (regenerate with
-    `python -c "from lathe_mirror.export.cad import write_reference_cad; write_reference_cad('cad')"`)."""
-    write_reference_cad(tmp_path)
+    `lathe-mirror run` from the repository root)."""
+    from lathe_mirror.config import load
+    from lathe_mirror.pipeline import cad_model
+
+    settings = load()
+    write_reference_cad(tmp_path, cad_model(settings, settings.mirror(), programmed=True), settings.cad)
     for name in REFERENCE_FILES:
         committed = REPO / "cad" / name
         assert committed.exists(), f"cad/{name} is missing"
@@ -130,14 +136,19 @@ def test_check_cad_config_refuses_before_anything_is_planned(paper_config):
     import copy
 
     from lathe_mirror.errors import InputError
-    from lathe_mirror.export.cad import check_cad_config
+    from lathe_mirror.pipeline import check_cad
+    from lathe_mirror.settings import from_config
 
-    check_cad_config(paper_config)  # the paper default passes
+    def check(cfg):
+        settings = from_config(cfg)  # the [cad] values
+        check_cad(settings, settings.mirror())  # the body holds the design
+
+    check(paper_config)  # the paper default passes
     for key, value in (("thickness", 15.0), ("stl_tolerance", 5.0), ("product_name", "it's")):
         cfg = copy.deepcopy(paper_config)
         cfg["cad"][key] = value
         with pytest.raises(InputError, match=f"cad.{key}"):
-            check_cad_config(cfg)
+            check(cfg)
 
 
 def test_a_file_failing_its_read_back_check_is_removed(tmp_path, paper_config, monkeypatch):
@@ -153,7 +164,9 @@ def test_a_file_failing_its_read_back_check_is_removed(tmp_path, paper_config, m
 
     monkeypatch.setattr(cad, "check_file", broken)
     with pytest.raises(RuntimeError, match="read-back check"):
-        cad.export_cad(paper_config, cad.Which.DESIGN, cad.CadFormat.STL, tmp_path / "m.stl")
+        settings = from_config(paper_config)
+        model = cad_model(settings, settings.mirror(), programmed=False)
+        cad.export_cad(model, settings.cad, cad.Which.DESIGN, cad.CadFormat.STL, tmp_path / "m.stl")
     assert list(tmp_path.iterdir()) == []
 
 
@@ -163,13 +176,18 @@ def test_a_blank_exactly_the_mirrors_diameter(tmp_path, paper_config):
     programmed solid cannot sit on it: refused naming the key and the program's reach."""
     import copy
 
+    from lathe_mirror.enums import CadFormat, Which
     from lathe_mirror.errors import InputError
-    from lathe_mirror.export.cad import CadFormat, Which, export_cad
+    from lathe_mirror.export.cad import export_cad
 
     cfg = copy.deepcopy(paper_config)
     cfg["cad"]["blank_diameter"] = 70.0
-    fig = export_cad(cfg, Which.DESIGN, CadFormat.DXF, tmp_path / "m.dxf")
+    settings = from_config(cfg)
+    mirror = settings.mirror()
+    model = cad_model(settings, mirror, programmed=True, programmed_face_only=True)
+    fig = export_cad(model, settings.cad, Which.DESIGN, CadFormat.DXF, tmp_path / "m.dxf")
     assert fig["check"]["audit_errors"] == [] and fig["features_mm"]["blank_radius"] == 35.0
     with pytest.raises(InputError, match="cad.blank_diameter = 70 mm is smaller"):
-        export_cad(cfg, Which.PROGRAMMED, CadFormat.STEP, tmp_path / "p.step")
+        export_cad(cad_model(settings, mirror, programmed=True), settings.cad, Which.PROGRAMMED, CadFormat.STEP,
+                   tmp_path / "p.step")
     assert [p.name for p in tmp_path.iterdir()] == ["m.dxf"]

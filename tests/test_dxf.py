@@ -10,7 +10,8 @@ import ezdxf
 import numpy as np
 import pytest
 
-from lathe_mirror.cad_body import BodySpec, design_meridian, programmed_parts
+from lathe_mirror.settings import from_config
+from lathe_mirror.body import BodySpec, design_meridian, programmed_parts
 from lathe_mirror.export.dxf import LAYERS, audit, dxf_bytes
 from lathe_mirror.path import Arc
 
@@ -19,7 +20,7 @@ from lathe_mirror.path import Arc
 def drawing(paper_config, paper_mirror):
     spec = BodySpec()
     design = design_meridian(paper_mirror, spec)
-    prog, centre, fig = programmed_parts(paper_config, paper_mirror, spec)
+    prog, centre, fig = programmed_parts(_best_toolpath(paper_config, paper_mirror), paper_mirror, spec)
     data = dxf_bytes(paper_mirror, design, programmed=prog, tool_centre=centre)
     return data, ezdxf.read(io.StringIO(data.decode())), prog, centre
 
@@ -59,11 +60,10 @@ def test_lobe_splines_lie_on_the_hyperbolas(drawing, paper_mirror):
 def test_arcs_are_drawn_the_way_the_tool_moves(drawing, paper_config, paper_mirror):
     """Every TOOL_CENTRE ARC passes through its move's ends and its middle (a DXF arc
     runs counter-clockwise: a clockwise move must be drawn from its end)."""
-    from lathe_mirror.lathe import lathe_from_config, tool_from_config
     from lathe_mirror.toolpath import Strategy, plan_toolpath
 
     _, doc, _, _ = drawing
-    tp = plan_toolpath(paper_mirror, lathe_from_config(paper_config), tool_from_config(paper_config),
+    tp = plan_toolpath(paper_mirror, from_config(paper_config).machine, from_config(paper_config).tool,
                        Strategy(paper_config["toolpath"]["strategy"]))
     moves = [m for m in tp.segments if m.start != m.end]
     entities = list(doc.modelspace().query('*[layer=="TOOL_CENTRE"]'))
@@ -110,7 +110,7 @@ def _dimension_text(dim) -> str:
 def test_same_bytes_twice(paper_config, paper_mirror, drawing):
     spec = BodySpec()
     design = design_meridian(paper_mirror, spec)
-    prog, centre, _ = programmed_parts(paper_config, paper_mirror, spec)
+    prog, centre, _ = programmed_parts(_best_toolpath(paper_config, paper_mirror), paper_mirror, spec)
     again = dxf_bytes(paper_mirror, design, programmed=prog, tool_centre=centre)
     assert again == drawing[0]
     assert b"$TDCREATE" in again  # present, and fixed by _fixed_metadata
@@ -119,3 +119,11 @@ def test_same_bytes_twice(paper_config, paper_mirror, drawing):
 def _on_ccw_arc(a: float, start: float, end: float) -> bool:
     span = (end - start) % 360
     return (a - start) % 360 <= span
+
+
+def _best_toolpath(cfg, mirror):
+    """The configuration's finishing toolpath (its [toolpath] strategy), as the CAD plans it."""
+    from lathe_mirror.pipeline import plan
+
+    s = from_config(cfg)
+    return plan(mirror, s.machine, s.tool, s.toolpath.strategy, max_deviation=s.toolpath.max_deviation)

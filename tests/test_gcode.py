@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import require_program, run_cli
+from lathe_mirror.config import load
 from lathe_mirror.errors import InputError
 from lathe_mirror.export.gcode import (Dialect, ProgramOptions, parse_dialect, program,
                                        reference_programs)
@@ -202,7 +203,8 @@ def test_unknown_dialect():
 
 
 def test_reference_programs_are_current():
-    for name, text in reference_programs().items():
+    settings = load()
+    for name, text in reference_programs(settings, settings.mirror()).items():
         path = REPO / "gcode" / name
         assert path.exists(), f"gcode/{name} missing: run write_reference_programs('gcode')"
         assert path.read_text() == text, f"gcode/{name} is stale: run write_reference_programs('gcode')"

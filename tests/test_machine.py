@@ -7,20 +7,20 @@ import math
 import numpy as np
 import pytest
 
+from lathe_mirror.settings import from_config
 from lathe_mirror.config import load_config
 from lathe_mirror.errors import ConfigError, InputError
-from lathe_mirror.lathe import (Lathe, Stock, Tool, lathe_from_config, stock_from_config,
-                                  tool_from_config)
+from lathe_mirror.lathe import (Lathe, Stock, Tool)
 
 
 def test_paper_machine_from_the_default_config(paper_config):
-    lathe = lathe_from_config(paper_config)
+    lathe = from_config(paper_config).machine
     assert lathe.resolution == 0.005 and lathe.max_points == 528  # section 6 of the paper
     assert lathe.diameter_mode
-    tool = tool_from_config(paper_config)
+    tool = from_config(paper_config).tool
     assert tool.nose_radius == 0.2
     assert math.isclose(math.degrees(tool.included_angle), 35.0)
-    stock = stock_from_config(paper_config)
+    stock = from_config(paper_config).stock
     assert stock.radius > 35.0  # holds the 70 mm mirror
 
 

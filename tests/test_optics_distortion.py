@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from lathe_mirror.settings import from_config
 from lathe_mirror.optics.distortion import (distortion_figures, exact_image_point,
                                             image_displacement)
 from lathe_mirror.optics.trace import trace_pixels
@@ -138,10 +139,11 @@ def test_issue_targets_paper_program_against_best(paper_mirror, paper_config):
     """The issue's target for the best program: <= 0.5 px RMS and <= 2 px max image
     displacement per lobe, over the pixels that see the scene (the recessed inner lobe's
     outer band is vignetted by the step). The paper's method is far off (its Fig. 15)."""
-    from lathe_mirror.optics.surfaces import make_surface
+    from lathe_mirror.enums import Surface
+    from lathe_mirror.pipeline import named_surface
 
-    best = distortion_figures(make_surface("best", paper_mirror, paper_config), paper_mirror)
-    paper = distortion_figures(make_surface("paper", paper_mirror, paper_config), paper_mirror)
+    best = distortion_figures(named_surface(Surface("best"), paper_mirror, from_config(paper_config)), paper_mirror)
+    paper = distortion_figures(named_surface(Surface("paper"), paper_mirror, from_config(paper_config)), paper_mirror)
     for b, p in zip(best["lobes"], paper["lobes"]):
         seen = b["image_displacement_px"]
         assert seen["rms"] <= 0.5 and seen["max"] <= 2.0
@@ -153,7 +155,8 @@ def test_as_machined_fillet_band_starts_at_the_hand_computed_tangent_point(paper
     step wall: it leaves a fillet tangent to the lobe at a distance rho / tan(phi / 2) from
     the corner, phi the angle between the lobe and the wall there. Pixels inside that
     fillet's image are badly displaced; those outside it are not."""
-    from lathe_mirror.optics.surfaces import make_surface
+    from lathe_mirror.enums import Surface
+    from lathe_mirror.pipeline import named_surface
 
     rho = 0.2
     lobe = paper_mirror.inner
@@ -164,7 +167,7 @@ def test_as_machined_fillet_band_starts_at_the_hand_computed_tangent_point(paper
     tangent = rho / math.tan(phi / 2)  # corner to tangent point, along the lobe
     r_t, z_t = r1 - tangent * math.cos(theta), z1 - tangent * math.sin(theta)
     rho_px = 16.0 / 0.009 * r_t / z_t  # its image radius (Eq. 6's pinhole)
-    maps = image_displacement(make_surface("best", paper_mirror, paper_config, nose_radius=rho),
+    maps = image_displacement(named_surface(Surface("best"), paper_mirror, from_config(paper_config), nose_radius=rho),
                               paper_mirror)
     inner = (maps.lobe == 0) & maps.usable
     bad = inner & (maps.image_displacement_px > 2.0)
@@ -175,9 +178,10 @@ def test_paper_reference_model_is_within_its_hand_bound(paper_mirror, paper_conf
     """The paper's 10^-6 mm model (section 6: a "satisfactory" image): chords of spacing h
     on a curve of curvature <= kappa tilt the normal by <= h kappa / 2, and rounding both
     ends to q = 1e-6 mm by <= 2 q / h more; the ray turns by twice that."""
-    from lathe_mirror.optics.surfaces import make_surface
+    from lathe_mirror.enums import Surface
+    from lathe_mirror.pipeline import named_surface
 
-    fig = distortion_figures(make_surface("reference", paper_mirror, paper_config), paper_mirror)
+    fig = distortion_figures(named_surface(Surface("reference"), paper_mirror, from_config(paper_config)), paper_mirror)
     for lobe_fig, lobe, span in zip(fig["lobes"], paper_mirror.lobes, (20.0, 15.0)):
         h = span / 4000
         kappa = lobe.a / lobe.b**2  # the sheet's largest curvature: at its vertex
@@ -189,17 +193,17 @@ def test_polished_surface_is_the_polishing_curves_optimum(paper_mirror, paper_co
     """`--surface polished`: the per-pixel tracer's RMS image displacement of the polished
     surface equals the polishing curve's optimum, which optics.radial computes on the
     1-D set of image radii (another code path); and polishing beats the machined mirror."""
-    from lathe_mirror.lathe import lathe_from_config, tool_from_config
     from lathe_mirror.nose_envelope import as_machined
-    from lathe_mirror.optics.surfaces import make_surface
-    from lathe_mirror.polishing import polish_curve, polish_params_from_config
+    from lathe_mirror.enums import Surface
+    from lathe_mirror.pipeline import named_surface
+    from lathe_mirror.optics.polishing_curve import polish_curve
     from lathe_mirror.toolpath import Strategy, plan_toolpath
 
-    machined = as_machined(plan_toolpath(paper_mirror, lathe_from_config(paper_config),
-                                         tool_from_config(paper_config), Strategy.PAPER))
-    curve = polish_curve(machined, paper_mirror, polish_params_from_config(paper_config))
+    machined = as_machined(plan_toolpath(paper_mirror, from_config(paper_config).machine,
+                                         from_config(paper_config).tool, Strategy.PAPER))
+    curve = polish_curve(machined, paper_mirror, from_config(paper_config).polish)
     i = curve.optimum_index
-    polished = distortion_figures(make_surface("polished", paper_mirror, paper_config), paper_mirror)
+    polished = distortion_figures(named_surface(Surface("polished"), paper_mirror, from_config(paper_config)), paper_mirror)
     made = distortion_figures(machined, paper_mirror)
     for k, lobe in enumerate(polished["lobes"]):
         assert lobe["image_displacement_px"]["rms"] == pytest.approx(

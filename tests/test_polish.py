@@ -9,8 +9,10 @@ import math
 import numpy as np
 import pytest
 
+from lathe_mirror.settings import from_config
 from lathe_mirror.errors import InputError
-from lathe_mirror.polishing import PolishParams, form_change, polish, polish_curve, polish_params_from_config
+from lathe_mirror.optics.polishing_curve import form_change, polish_curve
+from lathe_mirror.polishing import PolishParams, polish
 from lathe_mirror.profile import ExactProfile, LobeSamples, PolylineProfile, SampledProfile
 
 from conftest import RECESSED_OUTER, run_cli
@@ -89,7 +91,7 @@ def test_zero_time_returns_the_input(paper_mirror):
 
 
 def test_polishing_curve_has_an_inside_optimum_and_costs_form(paper_mirror, paper_config):
-    params = dataclasses.replace(polish_params_from_config(paper_config), curve_points=9)
+    params = dataclasses.replace(from_config(paper_config).polish, curve_points=9)
     curve = polish_curve(paper_polyline(paper_mirror), paper_mirror, params)
     d = curve.combined_displacement_px
     i = curve.optimum_index

@@ -12,13 +12,15 @@ import pytest
 from PIL import Image
 
 from conftest import require_program
+from lathe_mirror.settings import from_config
 from lathe_mirror.config import merge
 from lathe_mirror.design import Camera
 from lathe_mirror.export.povray import povray_camera, povray_command, povray_scene
 from lathe_mirror.optics.camera import CameraPose, pixel_centres, ray_directions
 from lathe_mirror.optics.render import render_image
-from lathe_mirror.optics.scene import scene_from_config
-from lathe_mirror.optics.surfaces import make_surface
+from lathe_mirror.optics.scene import build_scene
+from lathe_mirror.enums import Surface
+from lathe_mirror.pipeline import named_surface
 
 # A quarter-resolution sensor with the same field of view (4x the pitch): fast to render.
 SMALL = Camera(16.0, 0.036, (252, 254))
@@ -87,14 +89,14 @@ def test_povray_camera_casts_our_ray_through_every_pixel(tmp_path, pose):
 
 @pytest.fixture(scope="module")
 def scene(paper_config, paper_mirror):
-    return scene_from_config(paper_config, mirror_top=paper_mirror.outer.h, mirror_radius=35.0)
+    return build_scene(from_config(paper_config).scene, mirror_top=paper_mirror.outer.h, mirror_radius=35.0)
 
 
 @pytest.mark.parametrize("surface", ["exact", "paper", "best"])
 def test_povray_agrees_with_our_render(tmp_path, paper_config, paper_mirror, scene, surface):
     # The paper's own simulation: its programmed points as the surface (a sharp tool).
     cfg = merge(paper_config, {"tool": {"nose_radius": 0.0}})
-    made = make_surface(surface, paper_mirror, cfg)
+    made = named_surface(Surface(surface), paper_mirror, from_config(cfg))
     text = povray_scene(made, paper_mirror, scene, SMALL)
     assert ("quadric {" in text) == (surface == "exact") and ("lathe {" in text) == (surface != "exact")
     if surface == "paper":
@@ -112,7 +114,7 @@ def test_povray_agrees_with_our_render(tmp_path, paper_config, paper_mirror, sce
 
 
 def test_povray_agrees_with_our_3d_tracer_for_a_misaligned_camera(tmp_path, paper_mirror, paper_config, scene):
-    exact = make_surface("exact", paper_mirror, paper_config)
+    exact = named_surface(Surface("exact"), paper_mirror, from_config(paper_config))
     pose = CameraPose(decentre=(0.4, -0.2), axial_offset=0.5, tilt=(math.radians(0.8), math.radians(-0.5)))
     theirs = _povray(tmp_path, povray_scene(exact, paper_mirror, scene, SMALL, pose=pose), SMALL)
     ours = render_image(exact, paper_mirror, scene, SMALL, pose=pose)
@@ -129,18 +131,18 @@ def test_povray_export_is_the_same_text_in_another_process(paper_mirror, paper_c
 
     code = (
         "import sys\n"
-        "from lathe_mirror.config import default_config\n"
-        "from lathe_mirror.design import mirror_from_config\n"
+        "from lathe_mirror.config import load\n"
+        "from lathe_mirror.enums import Surface\n"
         "from lathe_mirror.export.povray import povray_scene\n"
-        "from lathe_mirror.optics.scene import scene_from_config\n"
-        "from lathe_mirror.optics.surfaces import make_surface\n"
-        "cfg = default_config(); m = mirror_from_config(cfg)\n"
-        "sc = scene_from_config(cfg, mirror_top=m.outer.h, mirror_radius=35.0)\n"
-        "sys.stdout.write(''.join(povray_scene(make_surface(n, m, cfg), m, sc) for n in ('exact', 'paper')))\n"
+        "from lathe_mirror.optics.scene import build_scene\n"
+        "from lathe_mirror.pipeline import named_surface\n"
+        "s = load(); m = s.mirror()\n"
+        "sc = build_scene(s.scene, mirror_top=m.outer.h, mirror_radius=35.0)\n"
+        "sys.stdout.write(''.join(povray_scene(named_surface(Surface(n), m, s), m, sc) for n in ('exact', 'paper')))\n"
     )
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                        env={**os.environ, "PYTHONHASHSEED": "12345"})
     assert p.returncode == 0, p.stderr[-2000:]
-    here = "".join(povray_scene(make_surface(n, paper_mirror, paper_config), paper_mirror, scene)
+    here = "".join(povray_scene(named_surface(Surface(n), paper_mirror, from_config(paper_config)), paper_mirror, scene)
                    for n in ("exact", "paper"))
     assert p.stdout == here

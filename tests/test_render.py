@@ -9,15 +9,16 @@ import numpy as np
 import pytest
 
 from conftest import run_cli
+from lathe_mirror.settings import from_config
 from lathe_mirror.design import Camera
 from lathe_mirror.optics.render import image_difference, render_image
-from lathe_mirror.optics.scene import BOX_FACE0, FLOOR, X_HI, intersect, scene_from_config, shade
+from lathe_mirror.optics.scene import BOX_FACE0, FLOOR, X_HI, intersect, build_scene, shade
 from lathe_mirror.profile import ExactProfile
 
 
 @pytest.fixture(scope="module")
 def scene(paper_config, paper_mirror):
-    return scene_from_config(paper_config, mirror_top=paper_mirror.outer.h, mirror_radius=35.0)
+    return build_scene(from_config(paper_config).scene, mirror_top=paper_mirror.outer.h, mirror_radius=35.0)
 
 
 def test_floor_below_and_wall_ahead_by_hand(scene, paper_config):
@@ -190,18 +191,18 @@ def test_render_command_writes_images_figures_and_is_reproducible(tmp_path):
     from PIL import Image
 
     from lathe_mirror.config import default_config
-    from lathe_mirror.design import mirror_from_config
-    from lathe_mirror.optics.surfaces import make_surface
+    from lathe_mirror.enums import Surface
+    from lathe_mirror.pipeline import named_surface
 
     cfg = default_config()
-    mirror = mirror_from_config(cfg)
-    scene = scene_from_config(cfg, mirror_top=mirror.outer.h, mirror_radius=mirror.r_max)
-    ours = render_image(make_surface("uniform528", mirror, cfg), mirror, scene)
+    mirror = from_config(cfg).mirror()
+    scene = build_scene(from_config(cfg).scene, mirror_top=mirror.outer.h, mirror_radius=mirror.r_max)
+    ours = render_image(named_surface(Surface("uniform528"), mirror, from_config(cfg)), mirror, scene)
     assert np.array_equal(np.asarray(Image.open(out / "uniform528.png")), ours)
 
 
 @pytest.mark.parametrize("args, toml, words", [
-    (["--surface", "mirror42"], "", "unknown surface"),
+    (["--surface", "mirror42"], "", "--surface 'mirror42': allowed exact, reference"),
     (["--surface", "exact"], "[scene]\nboxes = []\n", "scene.boxes is empty"),
     (["--surface", "exact"], "[camera_pose]\ndecentre = [400.0, 0.0]\n", "no pixel sees the mirror"),
     (["--surface", "exact"], "[camera_pose]\ntilt_deg = [44.0, 0.0]\n", "tilt [44.0, 0.0] deg"),
@@ -223,9 +224,10 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path, args, toml, words):
 def test_thread_count_does_not_change_the_image(scene, paper_mirror, paper_config, monkeypatch):
     """Chunks shade in a thread pool, each into its own slice: 1 or 3 threads, same pixels."""
     from lathe_mirror.optics import render
-    from lathe_mirror.optics.surfaces import make_surface
+    from lathe_mirror.enums import Surface
+    from lathe_mirror.pipeline import named_surface
 
-    made = make_surface("uniform528", paper_mirror, paper_config)
+    made = named_surface(Surface("uniform528"), paper_mirror, from_config(paper_config))
     cam = Camera(16.0, 0.018, (504, 508))
     monkeypatch.setattr(render, "CHUNK_RAYS", 4096)  # many chunks in flight
     images = []

@@ -10,11 +10,13 @@ import re
 import numpy as np
 import pytest
 
-from lathe_mirror.lathe import lathe_from_config, tool_from_config
+from lathe_mirror.settings import from_config
 from lathe_mirror.nose_envelope import as_machined
 from lathe_mirror.optics.stereo import depth_error_curve
-from lathe_mirror.polishing import polish, polish_params_from_config
-from lathe_mirror.report.report import compute, dumps, render_html, write_report
+from lathe_mirror.polishing import polish
+from lathe_mirror.pipeline import report_figures
+from lathe_mirror.report import dumps, render_html, write_report
+from lathe_mirror.report.plots import report_plots
 from lathe_mirror.optics.radial import radial_figures
 from lathe_mirror.toolpath import BEST, Strategy, plan_toolpath, profile_errors
 
@@ -32,12 +34,12 @@ def small_cfg(paper_config):
 
 @pytest.fixture(scope="module")
 def report(small_cfg):
-    return compute(small_cfg, renders=True)
+    return report_figures(from_config(small_cfg), renders=True)
 
 
 @pytest.fixture(scope="module")
 def made(small_cfg, paper_mirror):
-    lathe, tool = lathe_from_config(small_cfg), tool_from_config(small_cfg)
+    lathe, tool = from_config(small_cfg).machine, from_config(small_cfg).tool
     return {"paper": as_machined(plan_toolpath(paper_mirror, lathe, tool, Strategy.PAPER)),
             "best": as_machined(plan_toolpath(paper_mirror, lathe, tool, BEST))}
 
@@ -76,7 +78,7 @@ def test_polishing_curve_and_polished_mirror(report, made, paper_mirror, small_c
     assert 0 < i < d.size - 1 and pol["summary"]["optimum_inside_range"]
     # The polished mirror is the paper program polished for that time, recomputed here in one
     # run (the curve's run stops at every snapshot, so its Euler steps differ: ~1e-4).
-    polished = polish(made["paper"], polish_params_from_config(small_cfg), curve["optimum"]["time_s"])
+    polished = polish(made["paper"], from_config(small_cfg).polish, curve["optimum"]["time_s"])
     again = radial_figures(polished, paper_mirror)
     for k in (0, 1):
         assert report.figures["mirrors"]["polished"]["lobes"][k]["image_displacement_px"]["rms"] == pytest.approx(
@@ -146,7 +148,7 @@ def test_html_is_self_contained_and_json_is_plain(report, tmp_path):
 
 def test_same_config_same_json(small_cfg, report):
     cfg = copy.deepcopy(small_cfg)
-    again = compute(cfg, renders=False)
+    again = report_figures(from_config(cfg), renders=False)
     a, b = dict(report.figures), dict(again.figures)
     a.pop("renders", None)
     assert dumps(a) == dumps(b)

@@ -13,7 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lathe_mirror.cad_body import BodySpec, Mount, design_meridian, programmed_parts
+from lathe_mirror.settings import from_config
+from lathe_mirror.enums import Mount
+from lathe_mirror.body import BodySpec, design_meridian, programmed_parts
 from lathe_mirror.export.step import (SCHEMA_NAMES, StepSchema, as_cadquery, read_step,
                                       solid_figures, step_bytes)
 from lathe_mirror.profile import ExactProfile
@@ -55,7 +57,7 @@ def design_step(tmp_path_factory, design):
 
 @pytest.fixture(scope="module")
 def programmed(paper_config, paper_mirror):
-    return programmed_parts(paper_config, paper_mirror, BodySpec())
+    return programmed_parts(_best_toolpath(paper_config, paper_mirror), paper_mirror, BodySpec())
 
 
 @pytest.fixture(scope="module")
@@ -104,11 +106,10 @@ def test_programmed_step_is_one_valid_solid(programmed_step, programmed):
 def test_tool_centre_path_lies_one_nose_radius_from_the_programmed_faces(programmed_step, programmed,
                                                                         paper_config, paper_mirror):
     """The nose (radius rho) touches the surface it cuts (see _assert_nose_touches)."""
-    from lathe_mirror.lathe import lathe_from_config, tool_from_config
     from lathe_mirror.toolpath import Strategy, plan_toolpath
 
     cfg = paper_config
-    tp = plan_toolpath(paper_mirror, lathe_from_config(cfg), tool_from_config(cfg),
+    tp = plan_toolpath(paper_mirror, from_config(cfg).machine, from_config(cfg).tool,
                        Strategy(cfg["toolpath"]["strategy"]))
     assert tp.nose_radius > 0 and tp.nose_radius == programmed[2]["nose_radius_mm"]
     shell = _shell(read_step(programmed_step))
@@ -138,11 +139,10 @@ def test_freecad_opens_the_steps_as_one_valid_solid(tmp_path, design_step, progr
 
 
 def test_same_bytes_in_two_processes(tmp_path):
-    code = ("import sys; from lathe_mirror.config import default_config; "
-            "from lathe_mirror.design import mirror_from_config; "
-            "from lathe_mirror.cad_body import design_meridian, body_spec_from_config; "
-            "from lathe_mirror.export.step import step_bytes; c = default_config(); "
-            "m = design_meridian(mirror_from_config(c), body_spec_from_config(c)); "
+    code = ("import sys; from lathe_mirror.config import load; "
+            "from lathe_mirror.body import design_meridian; "
+            "from lathe_mirror.export.step import step_bytes; s = load(); "
+            "m = design_meridian(s.mirror(), s.body); "
             "step_bytes(m); sys.stdout.buffer.write(step_bytes(m))")  # the 2nd in-process export
     outs = [subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=120,
                            env=dict(os.environ, PYTHONHASHSEED=str(seed))).stdout
@@ -229,17 +229,15 @@ def test_line_strategies_give_valid_programmed_solids(paper_config, paper_mirror
     import copy
 
     from lathe_mirror.export.step import meridian_solid
-    from lathe_mirror.lathe import lathe_from_config, tool_from_config
     from lathe_mirror.toolpath import Strategy, plan_toolpath
 
-    cfg = copy.deepcopy(paper_config)
-    cfg["toolpath"]["strategy"] = strategy
-    mer, centre, fig = programmed_parts(cfg, paper_mirror, BodySpec())
+    settings = from_config(paper_config)
+    tp = plan_toolpath(paper_mirror, settings.machine, settings.tool, Strategy(strategy))
+    mer, centre, fig = programmed_parts(tp, paper_mirror, BodySpec())
     solid = meridian_solid(mer)
     f = solid_figures(solid)
     assert f["solids"] == 1 and f["valid"]
     assert f["volume_mm3"] == pytest.approx(mer.volume(), rel=1e-6)
-    tp = plan_toolpath(paper_mirror, lathe_from_config(cfg), tool_from_config(cfg), Strategy(strategy))
     _assert_nose_touches(_shell(solid), tp, step=20)
 
 
@@ -266,7 +264,6 @@ def test_committed_program_cuts_the_committed_programmed_step(tmp_path, paper_co
     moves may cut air)."""
     import re
 
-    from lathe_mirror.lathe import tool_from_config
 
     exe = require_program("rs274")
     program = REPO / "gcode" / "mirror_arcs.ngc"
@@ -298,7 +295,7 @@ def test_committed_program_cuts_the_committed_programmed_step(tmp_path, paper_co
                                                          math.sin(a0 + sweep * t)])
                     for t in (0.25, 0.5, 0.75)]
         cur = end
-    rho = tool_from_config(paper_config).nose_radius
+    rho = from_config(paper_config).tool.nose_radius
     shell = _shell(read_step(REPO / "cad" / "mirror_programmed.step"))
     pts = [p for p in pts if p[0] > 0.0]  # the plunge along the axis cuts nothing
     d = np.array([_distance(shell, np.array([p[0] * math.cos(2.0), p[0] * math.sin(2.0), p[1]]))
@@ -324,3 +321,11 @@ def test_other_bodies_give_one_valid_solid_of_the_integrated_volume(tmp_path, pa
     fig = solid_figures(read_step(path))
     assert fig["solids"] == 1 and fig["valid"]
     assert fig["volume_mm3"] == pytest.approx(integrated_volume(paper_mirror, spec), rel=1e-6)
+
+
+def _best_toolpath(cfg, mirror):
+    """The configuration's finishing toolpath (its [toolpath] strategy), as the CAD plans it."""
+    from lathe_mirror.pipeline import plan
+
+    s = from_config(cfg)
+    return plan(mirror, s.machine, s.tool, s.toolpath.strategy, max_deviation=s.toolpath.max_deviation)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from lathe_mirror.cad_body import BodySpec, design_meridian
+from lathe_mirror.body import BodySpec, design_meridian
 from lathe_mirror.export.mesh import stl_bytes
 from lathe_mirror.profile import ExactProfile
 

@@ -13,13 +13,14 @@ import math
 import numpy as np
 import pytest
 
+from lathe_mirror.settings import from_config
 from lathe_mirror.errors import InputError
 from lathe_mirror.optics.camera import CameraPose
 from lathe_mirror.optics.distortion import exact_image_point, image_displacement
 from lathe_mirror.optics.trace import Fate, trace_pixels
-from lathe_mirror.polishing import PolishParams, polish_params_from_config
+from lathe_mirror.polishing import PolishParams
 from lathe_mirror.profile import ExactProfile
-from lathe_mirror.tolerance.montecarlo import draw_trials, evaluate_trials, judge, prepare, run_monte_carlo
+from lathe_mirror.tolerance.montecarlo import draw_trials, evaluate_trials, judge, run_monte_carlo
 from lathe_mirror.tolerance.perturb import Trials, build_nodes, evaluate, pixel_sample
 from lathe_mirror.optics.radial import (
     ideal_radius_px,
@@ -30,8 +31,8 @@ from lathe_mirror.optics.radial import (
     used_extent,
 )
 from lathe_mirror.tolerance.sensitivity import sensitivity_table
-from lathe_mirror.tolerance.spec import Program, settings_from_config
-from lathe_mirror.tolerance.surfaces import machined_surface
+from lathe_mirror.enums import Program, Strategy
+from lathe_mirror.pipeline import made_surface, tolerance_context
 
 from conftest import RECESSED_OUTER, run_cli
 
@@ -46,9 +47,7 @@ def small_cfg(paper_config):
 
 @pytest.fixture(scope="module")
 def ctx(small_cfg, paper_mirror):
-    settings = settings_from_config(small_cfg)
-    params = polish_params_from_config(small_cfg)
-    return prepare(paper_mirror, small_cfg, settings, params, 3600.0, Program.PAPER)
+    return tolerance_context(paper_mirror, from_config(small_cfg), Program.PAPER, 3600.0)
 
 
 def test_exact_lobe_inverse_map_is_the_trace_inverse(paper_mirror):
@@ -64,7 +63,7 @@ def test_radial_shortcut_matches_the_full_pixel_computation(paper_mirror, paper_
     """1-D (each distinct radius once, weighted by its pixel count) vs optics.distortion's
     per-pixel maps (independent tracer), pixel by pixel, on the same pixel set: the lobe's
     pixels the exact design does not vignette, whose made ray lands on the lobe."""
-    made = machined_surface(paper_mirror, paper_config, Program.PAPER).profile
+    made = made_surface(paper_mirror, from_config(paper_config).machine, from_config(paper_config).tool, Strategy.PAPER).profile
     maps = image_displacement(made, paper_mirror)
     full = maps.figures()
     short = radial_figures(made, paper_mirror)
@@ -105,8 +104,8 @@ def test_aligned_trial_reduces_to_the_radial_figures(ctx, paper_mirror, paper_co
     from lathe_mirror.polishing import polish
 
     fig = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s))
-    surf = machined_surface(paper_mirror, paper_config, Program.PAPER).profile
-    polished = polish(surf, polish_params_from_config(paper_config), ctx.nominal_time_s)
+    surf = made_surface(paper_mirror, from_config(paper_config).machine, from_config(paper_config).tool, Strategy.PAPER).profile
+    polished = polish(surf, from_config(paper_config).polish, ctx.nominal_time_s)
     short = radial_figures(polished, paper_mirror, bin_px=ctx.settings.bin_px)
     for k in (0, 1):
         assert fig.image_displacement_px_rms[0, k] == pytest.approx(
@@ -195,11 +194,11 @@ def test_spec_errors_name_the_key(paper_config):
     cfg = copy.deepcopy(paper_config)
     cfg["tolerance"]["distribution"] = "gaussian"
     with pytest.raises(InputError, match="tolerance.distribution"):
-        settings_from_config(cfg)
+        from_config(cfg).tolerance
     cfg = copy.deepcopy(paper_config)
     cfg["tolerance"]["params"]["tool_x_mm"] = -1.0
     with pytest.raises(InputError, match="tolerance.params.tool_x_mm"):
-        settings_from_config(cfg)
+        from_config(cfg).tolerance
 
 
 def test_tolerance_cli_bad_program_exit_2(tmp_path):
@@ -219,8 +218,8 @@ def test_trial_depth_error_matches_the_stereo_module(ctx, paper_mirror, paper_co
     from lathe_mirror.polishing import polish
 
     fig = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s))
-    surf = machined_surface(paper_mirror, paper_config, Program.PAPER).profile
-    polished = polish(surf, polish_params_from_config(paper_config), ctx.nominal_time_s)
+    surf = made_surface(paper_mirror, from_config(paper_config).machine, from_config(paper_config).tool, Strategy.PAPER).profile
+    polished = polish(surf, from_config(paper_config).polish, ctx.nominal_time_s)
     rng = ctx.settings.spec.depth_range_m
     curve = depth_error_curve(polished, paper_mirror, [rng],
                               elevations=band_elevations(paper_mirror, ctx.settings.depth_points))

@@ -8,9 +8,11 @@ import math
 import numpy as np
 import pytest
 
+from lathe_mirror.settings import from_config
 from lathe_mirror.optics.camera import CameraPose, pixel_centres
 from lathe_mirror.optics.distortion import viewpoint_distance
-from lathe_mirror.optics.surfaces import make_surface
+from lathe_mirror.enums import Surface
+from lathe_mirror.pipeline import named_surface
 from lathe_mirror.optics.trace import Fate, meridian_hits, trace_pixels, trace_rays
 from lathe_mirror.profile import ExactProfile, Profile
 
@@ -73,7 +75,7 @@ def test_lobe_boundaries_match_the_design(paper_mirror):
 
 
 def test_polyline_hits_lie_on_the_ray_and_the_segments(paper_mirror, paper_config):
-    made = make_surface("uniform528", paper_mirror, paper_config)
+    made = named_surface(Surface("uniform528"), paper_mirror, from_config(paper_config))
     t = np.linspace(0, 0.29, 20001)
     m = meridian_hits(made, t)
     hit = m.fate <= Fate.OUTER
@@ -87,7 +89,7 @@ def test_polyline_hits_lie_on_the_ray_and_the_segments(paper_mirror, paper_confi
 
 
 def test_reflection_law(paper_mirror, paper_config):
-    made = make_surface("uniform528", paper_mirror, paper_config)
+    made = named_surface(Surface("uniform528"), paper_mirror, from_config(paper_config))
     rng = np.random.default_rng(5)
     xy = rng.uniform(-500, 500, size=(5000, 2))
     hits = trace_pixels(made, paper_mirror.camera, xy)
@@ -105,7 +107,7 @@ def test_reflection_law(paper_mirror, paper_config):
 
 @pytest.mark.parametrize("surface", ["exact", "uniform528"])
 def test_3d_tracer_agrees_with_meridian_tracer(paper_mirror, paper_config, surface):
-    made = make_surface(surface, paper_mirror, paper_config)
+    made = named_surface(Surface(surface), paper_mirror, from_config(paper_config))
     rng = np.random.default_rng(7)
     xy = rng.uniform(-509, 509, size=(4000, 2))
     cam = paper_mirror.camera

@@ -33,14 +33,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..config import set_value
+    from ..enums import CadFormat, Which, parse
     from ..errors import InputError
-    from ..export.cad import SUFFIXES, CadFormat, Which, export_cad, parse_enum
+    from ..export.cad import SUFFIXES, export_cad
 
-    which = parse_enum(Which, args.which, "--which")
+    which = parse(Which, args.which, "--which")
     suffix = Path(args.output).suffix.lower() if args.output else ""
     if args.format is not None:
-        fmt = parse_enum(CadFormat, args.format, "--format")
+        fmt = parse(CadFormat, args.format, "--format")
         if suffix in SUFFIXES and SUFFIXES[suffix] is not fmt:
             # An STL named .step would open as garbage in the reader the name picks.
             raise InputError(f"-o {args.output}: a {suffix!r} file cannot hold --format "
@@ -58,18 +58,25 @@ def run(args: argparse.Namespace) -> int:
         if value is not None and fmt is not needs:
             raise InputError(f"{flag} applies to --format {needs.value} only, "
                              f"not {fmt.value}")
-    cfg = load(args)
+    from ..body import check_stl_tolerance
+    from ..enums import StepSchema
+    from ..export.cad import check_target
+    from ..pipeline import cad_model, design
+
+    overrides = []
     if args.schema is not None:
-        from ..export.step import parse_schema
-
-        set_value(cfg, "cad.step_schema", parse_schema(args.schema, "--schema").value, source="--schema")
+        overrides.append(("cad.step_schema", parse(StepSchema, args.schema, "--schema").value, "--schema"))
     if args.stl_tolerance is not None:
-        from ..export.mesh import check_stl_tolerance
-
         tol = check_stl_tolerance(args.stl_tolerance, "--stl-tolerance")
-        set_value(cfg, "cad.stl_tolerance", tol, source="--stl-tolerance")
+        overrides.append(("cad.stl_tolerance", tol, "--stl-tolerance"))
+    settings = load(args, overrides)
     path = args.output or f"mirror_{which.value}.{fmt.value}"
-    figures = export_cad(cfg, which, fmt, path)
+    check_target(path)
+    # The DXF always carries the toolpath layers: it plans the toolpath (and fails, exit
+    # 2, on a toolpath setting it cannot plan with, as `lathe-mirror toolpath` would).
+    model = cad_model(settings, design(settings), programmed=(which is Which.PROGRAMMED or fmt is CadFormat.DXF),
+                      programmed_face_only=(which is Which.DESIGN))
+    figures = export_cad(model, settings.cad, which, fmt, path)
     if args.json:
         print_json(figures)
     else:

@@ -27,11 +27,12 @@ def add_no_progress(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress display on stderr")
 
 
-def load(args: argparse.Namespace) -> dict[str, Any]:
-    """The validated configuration for a command (defaults + --config)."""
-    from ..config import load_config
+def load(args: argparse.Namespace, overrides: list[tuple[str, Any, str]] | None = None):
+    """The command's Settings (defaults + --config + flag overrides (key, value, flag)),
+    validated once before any work."""
+    from ..config import load as load_settings
 
-    return load_config(args.config)
+    return load_settings(args.config, overrides=[o for o in overrides or () if o[1] is not None])
 
 
 def print_json(data: Any) -> None:

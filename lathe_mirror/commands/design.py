@@ -16,10 +16,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..design import TABLE1_SWAP_NOTE, design_figures, mirror_from_config
+    from ..design import TABLE1_SWAP_NOTE, design_figures
+    from ..pipeline import design
 
-    cfg = load(args)
-    mirror = mirror_from_config(cfg)
+    mirror = design(load(args))
     figures = design_figures(mirror)
     if args.config is None:
         figures["notes"] = [TABLE1_SWAP_NOTE]

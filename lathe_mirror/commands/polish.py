@@ -22,32 +22,25 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..design import mirror_from_config
-    from ..errors import InputError
-    from ..polishing import polish, polish_curve, polish_params_from_config
+    from ..enums import BEST, Program, Strategy, parse
+    from ..optics.polishing_curve import polish_summary
     from ..optics.radial import radial_figures
-    from ..tolerance.spec import Program
-    from ..tolerance.surfaces import machined_surface
-    from .report import check_config
+    from ..pipeline import check_programs, design, made_surface, polishing_curve
+    from ..polishing import polish
+    from ..toolpath import profile_errors
 
-    cfg = load(args)
-    try:
-        program = Program(args.program)
-    except ValueError:
-        raise InputError(f"--program {args.program!r}: allowed paper, best") from None
-    params = polish_params_from_config(cfg)
-    check_config(cfg, tolerance=False)  # bad input stops here, before the output directory is made
+    settings = load(args)
+    program = parse(Program, args.program, "--program")
+    params = settings.polish
+    mirror = design(settings)
+    check_programs(settings, mirror, tolerance=False)  # bad input stops here, before the output directory is made
     if args.output:
         from .common import output_dir
 
         output_dir(args.output)
-    mirror = mirror_from_config(cfg)
-    made = machined_surface(mirror, cfg, program)
-    curve = polish_curve(made.profile, mirror, params, progress=not args.no_progress)
+    made = made_surface(mirror, settings.machine, settings.tool, BEST if program is Program.BEST else Strategy.PAPER)
+    curve = polishing_curve(made.profile, mirror, params, progress=not args.no_progress)
     polished = polish(made.profile, params)
-    from ..report.report import polish_summary
-    from ..toolpath import profile_errors
-
     # The five figures of ARCHITECTURE.md per lobe, surface then optics, as the report's.
     at_time = [{**s, **{k: v for k, v in o.items() if k != "name"}} for s, o in
                zip(profile_errors(polished, mirror)["lobes"], radial_figures(polished, mirror)["lobes"])]
@@ -58,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
         from pathlib import Path
 
         from ..export.files import write_text
-        from ..report.report import dumps
+        from ..report import dumps
 
         write_text(Path(args.output) / "polish.json", dumps(out))
     if args.json:

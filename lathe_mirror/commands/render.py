@@ -36,26 +36,25 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from ..design import mirror_from_config
+    from ..enums import Surface, parse
     from ..errors import InputError
     from ..optics.render import image_difference, render_image
-    from ..optics.scene import scene_from_config
-    from ..optics.surfaces import make_surface
+    from ..pipeline import design, named_surface, scene_for
     from ..profile import ExactProfile
 
-    cfg = load(args)
-    rc = cfg["render"]
-    surface = args.surface if args.surface is not None else rc["surface"]
-    nose = args.nose_radius if args.nose_radius is not None else rc["nose_radius"]
-    n = args.supersample if args.supersample is not None else rc["supersample"]
+    settings = load(args)
+    rc = settings.render
+    surface = parse(Surface, args.surface, "--surface") if args.surface is not None else rc.surface
+    nose = args.nose_radius if args.nose_radius is not None else rc.nose_radius
+    n = args.supersample if args.supersample is not None else rc.supersample
     if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 8:
         raise InputError(f"--supersample {n}: allowed 1..8 (N x N rays per pixel)")
-    mirror = mirror_from_config(cfg)
-    pose = _pose(cfg)
+    mirror = design(settings)
+    pose = settings.pose
     exact = ExactProfile(mirror)
-    made = make_surface(surface, mirror, cfg, nose_radius=float(nose))
+    made = named_surface(surface, mirror, settings, nose_radius=float(nose))
     z_top = float(max(np.max(made.z(np.linspace(0, made.r_max, 2001))), mirror.outer.h))
-    scene = scene_from_config(cfg, mirror_top=z_top + abs(pose.axial_offset), mirror_radius=mirror.r_max)
+    scene = scene_for(settings, mirror, mirror_top=z_top + abs(pose.axial_offset))
     _check_sees_mirror(made, mirror, pose)
     progress = not args.no_progress  # tqdm on stderr
     out = None
@@ -64,6 +63,7 @@ def run(args: argparse.Namespace) -> int:
 
         out = output_dir(args.output)
     made_img = render_image(made, mirror, scene, pose=pose, supersample=n, progress=progress)
+    surface = surface.value
     files = []
     if args.image_only:
         if out is not None:
@@ -141,22 +141,6 @@ def format_figures(fig: dict) -> str:
     for f in fig.get("files", []):
         lines.append(f"wrote {f}")
     return "\n".join(lines)
-
-
-def _pose(cfg: dict):
-    import math
-
-    from ..errors import InputError
-    from ..optics.camera import CameraPose
-
-    pc = cfg["camera_pose"]
-    if len(pc["decentre"]) != 2 or len(pc["tilt_deg"]) != 2:
-        raise InputError("camera_pose: decentre and tilt_deg take two numbers each (mm, degrees)")
-    if max(abs(t) for t in pc["tilt_deg"]) >= 45:
-        raise InputError(f"camera_pose.tilt_deg = {pc['tilt_deg']}: allowed |tilt| < 45 degrees")
-    return CameraPose(decentre=(float(pc["decentre"][0]), float(pc["decentre"][1])),
-                      axial_offset=float(pc["axial_offset"]),
-                      tilt=tuple(math.radians(float(t)) for t in pc["tilt_deg"]))
 
 
 def _check_sees_mirror(profile, mirror, pose) -> None:

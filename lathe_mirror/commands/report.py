@@ -18,43 +18,21 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..report.report import compute, write_report
+    from ..pipeline import check_programs, design, report_figures
+    from ..report import write_report
     from .common import output_dir
 
-    cfg = load(args)
-    check_config(cfg)
+    settings = load(args)
+    check_programs(settings, design(settings))
     out_dir = args.output or "out"
     output_dir(out_dir)
-    data = compute(cfg, progress=not args.no_progress, renders=not args.no_render)
+    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render)
     paths = write_report(data, out_dir)
     if args.json:
         print_json(data.figures)
     else:
         print(summary(data.figures, paths))
     return 0
-
-
-def check_config(cfg: dict, *, tolerance: bool = True) -> None:
-    """Build every stage's settings once, so bad input fails before any file is written
-    (tolerance=False: up to polishing, for `lathe-mirror polish`)."""
-    from ..design import mirror_from_config
-    from ..lathe import lathe_from_config, tool_from_config
-    from ..polishing import polish_params_from_config
-    from ..tolerance.spec import settings_from_config
-    from ..toolpath import check_junction
-
-    mirror = mirror_from_config(cfg)
-    lathe_from_config(cfg)
-    # Every program needs a junction the toolpath can cut (an inner lobe recessed, a nose
-    # that reaches the wall): checked here, before a progress display or a directory.
-    check_junction(mirror, tool_from_config(cfg))
-    params = polish_params_from_config(cfg)
-    params.check_time(mirror.r_max, max(params.time_s, params.curve_max_s))
-    if not tolerance:
-        return
-    settings = settings_from_config(cfg)
-    # The Monte Carlo polishes each part up to the curve's end plus the time tolerance.
-    params.check_time(mirror.r_max, params.curve_max_s + settings.tolerances.get("polish_time_s", 0.0))
 
 
 def summary(fig: dict, paths: dict) -> str:

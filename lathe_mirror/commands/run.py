@@ -33,20 +33,17 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from ..export.files import write_text
-    from ..report.report import compute, write_report
-    from .common import output_dir
-    from .report import check_config, summary
-
-    cfg = load(args)
-    check_config(cfg)  # bad input stops here, before anything is written
-    from ..export.cad import check_cad_config
-    from ..lathe import stock_from_config
-
-    stock_from_config(cfg)  # the programs' stock, and the CAD body, checked up front too
-    check_cad_config(cfg)
     from ..export.gcode import reference_programs
+    from ..pipeline import cad_model, check_cad, check_programs, design, report_figures
+    from ..report import write_report
+    from .common import output_dir
+    from .report import summary
 
-    texts = reference_programs(cfg)  # plans both programs: a design no program can cut stops here
+    settings = load(args)
+    mirror = design(settings)
+    check_programs(settings, mirror)  # bad input stops here, before anything is written
+    check_cad(settings, mirror)       # the CAD body, checked up front too
+    texts = reference_programs(settings, mirror)  # plans both programs: a design no program can cut stops here
     out_dir = Path(args.output or "out")
     default = args.config is None
     gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")
@@ -59,8 +56,8 @@ def run(args: argparse.Namespace) -> int:
     say("lathe-mirror run: CAD")
     from ..export.cad import write_reference_cad
 
-    cad = write_reference_cad(cad_dir, cfg)
-    data = compute(cfg, progress=not args.no_progress, renders=not args.no_render)
+    cad = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
+    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render)
     data.figures["outputs"] = {kind: [{"path": str(p), "sha256": _sha256(p)} for p in paths]
                                for kind, paths in (("gcode", programs), ("cad", cad))}
     paths = write_report(data, out_dir)

@@ -21,39 +21,33 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..config import set_value
-    from ..design import mirror_from_config
-    from ..polishing import polish_curve, polish_params_from_config
-    from ..report.report import _tolerance
-    from ..tolerance.spec import Program, settings_from_config
-    from ..tolerance.surfaces import machined_surface
-    from .report import check_config
+    from ..enums import BEST, Program, Strategy
+    from ..pipeline import (
+        check_programs,
+        design,
+        made_surface,
+        polishing_curve,
+        tolerance_analysis,
+    )
 
-    cfg = load(args)
-    if args.trials is not None:
-        set_value(cfg, "tolerance.trials", args.trials, source="--trials")
-    if args.seed is not None:
-        set_value(cfg, "tolerance.seed", args.seed, source="--seed")
-    check_config(cfg)  # bad input stops here, before the output directory is made
-    settings = settings_from_config(cfg)
-    params = polish_params_from_config(cfg)
+    settings = load(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed")])
+    mirror = design(settings)
+    check_programs(settings, mirror)  # bad input stops here, before the output directory is made
     if args.output:
         from .common import output_dir
 
         output_dir(args.output)
-    mirror = mirror_from_config(cfg)
-    curves = {}
-    for program in (Program.PAPER, Program.BEST):
-        if program in settings.programs:
-            made = machined_surface(mirror, cfg, program)
-            curves[program] = polish_curve(made.profile, mirror, params)
-    out = _tolerance(mirror, cfg, params, curves.get(Program.PAPER), curves.get(Program.BEST),
-                     not args.no_progress)
+    times = {}
+    for program in settings.tolerance.programs:
+        strategy = BEST if program is Program.BEST else Strategy.PAPER
+        made = made_surface(mirror, settings.machine, settings.tool, strategy)
+        times[program] = polishing_curve(made.profile, mirror, settings.polish).optimum_time_s
+    out = tolerance_analysis(mirror, settings, times, progress=not args.no_progress)
     if args.output:
         from pathlib import Path
 
         from ..export.files import write_text
-        from ..report.report import dumps
+        from ..report import dumps
 
         write_text(Path(args.output) / "tolerance.json", dumps(out))
     if args.json:

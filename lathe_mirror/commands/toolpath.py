@@ -30,32 +30,29 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..config import set_value
-    from ..design import mirror_from_config
-    from ..errors import InputError
-    from ..export.gcode import Dialect, options_from_config, parse_dialect, program
-    from ..lathe import lathe_from_config, stock_from_config, tool_from_config
-    from ..nose_envelope import as_machined, contour_profile, gouge_depth, junction_fillet
-    from ..toolpath import BEST, Strategy, plan_toolpath, profile_errors, usable_ranges
+    from ..enums import BEST, Strategy, parse
+    from ..export.gcode import Dialect, parse_dialect, program, program_options
+    from ..nose_envelope import (
+        as_machined,
+        contour_profile,
+        gouge_depth,
+        junction_fillet,
+    )
+    from ..pipeline import design, plan
+    from ..toolpath import profile_errors, usable_ranges
 
-    cfg = load(args)
+    settings = load(args, [("machine.max_points", args.points, "--points"),
+                           ("machine.resolution", args.resolution, "--resolution"),
+                           ("tool.nose_radius", args.nose_radius, "--nose-radius")])
     dialect = parse_dialect(args.dialect)
-    for flag, key, value in (("--points", "machine.max_points", args.points),
-                             ("--resolution", "machine.resolution", args.resolution),
-                             ("--nose-radius", "tool.nose_radius", args.nose_radius)):
-        if value is not None:
-            set_value(cfg, key, value, source=flag)
-    name = args.strategy or cfg["toolpath"]["strategy"]
-    try:
-        strategy = BEST if name == "best" else Strategy(name)
-    except ValueError:
-        allowed = ", ".join([s.value for s in Strategy] + ["best"])
-        source = "--strategy" if args.strategy else "toolpath.strategy ="
-        raise InputError(f"{source} {name!r}: allowed {allowed}") from None
-    mirror = mirror_from_config(cfg)
-    lathe, tool, stock = lathe_from_config(cfg), tool_from_config(cfg), stock_from_config(cfg)
-    opts = options_from_config(cfg)
-    tp = plan_toolpath(mirror, lathe, tool, strategy, max_deviation=float(cfg["toolpath"]["max_deviation"]))
+    if args.strategy:
+        strategy = parse(Strategy, args.strategy, "--strategy", aliases={"best": BEST})
+    else:
+        strategy = settings.toolpath.strategy
+    mirror = design(settings)
+    lathe, tool, stock = settings.machine, settings.tool, settings.stock
+    opts = program_options(settings)
+    tp = plan(mirror, lathe, tool, strategy, max_deviation=settings.toolpath.max_deviation)
     text = program(tp, stock, dialect, options=opts, name=f"mirror_{strategy.value}")
     if args.output:
         from ..export.files import write_text

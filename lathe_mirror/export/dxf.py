@@ -28,7 +28,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator, Sequence
 
-from ..cad_body import Meridian, Role, Segment, SegmentKind
+from ..body import Meridian, Role, Segment, SegmentKind
 from ..design import Mirror
 
 #: The dimension style of the drawing (mm, three decimals).

@@ -20,16 +20,17 @@ import enum
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-
-from typing import TYPE_CHECKING
 
 from ..errors import InputError
 from ..lathe import Stock
 from ..path import Arc, Line
 
 if TYPE_CHECKING:
+    from ..design import Mirror
+    from ..settings import Settings
     from ..toolpath import Toolpath
 
 
@@ -64,16 +65,6 @@ class ProgramOptions:
     rough_allowance: float = 0.15
     clearance: float = 2.0
     gouge_tolerance: float = 0.005
-
-
-def options_from_config(cfg: dict) -> ProgramOptions:
-    t = cfg["toolpath"]
-    opts = ProgramOptions(rough_depth=float(t["rough_depth"]), rough_allowance=float(t["rough_allowance"]),
-                          clearance=float(t["clearance"]), gouge_tolerance=float(t["gouge_tolerance"]))
-    for key in ("rough_depth", "rough_allowance", "clearance", "gouge_tolerance"):
-        if not getattr(opts, key) > 0:
-            raise InputError(f"toolpath.{key} = {getattr(opts, key)!r} mm must be > 0")
-    return opts
 
 
 def program(toolpath: Toolpath, stock: Stock, dialect: Dialect = Dialect.LINUXCNC, *,
@@ -145,33 +136,27 @@ def write_program(path: str | Path, toolpath: Toolpath, stock: Stock, dialect: D
     return write_text(path, program(toolpath, stock, dialect, options=options, name=name))
 
 
-def reference_programs(cfg: dict | None = None) -> dict[str, str]:
-    """The paper mirror's programs: {file name: text} for the paper method and the best
-    strategy, in both dialects, with the configuration's tool (default: the paper's)."""
-    from ..config import default_config
-    from ..design import mirror_from_config
-    from ..lathe import lathe_from_config, stock_from_config, tool_from_config
-    from ..toolpath import BEST, Strategy, plan_toolpath
+def program_options(settings: Settings) -> ProgramOptions:
+    """The program knobs of the [toolpath] settings."""
+    t = settings.toolpath
+    return ProgramOptions(rough_depth=t.rough_depth, rough_allowance=t.rough_allowance,
+                          clearance=t.clearance, gouge_tolerance=t.gouge_tolerance)
 
-    cfg = default_config() if cfg is None else cfg
-    mirror = mirror_from_config(cfg)
-    lathe, tool, stock = lathe_from_config(cfg), tool_from_config(cfg), stock_from_config(cfg)
-    opts = options_from_config(cfg)
+
+def reference_programs(settings: Settings, mirror: Mirror) -> dict[str, str]:
+    """The mirror's programs: {file name: text} for the paper method and the best
+    strategy, in both dialects, with the settings' lathe, tool and stock."""
+    from ..enums import BEST, Strategy
+    from ..pipeline import plan
+
+    opts = program_options(settings)
     out = {}
     for strategy in (Strategy.PAPER, BEST):
-        tp = plan_toolpath(mirror, lathe, tool, strategy)
+        tp = plan(mirror, settings.machine, settings.tool, strategy)
         for dialect, ext in ((Dialect.LINUXCNC, "ngc"), (Dialect.FANUC, "nc")):
-            out[f"mirror_{strategy.value}.{ext}"] = program(tp, stock, dialect, options=opts,
+            out[f"mirror_{strategy.value}.{ext}"] = program(tp, settings.stock, dialect, options=opts,
                                                             name=f"mirror_{strategy.value}")
     return out
-
-
-def write_reference_programs(out_dir: str | Path, cfg: dict | None = None) -> list[Path]:
-    """Write reference_programs() into out_dir (the repository's gcode/)."""
-    from .files import prepare_dir, write_text
-
-    d = prepare_dir(out_dir)
-    return [write_text(d / name, text) for name, text in reference_programs(cfg).items()]
 
 
 # --------------------------------------------------------------------------------------

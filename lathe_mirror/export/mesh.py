@@ -19,24 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..cad_body import Meridian, arc_chords
-from ..errors import InputError
-
-
-#: Allowed STL tolerances (mm). Finer than 0.001 mm the mesh passes 0.24 M triangles
-#: (12 MB, growing as 1 / tolerance: viewers and slicers suffer); coarser than 1 mm the
-#: facets no longer resolve the 1.8 mm step between the lobes.
-STL_TOLERANCE_RANGE = (0.001, 1.0)
-
-
-def check_stl_tolerance(tolerance: Any, key: str = "cad.stl_tolerance") -> float:
-    """The tolerance (mm) as a float if within STL_TOLERANCE_RANGE (InputError naming
-    `key` otherwise)."""
-    lo, hi = STL_TOLERANCE_RANGE
-    ok = isinstance(tolerance, (int, float)) and not isinstance(tolerance, bool)
-    if not (ok and lo <= tolerance <= hi):
-        raise InputError(f"{key} = {tolerance!r} mm: allowed {lo:g} to {hi:g} mm")
-    return float(tolerance)
+from ..body import Meridian, arc_chords, check_stl_tolerance
 
 
 def meridian_mesh(meridian: Meridian, tolerance: float = 0.01) -> tuple[np.ndarray, np.ndarray]:

@@ -26,23 +26,15 @@ from __future__ import annotations
 import math
 import os
 import tempfile
-from enum import Enum
 from pathlib import Path
 from typing import Any
 
-from ..cad_body import Meridian, SegmentKind
+from ..body import Meridian, SegmentKind, check_product_name
+from ..enums import StepSchema, parse
 from ..errors import InputError
 
 #: The FILE_NAME time stamp written into every STEP (ISO 8601): fixed, not "now".
 FIXED_TIMESTAMP = "2000-01-01T00:00:00"
-
-
-class StepSchema(str, Enum):
-    """STEP application protocol: AP214 (automotive design; read by nearly everything)
-    or AP242 (managed model-based 3D engineering; newer readers)."""
-
-    AP214 = "AP214"
-    AP242 = "AP242"
 
 
 # Values of OCC's "write.step.schema" static for each protocol.
@@ -57,24 +49,7 @@ SCHEMA_NAMES = {
 
 def parse_schema(value: str, key: str = "cad.step_schema") -> StepSchema:
     """StepSchema from a user's string (InputError naming `key` otherwise)."""
-    try:
-        return StepSchema(str(value).upper())
-    except ValueError:
-        raise InputError(
-            f"{key} = {value!r}: allowed {', '.join(repr(s.value) for s in StepSchema)}"
-        ) from None
-
-
-def check_product_name(name: str, key: str = "cad.product_name") -> str:
-    """The name if a STEP string can hold it as written (InputError naming `key`
-    otherwise): 1 to 80 printable ASCII characters, no quote (STEP escapes it as '')."""
-    if not (isinstance(name, str) and name and name.isascii() and name.isprintable()
-            and "'" not in name and len(name) <= 80):
-        raise InputError(
-            f"{key} = {name!r}: allowed 1 to 80 printable ASCII characters without "
-            "quotes (STEP strings)"
-        )
-    return name
+    return parse(StepSchema, value, key)
 
 
 def meridian_solid(meridian: Meridian) -> Any:
@@ -111,7 +86,11 @@ def step_bytes(meridian: Meridian, *, schema: StepSchema = StepSchema.AP214,
     from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
     from OCP.IFSelect import IFSelect_RetDone
     from OCP.Interface import Interface_Static
-    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Controller, STEPControl_Writer
+    from OCP.STEPControl import (
+        STEPControl_AsIs,
+        STEPControl_Controller,
+        STEPControl_Writer,
+    )
     from OCP.TCollection import TCollection_HAsciiString
 
     check_product_name(product_name)

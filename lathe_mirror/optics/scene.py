@@ -70,13 +70,45 @@ class Scene:
         return self.ambient + self.diffuse * np.maximum(0.0, self.normals() @ np.array(self.light))
 
 
-def scene_from_config(cfg: dict, *, mirror_top: float = 0.0, mirror_radius: float = 0.0) -> Scene:
-    """The [scene] section as a Scene; checks that the camera, mirror and boxes fit the room.
+@dataclass(frozen=True)
+class BoxSpec:
+    """A box of [[scene.boxes]]: centre (x, y) on the floor and size (x, y, z), mm."""
+
+    centre: tuple[float, ...]
+    size: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """The [scene] section as given (mm; colours linear RGB 0..1; see data/scene.toml).
+    build_scene checks it against the mirror and makes the Scene."""
+
+    room_size: float
+    room_height: float
+    camera_height: float
+    room_centre: tuple[float, ...]
+    floor_square: float
+    wall_square: float
+    ambient: float
+    diffuse: float
+    light_direction: tuple[float, ...]
+    floor_colours: tuple[float, ...]
+    x_wall_colours: tuple[float, ...]
+    y_wall_colours: tuple[float, ...]
+    ceiling_colour: tuple[float, ...]
+    box_colour: tuple[float, ...]
+    boxes: tuple[BoxSpec, ...]
+
+
+def build_scene(spec: SceneSpec, *, mirror_top: float = 0.0, mirror_radius: float = 0.0) -> Scene:
+    """The room of `spec` as a Scene; checks that the camera, mirror and boxes fit the room.
 
     mirror_top (mm): the mirror's highest point above the camera; mirror_radius (mm): its
     rim radius. Raises InputError naming the key on an empty or impossible scene.
     """
-    sc = cfg["scene"]
+    sc = {k: getattr(spec, k) for k in spec.__dataclass_fields__}
+    sc["room_centre"] = list(spec.room_centre)
+    sc["boxes"] = [{"centre": list(b.centre), "size": list(b.size)} for b in spec.boxes]
     side, height, cam_h = sc["room_size"], sc["room_height"], sc["camera_height"]
     for key in ("room_size", "room_height", "camera_height", "floor_square", "wall_square"):
         if not sc[key] > 0:

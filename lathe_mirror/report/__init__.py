@@ -1,1 +1,11 @@
-"""The report: HTML + JSON of every figure (report.py), plots (figures.py), template.html."""
+"""The report: lays out what the pipeline computed.
+
+- report.py      report.json and the self-contained report.html (write_report, render_html)
+- plots.py       the plots (matplotlib, Agg): plain data in, PNG bytes out
+- notes.py       the notes a reader needs to read the figures right
+- template.html  the page
+"""
+
+from .report import dumps, render_html, write_report
+
+__all__ = ["dumps", "render_html", "write_report"]

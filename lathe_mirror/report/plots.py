@@ -8,8 +8,12 @@ same data gives the same bytes.
 from __future__ import annotations
 
 import io
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..pipeline import ReportData
 
 LOBE_COLOURS = {"inner": "tab:blue", "outer": "tab:orange"}
 MIRROR_COLOURS = {"exact": "black", "paper": "tab:red", "best": "tab:green", "polished": "tab:purple"}
@@ -160,3 +164,23 @@ def monte_carlo_histograms(per_trial: dict, spec: dict, yield_fraction: float, *
     fig.suptitle(f"Monte Carlo{', ' + title if title else ''}, {disp.shape[0]} trials: yield "
                  f"{100 * yield_fraction:.1f} %")
     return png(fig)
+
+
+def report_plots(data: ReportData) -> dict[str, bytes]:
+    """Every plot of the report, from what the pipeline handed it (figures, curves, renders)."""
+    out, curves = data.figures, data.curves
+    plots = {}
+    plots["profile_error"] = profile_deviation_plot(curves["profile_error"], curves["r_junction"], curves["used"])
+    plots["displacement"] = displacement_plot(curves["displacement"], curves["lost_ring_px"])
+    plots["polishing_paper"] = polishing_curve_plot(out["polishing"]["paper_program"],
+                                                    "polishing the paper program's mirror")
+    plots["polishing_best"] = polishing_curve_plot(out["polishing"]["best_program"],
+                                                   "polishing the best program's mirror")
+    plots["depth_error"] = depth_error_plot(out["stereo"]["curves"])
+    if data.images:
+        plots["images"] = images_side_by_side(data.images)
+    for name, t in out.get("tolerance", {}).get("programs", {}).items():
+        mc = t["monte_carlo"]
+        plots[f"monte_carlo_{name}"] = monte_carlo_histograms(mc["per_trial"], mc["spec"], mc["yield"],
+                                                              title=f"{name} program")
+    return plots

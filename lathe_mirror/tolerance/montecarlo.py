@@ -9,14 +9,22 @@ and evaluates them vectorised (tolerance.perturb). Same config and seed, same JS
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..design import Mirror
-from .perturb import NodeSurfaces, PixelSample, TrialFigures, Trials, build_nodes, evaluate, pixel_sample
+from .perturb import (
+    NodeSurfaces,
+    PixelSample,
+    TrialFigures,
+    Trials,
+    build_nodes,
+    evaluate,
+    pixel_sample,
+)
 from .spec import Distribution, Program, ToleranceSettings
-from .surfaces import machined_surface
 
 #: Polishing-time snapshots per machined surface, as fractions of the time tolerance.
 TIME_NODES = (-1.0, -0.5, 0.0, 0.5, 1.0)
@@ -95,16 +103,20 @@ class MonteCarloResult:
         return out
 
 
-def prepare(mirror: Mirror, cfg: dict, settings: ToleranceSettings, polish_params, nominal_time_s: float,
-            program: Program, *, progress: bool = False) -> Context:
-    """Machined surfaces at each lattice phase x nose node, polished at the time nodes."""
+def prepare(mirror: Mirror, settings: ToleranceSettings, polish_params, nominal_time_s: float,
+            program: Program, *, nose0: float, machine_at: Callable, progress: bool = False) -> Context:
+    """Machined surfaces at each lattice phase x nose node, polished at the time nodes.
+
+    nose0: the programmed nose radius, mm. machine_at(phase, nose_radius) -> a made surface
+    (attributes profile, source): the pipeline's made-surface builder for this program,
+    the part cut with its work zero `phase` lattice steps off and a nose of nose_radius mm.
+    """
     tol = settings.tolerances
-    nose0 = float(cfg.get("tool", {}).get("nose_radius", 0.0))
     dn = tol.get("nose_radius_mm", 0.0)
     # Five nose nodes: a nose larger than the program's rounds the step's sharp top edge,
     # a feature that grows non-linearly with the excess; linear interpolation needs the
     # nodes close together to follow it.
-    # (settings_from_config has checked dn <= nose0: no node has a negative nose.)
+    # (settings.py has checked dn <= nose0: no node has a negative nose.)
     nose_nodes = nose0 + dn * np.array(NOSE_NODES) if dn > 0 else np.array([nose0])
     dt = tol.get("polish_time_s", 0.0)
     times = np.unique(np.clip([nominal_time_s + f * dt for f in TIME_NODES], 0.0, None))
@@ -115,7 +127,7 @@ def prepare(mirror: Mirror, cfg: dict, settings: ToleranceSettings, polish_param
     for ph in phases:
         row = []
         for nose in nose_nodes:
-            made = machined_surface(mirror, cfg, program, phase=float(ph), nose_radius=float(nose))
+            made = machine_at(float(ph), float(nose))
             if ph == 0.0 and math.isclose(nose, nose0):
                 source = made.source
             row.append(made.profile)

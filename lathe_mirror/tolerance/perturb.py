@@ -29,9 +29,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..design import Mirror
+from ..optics.radial import ideal_radius_px, lobe_pixel_radii, used_extent
 from ..optics.stereo import band_elevations, capped_abs_error, stereo_centre_z
 from ..profile import Profile
-from ..optics.radial import ideal_radius_px, lobe_pixel_radii, used_extent
 
 #: Fixed-point iterations of the 3-D ray-surface intersection (contraction <= ~0.22).
 _MAX_ITER = 40

@@ -78,21 +78,23 @@ def sensitivity_table(ctx: Context, *, progress: bool = False) -> dict:
             "nominal_values": {"nose_radius_mm": ctx.nominal_nose_mm, "polish_time_s": ctx.nominal_time_s}}
 
 
-def resolution_row(ctx: Context, cfg: dict, polish_params, *, progress: bool = False) -> dict | None:
+def resolution_row(ctx: Context, polish_params, *, res0: float, machine_at, progress: bool = False) -> dict | None:
     """The nominal part re-planned and re-machined on a controller of resolution -/+ the
-    tolerance tolerance.params.resolution_mm (None when that tolerance is 0)."""
+    tolerance tolerance.params.resolution_mm (None when that tolerance is 0).
+
+    res0: the nominal resolution, mm. machine_at(resolution) -> a made surface (attributes
+    profile, source): the pipeline's builder, the nominal part on that controller."""
     from .perturb import build_nodes
-    from .surfaces import machined_surface
 
     d = ctx.settings.tolerances.get("resolution_mm", 0.0)
     if d <= 0:
         return None
-    res0 = float(cfg["machine"]["resolution"])  # > d: checked by settings_from_config
+    # res0 > d: checked by settings.py
     out = {"parameter": "resolution_mm", "what": "controller resolution (re-planned program)",
            "tolerance": d, "unit": "mm",
            "note": "not drawn in the Monte Carlo: one controller makes every part"}
     for which, res in (("minus", res0 - d), ("plus", res0 + d)):
-        made = machined_surface(ctx.mirror, cfg, ctx.program, resolution=res, nose_radius=ctx.nominal_nose_mm)
+        made = machine_at(res)
         nodes = build_nodes(ctx.mirror, [[made.profile]], np.array([ctx.nominal_nose_mm]), np.array([0.0]),
                             polish_params, np.array([ctx.nominal_time_s]))
         sub = Context(ctx.mirror, ctx.settings, nodes, ctx.samples, ctx.nominal_nose_mm, ctx.nominal_time_s,

@@ -43,14 +43,15 @@ Modules:
                radii the camera uses: the step wall blocks the inner lobe's rim)
 """
 
-from .checks import check_junction, check_travel
+from ..path import Arc, Line, Move
 from ..sheet import foot_on_sheet
+from .checks import check_junction, check_travel
 from .metrics import profile_errors, usable_ranges
-from .moves import BEST, Arc, Line, Move, Strategy, Toolpath
+from .moves import BEST, Strategy, Toolpath, ToolpathSettings
 from .plan import plan_toolpath
 
 __all__ = [
-    "BEST", "Arc", "Line", "Move", "Strategy", "Toolpath",
+    "BEST", "Arc", "Line", "Move", "Strategy", "Toolpath", "ToolpathSettings",
     "check_junction", "check_travel", "foot_on_sheet", "plan_toolpath", "profile_errors",
     "usable_ranges",
 ]

@@ -13,9 +13,9 @@ import math
 import numpy as np
 
 from ..lathe import Lathe
+from ..path import Arc, Line, Move
 from ..sheet import Target, foot_on_sheet
-from .layout import lattice_candidates, Layout, as_point
-from .moves import Arc, Line, Move
+from .layout import Layout, as_point, lattice_candidates
 
 
 def arc_moves(layout: Layout, lathe: Lathe) -> tuple[list, list]:

@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import InputError
 from ..lathe import Lathe
 from ..sheet import Target
-from .layout import lattice_candidates, Layout, split_budget
+from .layout import Layout, lattice_candidates, split_budget
 
 
 def lattice_points(layout: Layout, lathe: Lathe) -> tuple[np.ndarray, np.ndarray]:

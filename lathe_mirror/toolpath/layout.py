@@ -11,8 +11,8 @@ import numpy as np
 
 from ..design import Mirror
 from ..lathe import Lathe
-from ..sheet import solve_rs_for_centre_r, Target
-from .moves import Line, Move
+from ..path import Line, Move
+from ..sheet import Target, solve_rs_for_centre_r
 
 
 class Layout:

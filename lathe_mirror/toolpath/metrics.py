@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..design import Lobe, Mirror
+from ..design import Mirror
 from ..profile import ExactProfile, Profile
 from ..sheet import signed_distance_camera
 

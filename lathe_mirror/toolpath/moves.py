@@ -7,26 +7,33 @@ machining cuts with them.
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..design import Mirror
+from ..enums import BEST, Strategy
 from ..lathe import Lathe, Tool
-from ..path import Arc, Line, Move
+from ..path import Arc, Move
 
 
-class Strategy(enum.Enum):
-    """How the exact profile becomes lattice moves. BEST (= ARCS) is the default."""
+@dataclass(frozen=True)
+class ToolpathSettings:
+    """The [toolpath] section. Lengths in mm.
 
-    PAPER = "paper"
-    LATTICE = "lattice"
-    ARCS = "arcs"
+    strategy: how the contour is planned. gouge_tolerance: deepest a made point may lie
+    inside the exact part (a program that gouges more is refused). max_deviation: largest
+    normal deviation a contour may have. rough_depth: depth of each roughing level (more:
+    fewer passes, heavier cuts). rough_allowance: stock left on the profile for the
+    finishing pass. clearance: safe distance above the work for rapid moves.
+    """
 
-
-#: The strategy with the smallest slope error on the paper's machine (see the package doc).
-BEST = Strategy.ARCS
+    strategy: Strategy = BEST
+    gouge_tolerance: float = 0.005
+    max_deviation: float = 0.01
+    rough_depth: float = 1.0
+    rough_allowance: float = 0.15
+    clearance: float = 2.0
 
 
 @dataclass

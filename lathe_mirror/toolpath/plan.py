@@ -10,9 +10,9 @@ import math
 from ..design import Mirror
 from ..errors import InputError
 from ..lathe import Lathe, Tool
+from ..sheet import normal_angles
 from .arcs import arc_moves
 from .checks import check_junction, check_travel
-from ..sheet import normal_angles
 from .lattice import lattice_points
 from .layout import Layout
 from .moves import BEST, Strategy, Toolpath

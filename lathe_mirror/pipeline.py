@@ -1,0 +1,494 @@
+"""The pipeline: the house plan's arrows in order, on typed objects.
+
+    Settings -> design -> plan toolpath -> machine (nose envelope) -> polish
+             -> optics -> tolerance -> (the report lays it out; export/ writes files)
+
+Every stage is a plain function of typed objects; this module strings them together and is
+the only place that builds a made surface (`made_surface`: plan, then cut, then maybe
+polish). The commands call it; `report/` only lays out what `report_figures` hands it;
+`export/` only writes the models handed to it. Nothing here touches the disk.
+
+Follow one made surface from the config to the report:
+
+    settings = config.load("my.toml")              # typed, validated once
+    mirror = design(settings)                      # Eqs. 3-6
+    made = made_surface(mirror, settings.machine, settings.tool, Strategy.ARCS)
+    made.profile                                   # the as-machined surface (camera frame)
+    distortion_figures(made.profile, mirror)       # optics: the five figures per lobe
+
+Millimetres and radians inside (ARCHITECTURE.md).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .design import Mirror
+from .enums import BEST, Program, Strategy, Surface
+from .errors import InputError
+from .lathe import Lathe, Tool
+from .nose_envelope import as_machined, contour_profile
+from .polishing import PolishParams, polish
+from .profile import ExactProfile, Profile
+from .progress import Stages
+from .toolpath import Toolpath, plan_toolpath
+
+if TYPE_CHECKING:
+    from .body import CadModel
+    from .optics.polishing_curve import PolishCurve
+    from .settings import Settings
+
+#: Ranges (m) of the depth-error curve (0.5 m to 5 m).
+DEPTH_RANGES_M = (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0)
+#: The range (m) at which the report states the depth error of every mirror.
+DEPTH_REPORT_M = 2.0
+#: The mirrors compared throughout the report, in order.
+MIRRORS = ("exact", "paper", "best", "polished")
+#: The report's stages, in order (the progress display names them).
+STAGES = ["design", "toolpaths", "polishing", "distortion", "stereo", "renders", "tolerance"]
+
+
+# --------------------------------------------------------------------------------------
+# The arrows
+
+
+def design(settings: Settings) -> Mirror:
+    """Settings -> Mirror: both lobes from the camera's constants (Eqs. 3-6, Table 1)."""
+    return settings.mirror()
+
+
+def plan(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
+         max_deviation: float = 0.01, phase: float = 0.0) -> Toolpath:
+    """Mirror -> Toolpath on the lathe's lattice (toolpath.plan_toolpath).
+
+    phase: where the part's Z work zero falls on the lattice, in lattice steps (0 <= phase
+    < 1): the same surface cut with the zero that far off the lattice, so each phase is a
+    different, equally likely realisation of the rounding (the tolerance analysis draws
+    it). X stays on a lattice through the axis (its error is the tool_x tolerance).
+    """
+    planned = mirror if phase == 0.0 else ZeroShiftedMirror(mirror.camera, mirror.inner, mirror.outer,
+                                                            zero_shift=phase * lathe.resolution)
+    return plan_toolpath(planned, lathe, tool, strategy, max_deviation=max_deviation)
+
+
+def machine(toolpath: Toolpath, nose_radius: float | None = None) -> Profile:
+    """Toolpath -> the as-machined surface: the envelope of a nose of nose_radius (mm;
+    default the nose the path was planned for) along the programmed moves."""
+    return as_machined(toolpath, nose_radius)
+
+
+@dataclass(frozen=True)
+class MadeSurface:
+    """A made surface (camera frame) and where it came from.
+
+    profile: the surface. toolpath: the program it was cut with. source: one line saying
+    what it is (for the report). polish_time_s: how long it was polished (0: as machined).
+    """
+
+    profile: Profile
+    toolpath: Toolpath
+    source: str
+    polish_time_s: float = 0.0
+
+
+def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
+                 nose_radius: float | None = None, phase: float = 0.0,
+                 polish_params: PolishParams | None = None, polish_time_s: float = 0.0,
+                 max_deviation: float = 0.01) -> MadeSurface:
+    """The one made-surface builder: plan -> machine -> (polish).
+
+    The program is planned for `tool` (its nose offset) at lattice `phase` (steps); the
+    part is cut by a nose of `nose_radius` mm (default the tool's: a worn or mis-measured
+    insert differs from the programmed one); with polish_params and polish_time_s > 0 it
+    is then polished for that time (s).
+    """
+    tp = plan(mirror, lathe, tool, strategy, max_deviation=max_deviation, phase=phase)
+    rho = tool.nose_radius if nose_radius is None else nose_radius
+    profile = machine(tp, rho)
+    source = f"{strategy.value} program, as-machined with a {rho:g} mm nose"
+    if polish_params is not None and polish_time_s > 0:
+        profile = polish(profile, polish_params, polish_time_s)
+        source += f", polished {polish_time_s / 60:g} min"
+    return MadeSurface(profile, tp, source, polish_time_s if polish_params is not None else 0.0)
+
+
+def polishing_curve(profile: Profile, mirror: Mirror, params: PolishParams, *,
+                    progress: bool = False) -> PolishCurve:
+    """The made surface's figures against polishing time, and the best time (optics)."""
+    from .optics.polishing_curve import polish_curve
+
+    return polish_curve(profile, mirror, params, progress=progress)
+
+
+def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_radius: float = 0.0) -> Profile:
+    """The surface called `name` (enums.Surface), for the commands that take --surface.
+
+      exact       the designed hyperbolic lobes (closed form)
+      reference   the paper's high-resolution model: 4001 points per lobe, 1e-6 mm
+      uniform528  528 points uniform in r on the 0.005 mm lattice, straight segments
+      paper, lattice, arcs, best
+                  the programmed contour of that strategy for the configured [tool], or with
+                  nose_radius > 0 (mm) the as-machined surface of a tool of that nose radius
+                  along its own program
+      polished    the paper program's as-machined surface (the [tool] nose, or
+                  nose_radius) polished for its polishing curve's optimum (~2 s)
+    """
+    from .optics.reference import reference_surface
+
+    if not (nose_radius >= 0 and np.isfinite(nose_radius)):
+        raise InputError(f"--nose-radius {nose_radius!r}: must be a finite number >= 0 mm")
+    builtin = (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528)
+    if nose_radius > 0 and name in builtin:
+        strategies = [s.value for s in Surface if s not in builtin]
+        raise InputError(f"--nose-radius {nose_radius:g}: the as-machined surface needs a toolpath; use "
+                         f"--surface with one of {', '.join(strategies)}")
+    if name is Surface.EXACT:
+        return ExactProfile(mirror)
+    if name in builtin:
+        return reference_surface(name.value, mirror)
+    lathe, tool = settings.machine, settings.tool
+    if nose_radius > 0:
+        tool = dataclasses.replace(tool, nose_radius=nose_radius)
+    if name is Surface.POLISHED:
+        machined = made_surface(mirror, lathe, tool, Strategy.PAPER).profile
+        curve = polishing_curve(machined, mirror, settings.polish)
+        return curve.profiles[curve.optimum_index]
+    strategy = BEST if name is Surface.BEST else Strategy(name.value)
+    tp = plan(mirror, lathe, tool, strategy)
+    return machine(tp) if nose_radius > 0 else contour_profile(tp)
+
+
+def cad_model(settings: Settings, mirror: Mirror, *, programmed: bool,
+              programmed_face_only: bool = False) -> CadModel:
+    """The meridians behind every CAD file: the design's and, when asked, the programmed
+    contour's on the [cad] body, with the tool-centre path (plans the [toolpath]).
+
+    programmed_face_only: only the programmed contour is wanted (the design DXF's
+    TOOLPATH layer), so it is closed on a body large enough for any program: the finishing
+    pass runs a few lattice steps past the rim, and a blank exactly the mirror's diameter
+    (a legitimate body for the design) must not stop the design's drawing.
+    """
+    from .body import MAX_LENGTH, CadModel, design_meridian, programmed_parts
+    from .enums import Mount
+
+    spec = settings.body
+    design_face = design_meridian(mirror, spec)
+    if not programmed:
+        return CadModel(mirror, design_face, None, None, None)
+    prog_spec = (dataclasses.replace(spec, blank_diameter=MAX_LENGTH, thickness=MAX_LENGTH, mount=Mount.NONE)
+                 if programmed_face_only else spec)
+    # The same planning as `lathe-mirror toolpath`: the config's max_deviation decides
+    # whether the point budget can hold the profile, so both commands accept the same configs.
+    tp = plan(mirror, settings.machine, settings.tool, settings.toolpath.strategy,
+              max_deviation=settings.toolpath.max_deviation)
+    prog, centre, figures = programmed_parts(tp, mirror, prog_spec)
+    return CadModel(mirror, design_face, prog, centre, figures)
+
+
+def check_programs(settings: Settings, mirror: Mirror, *, tolerance: bool = True) -> None:
+    """What the stages from the programs on need, checked before any file or progress
+    display: a junction the toolpath can cut (an inner lobe recessed, a nose that reaches
+    the wall) and polishing times the evolution can afford (tolerance=False: up to
+    polishing, for `lathe-mirror polish`; True: also the Monte Carlo's longest polish, the
+    curve's end plus the time tolerance)."""
+    from .toolpath import check_junction
+
+    check_junction(mirror, settings.tool)
+    params = settings.polish
+    params.check_time(mirror.r_max, max(params.time_s, params.curve_max_s))
+    if not tolerance:
+        return
+    tol = settings.tolerance.tolerances
+    params.check_time(mirror.r_max, params.curve_max_s + tol.get("polish_time_s", 0.0))
+    # The nodes span the nominal -/+ each tolerance: a nose or a controller step cannot go
+    # to zero or below.
+    nose0 = settings.tool.nose_radius
+    if tol.get("nose_radius_mm", 0.0) > nose0:
+        raise InputError(f"tolerance.params.nose_radius_mm = {tol['nose_radius_mm']:g} mm exceeds the nominal "
+                         f"nose radius tool.nose_radius = {nose0:g} mm: the nose cannot be negative")
+    res0 = settings.machine.resolution
+    if tol.get("resolution_mm", 0.0) >= res0:
+        raise InputError(f"tolerance.params.resolution_mm = {tol['resolution_mm']:g} mm must be smaller than "
+                         f"machine.resolution = {res0:g} mm")
+
+
+def check_cad(settings: Settings, mirror: Mirror) -> None:
+    """That the [cad] body holds the designed mirror (InputError naming the key), before any
+    file is written. Takes ~0.3 ms; plans no toolpath, imports no CAD kernel."""
+    from .body import design_meridian
+
+    design_meridian(mirror, settings.body)
+
+
+# --------------------------------------------------------------------------------------
+# Tolerance
+
+
+def tolerance_analysis(mirror: Mirror, settings: Settings, nominal_times_s: dict[Program, float], *,
+                       progress: bool = False) -> dict:
+    """Monte Carlo and sensitivity for each toleranced program ([tolerance] programs),
+    each polished for its nominal time (s); the verdict of each against the spec."""
+    from .tolerance.montecarlo import run_monte_carlo
+    from .tolerance.sensitivity import resolution_row, sensitivity_table
+
+    ts = settings.tolerance
+    out = {"spec": ts.spec.__dict__, "distribution": ts.distribution.value,
+           "tolerances": ts.tolerances, "seed": ts.seed, "programs": {}}
+    for program in ts.programs:
+        ctx = tolerance_context(mirror, settings, program, nominal_times_s[program], progress=progress)
+        mc = run_monte_carlo(ctx, progress=progress)
+        sens = sensitivity_table(ctx, progress=progress)
+        strategy = BEST if program is Program.BEST else Strategy.PAPER
+        row = resolution_row(ctx, settings.polish, res0=settings.machine.resolution,
+                             machine_at=lambda res: made_surface(
+                                 mirror, dataclasses.replace(settings.machine, resolution=res), settings.tool,
+                                 strategy, nose_radius=ctx.nominal_nose_mm))
+        if row is not None:
+            sens["rows"].insert(0, row)
+        entry = {"surfaces": ctx.source, "nominal_polish_time_s": ctx.nominal_time_s,
+                 "monte_carlo": mc.to_dict(), "sensitivity": sens}
+        entry["verdict"] = verdict(entry, ts.spec.__dict__)
+        out["programs"][program.value] = entry
+    return out
+
+
+def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nominal_time_s: float, *,
+                      progress: bool = False):
+    """The Monte Carlo's shared context: the program's part machined at each lattice phase
+    x nose node (this module's made_surface), polished at the time nodes."""
+    from .tolerance.montecarlo import prepare
+
+    strategy = BEST if program is Program.BEST else Strategy.PAPER
+    return prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
+                   nose0=settings.tool.nose_radius,
+                   machine_at=lambda phase, nose: made_surface(mirror, settings.machine, settings.tool, strategy,
+                                                               phase=phase, nose_radius=nose),
+                   progress=progress)
+
+
+def verdict(t: dict, spec: dict) -> dict:
+    """Pass / fail of a program's nominal part against each spec limit, and its yield."""
+    nominal = t["sensitivity"]["nominal"]
+    checks = {
+        "image_displacement_px": {"limit": spec["image_displacement_px"],
+                                  "nominal": max(nominal["image_displacement_px_rms"])},
+        "depth_error_pct": {"limit": spec["depth_error_pct"], "nominal": nominal["depth_error_pct_rms"],
+                            "range_m": spec["depth_range_m"]},
+        "slope_error_rad": {"limit": spec["slope_error_rad"], "nominal": max(nominal["slope_error_rad_rms"])},
+    }
+    for c in checks.values():
+        c["pass"] = bool(c["nominal"] <= c["limit"])
+    return {"checks": checks, "nominal_pass": all(c["pass"] for c in checks.values()),
+            "yield": t["monte_carlo"]["yield"], "trials": t["monte_carlo"]["trials"]}
+
+
+# --------------------------------------------------------------------------------------
+# The whole report's analysis
+
+
+@dataclass
+class ReportData:
+    """What the report shows: JSON-ready figures, the profiles compared (camera frame),
+    renders (arrays) and plots (PNG bytes, filled by report.plots)."""
+
+    figures: dict[str, Any]
+    made: dict[str, Profile] = dataclasses.field(default_factory=dict)
+    images: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    curves: dict[str, Any] = dataclasses.field(default_factory=dict)
+    plots: dict[str, bytes] = dataclasses.field(default_factory=dict)
+
+
+def report_figures(settings: Settings, *, progress: bool = False, renders: bool = True,
+                   tolerance: bool = True) -> ReportData:
+    """Run every analysis stage on the settings: design, the toolpath of each strategy and
+    its as-machined surface, polishing, the distortion of each made mirror, stereo depth
+    error against range, renders, the tolerance analysis and the verdict. No files."""
+    from .design import TABLE1_SWAP_NOTE, design_figures
+    from .optics.polishing_curve import polish_summary
+    from .optics.radial import corner_limit_px, used_extent
+    from .optics.stereo import depth_error_curve
+
+    steps = Stages(STAGES, progress)
+    out: dict[str, Any] = {"schema": "lathe-mirror report 1", "notes": []}
+    steps.start("design")
+    mirror = design(settings)
+    out["design"] = design_figures(mirror)
+    r_used = used_extent(mirror, 0)[1]
+    facts = {"r_used": r_used, "rho_used": corner_limit_px(mirror, mirror.r_junction - r_used),
+             "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
+    from .report.notes import NOTES
+
+    out["notes"] += [TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)]
+    steps.done()
+
+    steps.start("toolpaths")
+    made, out["machine"], out["toolpaths"] = _strategy_table(mirror, settings)
+    steps.done()
+
+    steps.start("polishing")
+    params = settings.polish
+    curve_paper = polishing_curve(made["paper"], mirror, params, progress=progress)
+    curve_best = polishing_curve(made["best"], mirror, params, progress=progress)
+    made["polished"] = curve_paper.profiles[curve_paper.optimum_index]
+    out["polishing"] = {
+        "params": dict(params.__dict__),
+        "model": "Preston's law, dh/dt = k_p p v, v = omega r, compliant pad p = p0 max(0, 1 + d / l_c)",
+        "paper_program": curve_paper.to_dict(),
+        "best_program": curve_best.to_dict(),
+        "summary": polish_summary(curve_paper, "paper"),
+        "summary_best": polish_summary(curve_best, "best"),
+    }
+    steps.done()
+
+    steps.start("distortion")
+    made["exact"] = ExactProfile(mirror)
+    out["mirrors"] = {name: mirror_figures(made[name], mirror) for name in MIRRORS}
+    out["mirrors"]["polished"]["polish_time_s"] = curve_paper.optimum_time_s
+    steps.done()
+
+    steps.start("stereo")
+    depth = {name: depth_error_curve(made[name], mirror, DEPTH_RANGES_M) for name in MIRRORS}
+    out["stereo"] = {
+        "definition": "depth error = 100 (R_made - R) / R, R from the stereo centre (midway between "
+                      "the viewpoints), points across the common band; RMS, median and max over the band "
+                      "of |depth error| capped at 100 % per point (a point not seen by both lobes counts "
+                      "100 %); failed: points at the cap",
+        "baseline_mm": mirror.baseline,
+        "curves": {name: c.to_dict() for name, c in depth.items()},
+        f"at_{DEPTH_REPORT_M:g}_m": {name: c.at(DEPTH_REPORT_M) for name, c in depth.items()},
+    }
+    steps.done()
+
+    data = ReportData(out, made=made, curves=report_curves(made, mirror))
+    steps.start("renders")
+    if renders:
+        data.images, out["renders"] = _renders(made, mirror, settings)
+    steps.done()
+
+    steps.start("tolerance")
+    if tolerance:
+        times = {Program.PAPER: curve_paper.optimum_time_s, Program.BEST: curve_best.optimum_time_s}
+        out["tolerance"] = tolerance_analysis(mirror, settings, times, progress=progress)
+        out["verdict"] = {name: t["verdict"] for name, t in out["tolerance"]["programs"].items()}
+    steps.done()
+    steps.close()
+    return data
+
+
+def mirror_figures(profile: Profile, mirror: Mirror) -> dict:
+    """The five figures per lobe (ARCHITECTURE.md), surface and optics.
+
+    Surface figures: toolpath.profile_errors. Optical figures: over the pixels each lobe
+    images unobstructed on the exact design (optics.radial: every pixel centre, aligned
+    camera; equal to optics.distortion's per-pixel figures over the usable annulus, which
+    the tests check); those per-pixel figures (with the pixels the step wall vignettes
+    counted too under "with_vignetted") are kept alongside under "optics_distortion".
+    """
+    from .optics.distortion import distortion_figures
+    from .optics.radial import radial_figures
+    from .toolpath import profile_errors
+
+    surf = profile_errors(profile, mirror)
+    rad = radial_figures(profile, mirror)
+    full = distortion_figures(profile, mirror)
+    lobes = []
+    for s, o, f in zip(surf["lobes"], rad["lobes"], full["lobes"]):
+        lobes.append({"name": s["name"], "slope_error_rad": s["slope_error_rad"],
+                      "normal_deviation_mm": s["normal_deviation_mm"],
+                      "ray_deviation_deg": o["ray_deviation_deg"],
+                      "image_displacement_px": o["image_displacement_px"],
+                      "viewpoint_spread_mm": o["viewpoint_spread_mm"],
+                      "pixels": o["pixels"], "pixels_excluded": o["pixels_excluded"],
+                      "optics_distortion": f})
+    return {"lobes": lobes}
+
+
+def report_curves(made: dict[str, Profile], mirror: Mirror) -> dict[str, Any]:
+    """The report's curves as arrays: each made mirror's height error along the meridian
+    (mm; r mm; `used` marks the radii the image uses) and its radial image displacement
+    against image radius (px; NaN breaks the line where a lobe has no usable pixel)."""
+    from .optics.radial import lobe_pixel_radii, radial_displacement, used_extent
+
+    names = ("paper", "best", "polished")
+    r = np.concatenate([np.linspace(0.0, mirror.r_junction, 4001),
+                        np.linspace(np.nextafter(mirror.r_junction, 99.0), mirror.r_max, 3001)])
+    exact_z = ExactProfile(mirror).z(r)
+    used = (r <= used_extent(mirror, 0)[1]) | (r > mirror.r_junction)
+    profile_error = {n: (r, made[n].z(r) - exact_z) for n in names}
+    displacement = {}
+    for name in names:
+        rho, d = [], []
+        for k in (0, 1):
+            px = lobe_pixel_radii(mirror, k, bin_px=0.25)
+            # NaN where radii are missing (vignetted, the lost ring): the line breaks there.
+            gap = np.concatenate([[False], np.diff(px.radius_px) > 1.0])
+            r_k = np.insert(px.radius_px, np.flatnonzero(gap), np.nan)
+            d_k = np.insert(radial_displacement(made[name], mirror, k, px.radius_px), np.flatnonzero(gap), np.nan)
+            rho += [r_k, [np.nan]]
+            d += [d_k, [np.nan]]
+        displacement[name] = (np.concatenate(rho), np.concatenate(d))
+    return {"profile_error": profile_error, "used": used, "r_junction": mirror.r_junction,
+            "displacement": displacement, "lost_ring_px": tuple(mirror.image_radii_px["lost_ring"])}
+
+
+def _strategy_table(mirror: Mirror, settings: Settings):
+    """As-machined profile per strategy; machine/tool table; toolpath figures per strategy."""
+    from .path import Arc, Line
+    from .toolpath import profile_errors
+
+    lathe, tool = settings.machine, settings.tool
+    machine_table = {"lathe": dict(lathe.__dict__),
+                     "tool": {"nose_radius": tool.nose_radius,
+                              "included_angle_deg": math.degrees(tool.included_angle),
+                              "approach_angle_deg": math.degrees(tool.approach_angle)}}
+    made, table = {}, []
+    for strategy in Strategy:
+        m = made_surface(mirror, lathe, tool, strategy)
+        tp = m.toolpath
+        table.append({"strategy": strategy.value, "best": strategy is BEST, "n_points": int(tp.n_points),
+                      "moves": {"G1": sum(1 for s in tp.segments if isinstance(s, Line)),
+                                "G2/G3": sum(1 for s in tp.segments if isinstance(s, Arc))},
+                      "programmed": profile_errors(contour_profile(tp), mirror),
+                      "as_machined": profile_errors(m.profile, mirror)})
+        if strategy is Strategy.PAPER:
+            made["paper"] = m.profile
+        if strategy is BEST:
+            made["best"] = m.profile
+    return made, machine_table, table
+
+
+def scene_for(settings: Settings, mirror: Mirror, *, mirror_top: float | None = None):
+    """The [scene] room as a Scene, checked against the mirror (its top, mm above the
+    camera: default the outer rim)."""
+    from .optics.scene import build_scene
+
+    top = float(mirror.outer.z(mirror.r_max)) if mirror_top is None else mirror_top
+    return build_scene(settings.scene, mirror_top=top, mirror_radius=mirror.r_max)
+
+
+def _renders(made: dict, mirror: Mirror, settings: Settings):
+    """Each mirror's image of the paper's room, and each made image's difference to the exact."""
+    from .optics.render import image_difference, render_image
+
+    scene = scene_for(settings, mirror)
+    images = {name: render_image(made[name], mirror, scene) for name in MIRRORS}
+    stats = {name: image_difference(images[name], images["exact"]) for name in MIRRORS if name != "exact"}
+    return images, {"against_exact": stats}
+
+
+@dataclasses.dataclass(frozen=True)
+class ZeroShiftedMirror(Mirror):
+    """The design with its machine zero moved zero_shift (mm) along the axis: the planner
+    puts machine Z = 0 at mirror.vertex_z, so this is the same surface cut with the work
+    zero that far off the lattice."""
+
+    zero_shift: float = 0.0
+
+    @property
+    def vertex_z(self) -> float:  # type: ignore[override]
+        return self.inner.vertex_z + self.zero_shift

@@ -1,0 +1,39 @@
+"""The notes the report carries: what a reader needs to know to read the figures right.
+
+Each is a format string; pipeline.report_figures fills in the design's facts (r_used,
+rho_used, baseline, angle_2m).
+"""
+
+#: What a reader needs to know to read the figures right.
+NOTES = (
+    "Optical figures count, per lobe, the pixel centres whose exact and made rays land on the "
+    "lobe and leave it unobstructed; on this design the step wall vignettes the inner lobe's "
+    "reflected rays beyond r = {r_used:.2f} mm (image radius {rho_used:.0f} px), so those pixels show the wall, "
+    "not the world, and are left out (each lobe's usable annulus, as optics.distortion counts it; "
+    "its per-pixel figures, with those pixels counted too under with_vignetted, are kept "
+    "alongside under optics_distortion).",
+    "Slope error in the tolerance spec and on the polishing curve is over the radii the image "
+    "uses (the inner lobe up to the vignetting radius, where the tool's corner fillet also lies); "
+    "the toolpath tables give it over whole lobes (toolpath.profile_errors).",
+    "Depth error: a point at range R from the stereo centre is imaged at the exact design's pixel "
+    "by each lobe; the made mirror's rays through those two pixels are crossed; error = 100 "
+    "(R_made - R) / R. With a {baseline:.1f} mm baseline the two rays meet at only {angle_2m:.2f} deg at 2 m "
+    "(the parallax gamma), and a difference delta between the two lobes' ray errors gives "
+    "R_made / R = gamma / (gamma - delta): where delta nears gamma the rays turn parallel and the error "
+    "diverges, past it they cross behind. So each point's |error| is capped at 100 % (no usable depth, "
+    "like a point one lobe does not see; 'failed' counts them) before the RMS over the band: uncapped, "
+    "the RMS of a mirror whose delta crosses gamma in the band grows without bound as the band is "
+    "sampled more finely (it is set by whichever sample falls nearest the pole), while the capped RMS "
+    "and the median converge. This is why polishing the paper program's mirror, which cuts its ray "
+    "deviation about tenfold, can still leave many points failed: its low-order form change bends the "
+    "two lobes' rays by a few tenths of a degree, the size of the parallax itself.",
+    "Polishing: removal k_p p omega r grows from nothing at the vertex, so facets near the "
+    "axis outlast those at the rim; the band at the foot of the step (polish.corner_mm) is "
+    "out of the pad's reach and stays as machined.",
+    "Monte Carlo: machined surfaces are precomputed at tolerance.lattice_phases lattice phases "
+    "(the Z work zero's offset on the controller's lattice) x 5 nose radii, each polished once "
+    "with snapshots at 5 times; a trial interpolates linearly between them, shifts the surface "
+    "by the tool setting errors, and is traced in 3-D through its misaligned camera on a sparse "
+    "pixel sample (tolerance.bin_px image-radius bins x tolerance.azimuths azimuths, weighted "
+    "by pixel counts).",
+)

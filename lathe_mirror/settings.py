@@ -1,0 +1,256 @@
+"""Settings: the merged configuration as one frozen, typed object, validated once.
+
+`config.load()` merges the user's TOML over the embedded defaults and checks every key's
+name and type (config.py); `from_config` here turns that checked dict into `Settings`, one
+typed object per TOML section, and checks every value (ranges, choices, the design itself).
+Each rejection is one InputError line naming the key and what is allowed, and all of it
+happens before any command does work or writes a file. Below the command layer nothing sees
+the dict: every stage takes the typed objects (Camera, Lathe, Tool, PolishParams, ...).
+
+Checks that need a planned toolpath or the made surface (the gouge, the stock holding the
+mirror, the body holding it, the room holding the camera) stay with the stage that has them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from .body import MAX_LENGTH, BodySpec, CadSettings
+from .design import Camera, LobeSpec, Mirror, mirror_from_specs
+from .enums import (
+    BEST,
+    Distribution,
+    Mount,
+    Program,
+    StepSchema,
+    Strategy,
+    Surface,
+    parse,
+)
+from .errors import ConfigError, InputError
+from .lathe import Lathe, Stock, Tool
+from .optics.camera import CameraPose
+from .optics.scene import BoxSpec, SceneSpec
+from .polishing import PolishParams
+from .tolerance.spec import MAX_SAMPLE_RAYS, Spec, ToleranceSettings
+from .toolpath import ToolpathSettings
+
+#: Largest supersampling factor of a render (N x N rays per pixel).
+MAX_SUPERSAMPLE = 8
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """The [render] section: supersample N (N x N rays per pixel, N^2 the cost), the made
+    surface rendered by default, and the nose radius (mm; > 0: the as-machined surface of
+    a tool of that radius along its own program)."""
+
+    supersample: int = 1
+    surface: Surface = Surface.PAPER
+    nose_radius: float = 0.0
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Every section of a configuration, typed and checked (see the module doc).
+
+    camera, lobes: the design's inputs (pipeline.design builds the Mirror from them).
+    machine, tool, stock, toolpath: the lathe, its insert, the bar and the program's knobs.
+    body, cad: the mounting body and the CAD export settings. polish: polishing.
+    scene, render, pose: the room, how it is rendered, the camera's misalignment.
+    tolerance: the tolerance analysis (spec, tolerances, Monte Carlo).
+    """
+
+    camera: Camera
+    lobes: tuple[LobeSpec, LobeSpec]
+    machine: Lathe = field(default_factory=Lathe)
+    tool: Tool = field(default_factory=Tool)
+    stock: Stock = field(default_factory=Stock)
+    toolpath: ToolpathSettings = field(default_factory=ToolpathSettings)
+    body: BodySpec = field(default_factory=BodySpec)
+    cad: CadSettings = field(default_factory=CadSettings)
+    polish: PolishParams = field(default_factory=PolishParams)
+    scene: SceneSpec | None = None
+    render: RenderSettings = field(default_factory=RenderSettings)
+    pose: CameraPose = field(default_factory=CameraPose)
+    tolerance: ToleranceSettings | None = None
+
+    def mirror(self) -> Mirror:
+        """The designed mirror (design.mirror_from_specs; cheap, the design is closed form)."""
+        return mirror_from_specs(self.camera, self.lobes)
+
+
+def from_config(cfg: dict[str, Any]) -> Settings:
+    """Settings from a merged, key-checked configuration dict (config.load does both).
+
+    The design is built once here, so an impossible design fails before anything else.
+    """
+    camera = Camera(f=float(cfg["camera"]["f"]), t_pixel=float(cfg["camera"]["t_pixel"]),
+                    sensor_px=tuple(int(n) for n in cfg["camera"]["sensor_px"]))
+    lobes = tuple(_lobe_spec(name, cfg["lobes"][name]) for name in ("inner", "outer"))
+    settings = Settings(
+        camera=camera,
+        lobes=lobes,
+        machine=_lathe(cfg["machine"]),
+        tool=_tool(cfg["tool"]),
+        stock=Stock(diameter=float(cfg["stock"]["diameter"]),
+                    face_allowance=float(cfg["stock"]["face_allowance"]),
+                    length=float(cfg["stock"]["length"])),
+        toolpath=_toolpath(cfg["toolpath"]),
+        body=_body(cfg["cad"]),
+        cad=CadSettings(schema=parse(StepSchema, cfg["cad"]["step_schema"], "cad.step_schema"),
+                        product_name=cfg["cad"]["product_name"],
+                        stl_tolerance=cfg["cad"]["stl_tolerance"]),
+        polish=PolishParams(**{k: (int(v) if k in ("curve_points", "form_degree") else float(v))
+                               for k, v in cfg["polish"].items()}),
+        scene=_scene(cfg["scene"]),
+        render=_render(cfg["render"]),
+        pose=_pose(cfg["camera_pose"]),
+        tolerance=_tolerance(cfg),
+    )
+    settings.mirror()  # the design's own checks (DesignError / InputError naming the key)
+    return settings
+
+
+# --------------------------------------------------------------------------------------
+# Sections
+
+
+def _lobe_spec(name: str, lc: dict) -> LobeSpec:
+    return LobeSpec(name=name, r_top=float(lc["r_top"]), r_pixel=float(lc["r_pixel"]),
+                    alpha_deg=lc.get("alpha_deg"), a_over_b=lc.get("a_over_b"), e=lc.get("e"))
+
+
+def _lathe(m: dict) -> Lathe:
+    return Lathe(
+        resolution=float(m["resolution"]),
+        max_points=int(m["max_points"]),
+        diameter_mode=bool(m["diameter_mode"]),
+        travel_x=float(m["travel_x"]),
+        travel_z_min=float(m["travel_z_min"]),
+        travel_z_max=float(m["travel_z_max"]),
+        spindle_max_rpm=int(m["spindle_max_rpm"]),
+        surface_speed=float(m["surface_speed"]),
+        feed_rough=float(m["feed_rough"]),
+        feed_finish=float(m["feed_finish"]),
+        arc_radius_tolerance=float(m["arc_radius_tolerance"]),
+    )
+
+
+def _tool(t: dict) -> Tool:
+    # angles in degrees in the file, radians inside
+    return Tool(nose_radius=float(t["nose_radius"]),
+                included_angle=math.radians(float(t["included_angle"])),
+                approach_angle=math.radians(float(t["approach_angle"])))
+
+
+def _toolpath(t: dict) -> ToolpathSettings:
+    strategy = parse(Strategy, t["strategy"], "toolpath.strategy", aliases={"best": BEST})
+    for key in ("rough_depth", "rough_allowance", "clearance", "gouge_tolerance"):
+        if not t[key] > 0:
+            raise InputError(f"toolpath.{key} = {t[key]!r} mm must be > 0")
+    return ToolpathSettings(strategy=strategy, gouge_tolerance=float(t["gouge_tolerance"]),
+                            max_deviation=float(t["max_deviation"]), rough_depth=float(t["rough_depth"]),
+                            rough_allowance=float(t["rough_allowance"]), clearance=float(t["clearance"]))
+
+
+def _body(c: dict) -> BodySpec:
+    """BodySpec from the [cad] section (validated: the message names the key)."""
+    try:
+        mount = Mount(c["mount"])
+    except ValueError:
+        raise ConfigError(
+            f"cad.mount = {c['mount']!r}: allowed {', '.join(repr(m.value) for m in Mount)}"
+        ) from None
+    for key in ("blank_diameter", "thickness", "mount_diameter", "mount_depth", "min_wall"):
+        if not 0 < c[key] <= MAX_LENGTH:
+            raise ConfigError(f"cad.{key} = {c[key]:g} mm: allowed > 0 and <= {MAX_LENGTH:g} mm")
+    return BodySpec(
+        blank_diameter=float(c["blank_diameter"]), thickness=float(c["thickness"]),
+        mount=mount, mount_diameter=float(c["mount_diameter"]),
+        mount_depth=float(c["mount_depth"]), min_wall=float(c["min_wall"]),
+    )
+
+
+def _scene(sc: dict) -> SceneSpec:
+    """The [scene] section as typed data; optics.scene.build_scene checks it against the
+    mirror and builds the Scene."""
+    return SceneSpec(
+        room_size=sc["room_size"], room_height=sc["room_height"], camera_height=sc["camera_height"],
+        room_centre=tuple(sc["room_centre"]), floor_square=sc["floor_square"], wall_square=sc["wall_square"],
+        ambient=sc["ambient"], diffuse=sc["diffuse"], light_direction=tuple(sc["light_direction"]),
+        floor_colours=tuple(sc["floor_colours"]), x_wall_colours=tuple(sc["x_wall_colours"]),
+        y_wall_colours=tuple(sc["y_wall_colours"]), ceiling_colour=tuple(sc["ceiling_colour"]),
+        box_colour=tuple(sc["box_colour"]),
+        boxes=tuple(BoxSpec(centre=tuple(b["centre"]), size=tuple(b["size"])) for b in sc["boxes"]),
+    )
+
+
+def _render(rc: dict) -> RenderSettings:
+    n = rc["supersample"]
+    if not 1 <= n <= MAX_SUPERSAMPLE:
+        raise InputError(f"render.supersample = {n}: allowed 1..{MAX_SUPERSAMPLE} (N x N rays per pixel)")
+    nose = rc["nose_radius"]
+    if not nose >= 0:
+        raise InputError(f"render.nose_radius = {nose!r}: must be a finite number >= 0 mm")
+    return RenderSettings(supersample=int(n), surface=parse(Surface, rc["surface"], "render.surface"),
+                          nose_radius=float(nose))
+
+
+def _pose(pc: dict) -> CameraPose:
+    if len(pc["decentre"]) != 2 or len(pc["tilt_deg"]) != 2:
+        raise InputError("camera_pose: decentre and tilt_deg take two numbers each (mm, degrees)")
+    if max(abs(t) for t in pc["tilt_deg"]) >= 45:
+        raise InputError(f"camera_pose.tilt_deg = {pc['tilt_deg']}: allowed |tilt| < 45 degrees")
+    return CameraPose(decentre=(float(pc["decentre"][0]), float(pc["decentre"][1])),
+                      axial_offset=float(pc["axial_offset"]),
+                      tilt=tuple(math.radians(float(t)) for t in pc["tilt_deg"]))
+
+
+def _tolerance(cfg: dict) -> ToleranceSettings:
+    """Validated ToleranceSettings from [tolerance]; an InputError names the offending key.
+    (Their bounds against [tool] and [machine] are pipeline.check_programs', where the
+    tolerance analysis runs: `toolpath --nose-radius 0` must not trip over them.)"""
+    t = cfg["tolerance"]
+    _int_at_least("tolerance.trials", t["trials"], 1)
+    _int_at_least("tolerance.lattice_phases", t["lattice_phases"], 1)
+    _int_at_least("tolerance.azimuths", t["azimuths"], 1)
+    _int_at_least("tolerance.depth_points", t["depth_points"], 1)
+    _int_at_least("tolerance.seed", t["seed"], 0)
+    if not (math.isfinite(t["bin_px"]) and 0.05 <= t["bin_px"] <= 50):
+        raise InputError(f"tolerance.bin_px = {t['bin_px']!r} must be 0.05 .. 50 px")
+    # The sparse pixel sample is image-radius bins x azimuths per lobe: bound its size so a
+    # trial's rays fit in memory (the default, 504 / 4 px x 12, is ~1500).
+    r_pixel = max((float(lb.get("r_pixel", 0.0)) for lb in cfg.get("lobes", {}).values()), default=504.0)
+    rays = t["azimuths"] * r_pixel / t["bin_px"]
+    if rays > MAX_SAMPLE_RAYS:
+        raise InputError(f"tolerance.azimuths = {t['azimuths']} with tolerance.bin_px = {t['bin_px']:g} px gives "
+                         f"{rays:.3g} sample rays per lobe, at most {MAX_SAMPLE_RAYS} allowed: fewer azimuths or "
+                         f"wider bins")
+    programs = tuple(parse(Program, v, f"tolerance.programs[{i}]") for i, v in enumerate(t["programs"]))
+    if not programs:
+        raise InputError("tolerance.programs = []: name at least one of \"paper\", \"best\"")
+    dist = parse(Distribution, t["distribution"], "tolerance.distribution")
+    s = t["spec"]
+    for key in ("image_displacement_px", "depth_error_pct", "slope_error_rad"):
+        if not (math.isfinite(s[key]) and s[key] > 0):
+            raise InputError(f"tolerance.spec.{key} = {s[key]!r} must be a finite number > 0")
+    if not (math.isfinite(s["depth_range_m"]) and 0.2 <= s["depth_range_m"] <= 100.0):
+        raise InputError(f"tolerance.spec.depth_range_m = {s['depth_range_m']!r} must be 0.2 .. 100 m")
+    tol = {}
+    for key, value in t["params"].items():
+        if not (math.isfinite(value) and value >= 0):
+            raise InputError(f"tolerance.params.{key} = {value!r} must be a finite number >= 0")
+        tol[key] = float(value)
+    return ToleranceSettings(
+        seed=int(t["seed"]), trials=int(t["trials"]), programs=programs, distribution=dist,
+        lattice_phases=int(t["lattice_phases"]), azimuths=int(t["azimuths"]),
+        bin_px=float(t["bin_px"]), depth_points=int(t["depth_points"]),
+        spec=Spec(**{k: float(v) for k, v in s.items()}), tolerances=tol)
+
+
+def _int_at_least(key: str, value: int, lo: int) -> None:
+    if value < lo:
+        raise InputError(f"{key} = {value!r} must be an integer >= {lo}")
