@@ -13,7 +13,7 @@ import os
 import sys
 import traceback
 
-from . import __version__
+from .version import __version__
 from .errors import InputError
 
 COMMANDS = ("design", "toolpath", "cad", "render", "polish", "tolerance", "report", "run")

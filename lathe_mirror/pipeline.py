@@ -257,6 +257,17 @@ def tolerance_analysis(mirror: Mirror, settings: Settings, nominal_times_s: dict
     return out
 
 
+def monte_carlo(mirror: Mirror, settings: Settings, program: Program, nominal_time_s: float, *,
+                progress: bool = False):
+    """The seeded Monte Carlo of one program's part polished nominal_time_s (s): settings.
+    tolerance.trials draws from its seed (tolerance.montecarlo.MonteCarloResult: the
+    trials, their figures, pass flags per criterion, `.yield_fraction`)."""
+    from .tolerance.montecarlo import run_monte_carlo
+
+    return run_monte_carlo(tolerance_context(mirror, settings, program, nominal_time_s, progress=progress),
+                           progress=progress)
+
+
 def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nominal_time_s: float, *,
                       progress: bool = False):
     """The Monte Carlo's shared context: the program's part machined at each lattice phase
@@ -321,7 +332,7 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     r_used = used_extent(mirror, 0)[1]
     facts = {"r_used": r_used, "rho_used": corner_limit_px(mirror, mirror.r_junction - r_used),
              "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
-    from .report.notes import NOTES
+    from .notes import NOTES
 
     out["notes"] += [TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)]
     steps.done()

@@ -158,7 +158,6 @@ def test_programmed_contour_is_the_machining_envelope(paper_config, paper_mirror
     envelope (the lowest nose point over a 0.0005 mm grid of radii, linearly
     interpolated). Linear interpolation across a corner of the envelope, where the
     slope dZ/dr jumps by ds between two moves, errs by up to GRID * ds / 4: the bound."""
-    import copy
 
     from lathe_mirror.body import programmed_parts, segment_tangent
     from lathe_mirror.nose_envelope import GRID, as_machined

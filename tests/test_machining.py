@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from lathe_mirror.lathe import Lathe, Tool
-from lathe_mirror.nose_envelope import as_machined, contour_profile, gouge_depth
+from lathe_mirror.nose_envelope import as_machined, gouge_depth
+from lathe_mirror.path import Arc
 from lathe_mirror.profile import PathProfile
 from lathe_mirror.toolpath import Strategy, plan_toolpath, profile_errors
 
@@ -71,10 +72,29 @@ def test_the_fillet_in_the_inside_corner(tp02, paper_mirror):
 
 
 def test_zero_nose_is_the_programmed_contour(paper_mirror):
+    """A sharp tool cuts its own path: the as-machined surface passes through every
+    programmed end point and, halfway along each move, through the point the controller
+    is at there (a line's midpoint; on an arc, radius linear in the swept angle about the
+    programmed centre), all computed here from the program's numbers (camera z = vertex_z - Z)."""
     tp = plan_toolpath(paper_mirror, LATHE, Tool(nose_radius=0.0), Strategy.ARCS)
-    assert isinstance(as_machined(tp), PathProfile)
-    r = np.linspace(0.1, 34.9, 101)
-    assert np.allclose(as_machined(tp).z(r), contour_profile(tp).z(r))
+    made = as_machined(tp)
+    assert isinstance(made, PathProfile)
+    zero = paper_mirror.vertex_z
+    for seg, lobe in zip(tp.segments, tp.lobe_of):
+        if lobe == "junction":
+            continue
+        (r0, z0), (r1, z1) = seg.start, seg.end
+        if isinstance(seg, Arc):
+            cr, cz = seg.centre
+            a0, a1 = math.atan2(z0 - cz, r0 - cr), math.atan2(z1 - cz, r1 - cr)
+            sweep = (a1 - a0 + math.pi) % (2 * math.pi) - math.pi
+            rad = 0.5 * (math.hypot(r0 - cr, z0 - cz) + math.hypot(r1 - cr, z1 - cz))
+            mid = (cr + rad * math.cos(a0 + sweep / 2), cz + rad * math.sin(a0 + sweep / 2))
+        else:
+            mid = ((r0 + r1) / 2, (z0 + z1) / 2)
+        for r, z in (mid, (r1, z1)):
+            side = np.nextafter(r, 0.0) if abs(r - paper_mirror.r_junction) < 1e-12 else r
+            assert made.z(np.array([side]))[0] == pytest.approx(zero - z, abs=1e-9)
 
 
 def test_nose_compensated_path_cuts_the_surface(tp02, paper_mirror):

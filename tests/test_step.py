@@ -226,7 +226,6 @@ def _distance(shape, p) -> float:
 def test_line_strategies_give_valid_programmed_solids(paper_config, paper_mirror, strategy):
     """G1-only contours (hundreds of moves, zig-zags from lattice rounding): one valid
     solid that the nose touches and never enters."""
-    import copy
 
     from lathe_mirror.export.step import meridian_solid
     from lathe_mirror.toolpath import Strategy, plan_toolpath

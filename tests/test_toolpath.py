@@ -23,9 +23,18 @@ def plans(paper_mirror):
             for st in Strategy for rho in (0.0, 0.2)}
 
 
-def test_best_is_the_default_and_arcs():
-    assert BEST is Strategy.ARCS
-    assert plan_toolpath.__defaults__[0] is BEST
+def test_best_is_the_shipped_default():
+    """The strategy of the shipped default (data/machine.toml, read here as TOML) is the
+    one test_best_slope_error_is_20x_below_the_paper_method shows best, and the typed
+    settings carry it as that enum member."""
+    import tomllib
+    from importlib import resources
+
+    from lathe_mirror.config import load
+
+    shipped = tomllib.loads((resources.files("lathe_mirror") / "data" / "machine.toml").read_text())
+    assert shipped["toolpath"]["strategy"] == "arcs"
+    assert load().toolpath.strategy is BEST is Strategy.ARCS
 
 
 @pytest.mark.parametrize("rho", [0.0, 0.2])

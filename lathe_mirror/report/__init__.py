@@ -2,7 +2,6 @@
 
 - report.py      report.json and the self-contained report.html (write_report, render_html)
 - plots.py       the plots (matplotlib, Agg): plain data in, PNG bytes out
-- notes.py       the notes a reader needs to read the figures right
 - template.html  the page
 """
 

@@ -1,4 +1,4 @@
-"""The notes the report carries: what a reader needs to know to read the figures right.
+"""The notes the report carries (filled in by pipeline.report_figures): what a reader needs to know to read the figures right.
 
 Each is a format string; pipeline.report_figures fills in the design's facts (r_used,
 rho_used, baseline, angle_2m).
