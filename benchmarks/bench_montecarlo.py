@@ -8,29 +8,26 @@ trials themselves, per program, and the yield.
 from __future__ import annotations
 
 import sys
-from lathe_mirror.settings import from_config
 import time
 
 
 def main() -> None:
-    from lathe_mirror.config import default_config
-    from lathe_mirror.polishing import polish_curve
-    from lathe_mirror.tolerance.montecarlo import prepare, run_monte_carlo
+    from lathe_mirror.config import load
+    from lathe_mirror.enums import BEST, Program, Strategy
+    from lathe_mirror.pipeline import made_surface, polishing_curve, tolerance_context
+    from lathe_mirror.tolerance.montecarlo import run_monte_carlo
     from lathe_mirror.tolerance.sensitivity import sensitivity_table
-    from lathe_mirror.tolerance.surfaces import machined_surface
 
-    cfg = default_config()
-    if len(sys.argv) > 1:
-        cfg["tolerance"]["trials"] = int(sys.argv[1])
-    mirror = from_config(cfg).mirror()
-    settings = from_config(cfg).tolerance
-    params = from_config(cfg).polish
+    overrides = [("tolerance.trials", int(sys.argv[1]), "argv")] if len(sys.argv) > 1 else []
+    s = load(overrides=overrides)
+    mirror, settings, params = s.mirror(), s.tolerance, s.polish
     for program in settings.programs:
         t0 = time.perf_counter()
-        made = machined_surface(mirror, cfg, program)
-        t_opt = polish_curve(made.profile, mirror, params).optimum_time_s
+        strategy = BEST if program is Program.BEST else Strategy.PAPER
+        made = made_surface(mirror, s.machine, s.tool, strategy)
+        t_opt = polishing_curve(made.profile, mirror, params).optimum_time_s
         t1 = time.perf_counter()
-        ctx = prepare(mirror, cfg, settings, params, t_opt, program)
+        ctx = tolerance_context(mirror, s, program, t_opt)
         t2 = time.perf_counter()
         mc = run_monte_carlo(ctx)
         t3 = time.perf_counter()

@@ -8,7 +8,6 @@ under 2 s together. Prints the median and best of N runs per step.
 from __future__ import annotations
 
 import argparse
-from lathe_mirror.settings import from_config
 import statistics
 import time
 
@@ -18,14 +17,14 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
 
-    from lathe_mirror.config import default_config
-    from lathe_mirror.export.gcode import Dialect, options_from_config, program
+    from lathe_mirror.config import load
+    from lathe_mirror.export.gcode import Dialect, program, program_options
     from lathe_mirror.toolpath import BEST, Strategy, plan_toolpath
 
-    cfg = default_config()
-    mirror = from_config(cfg).mirror()
-    lathe, tool, stock = from_config(cfg).machine, from_config(cfg).tool, from_config(cfg).stock
-    opts = options_from_config(cfg)
+    settings = load()
+    mirror = settings.mirror()
+    lathe, tool, stock = settings.machine, settings.tool, settings.stock
+    opts = program_options(settings)
 
     rows: dict[str, list[float]] = {}
     for _ in range(args.repeat):

@@ -11,7 +11,7 @@ Layers:
   CAMERA        the camera's pinhole and both lobes' viewpoints F1 (POINTs)
   TOOLPATH      the programmed finishing contour, the surface the program cuts: LINEs and
                 ARCs (the G-code moves offset back by the nose radius, see
-                cad_body.programmed_contour; the moves themselves for a sharp tool)
+                body.programmed_contour; the moves themselves for a sharp tool)
   TOOL_CENTRE   the path of the tool nose's centre: the G-code's moves as LINE and ARC
                 (lathe_mirror.toolpath programs the nose centre)
   DIMENSIONS    both R_top, the vertex and rim heights above the camera (Table 1's h),

@@ -8,10 +8,12 @@ Public API (stable names):
   distortion_figures(made, mirror, camera=None, *, pose=...) -> {"lobes": [...]}
   render_image(profile, mirror, scene, camera=None, ...) -> (H, W, 3) uint8
   image_difference(a, b, *, mask=None) -> {"rms", "ssim"}
-  scene_from_config(cfg, ...) -> Scene;  make_surface(name, mirror, cfg, *, nose_radius=0)
+  build_scene(spec, *, mirror_top, mirror_radius) -> Scene;  reference_surface(name, mirror)
+  polish_curve(profile, mirror, params) -> PolishCurve (figures against polishing time)
   optics.plots: displacement_vs_radius_png(maps), displacement_map_png(maps) -> PNG bytes
-Modules: camera (pixels, rays, CameraPose), trace, distortion, scene, render, surfaces,
-plots; stereo (issue 6). Nothing here imports cadquery; submodules are imported on use.
+Modules: camera (pixels, rays, CameraPose), trace, distortion, radial (the 1-D shortcut),
+scene, render, reference, polishing_curve, plots; stereo (issue 6). The made surfaces
+(programs, polished) are the pipeline's (pipeline.named_surface). Nothing here imports cadquery; submodules are imported on use.
 """
 
 from .camera import ALIGNED, CameraPose  # noqa: F401

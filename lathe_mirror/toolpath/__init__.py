@@ -25,7 +25,7 @@ is the contour itself). Each strategy puts that path on the lattice:
 The junction: the contour runs out along the inner lobe, up the step wall (r =
 r_junction, the inner lobe recessed), then out along the outer lobe. A nose of radius
 rho touches the wall at r = r_junction - rho and cannot reach the inside corner at the
-wall's foot: it leaves a fillet there (see machining.as_machined). The fillet lies where
+wall's foot: it leaves a fillet there (see nose_envelope.as_machined). The fillet lies where
 the step wall already hides the inner lobe from the camera (usable_ranges), so the
 G-code header and `--json` give the figures over those radii beside the whole lobe's.
 

@@ -2,7 +2,7 @@
 
 Machine frame (r, Z), mm; every programmed coordinate (and every arc centre) is on the
 lathe's lattice. The planners (plan.py) build these; export.gcode writes them and
-machining cuts with them.
+nose_envelope cuts with them.
 """
 
 from __future__ import annotations
