@@ -1,0 +1,139 @@
+"""`lathe-mirror calib`: each lobe's camera model for OpenCV, Kalibr and OCamCalib, and how
+far a made mirror departs from it (the design's reprojection error; the model refitted)."""
+
+from __future__ import annotations
+
+import argparse
+
+from .common import add_common, add_no_progress, load, print_json
+
+#: The made mirrors compared by default: the report's (programs as machined, polished).
+DEFAULT_SURFACES = ("paper", "best", "polished")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "calib", help="calibration files (OpenCV, Kalibr, OCamCalib) and the made mirror's departure",
+        description="Write each lobe's unified camera model (xi, gamma; exact for the design) as "
+        "OpenCV FileStorage YAML, a Kalibr camchain and OCamCalib calib_results.txt, and for made "
+        "mirrors the design model's reprojection error and the model refitted (xi, gamma, k1, k2) "
+        "with what it leaves, RMS / max px per lobe.")
+    add_common(p, output_help="directory for the calibration files (default: calib/)")
+    p.add_argument("--surface", metavar="NAME", default=None,
+                   help="the made mirror: exact, reference, uniform528, a toolpath strategy (paper, "
+                   "lattice, arcs, best) or polished; default: paper, best and polished, as the report")
+    p.add_argument("--nose-radius", metavar="MM", type=float, default=None,
+                   help="a toolpath strategy's surface as machined by a tool of this nose radius (mm; "
+                   "0: the programmed contour); default: the [tool] nose radius")
+    p.add_argument("--range-m", metavar="M", type=float, default=None,
+                   help="distance (m) from each lobe's viewpoint at which the made mirror's traced "
+                   "rays get their world points (inf: directions); default 2")
+    add_no_progress(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import math
+    from pathlib import Path
+
+    from ..design import mirror_from_config
+    from ..errors import InputError
+    from ..lathe import tool_from_config
+    from ..optics.camera_model import DEFAULT_RANGE_MM, design_figures, made_figures
+    from ..optics.surfaces import BUILTIN, make_surface, surface_names
+    from ..progress import Stages
+
+    cfg = load(args)
+    mirror = mirror_from_config(cfg)
+    range_m = DEFAULT_RANGE_MM / 1000.0 if args.range_m is None else args.range_m
+    if not range_m > 0:  # NaN too
+        raise InputError(f"--range-m {args.range_m!r}: must be a number > 0 m (inf: directions)")
+    nose = tool_from_config(cfg).nose_radius if args.nose_radius is None else args.nose_radius
+    if not (math.isfinite(nose) and nose >= 0):
+        raise InputError(f"--nose-radius {args.nose_radius!r}: must be a finite number >= 0 mm")
+    pose = pose_from_config(cfg)
+    names = (args.surface,) if args.surface is not None else DEFAULT_SURFACES
+
+    allowed = surface_names()
+    for name in names:  # before any progress display: a bad name is one line
+        if name not in allowed:
+            raise InputError(f"--surface {name!r}: unknown surface; allowed: {', '.join(allowed)}")
+    steps = Stages([*names, "files"], not args.no_progress)
+    try:
+        made = {}
+        for name in names:
+            steps.start(name)
+            # make_surface's nose applies to toolpath surfaces (and polished, as its machining).
+            nose_k = 0.0 if name in BUILTIN else nose
+            surface = make_surface(name, mirror, cfg, nose_radius=nose_k)
+            try:
+                fig = made_figures(surface, mirror, range_mm=range_m * 1000.0, pose=pose)
+            except InputError as exc:
+                raise InputError(f"--surface {name}: {exc}") from None
+            made[name] = {"surface": name, "nose_radius_mm": nose_k, **fig}
+            steps.done()
+        steps.start("files")
+        from ..export.calib import calibration_texts
+        from ..export.files import write_text
+        from .common import output_dir
+
+        texts = calibration_texts(mirror)  # every file's text before the directory is made
+        out = output_dir(args.output or "calib")
+        files = [str(write_text(Path(out) / name, text)) for name, text in texts.items()]
+        steps.done()
+    except BaseException:
+        if steps.bar is not None:
+            steps.bar.leave = False  # clear the bar: the error stays the only line on stderr
+        raise
+    finally:
+        steps.close()
+    figures = {"design": design_figures(mirror),
+               "camera_pose": "aligned" if pose.aligned else {
+                   "decentre_mm": list(pose.decentre), "axial_offset_mm": pose.axial_offset,
+                   "tilt_deg": [math.degrees(t) for t in pose.tilt]},
+               "made": list(made.values()), "files": files}
+    if args.json:
+        print_json(figures)
+    else:
+        print(format_figures(figures))
+    return 0
+
+
+def format_figures(fig: dict) -> str:
+    """The models and the made mirrors' residuals as a short table."""
+    lines = [f"{'lobe':8s}{'xi':>14s}{'gamma px':>14s}{'cx, cy px':>16s}{'annulus px':>22s}"]
+    for lb in fig["design"]["lobes"]:
+        lines.append(f"{lb['name']:8s}{lb['xi']:14.9f}{lb['gamma_px']:14.6f}"
+                     f"{lb['cx_px']:>8g},{lb['cy_px']:>7g}{lb['annulus_px']['min']:>11.3f}-"
+                     f"{lb['annulus_px']['max']:.3f}")
+    dz = fig["design"]["t_cn_cnm1_mm"][2]
+    lines.append(f"viewpoints {dz:.6f} mm apart along the axis (Kalibr T_cn_cnm1 of the outer lobe)")
+    for m in fig["made"]:
+        what = f"{m['surface']}" + (f" (as machined, nose {m['nose_radius_mm']:g} mm)"
+                                    if m["nose_radius_mm"] and m["surface"] != "polished" else "")
+        rng = "directions" if m["range_m"] == float("inf") else f"world points at {m['range_m']:g} m"
+        lines.append(f"{what}, {rng}: reprojection error px RMS / max")
+        for lb in m["lobes"]:
+            d, r = lb["design"]["reprojection_error_px"], lb["refit"]["reprojection_error_px"]
+            lines.append(f"  {lb['name']:6s} design model {d['rms']:.4g} / {d['max']:.4g}; refit "
+                         f"(xi {lb['refit']['xi']:.6g}, gamma {lb['refit']['gamma_px']:.6g} px, "
+                         f"k1 {lb['refit']['k1']:.3g}, k2 {lb['refit']['k2']:.3g}) {r['rms']:.4g} / {r['max']:.4g}")
+    lines += [f"wrote {f}" for f in fig["files"]]
+    return "\n".join(lines)
+
+
+def pose_from_config(cfg: dict):
+    """The camera's CameraPose from [camera_pose] (mm, degrees in the file)."""
+    import math
+
+    from ..errors import InputError
+    from ..optics.camera import CameraPose
+
+    pc = cfg["camera_pose"]
+    if len(pc["decentre"]) != 2 or len(pc["tilt_deg"]) != 2:
+        raise InputError("camera_pose: decentre and tilt_deg take two numbers each (mm, degrees)")
+    if max(abs(t) for t in pc["tilt_deg"]) >= 45:
+        raise InputError(f"camera_pose.tilt_deg = {pc['tilt_deg']}: allowed |tilt| < 45 degrees")
+    return CameraPose(decentre=(float(pc["decentre"][0]), float(pc["decentre"][1])),
+                      axial_offset=float(pc["axial_offset"]),
+                      tilt=tuple(math.radians(float(t)) for t in pc["tilt_deg"]))

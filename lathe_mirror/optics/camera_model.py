@@ -1,0 +1,490 @@
+"""Each lobe as the unified camera model that vision stacks load, designed and as made.
+
+A perspective camera at the outer focus of a hyperbolic lobe is a central catadioptric
+camera, exactly the unified model of Geyer-Daniilidis / Barreto / Mei (C. Mei and P. Rives,
+"Single view point omnidirectional camera calibration from planar grids", ICRA 2007), which
+OpenCV's `cv2.omnidir` and Kalibr's `omni` implement. With e = sqrt(a^2 + b^2) (Eq. 3) and
+f_px = f / t_pixel:
+
+    xi = 2 a e / (a^2 + e^2),   gamma = f_px b^2 / (a^2 + e^2)
+
+(Mei's table with the foci 2e apart and the latus rectum 2 b^2 / a, since
+sqrt(4 e^2 + b^4 / a^2) = (a^2 + e^2) / a.) A point X of the lobe frame projects to
+
+    X_s = X / |X|,   m = (x_s, y_s) / (z_s + xi),   m_d = m (1 + k1 |m|^2 + k2 |m|^4),
+    pixel = (gamma m_d,x + c_x, gamma m_d,y + c_y)
+
+and the design has k1 = k2 = 0. For a world direction at elevation phi above F1's horizon
+this gives the image radius gamma cos(phi) / (xi - sin(phi)), which is the exact lobe's
+b^2 f_px cos(phi) / (2 a e - (a^2 + e^2) sin(phi)) (optics.radial.ideal_radius_px) term
+for term: the design is a calibration, exact.
+
+Frames. The lobe frame has its origin at the lobe's viewpoint F1, x and y along the
+camera's (x right along the image columns, y down the rows) and z from F1 down the axis
+toward the camera: X_lobe = diag(1, 1, -1) (X_cam - F1). It is a reflection of the camera
+frame (a mirror reverses handedness); a right-handed frame would need f_v < 0.
+Pixels follow OpenCV: the centre of the top-left pixel is (0, 0), so the sensor centre is
+((W - 1) / 2, (H - 1) / 2) and camera.py's image point (u, v) is (u + (W - 1) / 2,
+v + (H - 1) / 2).
+
+A made (machined, polished) lobe has no single viewpoint. Its pixel <-> world ray pairs
+come from the exact tracer (optics.trace) over the lobe's usable annulus; each ray's world
+point is taken at a range R from F1 (a robot sees a room, not infinity; R = inf takes the
+ray's direction). The reprojection error (ARCHITECTURE.md) of a model is its pixel for
+that world point against the traced pixel. `refit` fits xi, gamma, k1, k2 to the pairs
+(scipy least_squares); the principal point stays at the sensor centre for an aligned
+camera (a surface of revolution on the axis: the pairs are symmetric about it) and is
+fitted too for a misaligned one ([camera_pose]).
+
+Millimetres and radians inside; pixels where a name says so.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..design import Mirror
+from ..errors import InputError
+from ..profile import Profile
+from .camera import ALIGNED, CameraPose
+from .radial import lobe_pixel_radii, weighted_stats
+from .trace import Fate, trace_pixels
+
+#: Range (mm) from F1 at which a made mirror's rays are given world points: 2 m, the
+#: report's stereo range.
+DEFAULT_RANGE_MM = 2000.0
+#: Pixel pitch (px) of the sample grid of a misaligned camera (aligned: every pixel).
+MISALIGNED_STRIDE_PX = 4
+#: The OCamCalib polynomials are raised in degree until they hold the exact map to this, px.
+OCAM_TOLERANCE_PX = 1e-4
+#: Fewest usable pixel radii (aligned) or samples (misaligned) a lobe needs for a fit.
+MIN_SAMPLES = 16
+
+
+@dataclass(frozen=True)
+class UnifiedModel:
+    """The unified (Mei) camera model of one lobe, as OpenCV's omnidir and Kalibr's omni
+    take it. Pixels in OpenCV's convention (top-left pixel centre at (0, 0)).
+
+    name: the lobe ("inner", "outer"). xi: mirror parameter (dimensionless). fu, fv:
+    generalised focal lengths gamma, px. cx, cy: principal point, px. k1, k2: OpenCV's
+    radial distortion of the normalised plane (dimensionless; 0 for the design).
+    image_size: (width, height), px. annulus_px: (inner, outer) radius of the valid image
+    annulus about the sensor centre, px (the lost ring and the band the step wall blocks
+    left out). viewpoint_z: height of the lobe's viewpoint F1 in the camera frame, mm.
+    """
+
+    name: str
+    xi: float
+    fu: float
+    fv: float
+    cx: float
+    cy: float
+    image_size: tuple[int, int]
+    annulus_px: tuple[float, float]
+    viewpoint_z: float
+    k1: float = 0.0
+    k2: float = 0.0
+
+    @property
+    def camera_matrix(self) -> np.ndarray:
+        """OpenCV's K (3 x 3), px."""
+        return np.array([[self.fu, 0.0, self.cx], [0.0, self.fv, self.cy], [0.0, 0.0, 1.0]])
+
+    @property
+    def distortion(self) -> np.ndarray:
+        """OpenCV omnidir's D = (k1, k2, p1, p2), shape (1, 4); no tangential terms."""
+        return np.array([[self.k1, self.k2, 0.0, 0.0]])
+
+    def project(self, points: np.ndarray) -> np.ndarray:
+        """Pixels (..., 2) of points (..., 3) of the lobe frame (mm, or directions).
+
+        NaN where the point lies beyond the model's field (z_s + xi <= 0).
+        """
+        p = np.asarray(points, dtype=float)
+        s = p / np.linalg.norm(p, axis=-1, keepdims=True)
+        den = s[..., 2] + self.xi
+        with np.errstate(divide="ignore", invalid="ignore"):
+            m = s[..., :2] / np.where(den > 0, den, np.nan)[..., None]
+        r2 = np.sum(m * m, axis=-1, keepdims=True)
+        md = m * (1.0 + self.k1 * r2 + self.k2 * r2 * r2)
+        return np.stack([self.fu * md[..., 0] + self.cx, self.fv * md[..., 1] + self.cy], axis=-1)
+
+    def back_project(self, pixels: np.ndarray) -> np.ndarray:
+        """Unit directions (..., 3) in the lobe frame of pixels (..., 2) (Mei's lifting)."""
+        px = np.asarray(pixels, dtype=float)
+        md = np.stack([(px[..., 0] - self.cx) / self.fu, (px[..., 1] - self.cy) / self.fv], axis=-1)
+        rd = np.linalg.norm(md, axis=-1)
+        ru = rd.copy()
+        if self.k1 or self.k2:
+            # Invert r_d = r_u (1 + k1 r_u^2 + k2 r_u^4) by Newton from r_u = r_d.
+            for _ in range(50):
+                g = ru * (1 + self.k1 * ru**2 + self.k2 * ru**4) - rd
+                dg = 1 + 3 * self.k1 * ru**2 + 5 * self.k2 * ru**4
+                step = g / dg
+                ru = ru - step
+                if np.all(np.abs(step) < 1e-15):
+                    break
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = np.where(rd > 0, ru / rd, 1.0)
+        m = md * scale[..., None]
+        r2 = ru * ru
+        factor = (self.xi + np.sqrt(1.0 + (1.0 - self.xi**2) * r2)) / (1.0 + r2)
+        return np.stack([factor * m[..., 0], factor * m[..., 1], factor - self.xi], axis=-1)
+
+    def radius_px(self, elevation: np.ndarray) -> np.ndarray:
+        """Image radius (px) of a world direction at this elevation (rad) above F1's horizon
+        (fu = fv and no distortion: gamma cos(phi) / (xi - sin(phi)))."""
+        phi = np.asarray(elevation, dtype=float)
+        return self.fu * np.cos(phi) / (self.xi - np.sin(phi))
+
+
+@dataclass(frozen=True)
+class Correspondences:
+    """Traced pixel <-> world point pairs of one lobe of a made mirror.
+
+    pixels: (N, 2) px, OpenCV convention. points: (N, 3) world points in the lobe frame, mm
+    (unit directions when range_mm is inf). weight: pixel centres each pair stands for.
+    excluded: pixel centres of the design's usable annulus whose made ray misses the lobe
+    or runs into the step wall.
+    """
+
+    lobe: int
+    pixels: np.ndarray
+    points: np.ndarray
+    weight: np.ndarray
+    excluded: int
+    range_mm: float
+    aligned: bool
+
+
+@dataclass(frozen=True)
+class OcamModel:
+    """Scaramuzza's OCamCalib model of one lobe (calib_results.txt).
+
+    pol: ascending coefficients of f(rho) (rho in px): the ray of an image point at
+    (x, y) px from the centre (x along the rows, y along the columns) is (x, y, f(rho)).
+    invpol: ascending coefficients of rho(theta), theta = atan(z / sqrt(x^2 + y^2)) (rad).
+    xc, yc: the centre's row and column from 0, px. width, height: px. max_error_px: the
+    largest departure from the exact map of each polynomial over its fitted range, px.
+    Its frame: origin F1, x along the rows (camera y), y along the columns (camera x), z up
+    the axis away from the camera; the lobe frame with x, y swapped and z reversed.
+    """
+
+    name: str
+    pol: np.ndarray
+    invpol: np.ndarray
+    xc: float
+    yc: float
+    width: int
+    height: int
+    rho_max_px: float
+    max_error_px: dict
+
+
+# --------------------------------------------------------------------------------------
+# Public entry points
+
+
+def design_model(mirror: Mirror, k: int) -> UnifiedModel:
+    """The unified model of lobe k (0 inner, 1 outer) of the design (see the module doc)."""
+    lobe = mirror.lobes[k]
+    cam = mirror.camera
+    f_px = cam.f / cam.t_pixel
+    d = lobe.a**2 + lobe.e**2
+    gamma = f_px * lobe.b**2 / d
+    w, h = (int(n) for n in cam.sensor_px)
+    return UnifiedModel(name=lobe.name, xi=2.0 * lobe.a * lobe.e / d, fu=gamma, fv=gamma,
+                        cx=(w - 1) / 2.0, cy=(h - 1) / 2.0, image_size=(w, h),
+                        annulus_px=valid_annulus_px(mirror, k), viewpoint_z=lobe.focus_z)
+
+
+def valid_annulus_px(mirror: Mirror, k: int) -> tuple[float, float]:
+    """(inner, outer) image radius (px) of lobe k's valid annulus about the sensor centre:
+    the inner disc up to where the step wall starts to block its world rays; the outer
+    annulus from the lost ring to the outer rim."""
+    radii = mirror.image_radii_px
+    if k == 0:
+        return (0.0, float(radii["inner_blocked_by_step"][0]))
+    lo, hi = radii["outer_annulus"]
+    return (float(lo), float(hi))
+
+
+def to_lobe_frame(points_cam: np.ndarray, viewpoint_z: float) -> np.ndarray:
+    """Camera-frame points (..., 3), mm, to the lobe frame: diag(1, 1, -1) (X - F1)."""
+    p = np.array(points_cam, dtype=float, copy=True)
+    p[..., 2] = viewpoint_z - p[..., 2]
+    return p
+
+
+def from_lobe_frame(points_lobe: np.ndarray, viewpoint_z: float) -> np.ndarray:
+    """Lobe-frame points (..., 3), mm, to the camera frame (the map is its own inverse
+    up to F1)."""
+    return to_lobe_frame(points_lobe, viewpoint_z)
+
+
+def trace_correspondences(profile: Profile, mirror: Mirror, k: int, *,
+                          range_mm: float = DEFAULT_RANGE_MM,
+                          pose: CameraPose = ALIGNED) -> Correspondences:
+    """Pixel <-> world point pairs of lobe k of a made surface, by the exact tracer.
+
+    Pixels: the design's usable annulus of lobe k (optics.radial.lobe_pixel_radii: the
+    pixel centres whose exact ray lands on the lobe unobstructed). Aligned camera: every
+    distinct image radius once, along the +u half-row, weighted by the pixel centres that
+    share it (exact for a surface of revolution). Misaligned: every MISALIGNED_STRIDE_PX-th
+    pixel centre in each direction, traced in 3-D. Pairs whose made ray misses the lobe or
+    runs into the step wall are left out (counted in `excluded`). range_mm: the world
+    point's distance from F1 along the traced ray (mm; inf: the ray's direction).
+    """
+    if not (range_mm > 0):
+        raise InputError(f"--range-m {range_mm / 1000.0!r}: must be > 0 (inf: directions)")
+    cam = mirror.camera
+    lobe = mirror.lobes[k]
+    px = lobe_pixel_radii(mirror, k)
+    if pose.aligned:
+        xy = np.stack([px.radius_px, np.zeros_like(px.radius_px)], axis=-1)
+        weight = px.count.astype(float)
+    else:
+        xy = _grid_samples(mirror, px.radius_px, MISALIGNED_STRIDE_PX)
+        weight = np.ones(xy.shape[0])
+    hits = trace_pixels(profile, cam, xy, pose=pose)
+    use = (hits.fate == (Fate.INNER if k == 0 else Fate.OUTER)) & ~hits.blocked
+    f1 = np.array([0.0, 0.0, lobe.focus_z])
+    p, o = hits.point[use], hits.direction[use]
+    if math.isinf(range_mm):
+        world = o
+        lobe_pts = world * np.array([1.0, 1.0, -1.0])
+    else:
+        q = p - f1
+        b = np.sum(q * o, axis=-1)
+        c = np.sum(q * q, axis=-1) - range_mm**2
+        lam = -b + np.sqrt(b * b - c)  # the far root: the point ahead of the mirror
+        lobe_pts = to_lobe_frame(p + lam[:, None] * o, lobe.focus_z)
+    w, h = cam.sensor_px
+    pixels = xy[use] + np.array([(w - 1) / 2.0, (h - 1) / 2.0])
+    return Correspondences(lobe=k, pixels=pixels, points=lobe_pts, weight=weight[use],
+                           excluded=int(round(np.sum(weight[~use]))), range_mm=float(range_mm),
+                           aligned=pose.aligned)
+
+
+def reprojection_error(model: UnifiedModel, corr: Correspondences) -> dict:
+    """{"rms", "max"} (px) of |model pixel of each world point - traced pixel|, weighted by
+    pixel centres."""
+    err = np.linalg.norm(model.project(corr.points) - corr.pixels, axis=-1)
+    return weighted_stats(err, corr.weight)
+
+
+def refit(model: UnifiedModel, corr: Correspondences, *, fit_centre: bool | None = None) -> UnifiedModel:
+    """The unified model (xi, gamma = fu = fv, k1, k2) refitted to a made lobe's pairs.
+
+    Weighted least squares of the pixel residuals (scipy.optimize.least_squares, trust
+    region reflective, from the given model). fit_centre: also fit the principal point
+    (default: only for a misaligned camera; an aligned one keeps the sensor centre).
+    """
+    from scipy.optimize import least_squares
+
+    if corr.pixels.shape[0] < MIN_SAMPLES:
+        raise InputError(f"lobe {model.name}: {corr.pixels.shape[0]} usable pixels, too few to refit "
+                         f"the camera model (at least {MIN_SAMPLES})")
+    centre = (not corr.aligned) if fit_centre is None else fit_centre
+    sw = np.sqrt(corr.weight)[:, None]
+    s = corr.points / np.linalg.norm(corr.points, axis=-1, keepdims=True)
+    n_par = 6 if centre else 4
+
+    def build(x: np.ndarray) -> UnifiedModel:
+        cx, cy = (x[4], x[5]) if centre else (model.cx, model.cy)
+        return replace(model, xi=float(x[0]), fu=float(x[1]), fv=float(x[1]), k1=float(x[2]),
+                       k2=float(x[3]), cx=float(cx), cy=float(cy))
+
+    def normalised(x: np.ndarray):
+        den = s[:, 2] + x[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            m = s[:, :2] / np.where(den > 0, den, np.nan)[:, None]
+        r2 = np.sum(m * m, axis=-1, keepdims=True)
+        return den, m, r2
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        r = (build(x).project(corr.points) - corr.pixels) * sw
+        return np.nan_to_num(r, nan=1e6).ravel()
+
+    def jacobian(x: np.ndarray) -> np.ndarray:
+        # pixel = gamma m (1 + k1 r2 + k2 r2^2) + c, m = s_xy / (s_z + xi), r2 = |m|^2;
+        # d m / d xi = -m / (s_z + xi), so d pixel / d xi = -gamma m (1 + 3 k1 r2 + 5 k2 r2^2) / (s_z + xi).
+        den, m, r2 = normalised(x)
+        g, k1, k2 = x[1], x[2], x[3]
+        jac = np.zeros((m.shape[0], 2, n_par))
+        jac[:, :, 0] = -g * m * (1 + 3 * k1 * r2 + 5 * k2 * r2 * r2) / den[:, None]
+        jac[:, :, 1] = m * (1 + k1 * r2 + k2 * r2 * r2)
+        jac[:, :, 2] = g * m * r2
+        jac[:, :, 3] = g * m * r2 * r2
+        if centre:
+            jac[:, 0, 4] = 1.0
+            jac[:, 1, 5] = 1.0
+        return np.nan_to_num(jac * sw[:, :, None]).reshape(-1, n_par)
+
+    def linear_part(xi: float) -> tuple[np.ndarray, float]:
+        # For a fixed xi the pixel is linear in gamma, gamma k1, gamma k2 (and the centre):
+        # variable projection. The valley xi <-> gamma <-> k1, k2 is long and flat (the
+        # parameters trade off almost exactly), which plain least squares crawls along.
+        den, m, r2 = normalised(np.array([xi]))
+        cols = [m, m * r2, m * r2 * r2]
+        if centre:
+            cols += [np.broadcast_to([1.0, 0.0], m.shape), np.broadcast_to([0.0, 1.0], m.shape)]
+        a = np.stack([c * sw for c in cols], axis=-1).reshape(-1, len(cols))
+        b = ((corr.pixels - ([0.0, 0.0] if centre else [model.cx, model.cy])) * sw).ravel()
+        coef, *_ = np.linalg.lstsq(a, b, rcond=None)
+        return coef, float(np.sum((a @ coef - b) ** 2))
+
+    from scipy.optimize import minimize_scalar
+
+    xi_lo = max(1e-6, float(-np.min(s[:, 2]))) + 1e-9  # every point in front: s_z + xi > 0
+    best = minimize_scalar(lambda xi: linear_part(xi)[1], bounds=(xi_lo, max(10.0, 4 * model.xi)),
+                           method="bounded", options={"xatol": 1e-12})
+    candidates = [xi for xi in (model.xi, float(best.x)) if xi >= xi_lo]
+    start = min(candidates, key=lambda xi: linear_part(xi)[1])
+    coef, _ = linear_part(start)
+    x0 = [start, coef[0], coef[1] / coef[0], coef[2] / coef[0]] + (list(coef[3:5]) if centre else [])
+    lo = [xi_lo, 1e-6, -np.inf, -np.inf] + ([-np.inf, -np.inf] if centre else [])
+    sol = least_squares(residuals, np.asarray(x0, float), jac=jacobian, bounds=(lo, np.inf),
+                        method="dogbox", x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200)
+    return build(sol.x)
+
+
+def made_lobe_figures(profile: Profile, mirror: Mirror, k: int, *,
+                      range_mm: float = DEFAULT_RANGE_MM, pose: CameraPose = ALIGNED) -> dict:
+    """One lobe of a made surface: the design model's reprojection error and the refit.
+
+    Returns {"name", "pixels", "pixels_excluded", "design": {"reprojection_error_px"},
+    "refit": {model parameters, "principal_point", "reprojection_error_px"}}. Raises
+    InputError when no camera pixel of the lobe's annulus sees the lobe of this surface.
+    """
+    design = design_model(mirror, k)
+    corr = trace_correspondences(profile, mirror, k, range_mm=range_mm, pose=pose)
+    n = int(round(np.sum(corr.weight)))
+    if corr.pixels.shape[0] < MIN_SAMPLES:
+        what = "pixels" if corr.aligned else f"pixels sampled every {MISALIGNED_STRIDE_PX} px"
+        raise InputError(
+            f"no camera pixel sees its {design.name} lobe ({n} of {n + corr.excluded} {what} of the "
+            "lobe's annulus land on it unobstructed): the surface or [camera_pose] is off the design")
+    fitted = refit(design, corr)
+    return {
+        "name": design.name,
+        "pixels": n,
+        "pixels_excluded": corr.excluded,
+        "design": {"reprojection_error_px": reprojection_error(design, corr)},
+        "refit": {**model_dict(fitted),
+                  "principal_point": "fixed at the sensor centre" if corr.aligned else "fitted",
+                  "reprojection_error_px": reprojection_error(fitted, corr)},
+    }
+
+
+def made_figures(profile: Profile, mirror: Mirror, *, range_mm: float = DEFAULT_RANGE_MM,
+                 pose: CameraPose = ALIGNED) -> dict:
+    """made_lobe_figures of both lobes, inner first: {"range_m", "lobes": [...]}."""
+    return {"range_m": range_mm / 1000.0,
+            "lobes": [made_lobe_figures(profile, mirror, k, range_mm=range_mm, pose=pose) for k in (0, 1)]}
+
+
+def model_dict(model: UnifiedModel) -> dict:
+    """The model's parameters as plain data (px, dimensionless)."""
+    return {"xi": model.xi, "gamma_px": model.fu, "fu_px": model.fu, "fv_px": model.fv,
+            "cx_px": model.cx, "cy_px": model.cy, "k1": model.k1, "k2": model.k2}
+
+
+def design_figures(mirror: Mirror) -> dict:
+    """Both lobes' design models, annuli and the viewpoints' axial offset (for --json and
+    the report): {"frame", "lobes": [...], "t_cn_cnm1_mm"}."""
+    lobes = []
+    for k in (0, 1):
+        m = design_model(mirror, k)
+        lobes.append({"name": m.name, **model_dict(m),
+                      "annulus_px": {"min": m.annulus_px[0], "max": m.annulus_px[1]},
+                      "viewpoint_z_mm": m.viewpoint_z,
+                      "image_size_px": list(m.image_size)})
+    return {"frame": "X_lobe = diag(1, 1, -1) (X_cam - F1): origin at the lobe's viewpoint F1, "
+                     "z down the axis toward the camera (a reflection of the camera frame); "
+                     "pixels in OpenCV's convention (top-left pixel centre at (0, 0))",
+            "lobes": lobes,
+            "t_cn_cnm1_mm": [0.0, 0.0, mirror.outer.focus_z - mirror.inner.focus_z]}
+
+
+def ocam_model(model: UnifiedModel, rho_max_px: float, *, tolerance_px: float = OCAM_TOLERANCE_PX,
+               max_degree: int = 24) -> OcamModel:
+    """Scaramuzza's polynomials fitted to an undistorted unified model (a lobe's exact map).
+
+    Direct: f(rho) = gamma (xi / lambda - 1) with lambda = (xi + sqrt(1 + (1 - xi^2) m^2)) /
+    (1 + m^2), m = rho / gamma (Mei's lifting, seen in OCamCalib's frame), an even function:
+    fitted in even powers of rho on [0, rho_max_px]. Inverse: rho(theta) = gamma cos(theta) /
+    (xi - sin(theta)) on theta from -pi/2 to the elevation at rho_max_px. Each is a
+    least-squares Chebyshev fit (well conditioned), converted to plain powers, of the lowest
+    degree whose pixel error stays within tolerance_px.
+    """
+    from numpy.polynomial import Chebyshev, Polynomial
+
+    if model.k1 or model.k2 or model.fu != model.fv:
+        raise ValueError("ocam_model: needs an undistorted model with fu == fv")
+    g, xi, big_r = model.fu, model.xi, float(rho_max_px)
+    rho = np.linspace(0.0, big_r, 4001)
+    f_exact = _ocam_f(rho, g, xi)
+
+    pol = pol_err = None
+    for deg in range(1, max_degree // 2 + 1):
+        c = Chebyshev.fit((rho / big_r) ** 2, f_exact, deg, domain=[0.0, 1.0])
+        coef_s = c.convert(kind=Polynomial, domain=[-1.0, 1.0], window=[-1.0, 1.0]).coef
+        coef = np.zeros(2 * coef_s.size - 1)
+        coef[::2] = coef_s / big_r ** (2 * np.arange(coef_s.size))
+        phi = np.arctan2(np.polynomial.polynomial.polyval(rho, coef), rho)
+        pol_err = float(np.max(np.abs(model.radius_px(phi) - rho)))
+        pol = coef
+        if pol_err <= tolerance_px:
+            break
+
+    theta_hi = math.atan2(float(f_exact[-1]), big_r)
+    theta = np.linspace(-math.pi / 2, theta_hi, 4001)
+    rho_t = model.radius_px(theta)
+    invpol = inv_err = None
+    for deg in range(1, max_degree + 1):
+        c = Chebyshev.fit(theta, rho_t, deg)
+        coef = c.convert(kind=Polynomial, domain=[-1.0, 1.0], window=[-1.0, 1.0]).coef
+        inv_err = float(np.max(np.abs(np.polynomial.polynomial.polyval(theta, coef) - rho_t)))
+        invpol = coef
+        if inv_err <= tolerance_px:
+            break
+    w, h = model.image_size
+    return OcamModel(name=model.name, pol=pol, invpol=invpol, xc=model.cy, yc=model.cx,
+                     width=w, height=h, rho_max_px=big_r,
+                     max_error_px={"pol": pol_err, "invpol": inv_err})
+
+
+def lobe_ocam_model(mirror: Mirror, k: int) -> OcamModel:
+    """ocam_model of lobe k's design model over its whole image disc (to the rim, R_pixel)."""
+    return ocam_model(design_model(mirror, k), mirror.lobes[k].r_pixel)
+
+
+# --------------------------------------------------------------------------------------
+# Helpers
+
+
+def _ocam_f(rho: np.ndarray, gamma: float, xi: float) -> np.ndarray:
+    """OCamCalib's f(rho) of the unified model: z of the ray (x, y, f) with |(x, y)| = rho
+    in its frame (z up the axis), from Mei's lifting."""
+    r2 = (rho / gamma) ** 2
+    lam = (xi + np.sqrt(1.0 + (1.0 - xi * xi) * r2)) / (1.0 + r2)
+    return gamma * (xi / lam - 1.0)
+
+
+def _grid_samples(mirror: Mirror, radii_px: np.ndarray, stride: int) -> np.ndarray:
+    """Image points (N, 2) (u, v px from the sensor centre) of every stride-th pixel centre
+    whose radius is one of radii_px (a lobe's usable radii)."""
+    w, h = (int(n) for n in mirror.camera.sensor_px)
+    u = np.arange(0, w, stride) + 0.5 - w / 2.0
+    v = np.arange(0, h, stride) + 0.5 - h / 2.0
+    uu, vv = np.meshgrid(u, v, indexing="xy")
+    # 4 (u^2 + v^2) is an integer for pixel centres: exact membership (as radial does).
+    q = np.rint(4.0 * (uu**2 + vv**2)).astype(np.int64).ravel()
+    keys = np.rint(4.0 * np.asarray(radii_px) ** 2).astype(np.int64)
+    keep = np.isin(q, keys)
+    return np.stack([uu.ravel()[keep], vv.ravel()[keep]], axis=-1)
