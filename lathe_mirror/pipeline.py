@@ -360,6 +360,9 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     made["exact"] = ExactProfile(mirror)
     out["mirrors"] = {name: mirror_figures(made[name], mirror) for name in MIRRORS}
     out["mirrors"]["polished"]["polish_time_s"] = curve_paper.optimum_time_s
+    from .optics.camera_model import calibration_figures  # the camera models and their residuals
+
+    out["calibration"] = calibration_figures(mirror, {n: made[n] for n in ("paper", "best", "polished")})
     steps.done()
 
     steps.start("stereo")

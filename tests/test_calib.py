@@ -322,6 +322,26 @@ def test_refit_of_another_hyperbola_recovers_its_closed_form(paper_mirror, k):
     assert fig["refit"]["reprojection_error_px"]["max"] < 1e-6
 
 
+def test_design_error_at_infinity_is_the_image_displacement(paper_mirror):
+    """With world points at infinity (directions) the design model's reprojection error is
+    ARCHITECTURE.md's image displacement: where the exact lobe images the made ray's
+    direction, minus the pixel. optics.radial computes that with its own fixed-point tracer
+    and the focal-property map; both count every pixel of the best program's mirror."""
+    from lathe_mirror.config import load
+    from lathe_mirror.enums import Surface
+    from lathe_mirror.optics.radial import radial_figures
+    from lathe_mirror.pipeline import named_surface
+
+    made = named_surface(Surface.BEST, paper_mirror, load(), nose_radius=0.2)  # as machined
+    disp = radial_figures(made, paper_mirror)["lobes"]
+    for k in (0, 1):
+        fig = made_lobe_figures(made, paper_mirror, k, range_mm=math.inf)
+        assert fig["pixels"] == disp[k]["pixels"] and fig["pixels_excluded"] == 0
+        for stat in ("rms", "max"):
+            assert fig["design"]["reprojection_error_px"][stat] == pytest.approx(
+                disp[k]["image_displacement_px"][stat], rel=1e-9)
+
+
 def test_exact_mirror_is_its_own_calibration_at_any_range(paper_mirror):
     exact = ExactProfile(paper_mirror)
     for k in (0, 1):
@@ -358,12 +378,14 @@ def test_tilted_camera_design_error_is_the_rotation_homography(paper_mirror):
         assert fig["refit"]["reprojection_error_px"]["rms"] < 0.1 * d["rms"]
 
 
-def test_refit_model_through_opencv_gives_the_reported_residual(tmp_path, paper_mirror, paper_config):
+def test_refit_model_through_opencv_gives_the_reported_residual(tmp_path, paper_mirror):
     """The refitted model (k1, k2 != 0) written as OpenCV YAML and projected by cv2.omnidir
     reproduces the residual the library reports: its distortion is OpenCV's."""
-    from lathe_mirror.optics.surfaces import make_surface
+    from lathe_mirror.config import load
+    from lathe_mirror.enums import Surface
+    from lathe_mirror.pipeline import named_surface
 
-    made = make_surface("polished", paper_mirror, paper_config)
+    made = named_surface(Surface.POLISHED, paper_mirror, load())
     corr = trace_correspondences(made, paper_mirror, 1)
     fitted = refit(design_model(paper_mirror, 1), corr)
     assert abs(fitted.k1) > 1e-3
@@ -428,7 +450,7 @@ def test_calib_command_json_and_files(tmp_path):
 
 
 @pytest.mark.parametrize("args, text", [
-    (["--surface", "nope"], "--surface 'nope': unknown surface"),
+    (["--surface", "nope"], "--surface 'nope': allowed exact"),
     (["--range-m", "0"], "--range-m"),
     (["--nose-radius", "-1"], "--nose-radius"),
 ])

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 from conftest import RECESSED_OUTER, run_cli
+from lathe_mirror.export.calib import FILE_NAMES
 
 SMALL = """
 [polish]
@@ -24,6 +25,7 @@ def test_run_writes_programs_cad_and_report(tmp_path):
     # With --config the programs and CAD go under the output directory, not the repository's.
     assert sorted(p.suffix for p in (out / "gcode").iterdir()) == [".nc", ".nc", ".ngc", ".ngc"]
     assert {p.suffix for p in (out / "cad").iterdir()} == {".step", ".dxf"}
+    assert {p.name for p in (out / "calib").iterdir()} == set(FILE_NAMES)  # calibration files
     report = json.loads((out / "report.json").read_text())
     assert report["outputs"]["gcode"] and report["outputs"]["cad"]
     assert set(report["stereo"]["at_2_m"]) == {"exact", "paper", "best", "polished"}

@@ -36,41 +36,38 @@ def run(args: argparse.Namespace) -> int:
     import math
     from pathlib import Path
 
-    from ..design import mirror_from_config
+    from ..enums import Surface, parse
     from ..errors import InputError
-    from ..lathe import tool_from_config
     from ..optics.camera_model import DEFAULT_RANGE_MM, design_figures, made_figures
-    from ..optics.surfaces import BUILTIN, make_surface, surface_names
+    from ..pipeline import design, named_surface
     from ..progress import Stages
 
-    cfg = load(args)
-    mirror = mirror_from_config(cfg)
+    settings = load(args)
+    mirror = design(settings)
     range_m = DEFAULT_RANGE_MM / 1000.0 if args.range_m is None else args.range_m
     if not range_m > 0:  # NaN too
         raise InputError(f"--range-m {args.range_m!r}: must be a number > 0 m (inf: directions)")
-    nose = tool_from_config(cfg).nose_radius if args.nose_radius is None else args.nose_radius
+    nose = settings.tool.nose_radius if args.nose_radius is None else args.nose_radius
     if not (math.isfinite(nose) and nose >= 0):
         raise InputError(f"--nose-radius {args.nose_radius!r}: must be a finite number >= 0 mm")
-    pose = pose_from_config(cfg)
-    names = (args.surface,) if args.surface is not None else DEFAULT_SURFACES
-
-    allowed = surface_names()
-    for name in names:  # before any progress display: a bad name is one line
-        if name not in allowed:
-            raise InputError(f"--surface {name!r}: unknown surface; allowed: {', '.join(allowed)}")
-    steps = Stages([*names, "files"], not args.no_progress)
+    pose = settings.pose
+    # Before any progress display: a bad name is one line.
+    names = [parse(Surface, n, "--surface") for n in ((args.surface,) if args.surface is not None
+                                                      else DEFAULT_SURFACES)]
+    builtin = (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528)
+    steps = Stages([n.value for n in names] + ["files"], not args.no_progress)
     try:
         made = {}
         for name in names:
-            steps.start(name)
-            # make_surface's nose applies to toolpath surfaces (and polished, as its machining).
-            nose_k = 0.0 if name in BUILTIN else nose
-            surface = make_surface(name, mirror, cfg, nose_radius=nose_k)
+            steps.start(name.value)
+            # The nose applies to toolpath surfaces (and to polished, as its machining).
+            nose_k = 0.0 if name in builtin else nose
+            surface = named_surface(name, mirror, settings, nose_radius=nose_k)
             try:
                 fig = made_figures(surface, mirror, range_mm=range_m * 1000.0, pose=pose)
             except InputError as exc:
-                raise InputError(f"--surface {name}: {exc}") from None
-            made[name] = {"surface": name, "nose_radius_mm": nose_k, **fig}
+                raise InputError(f"--surface {name.value}: {exc}") from None
+            made[name.value] = {"surface": name.value, "nose_radius_mm": nose_k, **fig}
             steps.done()
         steps.start("files")
         from ..export.calib import calibration_texts
@@ -120,20 +117,3 @@ def format_figures(fig: dict) -> str:
                          f"k1 {lb['refit']['k1']:.3g}, k2 {lb['refit']['k2']:.3g}) {r['rms']:.4g} / {r['max']:.4g}")
     lines += [f"wrote {f}" for f in fig["files"]]
     return "\n".join(lines)
-
-
-def pose_from_config(cfg: dict):
-    """The camera's CameraPose from [camera_pose] (mm, degrees in the file)."""
-    import math
-
-    from ..errors import InputError
-    from ..optics.camera import CameraPose
-
-    pc = cfg["camera_pose"]
-    if len(pc["decentre"]) != 2 or len(pc["tilt_deg"]) != 2:
-        raise InputError("camera_pose: decentre and tilt_deg take two numbers each (mm, degrees)")
-    if max(abs(t) for t in pc["tilt_deg"]) >= 45:
-        raise InputError(f"camera_pose.tilt_deg = {pc['tilt_deg']}: allowed |tilt| < 45 degrees")
-    return CameraPose(decentre=(float(pc["decentre"][0]), float(pc["decentre"][1])),
-                      axial_offset=float(pc["axial_offset"]),
-                      tilt=tuple(math.radians(float(t)) for t in pc["tilt_deg"]))

@@ -1,9 +1,10 @@
 """`lathe-mirror run`: the whole pipeline on the paper default or --config.
 
-design -> programs into gcode/ -> STEP and DXF into cad/ -> as-machined, renders,
-polishing, stereo, tolerance -> report into out/ (or -o). On the paper default gcode/ and
-cad/ are the repository's reference outputs (regenerated here); with --config they go
-into the output directory unless --gcode-dir / --cad-dir say otherwise.
+design -> programs into gcode/ -> STEP and DXF into cad/ -> calibration files into calib/
+-> as-machined, renders, polishing, stereo, tolerance -> report into out/ (or -o). On the
+paper default gcode/, cad/ and calib/ are the repository's reference outputs (regenerated
+here); with --config they go into the output directory unless --gcode-dir / --cad-dir /
+--calib-dir say otherwise.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "paper default, OUTPUT/gcode with --config)")
     p.add_argument("--cad-dir", metavar="DIR", help="where STEP and DXF go (default: cad/ on the "
                    "paper default, OUTPUT/cad with --config)")
+    p.add_argument("--calib-dir", metavar="DIR", help="where the calibration files (OpenCV, Kalibr, "
+                   "OCamCalib) go (default: calib/ on the paper default, OUTPUT/calib with --config)")
     p.add_argument("--no-render", action="store_true", help="skip the renders side by side")
     add_no_progress(p)
     p.set_defaults(func=run)
@@ -48,7 +51,9 @@ def run(args: argparse.Namespace) -> int:
     default = args.config is None
     gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")
     cad_dir = Path(args.cad_dir) if args.cad_dir else (Path("cad") if default else out_dir / "cad")
-    for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir")):
+    calib_dir = Path(args.calib_dir) if args.calib_dir else (Path("calib") if default else out_dir / "calib")
+    for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir"),
+                    (calib_dir, "--calib-dir")):
         output_dir(d, what)  # one that cannot be made takes the ones before it away
     say = (lambda m: None) if args.no_progress else (lambda m: print(m, file=sys.stderr))
     say("lathe-mirror run: programs")
@@ -57,9 +62,12 @@ def run(args: argparse.Namespace) -> int:
     from ..export.cad import write_reference_cad
 
     cad = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
+    from ..export.calib import write_calibration
+
+    calib = write_calibration(calib_dir, mirror)
     data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render)
     data.figures["outputs"] = {kind: [{"path": str(p), "sha256": _sha256(p)} for p in paths]
-                               for kind, paths in (("gcode", programs), ("cad", cad))}
+                               for kind, paths in (("gcode", programs), ("cad", cad), ("calib", calib))}
     paths = write_report(data, out_dir)
     if args.json:
         print_json(data.figures)
@@ -67,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
         print(summary(data.figures, paths))
         print("programs: " + ", ".join(str(p) for p in programs))
         print("CAD: " + ", ".join(str(p) for p in cad))
+        print("calibration: " + ", ".join(str(p) for p in calib))
     return 0
 
 

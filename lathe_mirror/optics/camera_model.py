@@ -388,6 +388,14 @@ def made_figures(profile: Profile, mirror: Mirror, *, range_mm: float = DEFAULT_
             "lobes": [made_lobe_figures(profile, mirror, k, range_mm=range_mm, pose=pose) for k in (0, 1)]}
 
 
+def calibration_figures(mirror: Mirror, made: dict[str, Profile], *,
+                        range_mm: float = DEFAULT_RANGE_MM) -> dict:
+    """The report's calibration section: the design models (design_figures) and, for each
+    made mirror (name -> profile; aligned camera), made_figures."""
+    return {"design": design_figures(mirror),
+            "made": {name: made_figures(p, mirror, range_mm=range_mm) for name, p in made.items()}}
+
+
 def model_dict(model: UnifiedModel) -> dict:
     """The model's parameters as plain data (px, dimensionless)."""
     return {"xi": model.xi, "gamma_px": model.fu, "fu_px": model.fu, "fv_px": model.fv,
