@@ -38,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..enums import Surface, parse
     from ..errors import InputError
-    from ..optics.camera_model import DEFAULT_RANGE_MM, design_figures, made_figures
+    from ..optics.camera_model import DEFAULT_RANGE_MM, design_model_figures, made_figures
     from ..pipeline import design, named_surface
     from ..progress import Stages
 
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
         raise
     finally:
         steps.close()
-    figures = {"design": design_figures(mirror),
+    figures = {"design": design_model_figures(mirror),
                "camera_pose": "aligned" if pose.aligned else {
                    "decentre_mm": list(pose.decentre), "axial_offset_mm": pose.axial_offset,
                    "tilt_deg": [math.degrees(t) for t in pose.tilt]},

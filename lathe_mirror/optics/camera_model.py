@@ -280,8 +280,12 @@ def reprojection_error(model: UnifiedModel, corr: Correspondences) -> dict:
 def refit(model: UnifiedModel, corr: Correspondences, *, fit_centre: bool | None = None) -> UnifiedModel:
     """The unified model (xi, gamma = fu = fv, k1, k2) refitted to a made lobe's pairs.
 
-    Weighted least squares of the pixel residuals (scipy.optimize.least_squares, trust
-    region reflective, from the given model). fit_centre: also fit the principal point
+    Weighted least squares of the pixel residuals (weights: the pixel centres a pair stands
+    for). The parameters trade off along a long flat valley, so xi is first found by variable
+    projection (for fixed xi the pixels are linear in gamma, gamma k1, gamma k2 and the
+    centre: a bounded scalar search over xi of linear least squares), then
+    scipy.optimize.least_squares (dogbox, analytic Jacobian, xi kept where every point
+    projects) polishes all parameters together. fit_centre: also fit the principal point
     (default: only for a misaligned camera; an aligned one keeps the sensor centre).
     """
     from scipy.optimize import least_squares
@@ -390,9 +394,9 @@ def made_figures(profile: Profile, mirror: Mirror, *, range_mm: float = DEFAULT_
 
 def calibration_figures(mirror: Mirror, made: dict[str, Profile], *,
                         range_mm: float = DEFAULT_RANGE_MM) -> dict:
-    """The report's calibration section: the design models (design_figures) and, for each
+    """The report's calibration section: the design models (design_model_figures) and, for each
     made mirror (name -> profile; aligned camera), made_figures."""
-    return {"design": design_figures(mirror),
+    return {"design": design_model_figures(mirror),
             "made": {name: made_figures(p, mirror, range_mm=range_mm) for name, p in made.items()}}
 
 
@@ -402,7 +406,7 @@ def model_dict(model: UnifiedModel) -> dict:
             "cx_px": model.cx, "cy_px": model.cy, "k1": model.k1, "k2": model.k2}
 
 
-def design_figures(mirror: Mirror) -> dict:
+def design_model_figures(mirror: Mirror) -> dict:
     """Both lobes' design models, annuli and the viewpoints' axial offset (for --json and
     the report): {"frame", "lobes": [...], "t_cn_cnm1_mm"}."""
     lobes = []
