@@ -17,6 +17,11 @@ from .errors import InputError
 
 #: Finest lattice step (mm) a program can carry: G-code words with 4 decimals.
 _FINEST = 0.0001
+#: Largest S word (G96 m/min, the spindle cap rev/min): 5 digits (Fanuc's format).
+MAX_S_WORD = 99999
+#: F words (mm/rev): 4 decimals, up to 500 mm/rev.
+FEED_STEP = 0.0001
+MAX_FEED = 500.0
 
 
 @dataclass(frozen=True)
@@ -63,10 +68,15 @@ class Lathe:
                 f"machine.travel_z_min = {self.travel_z_min:g}, travel_z_max = {self.travel_z_max:g} mm: "
                 "need travel_z_min < 0 < travel_z_max (Z = 0 is the vertex)"
             )
-        _positive("machine.spindle_max_rpm", self.spindle_max_rpm, "rev/min")
-        _positive("machine.surface_speed", self.surface_speed, "m/min")
-        _positive("machine.feed_rough", self.feed_rough, "mm/rev")
-        _positive("machine.feed_finish", self.feed_finish, "mm/rev")
+        # Speeds and feeds are G-code words too, written fixed-point: S (G96 m/min) and the
+        # spindle cap (D / G50 S) whole numbers of at most 5 digits, F 4 decimals.
+        _word("machine.spindle_max_rpm", self.spindle_max_rpm, "rev/min", 1, MAX_S_WORD, 1,
+              "the spindle cap's word (D, G50 S) carries a whole number")
+        _word("machine.surface_speed", self.surface_speed, "m/min", 1, MAX_S_WORD, 1,
+              "an S word carries a whole number")
+        for key in ("feed_rough", "feed_finish"):
+            _word(f"machine.{key}", getattr(self, key), "mm/rev", FEED_STEP, MAX_FEED, FEED_STEP,
+                  "an F word carries 4 decimals")
         _positive("machine.arc_radius_tolerance", self.arc_radius_tolerance, "mm")
 
     # The lattice: integer multiples of the resolution. Working in integer lattice units
@@ -179,6 +189,25 @@ class Stock:
     def radius(self) -> float:
         """Bar radius, mm."""
         return self.diameter / 2.0
+
+
+def _word(key: str, value, unit: str, lo: float, hi: float, step: float, why: str) -> None:
+    """A value a G-code word carries: a finite multiple of `step` from lo to hi."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(f"{key} = {value!r} must be a finite number ({unit})")
+    k = value / step
+    if not (lo - 1e-12 <= value <= hi and abs(k - round(k)) < 1e-6):
+        allowed = (f"a whole number from {lo:g} to {hi:g}" if step == 1 else
+                   f"multiples of {step:g} from {lo:g} to {hi:g}")
+        raise InputError(f"{key} = {_plain(value)} {unit}: {why}; allowed {allowed} {unit}")
+
+
+def _plain(v) -> str:
+    """A number for a message, fixed-point (no exponent)."""
+    if isinstance(v, int):
+        return str(v)
+    s = f"{v:.12f}".rstrip("0").rstrip(".")
+    return s if len(s) <= 24 else f"{v:.6e}"
 
 
 def _positive(key: str, value: float, unit: str) -> None:

@@ -31,7 +31,7 @@ import numpy as np
 from .design import Mirror
 from .enums import BEST, Program, Strategy, Surface
 from .errors import InputError
-from .lathe import Lathe, Tool
+from .lathe import Lathe, Stock, Tool
 from .nose_envelope import as_machined, contour_profile
 from .polishing import PolishParams, polish
 from .profile import ExactProfile, Profile
@@ -40,6 +40,10 @@ from .toolpath import Toolpath, plan_toolpath
 
 if TYPE_CHECKING:
     from .body import CadModel
+    from .shop import ProgramOptions
+    from .shop.program import Program as ShopProgramModel
+    from .shop.setup import SetupSheet
+    from .shop.stock import Simulation
     from .optics.polishing_curve import PolishCurve
     from .settings import Settings
 
@@ -223,6 +227,58 @@ def check_cad(settings: Settings, mirror: Mirror) -> None:
     from .body import design_meridian
 
     design_meridian(mirror, settings.body)
+
+
+# --------------------------------------------------------------------------------------
+# Programs a shop can run
+
+
+#: The setting error whose cost the set-up sheet states, mm.
+SETTING_ERROR_MM = 0.01
+
+
+@dataclass(frozen=True)
+class ShopProgram:
+    """A checked program (shop.program.Program), its simulation against the stock
+    (shop.stock.Simulation) and its set-up sheet (shop.setup.SetupSheet)."""
+
+    program: ShopProgramModel
+    simulation: Simulation
+    sheet: SetupSheet
+
+
+def shop_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | None = None, *,
+                 name: str | None = None, setting_costs: dict | None = None) -> ShopProgram:
+    """The whole program around `toolpath` (shop.plan_program), simulated against the stock
+    and refused (InputError, one line naming the block) if a rapid or the insert's body
+    touches stock or the part, with its set-up sheet. setting_costs: what a setting error
+    costs (tolerance.setting; computed if None)."""
+    from .shop import plan_program
+    from .shop.setup import setup_sheet
+    from .shop.stock import simulate_program
+    from .tolerance.setting import setting_error_costs
+
+    program = plan_program(toolpath, stock, options, name=name or f"mirror_{toolpath.strategy.value}")
+    sim = simulate_program(program)
+    sim.check()
+    if setting_costs is None:
+        setting_costs = setting_error_costs(toolpath.mirror, SETTING_ERROR_MM)
+    return ShopProgram(program=program, simulation=sim, sheet=setup_sheet(program, sim, setting_costs))
+
+
+def shop_programs(settings: Settings, mirror: Mirror, *,
+                  strategies: tuple[Strategy, ...] = (Strategy.PAPER, BEST)) -> list[ShopProgram]:
+    """The checked programs of `mirror` for each strategy (default: the paper's method and
+    the best), named mirror_<strategy>, with the settings' lathe, tool, stock and knobs."""
+    from .shop import options_from_settings
+    from .tolerance.setting import setting_error_costs
+
+    costs = setting_error_costs(mirror, SETTING_ERROR_MM)
+    options = options_from_settings(settings.toolpath)
+    return [shop_program(plan(mirror, settings.machine, settings.tool, strategy,
+                              max_deviation=settings.toolpath.max_deviation),
+                         settings.stock, options, setting_costs=costs)
+            for strategy in strategies]
 
 
 # --------------------------------------------------------------------------------------

@@ -34,6 +34,7 @@ from .lathe import Lathe, Stock, Tool
 from .optics.camera import CameraPose
 from .optics.scene import BoxSpec, SceneSpec
 from .polishing import PolishParams
+from .shop import options_from_settings
 from .tolerance.spec import MAX_SAMPLE_RAYS, Spec, ToleranceSettings
 from .toolpath import ToolpathSettings
 
@@ -151,9 +152,14 @@ def _toolpath(t: dict) -> ToolpathSettings:
     for key in ("rough_depth", "rough_allowance", "clearance", "gouge_tolerance"):
         if not t[key] > 0:
             raise InputError(f"toolpath.{key} = {t[key]!r} mm must be > 0")
-    return ToolpathSettings(strategy=strategy, gouge_tolerance=float(t["gouge_tolerance"]),
-                            max_deviation=float(t["max_deviation"]), rough_depth=float(t["rough_depth"]),
-                            rough_allowance=float(t["rough_allowance"]), clearance=float(t["clearance"]))
+    ts = ToolpathSettings(strategy=strategy, gouge_tolerance=float(t["gouge_tolerance"]),
+                          max_deviation=float(t["max_deviation"]), rough_depth=float(t["rough_depth"]),
+                          rough_allowance=float(t["rough_allowance"]), clearance=float(t["clearance"]),
+                          ramp_angle=math.radians(float(t["ramp_angle"])), spring_pass=bool(t["spring_pass"]),
+                          coolant=bool(t["coolant"]), home_r=float(t["home_r"]), home_z=float(t["home_z"]),
+                          rapid_rate=float(t["rapid_rate"]))
+    options_from_settings(ts)  # the program's bounds, checked with everything else
+    return ts
 
 
 def _body(c: dict) -> BodySpec:

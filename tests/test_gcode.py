@@ -1,5 +1,6 @@
 """G-code: LinuxCNC's rs274 interprets every program; its canonical moves rebuild the
-finishing contour to 0.0001 mm; lattice, budget, refusals, reproducibility, gcode/."""
+finishing contour to 0.0001 mm; lattice, budget, word formats, dialects, refusals,
+reproducibility, gcode/. (The stock simulation and the set-up sheet: test_shop.py.)"""
 
 from __future__ import annotations
 
@@ -15,24 +16,31 @@ import pytest
 from conftest import require_program, run_cli
 from lathe_mirror.config import load
 from lathe_mirror.errors import InputError
-from lathe_mirror.export.gcode import (Dialect, ProgramOptions, parse_dialect, program,
-                                       reference_programs)
+from lathe_mirror.export.gcode import Dialect, format_program, parse_dialect, reference_programs
 from lathe_mirror.lathe import Lathe, Stock, Tool
 from lathe_mirror.path import Arc
+from lathe_mirror.shop import ProgramOptions, plan_program
 from lathe_mirror.toolpath import Strategy, plan_toolpath
 
 REPO = Path(__file__).resolve().parents[1]
 LATHE = Lathe()
 STOCK = Stock()
+#: The tool table: both tools' offsets zero (the nose centre is the controlled point).
+TOOLS = "T1 P1 X0 Z0 D0.4 Q9 ;roughing\nT2 P2 X0 Z0 D0.4 Q9 ;finishing\n"
 
 
-def rs274(tmp_path: Path, text: str) -> str:
+def program(tp, stock=STOCK, dialect=Dialect.LINUXCNC, *, options=None) -> str:
+    """The whole program around a toolpath, as text."""
+    return format_program(plan_program(tp, stock, options), dialect)
+
+
+def rs274(tmp_path: Path, text: str, tools: str = TOOLS) -> str:
     """Run LinuxCNC's interpreter on a program; its canonical output (fails on error)."""
     exe = require_program("rs274")
     prog = tmp_path / "prog.ngc"
     prog.write_text(text)
-    # rs274's tool table is read in inches; the offsets are zero (nose centre set up)
-    (tmp_path / "tools.tbl").write_text("T1 P1 X0 Z0 D0 Q2 ;finishing insert\n")
+    # rs274's tool table is read in inches
+    (tmp_path / "tools.tbl").write_text(tools)
     env = dict(os.environ, HOME=str(tmp_path))
     res = subprocess.run([exe, "-t", str(tmp_path / "tools.tbl"), "-g", str(prog)],
                          capture_output=True, text=True, cwd=tmp_path, env=env, timeout=60)
@@ -41,12 +49,15 @@ def rs274(tmp_path: Path, text: str) -> str:
 
 
 def canonical_contour(out: str) -> list[tuple]:
-    """The moves between the 'finish contour begin/end' comments, as rs274 reports them:
-    ("line", (r, Z)) or ("arc", (r, Z), centre (r, Z), rotation). In G7, X is a radius."""
+    """The moves between the 'finish contour begin/end' comments, as rs274 reports them,
+    after the position they start from: ("line", (r, Z)) or ("arc", (r, Z), centre (r, Z),
+    rotation). In G7, X is a radius."""
     lines = out.splitlines()
     i0 = next(i for i, ln in enumerate(lines) if 'COMMENT("finish contour begin")' in ln)
     i1 = next(i for i, ln in enumerate(lines) if 'COMMENT("finish contour end")' in ln)
-    moves = []
+    before = [ln for ln in lines[:i0] if re.search(r"STRAIGHT_(FEED|TRAVERSE)\(", ln)][-1]
+    v = [float(x) for x in re.search(r"\(([^)]*)\)", before).group(1).split(",")]
+    moves = [("line", (v[0], v[2]))]
     for ln in lines[i0 + 1:i1]:
         m = re.search(r"(STRAIGHT_FEED|ARC_FEED)\(([^)]*)\)", ln)
         if not m:
@@ -109,7 +120,7 @@ def test_rs274_rebuilds_the_contour(tmp_path, plans, strategy, rho):
     out = rs274(tmp_path, program(tp, STOCK, Dialect.LINUXCNC))
     moves = canonical_contour(out)
     assert len(moves) == len(tp.segments) + 1
-    # the first feed move reaches the contour's start
+    # the lead-in ends at the contour's start
     assert np.allclose(moves[0][1], tp.segments[0].start, atol=1e-4)
     rebuilt = rebuild_points(moves)
     for seg, mv, pts in zip(tp.segments, moves[1:], rebuilt):
@@ -130,7 +141,15 @@ def test_rs274_reports_the_lattice_and_the_setup(tmp_path, plans):
     assert "USE_LENGTH_UNITS(CANON_UNITS_MM)" in out
     assert "SET_SPINDLE_MODE(0 3000.0000)" in out  # G96 D: the spindle cap
     assert "SET_FEED_MODE(0, 1)" in out  # G95: feed per revolution
-    assert "CHANGE_TOOL(1)" in out
+    # roughing tool, coolant, optional stop, a separate finishing tool, coolant off at the end
+    events = [e for e in re.findall(r"(CHANGE_TOOL\(\d\)|FLOOD_ON|FLOOD_OFF|OPTIONAL_PROGRAM_STOP|PROGRAM_END)", out)]
+    assert events[:1] == ["CHANGE_TOOL(1)"] and events[-1] == "PROGRAM_END"
+    i_stop = events.index("OPTIONAL_PROGRAM_STOP")
+    assert "FLOOD_OFF" in events[:i_stop] and events[i_stop + 1] == "CHANGE_TOOL(2)"
+    assert events[-2] == "FLOOD_OFF"
+    # the end position: home (X100 = r 50, Z50), Z first, before M30
+    travs = re.findall(r"STRAIGHT_TRAVERSE\(([^,]+), [^,]+, ([^,]+),", out.split("OPTIONAL_PROGRAM_STOP")[1])
+    assert [tuple(map(float, t)) for t in travs[-2:]] == [(40.0, 50.0), (50.0, 50.0)]
     # every canonical coordinate of the contour is a lattice value (4 decimals printed)
     for mv in canonical_contour(out):
         vals = np.array(mv[1] + (mv[2] if mv[0] == "arc" else ()))
@@ -151,11 +170,42 @@ def test_fanuc_dialect_structure(plans):
     text = program(plans[(Strategy.ARCS, 0.2)], STOCK, Dialect.FANUC)
     lines = text.splitlines()
     assert lines[0] == "%" and lines[1].startswith("O1000")
-    assert "G50 S3000" in lines and "T0101" in lines
-    assert any(ln.startswith("G96 S200") for ln in lines)
+    assert "G21" in lines  # alone in its block, for older controls
+    words = [ln.split()[1:] if ln.startswith("N") else ln.split() for ln in lines]
+    assert ["G50", "S3000"] in words and ["T0101"] in words and ["T0202"] in words
+    assert ["M08"] in words and ["M09"] in words and ["M01"] in words
+    assert ["G96", "S200", "M03"] in words
     assert "G99" in " ".join(lines)  # feed per revolution
-    assert lines[-2:] == ["M30", "%"]
+    assert lines[-1] == "%" and words[-2] == ["M30"]
     assert not any("G7" in ln.split() or "G43" in ln.split() for ln in lines)
+    # comments: upper case, in parentheses, no ';', nothing nested
+    comments = [ln for ln in lines if "(" in ln]
+    assert comments and all(re.fullmatch(r"(O1000 )?\([A-Z0-9 .,+\-/=:*#_]*\)", ln) for ln in comments)
+    assert not any(";" in ln for ln in lines)
+    # block numbers: increasing, the same blocks as the LinuxCNC program's
+    n_f = [int(ln.split()[0][1:]) for ln in lines if ln.startswith("N")]
+    lc = program(plans[(Strategy.ARCS, 0.2)], STOCK, Dialect.LINUXCNC).splitlines()
+    n_l = [int(ln.split()[0][1:]) for ln in lc if ln.startswith("N")]
+    assert n_f == n_l == list(range(1, len(n_f) + 1))
+
+
+def test_dialects_carry_the_same_moves(plans, tmp_path):
+    """The Fanuc program read back (shop.replay) moves through the same points, arc
+    centres and block numbers as rs274 reports for the LinuxCNC program."""
+    from lathe_mirror.shop.replay import read_program
+
+    tp = plans[(Strategy.PAPER, 0.2)]
+    fanuc = read_program(program(tp, STOCK, Dialect.FANUC), LATHE)
+    canon = canonical_moves(rs274(tmp_path, program(tp, STOCK, Dialect.LINUXCNC)))
+    mine = [mv for op in fanuc for mv in op.moves]
+    assert len(mine) == len(canon)
+    # the first two go home from where the machine is (rs274 starts at 0, 0): Z, then X
+    assert [mv.label.split()[1:3] for mv in mine[:2]] == [["G0", "Z50.000"], ["G0", "X100.000"]]
+    for mv, (kind, end, _, number) in zip(mine[2:], canon[2:]):
+        assert mv.rapid == (kind == "STRAIGHT_TRAVERSE")
+        assert isinstance(mv.move, Arc) == (kind == "ARC_FEED")
+        assert np.allclose(mv.move.end, end, atol=1e-4)
+        assert mv.label.split()[0] == f"N{number}"
 
 
 def test_header_states_design_machine_tool_budget_and_figures(plans):
@@ -165,6 +215,7 @@ def test_header_states_design_machine_tool_budget_and_figures(plans):
     assert "a 48.3584 b 26.8656" in text  # Table 1's a, b of mirror 01
     assert f"{tp.n_points} of 528 points used" in text
     assert "nose radius 0 mm" in text
+    assert "offsets set to the NOSE CENTRE, see mirror.setup.html" in text
     # per lobe: the whole lobe, and the radii the camera uses
     assert text.count("whole lobe: normal deviation rms") == 2
     assert text.count("slope error rms") == 4
@@ -194,7 +245,7 @@ def test_a_gouging_program_is_refused(paper_mirror):
     tp = plan_toolpath(paper_mirror, LATHE, Tool(nose_radius=0.0), Strategy.PAPER)
     # the paper's rounding lies up to ~0.003 mm inside the part: a tighter tolerance refuses it
     with pytest.raises(InputError, match="gouge"):
-        program(tp, STOCK, options=ProgramOptions(gouge_tolerance=0.001))
+        plan_program(tp, STOCK, ProgramOptions(gouge_tolerance=0.001))
 
 
 def test_unknown_dialect():
@@ -204,9 +255,10 @@ def test_unknown_dialect():
 
 def test_reference_programs_are_current():
     settings = load()
-    for name, text in reference_programs(settings, settings.mirror()).items():
+    files = reference_programs(settings, settings.mirror())
+    assert sorted(files) == sorted(p.name for p in (REPO / "gcode").iterdir())
+    for name, text in files.items():
         path = REPO / "gcode" / name
-        assert path.exists(), f"gcode/{name} missing: run write_reference_programs('gcode')"
         assert path.read_text() == text, f"gcode/{name} is stale: run write_reference_programs('gcode')"
 
 
@@ -335,22 +387,25 @@ def test_cli_json_and_directory_output(tmp_path):
     assert data["usable_lobes"][1]["r_range_mm"] == {"min": 20.0, "max": 35.0}
     assert data["n_points"] <= 528
     assert (tmp_path / "mirror_arcs.ngc").exists()
+    assert (tmp_path / "mirror_arcs.setup.html").exists()  # beside the program
+    assert [op["name"] for op in data["shop"]["operations"]] == ["face", "rough", "semi-finish", "finish"]
+    assert data["shop"]["contacts"] == []
     # "best" names the default strategy, as in `lathe-mirror render --surface best`
     res = run_cli("toolpath", "--strategy", "best", "--nose-radius", "0", "--json")
     assert res.returncode == 0 and json.loads(res.stdout)["strategy"] == "arcs"
 
 
-def canonical_moves(out: str) -> list[tuple[str, tuple[float, float], bool]]:
-    """Every move rs274 reports: (kind, end (r, Z), from the finishing contour on)."""
+def canonical_moves(out: str) -> list[tuple[str, tuple[float, float], bool, int]]:
+    """Every move rs274 reports: (kind, end (r, Z), with the finishing tool, block N)."""
     moves, finishing = [], False
     for ln in out.splitlines():
-        if 'COMMENT("finish contour begin")' in ln:
-            finishing = True  # and after it the exit, which faces the rim's shoulder
-        m = re.search(r"(STRAIGHT_FEED|STRAIGHT_TRAVERSE|ARC_FEED)\(([^)]*)\)", ln)
+        if "CHANGE_TOOL(2)" in ln:
+            finishing = True  # the finishing tool: its lead-in, the contour, the exit
+        m = re.search(r"N(\d+)\s+(STRAIGHT_FEED|STRAIGHT_TRAVERSE|ARC_FEED)\(([^)]*)\)", ln)
         if m:
-            v = [float(x) for x in m.group(2).split(",")]
-            end = (v[1], v[0]) if m.group(1) == "ARC_FEED" else (v[0], v[2])
-            moves.append((m.group(1), end, finishing))
+            v = [float(x) for x in m.group(3).split(",")]
+            end = (v[1], v[0]) if m.group(2) == "ARC_FEED" else (v[0], v[2])
+            moves.append((m.group(2), end, finishing, int(m.group(1))))
     return moves
 
 
@@ -367,7 +422,7 @@ def test_roughing_leaves_the_allowance_and_never_cuts_the_part(tmp_path, paper_m
     part = m.vertex_z - np.where(r <= 20.0, m.inner.z(r), m.outer.z(r))
     top = np.full(r.shape, STOCK.face_allowance)  # the bar's face
     prev = None
-    for kind, p, finishing in moves:
+    for kind, p, finishing, _ in moves:
         if prev is not None and not finishing:
             seg = np.linspace(prev, p, 400)
             if kind == "STRAIGHT_FEED":
@@ -398,3 +453,83 @@ def test_radius_mode_program(tmp_path, paper_mirror):
     assert np.allclose([mv[1] for mv in moves[1:]], [s.end for s in tp.segments], atol=1e-4)
     # the rim's X word is its radius, not its diameter
     assert f"X{tp.segments[-1].end[0]:.3f}" in text
+
+
+# --------------------------------------------------------------------------------------
+# Word formats: every number fixed-point within the controller's word format (issue 14.3)
+
+
+@pytest.mark.parametrize("toml, key", [
+    ("[machine]\nsurface_speed = 1000000.0\n", "machine.surface_speed = 1000000 m/min"),
+    ("[machine]\nfeed_finish = 0.00005\n", "machine.feed_finish = 0.00005 mm/rev"),
+    ("[machine]\nspindle_max_rpm = 9223372036854775807\n",
+     "machine.spindle_max_rpm = 9223372036854775807 rev/min"),
+])
+@pytest.mark.parametrize("command", ["toolpath", "run"])
+def test_words_outside_their_format_are_refused(tmp_path, toml, key, command):
+    """Each exact input of the fuzzing report: one line naming the key and the allowed
+    range, exit 2, nothing written (the programs %g wrote as S1e+06 and F5e-05)."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(toml)
+    out = tmp_path / "out"
+    args = (["toolpath", "--config", str(cfg), "-o", str(out) + "/"] if command == "toolpath" else
+            ["run", "--config", str(cfg), "-o", str(out), "--no-render", "--no-progress"])
+    res = run_cli(*args)
+    assert res.returncode == 2, res.stderr[-2000:]
+    err = res.stderr.strip().splitlines()
+    assert len(err) == 1 and key in err[0] and "allowed" in err[0], res.stderr
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["c.toml"]
+
+
+def test_words_at_their_bounds_are_fixed_point_and_pass_rs274(tmp_path, paper_mirror):
+    """The largest S and spindle cap and the smallest feed a word carries are written
+    fixed-point, and rs274 reads back exactly those values."""
+    lathe = Lathe(surface_speed=99999.0, spindle_max_rpm=99999, feed_finish=0.0001)
+    tp = plan_toolpath(paper_mirror, lathe, Tool(), Strategy.ARCS)
+    text = program(tp)
+    assert re.search(r"\d[eE][-+]?\d", text.split("G18", 1)[1]) is None  # no exponent in a word
+    assert "G96 D99999 S99999 M3" in text and "F0.0001" in text.split()
+    out = rs274(tmp_path, text)
+    assert "SET_SPINDLE_MODE(0 99999.0000)" in out and "SET_SPINDLE_SPEED(0, 99999.0000)" in out
+    assert "SET_FEED_RATE(0.0001)" in out
+
+
+def test_no_word_of_a_reference_program_has_an_exponent():
+    for path in sorted((REPO / "gcode").glob("*.n*c")):
+        code = "\n".join(re.sub(r"\([^)]*\)", "", ln) for ln in path.read_text().splitlines())
+        assert re.search(r"[A-Z]-?\d*\.?\d+[eE]", code) is None, path.name
+
+
+# --------------------------------------------------------------------------------------
+# Other designs: a second inner-recessed step; the outer-recessed step is refused
+
+
+SMALL = ("[camera]\nf = 6.0\nt_pixel = 0.003\nsensor_px = [1280, 1024]\n"
+         "[lobes.inner]\nr_top = 12.0\nr_pixel = 260.0\na_over_b = 2.0\n"
+         "[lobes.outer]\nr_top = 25.0\nr_pixel = 500.0\nalpha_deg = 5.0\n")
+
+
+@pytest.mark.parametrize("strategy", ["paper", "lattice", "arcs"])
+def test_another_step_design_passes_rs274(tmp_path, strategy):
+    """The README's small design (step 1.312 mm, inner lobe recessed): every strategy's
+    program is written (simulated, no contact) and rs274 reads it."""
+    cfg = tmp_path / "small.toml"
+    cfg.write_text(SMALL)
+    res = run_cli("toolpath", "--config", str(cfg), "--strategy", strategy, "-o", str(tmp_path) + "/")
+    assert res.returncode == 0, res.stderr
+    out = rs274(tmp_path, (tmp_path / f"mirror_{strategy}.ngc").read_text())
+    assert "PROGRAM_END" in out and out.count("CHANGE_TOOL(") == 4  # T1 x3 (restartable ops), T2
+
+
+def test_outer_recessed_step_is_refused_in_one_line(tmp_path):
+    """This tool's body lies on the axis side of its nose (it cannot touch a wall that
+    faces outward), so a design whose outer lobe is recessed is refused before planning."""
+    from conftest import RECESSED_OUTER
+
+    cfg = tmp_path / "outer.toml"
+    cfg.write_text(RECESSED_OUTER)
+    res = run_cli("toolpath", "--config", str(cfg), "-o", str(tmp_path / "p.ngc"))
+    assert res.returncode == 2
+    err = res.stderr.strip().splitlines()
+    assert len(err) == 1 and "outer lobe is recessed" in err[0] and "Traceback" not in res.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["outer.toml"]

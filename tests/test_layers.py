@@ -23,6 +23,7 @@ RANKS = {
     "lathe": 3,
     "toolpath": 4,
     "nose_envelope": 5,
+    "shop": 5.5,
     "polishing": 6,
     "body": 7,
     "optics": 8,

@@ -23,7 +23,7 @@ def test_run_writes_programs_cad_and_report(tmp_path):
     proc = run_cli("run", "--config", str(cfg), "-o", str(out))
     assert proc.returncode == 0, proc.stderr[-2000:]
     # With --config the programs and CAD go under the output directory, not the repository's.
-    assert sorted(p.suffix for p in (out / "gcode").iterdir()) == [".nc", ".nc", ".ngc", ".ngc"]
+    assert sorted(p.suffix for p in (out / "gcode").iterdir()) == [".html", ".html", ".nc", ".nc", ".ngc", ".ngc"]
     assert {p.suffix for p in (out / "cad").iterdir()} == {".step", ".dxf"}
     assert {p.name for p in (out / "calib").iterdir()} == set(FILE_NAMES)  # calibration files
     report = json.loads((out / "report.json").read_text())

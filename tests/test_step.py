@@ -266,7 +266,8 @@ def test_committed_program_cuts_the_committed_programmed_step(tmp_path, paper_co
 
     exe = require_program("rs274")
     program = REPO / "gcode" / "mirror_arcs.ngc"
-    (tmp_path / "tools.tbl").write_text("T1 P1 X0 Z0 D0 Q2\n")  # offsets zero: nose centre
+    # offsets zero: the nose centre (the roughing tool T1, the finishing tool T2)
+    (tmp_path / "tools.tbl").write_text("T1 P1 X0 Z0 D0.4 Q9\nT2 P2 X0 Z0 D0.4 Q9\n")
     res = subprocess.run([exe, "-t", str(tmp_path / "tools.tbl"), "-g", str(program)],
                          capture_output=True, text=True, cwd=tmp_path, timeout=60,
                          env=dict(os.environ, HOME=str(tmp_path)))
@@ -275,6 +276,11 @@ def test_committed_program_cuts_the_committed_programmed_step(tmp_path, paper_co
     i0 = next(i for i, ln in enumerate(lines) if 'COMMENT("finish contour begin")' in ln)
     i1 = next(i for i, ln in enumerate(lines) if 'COMMENT("finish contour end")' in ln)
     pts, cur = [], None
+    for ln in lines[:i0]:  # the contour starts where the lead-in left the nose
+        m = re.search(r"STRAIGHT_(?:FEED|TRAVERSE)\(([^)]*)\)", ln)
+        if m:
+            v = [float(x) for x in m.group(1).split(",")]
+            cur = np.array([v[0], v[2]])
     for ln in lines[i0 + 1:i1]:
         m = re.search(r"(STRAIGHT_FEED|ARC_FEED)\(([^)]*)\)", ln)
         if not m:

@@ -24,6 +24,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="lattice step of r and Z, mm (machine.resolution, default 0.005)")
     p.add_argument("--nose-radius", type=float, default=None, metavar="MM",
                    help="tool nose radius, mm (tool.nose_radius, default 0.2; 0 = sharp)")
+    p.add_argument("--check", metavar="PROGRAM",
+                   help="simulate an existing G-code program (either dialect) against the configured "
+                   "stock and tool instead of planning one; exit 2 naming the first block that touches "
+                   "stock at rapid or with the insert's body")
     p.set_defaults(func=run)
 
 
@@ -31,38 +35,45 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from ..enums import BEST, Strategy, parse
-    from ..export.gcode import Dialect, parse_dialect, program, program_options
+    from ..export.gcode import format_program, parse_dialect
+    from ..export.setup_sheet import setup_sheet_html
     from ..nose_envelope import (
         as_machined,
         contour_profile,
         gouge_depth,
         junction_fillet,
     )
-    from ..pipeline import design, plan
+    from ..pipeline import design, plan, shop_program
+    from ..shop import options_from_settings
     from ..toolpath import profile_errors, usable_ranges
 
     settings = load(args, [("machine.max_points", args.points, "--points"),
                            ("machine.resolution", args.resolution, "--resolution"),
                            ("tool.nose_radius", args.nose_radius, "--nose-radius")])
     dialect = parse_dialect(args.dialect)
+    if args.check:
+        return check(args, settings)
     if args.strategy:
         strategy = parse(Strategy, args.strategy, "--strategy", aliases={"best": BEST})
     else:
         strategy = settings.toolpath.strategy
     mirror = design(settings)
     lathe, tool, stock = settings.machine, settings.tool, settings.stock
-    opts = program_options(settings)
+    opts = options_from_settings(settings.toolpath)
     tp = plan(mirror, lathe, tool, strategy, max_deviation=settings.toolpath.max_deviation)
-    text = program(tp, stock, dialect, options=opts, name=f"mirror_{strategy.value}")
+    shop = shop_program(tp, stock, opts)  # simulated against the stock; refused if it touches
+    text = format_program(shop.program, dialect)
     if args.output:
-        from ..export.files import write_text
+        from ..export.files import check_writable, write_text
         from .common import output_dir
 
         out = Path(args.output)
         if out.is_dir() or args.output.endswith("/"):
-            ext = "ngc" if dialect is Dialect.LINUXCNC else "nc"
-            out = output_dir(out) / f"mirror_{strategy.value}.{ext}"
+            out = output_dir(out) / f"{shop.program.name}.{dialect.extension}"
+        sheet = out.with_name(out.name.split(".")[0] + ".setup.html")  # beside the program
+        check_writable(sheet)
         write_text(out, text)
+        write_text(sheet, setup_sheet_html(shop.sheet))
     made = as_machined(tp)
     figures = profile_errors(made, mirror)
     used = profile_errors(made, mirror, r_ranges=usable_ranges(mirror))
@@ -83,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
         # the radii the camera uses (the step wall hides the inner lobe's rim and with it
         # the junction fillet): what the image sees of the as-machined surface
         "usable_lobes": used["lobes"],
+        "shop": shop.simulation.figures(),
     }
     if args.json:
         print_json(result)
@@ -90,6 +102,34 @@ def run(args: argparse.Namespace) -> int:
         print(text, end="")
     else:
         print(format_figures(result))
+    return 0
+
+
+def check(args: argparse.Namespace, settings) -> int:
+    """--check PROGRAM: replay a G-code file against the configured stock and tool."""
+    from ..errors import InputError
+    from ..pipeline import design
+    from ..shop.replay import read_program
+    from ..shop.stock import simulate
+
+    try:
+        text = open(args.check, encoding="utf-8").read()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"--check {args.check}: cannot read ({getattr(exc, 'strerror', None) or exc})") from None
+    lathe, t = settings.machine, settings.toolpath
+    ops = read_program(text, lathe, source=args.check)
+    if not ops:
+        raise InputError(f"--check {args.check}: no moves to simulate")
+    sim = simulate(ops, design(settings), settings.tool, lathe, settings.stock,
+                   rapid_rate=t.rapid_rate, gouge_tolerance=t.gouge_tolerance)
+    sim.check()
+    if args.json:
+        print_json(sim.figures())
+    else:
+        for op in sim.operations:
+            print(f"{op.name}: removed {op.removed_volume_mm3:.0f} mm^3, max depth of cut "
+                  f"{op.max_depth_of_cut_mm:.3f} mm, air {op.air_time_s:.1f} s, time {op.cycle_time_s:.1f} s")
+        print(f"no contact at rapid, none with the insert's body; cycle time {sim.cycle_time_s:.1f} s")
     return 0
 
 

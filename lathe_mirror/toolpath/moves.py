@@ -7,6 +7,7 @@ nose_envelope cuts with them.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,7 +26,11 @@ class ToolpathSettings:
     inside the exact part (a program that gouges more is refused). max_deviation: largest
     normal deviation a contour may have. rough_depth: depth of each roughing level (more:
     fewer passes, heavier cuts). rough_allowance: stock left on the profile for the
-    finishing pass. clearance: safe distance above the work for rapid moves.
+    finishing pass. clearance: safe distance above the work for rapid moves. ramp_angle:
+    slope of ramped entries, rad. spring_pass: the finishing contour once more. coolant:
+    M8 / M9. home_r, home_z: the end and tool-change position of the nose centre.
+    rapid_rate: traverse speed for the cycle-time estimate, mm/min. (The program's
+    planner, shop.program.ProgramOptions, bounds them.)
     """
 
     strategy: Strategy = BEST
@@ -34,6 +39,12 @@ class ToolpathSettings:
     rough_depth: float = 1.0
     rough_allowance: float = 0.15
     clearance: float = 2.0
+    ramp_angle: float = math.radians(20.0)
+    spring_pass: bool = False
+    coolant: bool = True
+    home_r: float = 50.0
+    home_z: float = 50.0
+    rapid_rate: float = 5000.0
 
 
 @dataclass

@@ -1,0 +1,169 @@
+"""The set-up sheet as one self-contained HTML page (pictures embedded), written beside
+the programs it goes with. It lays out the model it is handed (shop.setup.SetupSheet);
+nothing is computed here but the pictures of the stock after each operation (matplotlib,
+Agg, no metadata: the same sheet gives the same bytes).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ..shop.setup import SetupSheet
+
+
+def setup_sheet_html(sheet: SetupSheet) -> str:
+    """The sheet as an HTML page."""
+    e = html.escape
+    x_unit = "diameter" if sheet.diameter_mode else "radius"
+    out = [
+        "<!DOCTYPE html>", "<html><head><meta charset='utf-8'>",
+        f"<title>Set-up sheet {e(sheet.name)}</title>",
+        "<style>body{font-family:sans-serif;max-width:62em;margin:1em auto}"
+        "table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #999;padding:.2em .5em;"
+        "text-align:left}th{background:#eee}td.n{text-align:right}img{max-width:100%}</style>",
+        "</head><body>",
+        f"<h1>Set-up sheet: {e(sheet.name)}</h1>",
+        f"<p>Programs: {', '.join(f'<code>{e(f)}</code>' for f in sheet.files)} (LinuxCNC, Fanuc; the "
+        f"same block numbers N). Strategy <b>{e(sheet.strategy)}</b>. Estimated cycle time "
+        f"<b>{_time(sheet.cycle_time_s)}</b>.</p>",
+        "<h2>Work zero</h2>", f"<p>{e(sheet.work_zero)}</p>",
+        "<h2>Stock and chucking</h2>", "<table>",
+        _row("bar diameter", f"{sheet.stock['diameter_mm']:g} mm"),
+        _row("face allowance (faced off)", f"{sheet.stock['face_allowance_mm']:g} mm above Z0"),
+        _row("deepest programmed point", f"Z{sheet.stock['deepest_z_mm']:.3f}"),
+        _row("stick-out from the jaws", f"at least {sheet.stock['stick_out_mm']:g} mm (jaws below "
+             f"Z-{sheet.stock['length_mm']:g})"),
+        "</table>",
+        "<h2>Tools</h2>", "<table><tr><th>tool</th><th>role</th><th>insert</th><th>holder</th>"
+        "<th>LinuxCNC tool table</th><th>Fanuc offset page</th></tr>",
+    ]
+    for t in sheet.tools:
+        out.append(f"<tr><td>T{t.station} / T{t.station:02d}{t.station:02d}</td><td>{e(t.role)}</td>"
+                   f"<td>{e(t.insert)}</td><td>{e(t.holder)}</td><td><code>{e(t.linuxcnc_table)}</code></td>"
+                   f"<td>{e(t.fanuc_offset)}</td></tr>")
+    out.append("</table>")
+    off = sheet.tools[0].offsets
+    rho = off.nose_radius
+    d_example = 20.0
+    side = ("a bore (inside diameter) with the nose's outer (+X) side" if off.x_side == "bore"
+            else "an outside diameter with the nose's inner side")
+    sign = "-" if off.x_side == "bore" else "+"
+    out += [
+        "<h2>Offsets: the nose-centre convention</h2>",
+        "<p>The program moves the nose <b>centre</b>; enter the offsets so that the controlled point "
+        "is the nose centre (tip code below), for each tool:</p><table>",
+        _row("Z", f"touch the bar's face (Z{sheet.face_z:g}) with the nose's bottom and enter "
+                  f"<b>Z{off.z_entry(sheet.face_z):.3f}</b> (the touched face + {rho:g} mm)"),
+        _row("X", f"touch {side}, diameter D, and enter <b>X = D {sign} {2 * rho:g}</b> mm "
+                  f"(X is the {x_unit}); e.g. D = {d_example:.3f} mm: enter "
+                  f"<b>X{off.x_entry(d_example):.3f}</b>"),
+        _row("tip code", f"LinuxCNC orientation Q{off.linuxcnc_orientation} (nose centre), Fanuc "
+                         f"imaginary tip T{off.fanuc_tip} (nose centre); the program uses no nose "
+                         "compensation (G40)"),
+        _row("centre height", f"within &plusmn;{sheet.centre_height_mm:.3f} mm: a tool off centre by h cannot "
+                              "cut r &lt; h and leaves a pip of radius h at the vertex; beyond this it "
+                              "covers more than the one pixel the vertex images to"),
+        "</table>",
+        f"<h2>What a {sheet.setting_costs['delta_mm']:g} mm setting error costs</h2>",
+        "<p>The exact mirror turned with one offset off by that much (the turning's own errors "
+        "aside):</p><table><tr><th>offset off</th><th>lobe</th><th>slope error max</th>"
+        "<th>image displacement rms / max</th></tr>",
+    ]
+    for axis in ("x", "z"):
+        for lobe in sheet.setting_costs[axis]["lobes"]:
+            se, idp = lobe["slope_error_rad"], lobe["image_displacement_px"]
+            out.append(f"<tr><td>{axis.upper()} {'(radius)' if axis == 'x' else ''}</td><td>{e(lobe['name'])}</td>"
+                       f"<td class='n'>{se['max'] * 1e3:.3f} mrad</td>"
+                       f"<td class='n'>{idp['rms']:.3f} / {idp['max']:.3f} px</td></tr>")
+    out += [
+        "</table>",
+        "<h2>Operations</h2>",
+        "<table><tr><th>operation</th><th>tool</th><th>restart at</th><th>feed mm/rev</th>"
+        "<th>removed mm&sup3;</th><th>max depth of cut mm</th><th>max chip section mm&sup2;</th>"
+        "<th>max removal cm&sup3;/min</th><th>plunge mm</th><th>cutting</th><th>air</th><th>rapid</th>"
+        "<th>time</th></tr>",
+    ]
+    for op in sheet.operations:
+        f = op.figures
+        out.append(
+            f"<tr><td>{e(op.name)}</td><td>T{op.station}</td><td>N{op.restart_block}</td>"
+            f"<td class='n'>{f['feed_mm_rev']:g}</td><td class='n'>{f['removed_volume_mm3']:.0f}</td>"
+            f"<td class='n'>{f['max_depth_of_cut_mm']:.3f}</td><td class='n'>{f['max_chip_section_mm2']:.4f}</td>"
+            f"<td class='n'>{f['max_removal_rate_cm3_min']:.1f}</td><td class='n'>{f['plunge_mm']:.2f}</td>"
+            f"<td class='n'>{_time(f['cut_time_s'])}</td><td class='n'>{_time(f['air_time_s'])}</td>"
+            f"<td class='n'>{_time(f['rapid_time_s'])}</td><td class='n'>{_time(f['cycle_time_s'])}</td></tr>")
+    out.append(f"<tr><th colspan='12'>total (no tool change, no optional stop)</th>"
+               f"<th>{_time(sheet.cycle_time_s)}</th></tr></table>")
+    out += [f"<p>{e(n)}</p>" for n in sheet.notes]
+    out.append(f"<p>End position: home X{sheet.home[0] * (2 if sheet.diameter_mode else 1):.3f} "
+               f"Z{sheet.home[1]:.3f}, reached Z first.</p>")
+    out.append("<h2>The stock after each operation</h2>")
+    for op in sheet.operations:
+        png = _stock_picture(sheet, op)
+        out.append(f"<h3>{e(op.name)}</h3><img alt='stock after {e(op.name)}' "
+                   f"src='data:image/png;base64,{base64.b64encode(png).decode('ascii')}'>")
+    out.append("</body></html>")
+    return "\n".join(out) + "\n"
+
+
+def write_setup_sheet(path: str | Path, sheet: SetupSheet) -> Path:
+    """Write the sheet atomically."""
+    from .files import write_text
+
+    return write_text(path, setup_sheet_html(sheet))
+
+
+def _row(head: str, value: str) -> str:
+    return f"<tr><th>{html.escape(head)}</th><td>{value}</td></tr>"
+
+
+def _time(s: float) -> str:
+    m, sec = divmod(s, 60.0)
+    return f"{int(m)} min {sec:04.1f} s" if m >= 1 else f"{sec:.1f} s"
+
+
+def _polygons(geom):
+    """The polygons of a shapely geometry (Polygon, MultiPolygon, collection)."""
+    if geom is None or geom.is_empty:
+        return []
+    if geom.geom_type == "Polygon":
+        return [geom]
+    return [g for part in getattr(geom, "geoms", []) for g in _polygons(part)]
+
+
+def _stock_picture(sheet: SetupSheet, op) -> bytes:
+    """PNG: the bar's section after the operation (grey), what it removed (orange), the
+    designed part's outline (blue); machine (r, Z), mm."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.0, 3.4), dpi=90)
+    for poly, colour in [(p, "#b8b8b8") for p in _polygons(op.stock_after)] + \
+                        [(p, "#f39c34") for p in _polygons(op.removed)]:
+        ax.fill(*poly.exterior.xy, color=colour, linewidth=0)
+        for hole in poly.interiors:
+            ax.fill(*hole.xy, color="white", linewidth=0)
+    for poly in _polygons(sheet.part):
+        ax.plot(*poly.exterior.xy, color="#1f5fbf", linewidth=0.6)
+    x0, z0, x1, z1 = sheet.stock_start.bounds
+    deepest = sheet.stock["deepest_z_mm"]
+    ax.set_xlim(-1.0, x1 + 2.0)
+    ax.set_ylim(max(z0, deepest - 4.0), z1 + 1.0)
+    ax.set_aspect("equal")
+    ax.set_xlabel("r (mm)")
+    ax.set_ylabel("Z (mm)")
+    f = op.figures
+    ax.set_title(f"after {op.name}: {f['removed_volume_mm3']:.0f} mm$^3$ removed, "
+                 f"max depth of cut {f['max_depth_of_cut_mm']:.2f} mm", fontsize=9)
+    ax.tick_params(labelsize=8)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", metadata={"Software": None}, bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue()

@@ -1,0 +1,21 @@
+"""The shop's side of a program: the whole lathe program around a finishing toolpath,
+its simulation against the stock, and the set-up sheet's model.
+
+Layer: after nose_envelope (the gouge check) and before polishing and optics; it reads
+the toolpath, the lathe, the tool, the stock and the [toolpath] settings, never the
+config dict. pipeline.shop_program strings it together (plan, simulate, refuse, sheet).
+
+- program.py   ProgramOptions, the program model (Operation, blocks, Program), plan_program
+- roughing.py  facing through X0, roughing levels (ramped pockets), semi-finish into the
+               step's corner, the finishing pass's lead-in and exit, the way home
+- stock.py     the stock simulation (shapely): stock minus the swept nose and insert body,
+               per-operation removal, depth of cut, chip load, air time, cycle time (G96
+               with the spindle cap); refuses a rapid or the body touching stock
+- setup.py     the set-up sheet's model: work zero, stock, tools, offsets for the
+               nose-centre convention, centre height, times, pictures' geometry
+- replay.py    a G-code program (either dialect) read back into moves the simulation replays
+"""
+
+from .program import ProgramOptions, options_from_settings, plan_program
+
+__all__ = ["ProgramOptions", "options_from_settings", "plan_program"]

@@ -1,0 +1,316 @@
+"""The whole lathe program as a model: operations of blocks, planned around a toolpath.
+
+Machine frame (ARCHITECTURE.md): Z = 0 at the mirror's vertex, part in -Z, r the radius;
+every programmed coordinate is on the lathe's lattice. Every move is of the tool nose's
+CENTRE (the offsets are set to it; see shop.setup for the numbers to enter).
+
+A Program is a tuple of Operations (face, rough, semi-finish, finish, optionally a spring
+pass), each a tuple of Blocks: tool calls, spindle and coolant words, feed rates, rapid
+and feed moves, comments, an optional stop, the end. Every block but a comment carries a
+block number (N), the same in every dialect, so a refusal names a block the operator can
+find in either file, and every operation restarts at its own tool call. The dialects are
+export.gcode's; this module only decides what the program does.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Iterator
+
+import numpy as np
+
+from ..errors import InputError
+from ..lathe import Stock
+from ..path import Arc, Line, Move
+
+if TYPE_CHECKING:
+    from ..toolpath import Toolpath, ToolpathSettings
+
+#: Tool stations: the roughing tool and a separate finishing tool with a fresh edge.
+ROUGHING_STATION = 1
+FINISHING_STATION = 2
+
+#: Largest block number a 5-digit N word carries (Fanuc's format).
+MAX_BLOCK_NUMBER = 99999
+
+
+@dataclass(frozen=True)
+class ProgramOptions:
+    """Knobs of the program around the finishing contour. Lengths in mm, angles in rad.
+
+    rough_depth: depth of each roughing level (more: fewer levels, heavier cuts; the
+      simulation refuses a depth the insert's cutting edge cannot take).
+    rough_allowance: stock the semi-finish leaves on the profile for the finishing pass.
+    clearance: distance of every rapid from the stock and of the retract above a level.
+    gouge_tolerance: deepest the as-machined surface may lie inside the exact part.
+    ramp_angle: slope of ramped entries (into a pocket, onto the contour's start), rad.
+    spring_pass: repeat the finishing contour once more (no stock, removes deflection).
+    coolant: M8 / M9 around the cutting.
+    home_r, home_z: the end (and tool change) position, radius and Z of the nose centre;
+      the program goes there, Z first, before M30 and before the finishing tool.
+    rapid_rate: traverse speed for the cycle-time estimate, mm/min.
+    """
+
+    rough_depth: float = 1.0
+    rough_allowance: float = 0.15
+    clearance: float = 2.0
+    gouge_tolerance: float = 0.005
+    ramp_angle: float = math.radians(20.0)
+    spring_pass: bool = False
+    coolant: bool = True
+    home_r: float = 50.0
+    home_z: float = 50.0
+    rapid_rate: float = 5000.0
+
+    def __post_init__(self) -> None:
+        # Bounds keep the planning finite (a level per rough_depth, a ramp leg per
+        # ramp_angle) and the program meaningful; each message names the key.
+        _bounded("toolpath.rough_depth", self.rough_depth, 0.05, 10.0, "mm")
+        _bounded("toolpath.rough_allowance", self.rough_allowance, 0.02, 2.0, "mm")
+        _bounded("toolpath.clearance", self.clearance, 0.2, 20.0, "mm")
+        _bounded("toolpath.gouge_tolerance", self.gouge_tolerance, 1e-4, 1.0, "mm")
+        _bounded("toolpath.ramp_angle", math.degrees(self.ramp_angle), 1.0, 45.0, "deg")
+        _bounded("toolpath.home_r", self.home_r, 0.0, 1000.0, "mm")
+        _bounded("toolpath.home_z", self.home_z, 0.0, 1000.0, "mm")
+        _bounded("toolpath.rapid_rate", self.rapid_rate, 100.0, 100000.0, "mm/min")
+        for key in ("spring_pass", "coolant"):
+            if not isinstance(getattr(self, key), bool):
+                raise InputError(f"toolpath.{key} = {getattr(self, key)!r}: must be true or false")
+
+
+def options_from_settings(t: ToolpathSettings) -> ProgramOptions:
+    """ProgramOptions of the [toolpath] settings (InputError naming a key out of bounds)."""
+    return ProgramOptions(rough_depth=t.rough_depth, rough_allowance=t.rough_allowance, clearance=t.clearance,
+                          gouge_tolerance=t.gouge_tolerance, ramp_angle=t.ramp_angle,
+                          spring_pass=t.spring_pass, coolant=t.coolant, home_r=t.home_r, home_z=t.home_z,
+                          rapid_rate=t.rapid_rate)
+
+
+# --------------------------------------------------------------------------------------
+# Blocks
+
+
+@dataclass(frozen=True)
+class Block:
+    """One block of the program; `number` is its N (0 for a comment)."""
+
+    number: int = field(default=0, kw_only=True)
+
+
+@dataclass(frozen=True)
+class Comment(Block):
+    """A comment line (operations, markers such as "finish contour begin")."""
+
+    text: str
+
+
+@dataclass(frozen=True)
+class ToolCall(Block):
+    """Index the turret to `station` and take its offsets (T1 M6 G43 / T0101)."""
+
+    station: int
+    role: str  # "roughing" or "finishing"
+
+
+@dataclass(frozen=True)
+class SpindleOn(Block):
+    """Constant surface speed (m/min) with the spindle cap (rev/min), feed per revolution."""
+
+    surface_speed: float
+    max_rpm: int
+
+
+@dataclass(frozen=True)
+class Coolant(Block):
+    """Flood coolant on (M8) or off (M9)."""
+
+    on: bool
+
+
+@dataclass(frozen=True)
+class SpindleStop(Block):
+    """M5."""
+
+
+@dataclass(frozen=True)
+class OptionalStop(Block):
+    """M1: the operator may inspect the part and the edge before finishing."""
+
+
+@dataclass(frozen=True)
+class FeedRate(Block):
+    """Feed per revolution, mm/rev."""
+
+    feed: float
+
+
+@dataclass(frozen=True)
+class Rapid(Block):
+    """G0 along a straight line (machine frame, mm).
+
+    only: "Z" or "X" to write that axis' word alone (a move from a position the program
+    cannot know, at its start: the machine goes up first, then across).
+    """
+
+    move: Line
+    only: str | None = None
+
+
+@dataclass(frozen=True)
+class Feed(Block):
+    """G1 / G2 / G3 at the current feed (machine frame, mm)."""
+
+    move: Move
+
+
+@dataclass(frozen=True)
+class ProgramEnd(Block):
+    """M30."""
+
+
+Motion = Rapid | Feed
+
+
+@dataclass(frozen=True)
+class Operation:
+    """A named operation with one tool: its blocks from its tool call on.
+
+    name: "face", "rough", "semi-finish", "finish", "spring pass". station: the tool.
+    feed: its feed per revolution, mm/rev.
+    """
+
+    name: str
+    station: int
+    feed: float
+    blocks: tuple[Block, ...]
+
+    @property
+    def number(self) -> int:
+        """Block number of the operation's first block (where a restart begins)."""
+        return next(b.number for b in self.blocks if not isinstance(b, Comment))
+
+    def motions(self) -> Iterator[Motion]:
+        """The rapid and feed blocks in order."""
+        return (b for b in self.blocks if isinstance(b, (Rapid, Feed)))
+
+
+@dataclass(frozen=True)
+class Program:
+    """The whole program of one toolpath: the operations, where it starts and ends, and
+    the figures its header states.
+
+    home: (r, Z) the nose centre starts and ends at (mm). safe_z: the plane above the
+    stock every traverse uses (mm). r_out: the radius outside the bar where the tool
+    goes down to a level (mm). gouge_depth: deepest point of the as-machined surface
+    inside the part (mm). figures / used: nose_envelope's profile errors of the whole
+    lobes and of the radii the camera uses; fillet: the junction fillet or None.
+    """
+
+    name: str
+    toolpath: Toolpath
+    stock: Stock
+    options: ProgramOptions
+    operations: tuple[Operation, ...]
+    home: tuple[float, float]
+    safe_z: float
+    r_out: float
+    gouge_depth: float
+    figures: dict
+    used: dict
+    fillet: dict | None
+
+    def motions(self) -> Iterator[tuple[Operation, Motion]]:
+        """Every rapid and feed block with its operation, in order."""
+        for op in self.operations:
+            for b in op.motions():
+                yield op, b
+
+    def points(self) -> np.ndarray:
+        """Every end point of every move, (n, 2) machine (r, Z), mm."""
+        return np.array([b.move.end for _, b in self.motions()], dtype=float).reshape(-1, 2)
+
+    def describe(self, block: Block) -> str:
+        """A block as the operator finds it: its N and, for a move, the words of its
+        end point in the program's convention (X is 2r in diameter mode)."""
+        text = f"N{block.number}"
+        if isinstance(block, (Rapid, Feed)):
+            lathe = self.toolpath.lathe
+            x = block.move.end[0] * (2 if lathe.diameter_mode else 1)
+            g = "G0" if isinstance(block, Rapid) else (
+                ("G2" if block.move.clockwise else "G3") if isinstance(block.move, Arc) else "G1")
+            text += f" {g} X{x:.{lathe.decimals}f} Z{block.move.end[1]:.{lathe.decimals}f}"
+        return text
+
+
+def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | None = None, *,
+                 name: str = "mirror") -> Program:
+    """The whole program around the finishing contour of `toolpath`.
+
+    Facing through X0, roughing levels (pockets ramped), a semi-finish along the profile
+    offset by the allowance into the step's corner, then the finishing contour with the
+    finishing tool after an optional stop (ramped onto its start), an optional spring
+    pass, and the safe end position. Raises InputError when the stock cannot hold the
+    mirror, the contour would gouge the part beyond the tolerance, the home position is
+    not above the stock, or a move leaves the lathe's travel. The stock simulation
+    (shop.stock) checks the moves themselves.
+    """
+    from ..nose_envelope import as_machined, gouge_depth, junction_fillet
+    from ..toolpath import check_travel, profile_errors, usable_ranges
+    from .roughing import plan_operations
+
+    options = ProgramOptions() if options is None else options
+    lathe, m = toolpath.lathe, toolpath.mirror
+    if stock.radius <= m.r_max:
+        raise InputError(f"stock.diameter = {stock.diameter:g} mm: must exceed the mirror's "
+                         f"diameter {2 * m.r_max:g} mm")
+    rim_depth = -(m.vertex_z - float(m.outer.z(m.r_max)))
+    if stock.length < rim_depth + options.clearance:
+        raise InputError(f"stock.length = {stock.length:g} mm: the mirror is {rim_depth:.3f} mm deep; "
+                         f"allowed >= {rim_depth + options.clearance:.3f} mm")
+    if options.home_z < stock.face_allowance + options.clearance:
+        raise InputError(f"toolpath.home_z = {options.home_z:g} mm: the end position must be above the "
+                         f"stock's face by the clearance; allowed >= "
+                         f"{stock.face_allowance + options.clearance:g} mm")
+    depth = gouge_depth(toolpath)
+    if depth > options.gouge_tolerance:
+        raise InputError(
+            f"the {toolpath.strategy.value} toolpath would gouge the part by {depth:.4f} mm "
+            f"(toolpath.gouge_tolerance = {options.gouge_tolerance:g} mm); program refused "
+            "(more points, a finer machine.resolution or another strategy cut closer)"
+        )
+    made = as_machined(toolpath)
+    plan = plan_operations(toolpath, stock, options)
+    ops = _numbered(plan.operations)
+    prog = Program(name=name, toolpath=toolpath, stock=stock, options=options, operations=ops,
+                   home=plan.home, safe_z=plan.safe_z, r_out=plan.r_out, gouge_depth=depth,
+                   figures=profile_errors(made, m), used=profile_errors(made, m, r_ranges=usable_ranges(m)),
+                   fillet=junction_fillet(toolpath))
+    check_travel(prog.points(), lathe, what="the program")
+    return prog
+
+
+def _numbered(ops: list[Operation]) -> tuple[Operation, ...]:
+    """Number every block but the comments, 1, 2, ... through the whole program."""
+    n = 0
+    out = []
+    for op in ops:
+        blocks = []
+        for b in op.blocks:
+            if not isinstance(b, Comment):
+                n += 1
+                b = replace(b, number=n)
+            blocks.append(b)
+        out.append(replace(op, blocks=tuple(blocks)))
+    if n > MAX_BLOCK_NUMBER:
+        raise InputError(f"the program needs {n} blocks; a block number (N) carries at most "
+                         f"{MAX_BLOCK_NUMBER} (fewer points, machine.max_points, or a larger "
+                         "toolpath.rough_depth)")
+    return tuple(out)
+
+
+def _bounded(key: str, value, lo: float, hi: float, unit: str) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(f"{key} = {value!r}: must be a finite number ({unit})")
+    if not lo <= value <= hi:
+        raise InputError(f"{key} = {value:g} {unit}: allowed {lo:g} to {hi:g} {unit}")

@@ -1,0 +1,189 @@
+"""The set-up sheet's model: what the operator needs to run a program, as numbers.
+
+Work zero (Z0 at the mirror's vertex, X0 on the spindle axis), the stock and how far it
+must stand out of the chuck, each tool (insert designation, holder, station, tip code
+per dialect), the offsets to enter for the nose-centre convention the program uses
+(touch the bar's face with the nose's bottom: Z = the face's Z + nose radius; touch a
+diameter D with the side of the nose the tool can present: X = D - 2 nose radius for a
+bore, D + 2 nose radius for an outside diameter), the centre-height tolerance, what a
+0.01 mm setting error costs (tolerance.setting), and per operation its restart block,
+the simulation's figures and time (shop.stock). Lengths in mm, times in s.
+
+Which side of the nose can touch what follows from the tool's angles (lathe.Tool): the
+nose's arc is exposed from the leading flank's outward normal round through -Z to the
+trailing flank's; a direction the insert's body hides cannot touch anything. The paper's
+tool (35 deg insert, 3 deg approach) exposes 218 deg to 363 deg from +r: it touches a face
+(-Z) and a bore (+r), never an outside diameter.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from .program import FINISHING_STATION, ROUGHING_STATION
+from .stock import INSERT_IC, edge_length
+
+if TYPE_CHECKING:
+    from ..lathe import Tool
+    from .program import Program
+    from .stock import Simulation
+
+#: ISO 1832 shape letters by included angle (deg).
+_SHAPES = {35: "V", 55: "D", 60: "T", 80: "C", 90: "S"}
+
+
+@dataclass(frozen=True)
+class Offsets:
+    """How to set one tool's offsets for the nose-centre convention.
+
+    z_touch: what the nose touches for Z and the value to enter (mm); x_touch: the same
+    for X (a diameter D, in the program's X convention). z_entry(face_z) and
+    x_entry(diameter) give the numbers; tip codes per dialect.
+    """
+
+    nose_radius: float
+    diameter_mode: bool
+    x_side: str  # "bore" (the nose's +r side touches an inside diameter) or "outside"
+    linuxcnc_orientation: int = 9
+    fanuc_tip: int = 0
+
+    def z_entry(self, face_z: float) -> float:
+        """Z to enter (mm) with the nose's bottom touching a face at machine Z face_z."""
+        return face_z + self.nose_radius
+
+    def x_entry(self, diameter: float) -> float:
+        """X to enter with the nose touching a diameter (mm): the nose centre's X."""
+        sign = -1.0 if self.x_side == "bore" else 1.0
+        centre_r = diameter / 2.0 + sign * self.nose_radius
+        return 2.0 * centre_r if self.diameter_mode else centre_r
+
+
+@dataclass(frozen=True)
+class ToolSheet:
+    """One tool's line on the sheet."""
+
+    station: int
+    role: str
+    insert: str
+    holder: str
+    offsets: Offsets
+    linuxcnc_table: str
+    fanuc_offset: str
+
+
+@dataclass(frozen=True)
+class OperationSheet:
+    """One operation's line: its restart block and the simulation's figures."""
+
+    name: str
+    station: int
+    restart_block: int
+    figures: dict
+    stock_after: object = field(repr=False)
+    removed: object = field(repr=False)
+
+
+@dataclass(frozen=True)
+class SetupSheet:
+    """Everything the sheet shows (see the module doc); files: the programs it goes with."""
+
+    name: str
+    strategy: str
+    files: tuple[str, ...]
+    diameter_mode: bool
+    stock: dict
+    work_zero: str
+    tools: tuple[ToolSheet, ...]
+    face_z: float
+    centre_height_mm: float
+    setting_costs: dict
+    operations: tuple[OperationSheet, ...]
+    cycle_time_s: float
+    home: tuple[float, float]
+    stock_start: object = field(repr=False)
+    part: object = field(repr=False)
+    notes: tuple[str, ...] = ()
+
+
+def exposed_arc(tool: Tool) -> tuple[float, float]:
+    """Directions (rad, from +r toward +Z, increasing) from which the nose's arc can
+    touch: from the leading flank's outward normal round to the trailing flank's
+    (the wedge between the flanks is the insert's body)."""
+    a1, a2 = tool.flank_directions()
+    return a2 + math.pi / 2, a1 - math.pi / 2 + 2 * math.pi
+
+
+def can_touch(tool: Tool, direction: float) -> bool:
+    """True if the nose can touch a surface at `direction` (rad) from its centre."""
+    lo, hi = exposed_arc(tool)
+    d = (direction - lo) % (2 * math.pi)
+    return d <= (hi - lo) + 1e-12
+
+
+def insert_designation(tool: Tool) -> str:
+    """ISO 1832-style insert name: shape, 7 deg clearance, G tolerance, T (hole and chip
+    breaker), edge length, 04 thickness, nose radius code (0.2 mm -> 02)."""
+    deg = round(math.degrees(tool.included_angle))
+    shape = _SHAPES.get(deg)
+    if shape is None:
+        return f"rhombic insert {deg} deg, {tool.nose_radius:g} mm nose (no ISO shape letter)"
+    size = int(edge_length(tool))
+    nose = f"{round(tool.nose_radius * 10):02d}" if tool.nose_radius > 0 else "00"
+    return f"{shape}CGT {size:02d}04{nose}"
+
+
+def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict) -> SetupSheet:
+    """The sheet of a planned, simulated program (see the module doc)."""
+    tp, stock, lathe = program.toolpath, program.stock, program.toolpath.lathe
+    tool, m = tp.tool, tp.mirror
+    rho = tool.nose_radius
+    if can_touch(tool, -math.pi / 2):
+        face_z = stock.face_allowance
+    else:  # a tool that cannot present its nose to a face: a bug of the tool checks
+        raise RuntimeError("the tool cannot touch a face with its nose")
+    x_side = "bore" if can_touch(tool, 0.0) else "outside"
+    offs = Offsets(nose_radius=rho, diameter_mode=lathe.diameter_mode, x_side=x_side)
+    approach = 90 + round(math.degrees(tool.approach_angle))
+    shape = insert_designation(tool)[:1]
+    holder = (f"{approach} deg approach holder ({'SVJC' if shape == 'V' else 'ISO style J'} type, hand to "
+              f"suit the turret), the tip toward -Z and {'+X: it cuts from the axis outward' if x_side == 'bore' else '-X'}")
+    tools = []
+    for station, role in ((ROUGHING_STATION, "roughing"), (FINISHING_STATION, "finishing, a fresh edge")):
+        insert = insert_designation(tool) + ("" if station == ROUGHING_STATION else " (polished, for aluminium)")
+        tools.append(ToolSheet(
+            station=station, role=role, insert=insert, holder=holder, offsets=offs,
+            linuxcnc_table=(f"T{station} P{station} X<touched> Z<touched> D{2 * rho:.3f} Q{offs.linuxcnc_orientation} "
+                            f";{insert_designation(tool)} {role.split(',')[0]}, nose centre"),
+            fanuc_offset=f"offset {station:02d}: X, Z measured, R {rho:.3f}, T {offs.fanuc_tip} (nose centre)"))
+    ops = []
+    for op, fig in zip(program.operations, simulation.operations):
+        ops.append(OperationSheet(name=op.name, station=op.station, restart_block=op.number,
+                                  figures=fig.figures(), stock_after=fig.stock_after, removed=fig.removed))
+    # a tool off centre by h cannot cut r < h: a pip of radius h at the vertex; keep it
+    # inside the one pixel the vertex images to (t_pixel z / f on the mirror)
+    cam = m.camera
+    centre_height = cam.t_pixel * m.vertex_z / cam.f
+    deepest = float(program.points()[:, 1].min())
+    notes = (
+        "The program moves the nose CENTRE and applies no nose compensation (G40): the "
+        "offsets above put the nose centre where the program expects it.",
+        f"Cycle time: feeds at the G96 surface speed {lathe.surface_speed:g} m/min with the "
+        f"spindle capped at {lathe.spindle_max_rpm} rpm, rapids at {program.options.rapid_rate:g} mm/min; "
+        "tool changes and the optional stop are not included.",
+    )
+    stock_info = {"diameter_mm": stock.diameter, "face_allowance_mm": stock.face_allowance,
+                  "length_mm": stock.length, "deepest_z_mm": deepest,
+                  "stick_out_mm": stock.length + stock.face_allowance,
+                  "insert_ic_mm": INSERT_IC}
+    return SetupSheet(
+        name=program.name, strategy=tp.strategy.value,
+        files=(f"{program.name}.ngc", f"{program.name}.nc"), diameter_mode=lathe.diameter_mode,
+        stock=stock_info,
+        work_zero=("Z0 at the mirror's vertex (the finished front), part in -Z; the bar's face is "
+                   f"Z{stock.face_allowance:g} before facing. X0 on the spindle axis; X words are "
+                   + ("diameters (G7)." if lathe.diameter_mode else "radii (G8).")),
+        tools=tuple(tools), face_z=face_z, centre_height_mm=centre_height,
+        setting_costs=setting_costs, operations=tuple(ops), cycle_time_s=simulation.cycle_time_s,
+        home=program.home, stock_start=simulation.stock_start, part=simulation.part, notes=notes)

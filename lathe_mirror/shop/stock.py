@@ -1,0 +1,593 @@
+"""The stock simulation: the bar in (r, Z) minus the region the whole tool sweeps.
+
+Machine frame (r, Z), mm. The tool is the insert seen in the (r, Z) plane: a rhombus of
+the tool's included angle with its tip rounded to the nose radius (the nose centre at
+the programmed point), its edges along the tool's flanks (lathe.Tool), its size from an
+inscribed circle of INSERT_IC. Its cutting part is the nose and the flanks' first
+CUTTING_EDGE_FRACTION of the edge length; the rest is the body. Geometry is shapely's:
+the bar is kept as a grid of square tiles (each move only touches a few), a straight
+move sweeps the convex insert into the convex hull of its two end positions, an arc is
+cut into chords, and what the tool sweeps on the far side of the spindle axis (r < 0)
+cuts the same material mirrored (the part turns).
+
+Per operation it reports the material removed (area in the (r, Z) plane and volume),
+the largest depth of cut (removed area per unit of path, over windows of at least
+STAT_WINDOW mm) and chip section (depth x feed), the largest removal rate, the time
+cutting, in the air and at rapid, and the cycle time: feeds per revolution at the G96
+surface speed, the spindle capped (rpm(r) = min(cap, 1000 V / (2 pi r))), rapids at the
+rapid rate. It finds, and `Simulation.check` refuses with one line naming the block:
+any stock or part touched at rapid (a rapid is checked over the box its two ends span,
+so a controller's dog-leg rapid is covered too), stock touched by the insert's body,
+a cut into the designed part deeper than the gouge tolerance, the chuck touched.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import InputError
+from ..path import Arc, Line, Move
+
+if TYPE_CHECKING:
+    from ..design import Mirror
+    from ..lathe import Lathe, Stock, Tool
+    from .program import Program
+
+#: Inscribed circle of the insert, mm (a 16 mm V insert, VCGT 1604..: 9.525 mm = 3/8").
+INSERT_IC = 9.525
+#: The part of each flank that cuts, as a fraction of the edge length (a V insert's
+#: usable edge, ~4 mm on a 16.6 mm edge); beyond it the insert is body.
+CUTTING_EDGE_FRACTION = 0.25
+#: Tile size of the bar's grid, mm.
+TILE = 2.0
+#: Longest straight piece a move is cut into for the statistics, mm; arcs' chords, mm.
+PIECE = 1.0
+CHORD = 0.5
+#: Path length over which depth of cut is averaged, mm.
+STAT_WINDOW = 0.5
+#: Contact below this area (mm^2) is float noise, not contact.
+AREA_TOL = 1e-6
+#: Depth (mm) of stock touched by the body that counts (below it: the stock's own
+#: polygon noise at the cutting edge's end).
+BODY_TOL = 1e-3
+#: The shoulder beyond the rim is not optical; a program read back from a file may face
+#: it this far below where a nose leaving the rim along the lobe's slope would (mm).
+SHOULDER_ALLOWANCE = 0.05
+#: A feed within this angle (rad) of -Z that removes stock is a plunge.
+PLUNGE_ANGLE = math.radians(15.0)
+#: The chuck's jaws: from Z = -stock.length down, out to the bar's radius plus this (mm).
+JAW_HEIGHT = 10.0
+
+
+@dataclass(frozen=True)
+class SimMove:
+    """One programmed move as the simulation replays it. feed: mm/rev (rapids: unused).
+    label: how the operator finds the block ("N130 G0 X0.000 Z3.000", "line 130: ...")."""
+
+    rapid: bool
+    move: Move
+    feed: float
+    label: str
+
+
+@dataclass(frozen=True)
+class SimOperation:
+    """An operation's moves, in order."""
+
+    name: str
+    station: int
+    moves: tuple[SimMove, ...]
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Something the tool must not touch: kind "rapid" (stock at rapid; "dogleg" when
+    only a rapid that moves one axis first touches it), "body" (stock
+    touched by the insert's body), "part" (a cut into the designed part beyond the gouge
+    tolerance) or "chuck". area mm^2; depth mm; at: (r, Z) of the deepest point."""
+
+    kind: str
+    operation: str
+    label: str
+    area: float
+    depth: float
+    at: tuple[float, float]
+
+    def message(self, diameter_mode: bool = True) -> str:
+        x = self.at[0] * (2 if diameter_mode else 1)
+        where = f"{self.depth:.3f} mm deep near X{x:.3f} Z{self.at[1]:.3f}"
+        what = {
+            "rapid": "drives the tool through stock at rapid",
+            "dogleg": "drives the tool through stock at rapid if the controller moves one axis first",
+            "body": "touches stock with the insert's body, beyond its cutting edge",
+            "part": "cuts into the finished part beyond the gouge tolerance",
+            "chuck": "runs the tool into the chuck",
+        }[self.kind]
+        fix = {
+            "rapid": "a rapid must retract from the stock first, then traverse",
+            "dogleg": "a rapid must retract from the stock first, then traverse",
+            "body": "less depth per pass, toolpath.rough_depth, or another tool",
+            "part": "toolpath.rough_allowance, or a finer toolpath",
+            "chuck": "stock.length, or a shorter part",
+        }[self.kind]
+        return f"program refused: block {self.label} ({self.operation}) {what}: {where} ({fix})"
+
+
+@dataclass(frozen=True)
+class OperationFigures:
+    """What one operation does to the stock.
+
+    removed_area_mm2: material removed in the (r, Z) plane; removed_volume_mm3: turned
+    (2 pi r dA). max_depth_of_cut_mm: largest removed area per unit path (windows of
+    STAT_WINDOW mm). max_chip_section_mm2: largest depth x feed. max_removal_rate_cm3_min.
+    cut_time_s, air_time_s (feed moves that remove nothing), rapid_time_s, cycle_time_s.
+    max_part_cut_mm: deepest point of the designed part its cutting zone reached (the
+    finishing contour's own gouge, a few microns, shows here). plunge_mm: path length
+    fed into stock straight down the axis (within PLUNGE_ANGLE of -Z). stock_after: shapely
+    geometry of the bar after it; removed: what it removed.
+    """
+
+    name: str
+    station: int
+    feed_mm_rev: float
+    removed_area_mm2: float
+    removed_volume_mm3: float
+    max_depth_of_cut_mm: float
+    max_chip_section_mm2: float
+    max_removal_rate_cm3_min: float
+    cut_time_s: float
+    air_time_s: float
+    rapid_time_s: float
+    max_part_cut_mm: float
+    plunge_mm: float
+    stock_after: object = field(repr=False)
+    removed: object = field(repr=False)
+
+    @property
+    def cycle_time_s(self) -> float:
+        """Cutting + air + rapid time, s (no tool change, no optional stop)."""
+        return self.cut_time_s + self.air_time_s + self.rapid_time_s
+
+    def figures(self) -> dict:
+        """The numbers, for JSON."""
+        return {"name": self.name, "tool": self.station, "feed_mm_rev": self.feed_mm_rev,
+                "removed_area_mm2": self.removed_area_mm2, "removed_volume_mm3": self.removed_volume_mm3,
+                "max_depth_of_cut_mm": self.max_depth_of_cut_mm,
+                "max_chip_section_mm2": self.max_chip_section_mm2,
+                "max_removal_rate_cm3_min": self.max_removal_rate_cm3_min,
+                "cut_time_s": self.cut_time_s, "air_time_s": self.air_time_s,
+                "rapid_time_s": self.rapid_time_s, "cycle_time_s": self.cycle_time_s,
+                "max_part_cut_mm": self.max_part_cut_mm, "plunge_mm": self.plunge_mm}
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """The whole program against the stock: per operation figures, every contact."""
+
+    operations: tuple[OperationFigures, ...]
+    contacts: tuple[Contact, ...]
+    stock_start: object = field(repr=False)
+    part: object = field(repr=False)
+    diameter_mode: bool = True
+
+    @property
+    def cycle_time_s(self) -> float:
+        return sum(op.cycle_time_s for op in self.operations)
+
+    def check(self) -> None:
+        """Raise InputError naming the first block that touches what it must not."""
+        if self.contacts:
+            raise InputError(self.contacts[0].message(self.diameter_mode))
+
+    def figures(self) -> dict:
+        return {"operations": [op.figures() for op in self.operations],
+                "cycle_time_s": self.cycle_time_s,
+                "contacts": [{"kind": c.kind, "operation": c.operation, "block": c.label,
+                              "area_mm2": c.area, "depth_mm": c.depth} for c in self.contacts]}
+
+
+# --------------------------------------------------------------------------------------
+# Public entry points
+
+
+def simulate_program(program: Program) -> Simulation:
+    """Simulate a planned program (shop.program.Program) against its stock."""
+    tp = program.toolpath
+    # the shoulder is where the finishing pass leaves it: its last point's nose bottom
+    planned = tp.segments[-1].end[1] - tp.nose_radius
+    return simulate(operations_of(program), tp.mirror, tp.tool, tp.lathe, program.stock,
+                    rapid_rate=program.options.rapid_rate, gouge_tolerance=program.options.gouge_tolerance,
+                    shoulder_z=min(planned, shoulder_height(tp.mirror, tp.tool)) - 1e-3)
+
+
+def operations_of(program: Program) -> list[SimOperation]:
+    """The program's operations as the simulation replays them."""
+    from .program import Feed, FeedRate, Rapid
+
+    out = []
+    for op in program.operations:
+        feed = op.feed
+        moves = []
+        for b in op.blocks:
+            if isinstance(b, FeedRate):
+                feed = b.feed
+            elif isinstance(b, (Rapid, Feed)):
+                moves.append(SimMove(rapid=isinstance(b, Rapid), move=b.move, feed=feed,
+                                     label=program.describe(b)))
+        out.append(SimOperation(name=op.name, station=op.station, moves=tuple(moves)))
+    return out
+
+
+def simulate(operations: list[SimOperation], mirror: Mirror, tool: Tool, lathe: Lathe, stock: Stock, *,
+             rapid_rate: float, gouge_tolerance: float, shoulder_z: float | None = None) -> Simulation:
+    """Replay the operations against the bar (see the module doc). rapid_rate mm/min;
+    gouge_tolerance mm; shoulder_z: machine Z (mm) of the finished shoulder beyond the rim
+    (default: shoulder_height(mirror, tool) - SHOULDER_ALLOWANCE)."""
+    import shapely
+
+    if shoulder_z is None:
+        shoulder_z = shoulder_height(mirror, tool) - SHOULDER_ALLOWANCE
+    sim = _Sim(mirror, tool, lathe, stock, gouge_tolerance, shoulder_z)
+    figs = []
+    for op in operations:
+        figs.append(sim.operation(op, rapid_rate))
+    return Simulation(operations=tuple(figs), contacts=tuple(sim.contacts),
+                      stock_start=shapely.box(0.0, -stock.length, stock.radius, stock.face_allowance),
+                      part=sim.part, diameter_mode=lathe.diameter_mode)
+
+
+def insert_outline(tool: Tool):
+    """The insert in the (r, Z) plane, nose centre at the origin (shapely Polygon, mm)."""
+    import shapely
+
+    rho, theta = tool.nose_radius, tool.included_angle
+    a1, a2 = tool.flank_directions()
+    u1 = np.array([math.cos(a1), math.sin(a1)])
+    u2 = np.array([math.cos(a2), math.sin(a2)])
+    bis = (u1 + u2) / np.linalg.norm(u1 + u2)
+    tip = -(rho / math.sin(theta / 2)) * bis  # the sharp corner the flanks meet at
+    edge = edge_length(tool)
+    rhombus = shapely.Polygon([tip, tip + edge * u1, tip + edge * (u1 + u2), tip + edge * u2])
+    if rho == 0.0:
+        return rhombus
+    return rhombus.buffer(-rho, join_style="mitre").buffer(rho, quad_segs=16)
+
+
+def reach_toward_axis(tool: Tool, height: float) -> float:
+    """How far (mm) the insert reaches toward the axis (-r) from its nose centre at
+    heights of at most `height` mm above the nose centre (the band a level's stock
+    occupies beside the tool)."""
+    import shapely
+
+    ins = insert_outline(tool)
+    x0, y0, x1, _ = ins.bounds
+    if height <= y0:
+        return 0.0
+    part = ins.intersection(shapely.box(x0 - 1.0, y0 - 1.0, x1 + 1.0, height))
+    return max(0.0, -part.bounds[0]) if not part.is_empty else 0.0
+
+
+def edge_length(tool: Tool) -> float:
+    """Edge length (mm) of a rhombic insert of inscribed circle INSERT_IC."""
+    return INSERT_IC / math.sin(tool.included_angle)
+
+
+def cutting_zone(tool: Tool):
+    """The cutting part of the insert: within nose radius + a quarter edge of the nose
+    centre (shapely Polygon, mm, nose centre at the origin)."""
+    import shapely
+
+    reach = tool.nose_radius + CUTTING_EDGE_FRACTION * edge_length(tool)
+    return insert_outline(tool).intersection(shapely.Point(0.0, 0.0).buffer(reach, quad_segs=32))
+
+
+def shoulder_height(mirror: Mirror, tool: Tool) -> float:
+    """Machine Z (mm) of the shoulder a nose leaves leaving the rim on the lobe's offset:
+    the rim's height less rho (1 - cos(slope angle))."""
+    s = float(mirror.outer.slope(mirror.r_max))
+    return float(mirror.vertex_z - mirror.outer.z(mirror.r_max)) - tool.nose_radius * (1 - 1 / math.hypot(1.0, s))
+
+
+def part_outline(mirror: Mirror, stock: Stock, shoulder_z: float, *, spacing: float = 0.05):
+    """The designed part in (r, Z), mm: under the inner lobe, up the step wall, under
+    the outer lobe to the rim, the shoulder at shoulder_z out to the bar, down to
+    -stock.length. Chords every `spacing` mm lie inside the lobes (sag < 2e-5 mm on the
+    paper mirror)."""
+    import shapely
+
+    rj, rm, z0 = mirror.r_junction, mirror.r_max, mirror.vertex_z
+    ri = np.linspace(0.0, rj, max(2, int(math.ceil(rj / spacing)) + 1))
+    ro = np.linspace(rj, rm, max(2, int(math.ceil((rm - rj) / spacing)) + 1))
+    zi = z0 - mirror.inner.z(ri)
+    zo = z0 - mirror.outer.z(ro)
+    bottom = -stock.length
+    z_sh = min(float(shoulder_z), float(zo[-1]))
+    pts = ([(0.0, bottom)] + list(zip(ri, zi)) + list(zip(ro, zo))
+           + [(rm, z_sh), (max(stock.radius, rm), z_sh), (max(stock.radius, rm), bottom)])
+    return shapely.Polygon(pts).buffer(0)
+
+
+def rpm(r: np.ndarray, lathe: Lathe) -> np.ndarray:
+    """Spindle speed (rev/min) at radius r (mm) under G96: min(cap, 1000 V / (2 pi r))."""
+    r = np.abs(np.asarray(r, dtype=float))
+    with np.errstate(divide="ignore"):
+        n = np.where(r > 0, 1000.0 * lathe.surface_speed / (2 * math.pi * np.maximum(r, 1e-300)), np.inf)
+    return np.minimum(n, float(lathe.spindle_max_rpm))
+
+
+def feed_time(starts: np.ndarray, ends: np.ndarray, feed: np.ndarray, lathe: Lathe) -> np.ndarray:
+    """Time (s) of straight feed pieces (n, 2) -> (n, 2) at feed mm/rev under G96 with the
+    spindle cap: the length over feed x rpm(r), r linear along the piece (9-point
+    midpoint rule; the integrand is piecewise linear in r)."""
+    t = (np.arange(9) + 0.5) / 9
+    r = starts[:, None, 0] + (ends[:, None, 0] - starts[:, None, 0]) * t[None, :]
+    inv = np.mean(1.0 / rpm(r, lathe), axis=1)  # min per rev
+    length = np.hypot(*(ends - starts).T)
+    return 60.0 * length * inv / feed
+
+
+# --------------------------------------------------------------------------------------
+# The simulation
+
+
+class _Sim:
+    def __init__(self, mirror, tool, lathe, stock, gouge_tolerance: float, shoulder_z: float) -> None:
+        import shapely
+
+        self.lathe, self.stock, self.gouge = lathe, stock, gouge_tolerance
+        self.insert = insert_outline(tool)
+        self.cut = cutting_zone(tool)
+        self.ins_xy = np.asarray(self.insert.exterior.coords)[:-1]
+        self.cut_xy = np.asarray(self.cut.exterior.coords)[:-1]
+        self.part = part_outline(mirror, stock, shoulder_z)
+        self.part_boundary = self.part.boundary
+        shapely.prepare(self.part)
+        r_hi = max(stock.radius, mirror.r_max) + JAW_HEIGHT
+        self.chuck = shapely.box(0.0, -stock.length - 1000.0, r_hi, -stock.length)
+        shapely.prepare(self.chuck)
+        # the bar, as tiles
+        self.z_lo, self.z_hi = -stock.length, stock.face_allowance
+        self.nr = max(1, int(math.ceil(stock.radius / TILE)))
+        self.nz = max(1, int(math.ceil((self.z_hi - self.z_lo) / TILE)))
+        tiles = []
+        for i in range(self.nr):
+            for j in range(self.nz):
+                tiles.append(shapely.box(i * TILE, self.z_lo + j * TILE, min((i + 1) * TILE, stock.radius),
+                                         min(self.z_lo + (j + 1) * TILE, self.z_hi)))
+        self.tiles = np.array(tiles, dtype=object)
+        self.alive = np.ones(self.tiles.size, dtype=bool)
+        self.contacts: list[Contact] = []
+        self.pos: tuple[float, float] | None = None
+
+    # -- geometry ---------------------------------------------------------------------
+
+    def sweep(self, xy: np.ndarray, points: np.ndarray):
+        """Convex hull of the convex shape xy placed at each point (n, 2), folded about
+        the axis: what it sweeps at r < 0 is mirrored to r > 0."""
+        import shapely
+
+        pts = (points[:, None, :] + xy[None, :, :]).reshape(-1, 2)
+        hull = shapely.convex_hull(shapely.multipoints(pts))
+        if pts[:, 0].min() < 0.0:
+            big = 1e4
+            right = hull.intersection(shapely.box(0.0, -big, big, big))
+            left = hull.intersection(shapely.box(-big, -big, 0.0, big))
+            if not left.is_empty:
+                left = shapely.transform(left, lambda c: c * np.array([-1.0, 1.0]))
+                hull = shapely.union(right, left)
+            else:
+                hull = right
+        return hull
+
+    def tiles_near(self, geom) -> np.ndarray:
+        x0, y0, x1, y1 = geom.bounds
+        i0, i1 = max(0, int(x0 // TILE)), min(self.nr - 1, int(x1 // TILE))
+        j0 = max(0, int((y0 - self.z_lo) // TILE))
+        j1 = min(self.nz - 1, int((y1 - self.z_lo) // TILE))
+        if i1 < i0 or j1 < j0:
+            return np.empty(0, dtype=np.intp)
+        ii, jj = np.meshgrid(np.arange(i0, i1 + 1), np.arange(j0, j1 + 1), indexing="ij")
+        idx = (ii * self.nz + jj).ravel()
+        return idx[self.alive[idx]]
+
+    def stock_geometry(self):
+        import shapely
+
+        return shapely.union_all(self.tiles[self.alive])
+
+    # -- replay -----------------------------------------------------------------------
+
+    def operation(self, op: SimOperation, rapid_rate: float) -> OperationFigures:
+        import shapely
+
+        before = self.stock_geometry()
+        lathe = self.lathe
+        rapid_time = 0.0
+        area = volume = 0.0
+        part_cut = 0.0
+        # feed pieces: start, end, feed, removed area, radius
+        p_s, p_e, p_f, p_a = [], [], [], []
+        for mv in op.moves:
+            if self.pos is None:
+                self.pos = tuple(mv.move.start)
+            if mv.rapid:
+                a, b = np.asarray(mv.move.start, float), np.asarray(mv.move.end, float)
+                rapid_time += 60.0 * float(np.hypot(*(b - a))) / rapid_rate
+                self.rapid(mv, op.name, a, b)
+                continue
+            pts = _pieces(mv.move)
+            for s, e in zip(pts[:-1], pts[1:]):
+                removed, vol, depth = self.feed_piece(mv, op.name, s, e)
+                area += removed
+                volume += vol
+                part_cut = max(part_cut, depth)
+                p_s.append(s)
+                p_e.append(e)
+                p_f.append(mv.feed)
+                p_a.append(removed)
+            self.pos = tuple(mv.move.end)
+        after = self.stock_geometry()
+        removed_geom = shapely.difference(before, after)
+        if p_s:
+            s, e, f, a = (np.array(p_s), np.array(p_e), np.array(p_f), np.array(p_a))
+            t = feed_time(s, e, f, lathe)
+            length = np.hypot(*(e - s).T)
+            air = a <= 1e-4 * np.maximum(length, 1e-3)
+            ap = _windowed_depth(a, length)
+            r_mid = 0.5 * (s[:, 0] + e[:, 0])
+            mrr = 2 * math.pi * np.abs(r_mid) * ap * f * rpm(r_mid, lathe) / 1000.0  # cm^3/min
+            cut_time, air_time = float(t[~air].sum()), float(t[air].sum())
+            d = e - s
+            down = (d[:, 1] < 0) & (np.abs(d[:, 0]) <= math.tan(PLUNGE_ANGLE) * -d[:, 1])
+            plunge = float(length[down & ~air].sum())
+            max_ap = float(ap.max())
+            max_chip = float((ap * f).max())
+            max_mrr = float(mrr.max())
+        else:
+            cut_time = air_time = max_ap = max_chip = max_mrr = plunge = 0.0
+        feed = next((m.feed for m in op.moves if not m.rapid), 0.0)
+        return OperationFigures(name=op.name, station=op.station, feed_mm_rev=feed, removed_area_mm2=area,
+                                removed_volume_mm3=volume, max_depth_of_cut_mm=max_ap,
+                                max_chip_section_mm2=max_chip, max_removal_rate_cm3_min=max_mrr,
+                                cut_time_s=cut_time, air_time_s=air_time, rapid_time_s=rapid_time,
+                                max_part_cut_mm=part_cut, plunge_mm=plunge, stock_after=after, removed=removed_geom)
+
+    def rapid(self, mv: SimMove, op: str, a: np.ndarray, b: np.ndarray) -> None:
+        """Stock or part inside the tool swept along the rapid ("rapid"), else over the
+        box its ends span, the path of a controller that moves one axis first ("dogleg")."""
+        import shapely
+
+        for kind, corners in (("rapid", np.array([a, b])),
+                              ("dogleg", np.array([a, b, [a[0], b[1]], [b[0], a[1]]]))):
+            if kind == "dogleg" and (a[0] == b[0] or a[1] == b[1]):
+                return  # along one axis: the box is the line
+            region = self.sweep(self.ins_xy, corners)
+            self.check_chuck(region, mv, op)
+            geom = None
+            idx = self.tiles_near(region)
+            if idx.size:
+                hit = shapely.intersection(self.tiles[idx], region)
+                hit = hit[shapely.area(hit) > 0]
+                if hit.size and float(shapely.area(hit).sum()) > AREA_TOL:
+                    geom = shapely.union_all(hit)
+            if geom is None and shapely.intersects(self.part, region):
+                inside = shapely.intersection(self.part, region)
+                if inside.area > AREA_TOL:
+                    geom = inside
+            if geom is not None:
+                self.add(kind, op, mv, geom, region)
+                return
+
+    def feed_piece(self, mv: SimMove, op: str, s: np.ndarray, e: np.ndarray) -> tuple[float, float, float]:
+        """Cut one straight piece; returns (area removed mm^2, volume mm^3, depth into the part mm)."""
+        import shapely
+
+        ends = np.array([s, e])
+        region = self.sweep(self.ins_xy, ends)
+        self.check_chuck(region, mv, op)
+        part_depth = 0.0
+        zone = self.sweep(self.cut_xy, ends)
+        if shapely.intersects(self.part, zone):
+            inside = shapely.intersection(self.part, zone)
+            if inside.area > 0:
+                part_depth = _depth_inside(inside, self.part_boundary)
+                if part_depth > self.gouge:
+                    self.add("part", op, mv, inside, None, depth=part_depth)
+        idx = self.tiles_near(region)
+        if idx.size == 0:
+            return 0.0, 0.0, part_depth
+        tiles = self.tiles[idx]
+        touch = shapely.intersects(tiles, region)
+        idx, tiles = idx[touch], tiles[touch]
+        if idx.size == 0:
+            return 0.0, 0.0, part_depth
+        hit = shapely.intersection(tiles, region)
+        areas = shapely.area(hit)
+        removed = float(areas.sum())
+        if removed <= 0.0:
+            return 0.0, 0.0, part_depth
+        cx = shapely.get_x(shapely.centroid(hit[areas > 0]))
+        volume = float(np.sum(2 * math.pi * np.abs(cx) * areas[areas > 0]))
+        body = shapely.difference(shapely.union_all(hit[areas > 0]), zone)
+        if body.area > AREA_TOL:
+            depth = _depth_inside(body, zone.boundary)
+            if depth > BODY_TOL:
+                self.add("body", op, mv, body, None, depth=depth)
+        left = shapely.difference(tiles, region)
+        self.tiles[idx] = left
+        self.alive[idx] = shapely.area(left) > 0
+        return removed, volume, part_depth
+
+    def check_chuck(self, region, mv: SimMove, op: str) -> None:
+        import shapely
+
+        if region.bounds[1] < self.chuck.bounds[3] and shapely.intersects(self.chuck, region):
+            geom = shapely.intersection(self.chuck, region)
+            if geom.area > AREA_TOL:
+                self.add("chuck", op, mv, geom, region)
+
+    def add(self, kind: str, op: str, mv: SimMove, geom, region, *, depth: float | None = None) -> None:
+        """Record a contact once per block and kind."""
+        if any(c.kind == kind and c.label == mv.label for c in self.contacts):
+            return
+        if depth is None:
+            depth = _depth_inside(geom, region.boundary)
+        at = _deepest_point(geom, region.boundary if region is not None else None)
+        self.contacts.append(Contact(kind=kind, operation=op, label=mv.label, area=float(geom.area),
+                                     depth=float(depth), at=at))
+
+
+def _pieces(move: Move) -> np.ndarray:
+    """Points along a move: a line in pieces of at most PIECE mm, an arc (LinuxCNC's
+    spiral when its radii differ) in chords of at most CHORD mm."""
+    if isinstance(move, Arc):
+        length = abs(move.sweep) * max(move.radius, move.end_radius)
+        n = max(2, int(math.ceil(length / CHORD)) + 1)
+        pts = move.sample(n)
+        pts[0], pts[-1] = move.start, move.end
+        return pts
+    a, b = np.asarray(move.start, float), np.asarray(move.end, float)
+    n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / PIECE)))
+    t = np.linspace(0.0, 1.0, n + 1)[:, None]
+    return a + (b - a) * t
+
+
+def _windowed_depth(area: np.ndarray, length: np.ndarray) -> np.ndarray:
+    """Depth of cut (mm) per piece: the removed area over the path length of the window
+    of consecutive pieces (at least STAT_WINDOW mm) it belongs to."""
+    out = np.zeros(area.size)
+    i = 0
+    while i < area.size:
+        j, acc = i, 0.0
+        while j < area.size and acc < STAT_WINDOW:
+            acc += length[j]
+            j += 1
+        out[i:j] = area[i:j].sum() / acc if acc > 0 else 0.0
+        i = j
+    return out
+
+
+def _depth_inside(geom, boundary) -> float:
+    """Largest distance (mm) from a vertex of geom to `boundary`."""
+    import shapely
+
+    pts = shapely.get_coordinates(geom)
+    if pts.size == 0:
+        return 0.0
+    return float(shapely.distance(shapely.points(pts), boundary).max())
+
+
+def _deepest_point(geom, boundary) -> tuple[float, float]:
+    import shapely
+
+    pts = shapely.get_coordinates(geom)
+    if boundary is None or pts.size == 0:
+        c = geom.representative_point()
+        return (float(c.x), float(c.y))
+    d = shapely.distance(shapely.points(pts), boundary)
+    k = int(np.argmax(d))
+    return (float(pts[k, 0]), float(pts[k, 1]))
