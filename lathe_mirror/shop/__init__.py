@@ -5,7 +5,8 @@ Layer: after nose_envelope (the gouge check) and before polishing and optics; it
 the toolpath, the lathe, the tool, the stock and the [toolpath] settings, never the
 config dict. pipeline.shop_program strings it together (plan, simulate, refuse, sheet).
 
-- program.py   ProgramOptions, the program model (Operation, blocks, Program), plan_program
+- program.py   ProgramOptions, the program model (Operation, blocks, Program)
+- plan.py      plan_program: the operations, checked (stock, gouge, travel) and numbered
 - roughing.py  facing through X0, roughing levels (ramped pockets), semi-finish into the
                step's corner, the finishing pass's lead-in and exit, the way home
 - stock.py     the stock simulation (shapely): stock minus the swept nose and insert body,
@@ -16,6 +17,7 @@ config dict. pipeline.shop_program strings it together (plan, simulate, refuse, 
 - replay.py    a G-code program (either dialect) read back into moves the simulation replays
 """
 
-from .program import ProgramOptions, options_from_settings, plan_program
+from .plan import plan_program
+from .program import ProgramOptions, options_from_settings
 
 __all__ = ["ProgramOptions", "options_from_settings", "plan_program"]

@@ -1,0 +1,81 @@
+"""plan_program: the whole program around a finishing toolpath (see roughing.py for what
+each operation does), checked for the stock, the gouge and the travel, numbered.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+from ..errors import InputError
+from ..lathe import Stock
+from .program import MAX_BLOCK_NUMBER, Comment, Operation, Program, ProgramOptions
+from .roughing import plan_operations
+
+if TYPE_CHECKING:
+    from ..toolpath import Toolpath
+
+
+def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | None = None, *,
+                 name: str = "mirror") -> Program:
+    """The whole program around the finishing contour of `toolpath`.
+
+    Facing through X0, roughing levels (pockets ramped), a semi-finish along the profile
+    offset by the allowance into the step's corner, then the finishing contour with the
+    finishing tool after an optional stop (ramped onto its start), an optional spring
+    pass, and the safe end position. Raises InputError when the stock cannot hold the
+    mirror, the contour would gouge the part beyond the tolerance, the home position is
+    not above the stock, or a move leaves the lathe's travel. The stock simulation
+    (shop.stock) checks the moves themselves.
+    """
+    from ..nose_envelope import as_machined, gouge_depth, junction_fillet
+    from ..toolpath import check_travel, profile_errors, usable_ranges
+
+    options = ProgramOptions() if options is None else options
+    lathe, m = toolpath.lathe, toolpath.mirror
+    if stock.radius <= m.r_max:
+        raise InputError(f"stock.diameter = {stock.diameter:g} mm: must exceed the mirror's "
+                         f"diameter {2 * m.r_max:g} mm")
+    rim_depth = -(m.vertex_z - float(m.outer.z(m.r_max)))
+    if stock.length < rim_depth + options.clearance:
+        raise InputError(f"stock.length = {stock.length:g} mm: the mirror is {rim_depth:.3f} mm deep; "
+                         f"allowed >= {rim_depth + options.clearance:.3f} mm")
+    if options.home_z < stock.face_allowance + options.clearance:
+        raise InputError(f"toolpath.home_z = {options.home_z:g} mm: the end position must be above the "
+                         f"stock's face by the clearance; allowed >= "
+                         f"{stock.face_allowance + options.clearance:g} mm")
+    depth = gouge_depth(toolpath)
+    if depth > options.gouge_tolerance:
+        raise InputError(
+            f"the {toolpath.strategy.value} toolpath would gouge the part by {depth:.4f} mm "
+            f"(toolpath.gouge_tolerance = {options.gouge_tolerance:g} mm); program refused "
+            "(more points, a finer machine.resolution or another strategy cut closer)"
+        )
+    made = as_machined(toolpath)
+    plan = plan_operations(toolpath, stock, options)
+    ops = _numbered(plan.operations)
+    prog = Program(name=name, toolpath=toolpath, stock=stock, options=options, operations=ops,
+                   home=plan.home, safe_z=plan.safe_z, r_out=plan.r_out, gouge_depth=depth,
+                   figures=profile_errors(made, m), used=profile_errors(made, m, r_ranges=usable_ranges(m)),
+                   fillet=junction_fillet(toolpath))
+    check_travel(prog.points(), lathe, what="the program")
+    return prog
+
+
+def _numbered(ops: list[Operation]) -> tuple[Operation, ...]:
+    """Number every block but the comments, 1, 2, ... through the whole program."""
+    n = 0
+    out = []
+    for op in ops:
+        blocks = []
+        for b in op.blocks:
+            if not isinstance(b, Comment):
+                n += 1
+                b = replace(b, number=n)
+            blocks.append(b)
+        out.append(replace(op, blocks=tuple(blocks)))
+    if n > MAX_BLOCK_NUMBER:
+        raise InputError(f"the program needs {n} blocks; a block number (N) carries at most "
+                         f"{MAX_BLOCK_NUMBER} (fewer points, machine.max_points, or a larger "
+                         "toolpath.rough_depth)")
+    return tuple(out)
