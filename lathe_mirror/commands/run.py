@@ -36,8 +36,8 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from ..export.files import write_text
-    from ..export.gcode import reference_programs
-    from ..pipeline import cad_model, check_cad, check_programs, design, report_figures
+    from ..export.gcode import program_files
+    from ..pipeline import cad_model, check_cad, check_programs, design, report_figures, shop_programs
     from ..report import write_report
     from .common import output_dir
     from .report import summary
@@ -46,7 +46,8 @@ def run(args: argparse.Namespace) -> int:
     mirror = design(settings)
     check_programs(settings, mirror)  # bad input stops here, before anything is written
     check_cad(settings, mirror)       # the CAD body, checked up front too
-    texts = reference_programs(settings, mirror)  # plans both programs: a design no program can cut stops here
+    shops = shop_programs(settings, mirror)  # plans and simulates both programs: a design no program
+    texts = program_files(shops)             # can cut, a program that touches the stock, stop here
     out_dir = Path(args.output or "out")
     default = args.config is None
     gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")
@@ -66,6 +67,8 @@ def run(args: argparse.Namespace) -> int:
 
     calib = write_calibration(calib_dir, mirror)
     data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render)
+    data.figures["shop"] = [{"name": shop.program.name, "setup_sheet": f"{shop.program.name}.setup.html",
+                             **shop.simulation.figures()} for shop in shops]
     data.figures["outputs"] = {kind: [{"path": str(p), "sha256": _sha256(p)} for p in paths]
                                for kind, paths in (("gcode", programs), ("cad", cad), ("calib", calib))}
     paths = write_report(data, out_dir)

@@ -92,10 +92,17 @@ def reference_programs(settings: Settings, mirror: Mirror) -> dict[str, str]:
     tool, stock and [toolpath] knobs. The programs are planned, simulated and checked by
     pipeline.shop_programs; this only formats them."""
     from ..pipeline import shop_programs
+
+    return program_files(shop_programs(settings, mirror))
+
+
+def program_files(shops) -> dict[str, str]:
+    """{file name: content} of checked programs (pipeline.ShopProgram): each in both
+    dialects, mirror_<strategy>.ngc / .nc, and its set-up sheet, .setup.html."""
     from .setup_sheet import setup_sheet_html
 
     out: dict[str, str] = {}
-    for shop in shop_programs(settings, mirror):
+    for shop in shops:
         for dialect in Dialect:
             out[f"{shop.program.name}.{dialect.extension}"] = format_program(shop.program, dialect)
         out[f"{shop.program.name}.setup.html"] = setup_sheet_html(shop.sheet)

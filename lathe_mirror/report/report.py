@@ -67,6 +67,7 @@ def render_html(data: ReportData) -> str:
         machine_table=_kv_table({**{f"lathe.{k}": v for k, v in f["machine"]["lathe"].items()},
                                  **{f"tool.{k}": v for k, v in f["machine"]["tool"].items()}}),
         toolpath_table=_toolpath_table(f["toolpaths"]),
+        programs_table=_programs_table(f.get("shop")),
         mirrors_table=_mirrors_table(f["mirrors"]),
         profile_plot=img("profile_error", "height error along the meridian"),
         images=img("images", "renders side by side"),
@@ -128,6 +129,26 @@ def _toolpath_table(rows: list) -> str:
                      f"<td>{p['name']}</td><td>{_fmt(p['slope_error_rad'])}</td><td>{_fmt(p['normal_deviation_mm'])}</td>"
                      f"<td>{_fmt(a['slope_error_rad'])}</td><td>{_fmt(a['normal_deviation_mm'])}</td></tr>")
     return f"<table>{head}{body}</table>"
+
+
+def _programs_table(programs: list | None) -> str:
+    """The programs' operations against the stock (lathe-mirror run; see their set-up sheets)."""
+    if not programs:
+        return ""
+    head = ("<tr><th>program</th><th>operation</th><th>tool</th><th>removed mm&sup3;</th>"
+            "<th>max depth of cut mm</th><th>max chip section mm&sup2;</th><th>air s</th><th>time s</th></tr>")
+    body = ""
+    for p in programs:
+        for i, op in enumerate(p["operations"]):
+            body += (f"<tr><td>{html.escape(p['name']) if i == 0 else ''}</td><td>{html.escape(op['name'])}</td>"
+                     f"<td>T{op['tool']}</td><td>{op['removed_volume_mm3']:.0f}</td>"
+                     f"<td>{_fmt(op['max_depth_of_cut_mm'])}</td><td>{_fmt(op['max_chip_section_mm2'])}</td>"
+                     f"<td>{op['air_time_s']:.1f}</td><td>{op['cycle_time_s']:.1f}</td></tr>")
+        body += (f"<tr><th colspan='7'>{html.escape(p['name'])}: cycle time, set-up sheet "
+                 f"{html.escape(p['setup_sheet'])}; contact at rapid or with the body: "
+                 f"{len(p['contacts'])}</th><th>{p['cycle_time_s']:.1f}</th></tr>")
+    return ("<p>The whole programs simulated against the stock (nose and insert body): what each "
+            f"operation removes and its time (G96 with the spindle cap).</p><table>{head}{body}</table>")
 
 
 def _mirrors_table(m: dict) -> str:
