@@ -16,11 +16,11 @@ import pytest
 
 from conftest import require_program, run_cli
 from lathe_mirror.errors import InputError
-from lathe_mirror.export.gcode import Dialect, format_program
+from lathe_mirror.export.gcode import format_program
 from lathe_mirror.lathe import Lathe, Stock, Tool
 from lathe_mirror.path import Arc, Line
 from lathe_mirror.pipeline import shop_program
-from lathe_mirror.shop import ProgramOptions, plan_program
+from lathe_mirror.shop import ProgramOptions
 from lathe_mirror.shop.program import Rapid
 from lathe_mirror.shop.stock import SimMove, SimOperation, simulate, simulate_program
 from lathe_mirror.toolpath import Strategy, plan_toolpath
@@ -155,6 +155,27 @@ def paper_shoulder(tmp_path, events) -> float:
     """The shoulder's height: the last feed move's Z (the finishing exit) less the nose."""
     feeds = [ev for ev in events if ev["kind"] == "STRAIGHT_FEED"]
     return feeds[-1]["end"][1] - TOOL.nose_radius
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.2])
+@pytest.mark.parametrize("strategy", [Strategy.PAPER, Strategy.LATTICE, Strategy.ARCS])
+def test_every_strategy_and_nose_is_simulated_clean(paper_mirror, strategy, rho):
+    """Every strategy, with a sharp tool and with the paper's nose: planned, simulated
+    against the bar, no contact; and the Fanuc program read back from its text replays
+    to the same figures (the dialects carry the same moves)."""
+    from lathe_mirror.export.gcode import Dialect
+    from lathe_mirror.shop.replay import read_program
+
+    tool = Tool(nose_radius=rho)
+    shop = shop_program(plan_toolpath(paper_mirror, LATHE, tool, strategy), STOCK, OPTIONS, setting_costs={})
+    assert shop.simulation.contacts == ()
+    fanuc = read_program(format_program(shop.program, Dialect.FANUC), LATHE)
+    sim = simulate(fanuc, paper_mirror, tool, LATHE, STOCK, rapid_rate=OPTIONS.rapid_rate,
+                   gouge_tolerance=OPTIONS.gouge_tolerance)
+    assert sim.contacts == ()
+    assert sim.cycle_time_s == pytest.approx(shop.simulation.cycle_time_s, rel=1e-9)
+    for a, b in zip(sim.operations, shop.simulation.operations):
+        assert a.removed_volume_mm3 == pytest.approx(b.removed_volume_mm3, rel=1e-6)
 
 
 def test_facing_removes_the_face_through_the_axis(arcs_shop):

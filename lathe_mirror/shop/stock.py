@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import InputError
-from ..path import Arc, Line, Move
+from ..path import Arc, Move
 
 if TYPE_CHECKING:
     from ..design import Mirror
