@@ -19,7 +19,8 @@ def main() -> None:
     args = ap.parse_args()
 
     from lathe_mirror.config import load
-    from lathe_mirror.export.gcode import Dialect, format_program
+    from lathe_mirror.enums import Dialect
+    from lathe_mirror.export.gcode import format_program
     from lathe_mirror.export.setup_sheet import setup_sheet_html
     from lathe_mirror.shop import options_from_settings, plan_program
     from lathe_mirror.shop.setup import setup_sheet

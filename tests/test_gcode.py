@@ -16,7 +16,9 @@ import pytest
 from conftest import require_program, run_cli
 from lathe_mirror.config import load
 from lathe_mirror.errors import InputError
-from lathe_mirror.export.gcode import Dialect, format_program, parse_dialect, reference_programs
+from lathe_mirror.enums import Dialect, parse
+from lathe_mirror.export.gcode import format_program, program_files
+from lathe_mirror.pipeline import shop_programs
 from lathe_mirror.lathe import Lathe, Stock, Tool
 from lathe_mirror.path import Arc
 from lathe_mirror.shop import ProgramOptions, plan_program
@@ -249,17 +251,17 @@ def test_a_gouging_program_is_refused(paper_mirror):
 
 
 def test_unknown_dialect():
-    with pytest.raises(InputError, match="allowed: linuxcnc, fanuc"):
-        parse_dialect("heidenhain")
+    with pytest.raises(InputError, match="allowed linuxcnc, fanuc"):
+        parse(Dialect, "heidenhain", "--dialect")
 
 
 def test_reference_programs_are_current():
     settings = load()
-    files = reference_programs(settings, settings.mirror())
+    files = program_files(shop_programs(settings, settings.mirror()))
     assert sorted(files) == sorted(p.name for p in (REPO / "gcode").iterdir())
     for name, text in files.items():
         path = REPO / "gcode" / name
-        assert path.read_text() == text, f"gcode/{name} is stale: run write_reference_programs('gcode')"
+        assert path.read_text() == text, f"gcode/{name} is stale: run `lathe-mirror run` from the repository root"
 
 
 @pytest.mark.parametrize("name", ["mirror_paper.ngc", "mirror_arcs.ngc"])
@@ -316,7 +318,7 @@ def nose_depth_into_part(pieces, rho: float, mirror) -> float:
     (["--points", "10"], "machine.max_points = 10: too small"),
     (["--resolution", "0"], "machine.resolution = 0"),
     (["--nose-radius", "1.0"], "too large for the junction"),
-    (["--dialect", "heidenhain"], "unknown dialect"),
+    (["--dialect", "heidenhain"], "--dialect 'heidenhain': allowed linuxcnc, fanuc"),
     (["--strategy", "spline"], "--strategy 'spline': allowed paper, lattice, arcs, best"),
 ])
 def test_cli_bad_inputs(tmp_path, args, phrase):

@@ -163,7 +163,7 @@ def test_every_strategy_and_nose_is_simulated_clean(paper_mirror, strategy, rho)
     """Every strategy, with a sharp tool and with the paper's nose: planned, simulated
     against the bar, no contact; and the Fanuc program read back from its text replays
     to the same figures (the dialects carry the same moves)."""
-    from lathe_mirror.export.gcode import Dialect
+    from lathe_mirror.enums import Dialect
     from lathe_mirror.shop.replay import read_program
 
     tool = Tool(nose_radius=rho)

@@ -34,8 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..enums import BEST, Strategy, parse
-    from ..export.gcode import format_program, parse_dialect
+    from ..enums import BEST, Dialect, Strategy, parse
+    from ..export.gcode import format_program
     from ..export.setup_sheet import setup_sheet_html
     from ..nose_envelope import (
         as_machined,
@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
     settings = load(args, [("machine.max_points", args.points, "--points"),
                            ("machine.resolution", args.resolution, "--resolution"),
                            ("tool.nose_radius", args.nose_radius, "--nose-radius")])
-    dialect = parse_dialect(args.dialect)
+    dialect = parse(Dialect, args.dialect, "--dialect")
     if args.check:
         return check(args, settings)
     if args.strategy:

@@ -25,46 +25,22 @@ M03`, `M08`, `F..`; `M09`, `M05`, `M01`; `M30`, `%`.
 
 from __future__ import annotations
 
-import enum
 import math
 import re
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..enums import Dialect
 from ..errors import InputError
 from ..path import Arc
 
 if TYPE_CHECKING:
-    from ..design import Mirror
-    from ..settings import Settings
     from ..shop.program import Program
 
 #: Most digits of a coordinate word (sign and point aside): Fanuc's 8.
 MAX_DIGITS = 8
 #: Decimals of an F word (mm/rev).
 FEED_DECIMALS = 4
-
-
-class Dialect(enum.Enum):
-    """G-code dialects: LinuxCNC (checked with its rs274 interpreter) and Fanuc-style."""
-
-    LINUXCNC = "linuxcnc"
-    FANUC = "fanuc"
-
-    @property
-    def extension(self) -> str:
-        """File extension of a program in this dialect."""
-        return "ngc" if self is Dialect.LINUXCNC else "nc"
-
-
-def parse_dialect(name: str) -> Dialect:
-    """Dialect by name; InputError names the allowed ones."""
-    try:
-        return Dialect(name)
-    except ValueError:
-        raise InputError(
-            f"--dialect {name!r}: unknown dialect; allowed: {', '.join(d.value for d in Dialect)}"
-        ) from None
 
 
 def format_program(program: Program, dialect: Dialect = Dialect.LINUXCNC) -> str:
@@ -86,16 +62,6 @@ def write_program(path: str | Path, program: Program, dialect: Dialect = Dialect
     return write_text(path, format_program(program, dialect))
 
 
-def reference_programs(settings: Settings, mirror: Mirror) -> dict[str, str]:
-    """The mirror's files: {file name: content} for the paper method and the best
-    strategy, both dialects, and each strategy's set-up sheet, with the settings' lathe,
-    tool, stock and [toolpath] knobs. The programs are planned, simulated and checked by
-    pipeline.shop_programs; this only formats them."""
-    from ..pipeline import shop_programs
-
-    return program_files(shop_programs(settings, mirror))
-
-
 def program_files(shops) -> dict[str, str]:
     """{file name: content} of checked programs (pipeline.ShopProgram): each in both
     dialects, mirror_<strategy>.ngc / .nc, and its set-up sheet, .setup.html."""
@@ -107,18 +73,6 @@ def program_files(shops) -> dict[str, str]:
             out[f"{shop.program.name}.{dialect.extension}"] = format_program(shop.program, dialect)
         out[f"{shop.program.name}.setup.html"] = setup_sheet_html(shop.sheet)
     return out
-
-
-def write_reference_programs(out_dir: str | Path, settings: Settings | None = None,
-                             mirror: Mirror | None = None) -> list[Path]:
-    """Write reference_programs() into out_dir (default settings: the repository's gcode/)."""
-    from ..config import load
-    from .files import prepare_dir, write_text
-
-    settings = load() if settings is None else settings
-    mirror = settings.mirror() if mirror is None else mirror
-    d = prepare_dir(out_dir)
-    return [write_text(d / name, text) for name, text in reference_programs(settings, mirror).items()]
 
 
 # --------------------------------------------------------------------------------------
