@@ -16,7 +16,7 @@ import traceback
 from .version import __version__
 from .errors import InputError
 
-COMMANDS = ("design", "toolpath", "cad", "render", "polish", "tolerance", "calib", "report", "run")
+COMMANDS = ("design", "toolpath", "cad", "render", "polish", "tolerance", "calib", "stereo", "report", "run")
 
 
 class _Parser(argparse.ArgumentParser):

@@ -28,17 +28,25 @@ RENDER_THREADS = max(1, min(8, os.cpu_count() or 1))
 def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera | None = None, *,
                  pose: CameraPose | None = ALIGNED, supersample: int = 1,
                  window: tuple[int, int, int, int] | None = None,
+                 pixels: np.ndarray | None = None,
                  progress: bool = False) -> np.ndarray:
     """Render the scene through the mirror: (H, W, 3) uint8, linear RGB.
 
     camera: default the mirror's design camera (full sensor). supersample: n x n rays per
     pixel, averaged (n^2 the cost). window: (col0, row0, width, height) crop of the sensor.
-    progress: a tqdm bar on stderr. Raises InputError if no pixel sees the mirror.
+    pixels: (H, W) bool of the (windowed) image, the pixels to render (the rest stays
+    black; the cost follows their number). progress: a tqdm bar on stderr. Raises
+    InputError if no pixel sees the mirror.
     """
     camera = camera or mirror.camera
     pose = pose or ALIGNED
     u, v = pixel_centres(camera, supersample=supersample, window=window)
     h, w, n = u.shape
+    if pixels is not None:
+        pixels = np.asarray(pixels, bool)
+        if pixels.shape != (h, w):
+            raise ValueError(f"render_image: pixels mask {pixels.shape} is not the image's {(h, w)}")
+        u, v = u[pixels], v[pixels]  # (m, n): the masked pixels' samples
     u, v = u.reshape(-1), v.reshape(-1)
     # One sample per pixel: quantise each chunk straight into the image; else average first.
     rgb = np.zeros((u.size, 3), dtype=np.uint8 if n == 1 else float)
@@ -87,9 +95,12 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
             "camera: no pixel sees the mirror (check [camera_pose] decentre / tilt_deg / "
             "axial_offset and the [camera] constants)"
         )
-    if n == 1:
-        return rgb.reshape(h, w, 3)
-    return _to_uint8(rgb.reshape(h, w, n, 3).mean(axis=2))
+    out = rgb if n == 1 else _to_uint8(rgb.reshape(-1, n, 3).mean(axis=1))
+    if pixels is None:
+        return out.reshape(h, w, 3)
+    image = np.zeros((h, w, 3), np.uint8)
+    image[pixels] = out
+    return image
 
 
 def _to_uint8(rgb: np.ndarray) -> np.ndarray:

@@ -1,0 +1,101 @@
+"""Plots of stereo ranging: range panoramas with a colour bar, error against range with the
+resolution model. Plain data in, PNG bytes out (matplotlib Agg, no metadata: the same data
+gives the same bytes); the caller writes them (export.files)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .plots import MIRROR_COLOURS
+
+#: Colour scale of every range map (m), so maps of several mirrors compare.
+RANGE_SCALE_M = (0.5, 3.0)
+#: Colour of pixels without a range.
+NO_RANGE = "0.8"
+
+
+def range_map_png(range_m: np.ndarray, band_deg: tuple[float, float], *, title: str = "") -> bytes:
+    """One range panorama (m, (n_el, n_az), NaN where there is no range), azimuth across,
+    elevation up, with a colour bar; pixels without a range in light grey."""
+    plt = _pyplot()
+    fig = plt.figure(figsize=(12, 2.6))
+    ax = fig.add_axes((0.055, 0.19, 0.86, 0.68))
+    im = _draw_map(ax, plt, range_m, band_deg)
+    fig.colorbar(im, cax=fig.add_axes((0.93, 0.19, 0.012, 0.68)), label="range (m)")
+    ax.set_title(title or "range from the stereo centre (grey: no range)")
+    return png(fig)
+
+
+def range_maps_png(maps: dict[str, np.ndarray], band_deg: tuple[float, float]) -> bytes:
+    """Range panoramas of several mirrors stacked, titled by name, one colour bar."""
+    plt = _pyplot()
+    n = len(maps)
+    fig, axes = plt.subplots(n, 1, figsize=(12, 1.9 * n + 0.4), squeeze=False, layout="constrained")
+    im = None
+    for ax, (name, rng) in zip(axes[:, 0], maps.items()):
+        im = _draw_map(ax, plt, rng, band_deg)
+        valid = float(np.isfinite(rng).mean()) if rng.size else 0.0
+        ax.set_title(f"{name}: {100 * valid:.1f} % of the band ranged", fontsize=9)
+    fig.colorbar(im, ax=axes[:, 0].tolist(), label="range (m)", fraction=0.03, pad=0.01)
+    return png(fig)
+
+
+def error_vs_range_png(curves: dict[str, dict], *, title: str = "") -> bytes:
+    """Median |range error| (%) against true range (m) per mirror (stereo.error_curve's
+    lists), with the resolution model at one pixel of disparity and at the matcher's
+    precision (dashed, of the first curve: the model is the design's, not the mirror's)."""
+    plt = _pyplot()
+    fig = plt.figure(figsize=(7, 4))
+    ax = fig.add_axes((0.11, 0.12, 0.86, 0.8))
+    first = True
+    for name, c in curves.items():
+        if not c["range_m"]:
+            continue
+        if first:
+            ax.plot(c["range_m"], c["model_1px_pct"], "--", color="0.3", label="model, 1 px of disparity")
+            ax.plot(c["range_m"], c["model_matcher_pct"], ":", color="0.3",
+                    label=f"model, the matcher's precision ({c.get('precision_px', math.nan):.2f} px)")
+            first = False
+        ax.plot(c["range_m"], c["measured_pct"], "o-", ms=3, color=MIRROR_COLOURS.get(name), label=f"{name}, measured")
+    ax.set_yscale("log")
+    ax.set_xlabel("true range (m)")
+    ax.set_ylabel("median |range error| (%)")
+    ax.set_title(title or "range error against range")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    return png(fig)
+
+
+def png(fig) -> bytes:
+    """The figure as PNG bytes, no metadata; laid out by the figure itself (a tight
+    bounding box would draw it twice)."""
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100, metadata={"Software": None})
+    _pyplot().close(fig)
+    return buf.getvalue()
+
+
+def _draw_map(ax, plt, range_m: np.ndarray, band_deg: tuple[float, float]):
+    cmap = plt.get_cmap("viridis").copy()
+    cmap.set_bad(NO_RANGE)
+    lo, hi = band_deg
+    im = ax.imshow(np.ma.masked_invalid(range_m), cmap=cmap, vmin=RANGE_SCALE_M[0], vmax=RANGE_SCALE_M[1],
+                   extent=(0.0, 360.0, lo, hi), aspect="auto", interpolation="nearest")
+    ax.set_xlabel("azimuth (deg)")
+    ax.set_ylabel("elevation (deg)")
+    ax.set_xticks(np.arange(0, 361, 45))
+    return im
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams.update({"font.size": 9})
+    return plt
