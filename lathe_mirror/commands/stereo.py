@@ -56,6 +56,10 @@ def run(args: argparse.Namespace) -> int:
         z_top = float(max(np.max(made.z(np.linspace(0, made.r_max, 2001))), mirror.outer.h))
         scene = scene_from_config(cfg, mirror_top=z_top + abs(pose.axial_offset), mirror_radius=mirror.r_max)
         stages.done()
+        if args.output:
+            from ..report.range_plots import preload
+
+            preload()  # pyplot's import overlaps the render and the matching
         stages.start("render")
         image = render_image(made, mirror, scene, pose=pose, supersample=supersample,
                              pixels=image_mask(mirror, grid, match.num_disparities))

@@ -16,6 +16,17 @@ RANGE_SCALE_M = (0.5, 3.0)
 NO_RANGE = "0.8"
 
 
+def preload():
+    """Import matplotlib's pyplot in a background thread and return the thread: a caller
+    that will plot after seconds of numpy work (which releases the GIL) overlaps the
+    import (about 0.5 s) with it."""
+    import threading
+
+    thread = threading.Thread(target=_pyplot, name="preload-matplotlib", daemon=True)
+    thread.start()
+    return thread
+
+
 def range_map_png(range_m: np.ndarray, band_deg: tuple[float, float], *, title: str = "") -> bytes:
     """One range panorama (m, (n_el, n_az), NaN where there is no range), azimuth across,
     elevation up, with a colour bar; pixels without a range in light grey."""
