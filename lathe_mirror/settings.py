@@ -32,6 +32,8 @@ from .enums import (
 from .errors import ConfigError, InputError
 from .lathe import Lathe, Stock, Tool
 from .optics.camera import CameraPose
+from .optics.ranging.match import MatchParams
+from .optics.ranging.stereo import StereoParams
 from .optics.scene import BoxSpec, SceneSpec
 from .polishing import PolishParams
 from .shop import options_from_settings
@@ -54,6 +56,18 @@ class RenderSettings:
 
 
 @dataclass(frozen=True)
+class StereoSettings:
+    """The [stereo] section: the surface ranged by default, the render's supersampling N
+    (N x N rays per pixel: the matcher's sub-pixel precision needs anti-aliased edges), how
+    an image is ranged (StereoParams), and whether the point cloud is binary PLY."""
+
+    surface: Surface = Surface.EXACT
+    supersample: int = 2
+    params: StereoParams = field(default_factory=StereoParams)
+    ply_binary: bool = True
+
+
+@dataclass(frozen=True)
 class Settings:
     """Every section of a configuration, typed and checked (see the module doc).
 
@@ -61,6 +75,7 @@ class Settings:
     machine, tool, stock, toolpath: the lathe, its insert, the bar and the program's knobs.
     body, cad: the mounting body and the CAD export settings. polish: polishing.
     scene, render, pose: the room, how it is rendered, the camera's misalignment.
+    stereo: ranging from the image (optics.ranging).
     tolerance: the tolerance analysis (spec, tolerances, Monte Carlo).
     """
 
@@ -77,6 +92,7 @@ class Settings:
     render: RenderSettings = field(default_factory=RenderSettings)
     pose: CameraPose = field(default_factory=CameraPose)
     tolerance: ToleranceSettings | None = None
+    stereo: StereoSettings = field(default_factory=StereoSettings)
 
     def mirror(self) -> Mirror:
         """The designed mirror (design.mirror_from_specs; cheap, the design is closed form)."""
@@ -110,6 +126,7 @@ def from_config(cfg: dict[str, Any]) -> Settings:
         render=_render(cfg["render"]),
         pose=_pose(cfg["camera_pose"]),
         tolerance=_tolerance(cfg),
+        stereo=_stereo(cfg["stereo"]),
     )
     settings.mirror()  # the design's own checks (DesignError / InputError naming the key)
     return settings
@@ -213,6 +230,31 @@ def _pose(pc: dict) -> CameraPose:
     return CameraPose(decentre=(float(pc["decentre"][0]), float(pc["decentre"][1])),
                       axial_offset=float(pc["axial_offset"]),
                       tilt=tuple(math.radians(float(t)) for t in pc["tilt_deg"]))
+
+
+def _stereo(sc: dict) -> StereoSettings:
+    n = sc["supersample"]
+    if not 1 <= n <= 4:
+        raise InputError(f"stereo.supersample = {n}: allowed 1..4 (N x N rays per pixel)")
+    ply = sc["ply_format"]
+    if ply not in ("binary", "ascii"):
+        raise InputError(f"stereo.ply_format = {ply!r}: allowed 'binary', 'ascii'")
+    step = sc["elevation_step_deg"]
+    if not 0.0 <= step <= 5.0:
+        raise InputError(f"stereo.elevation_step_deg = {step:g}: allowed 0 (the finer lobe's resolution) to 5 deg")
+    if not 0 <= sc["azimuth_px"] <= 20000:
+        raise InputError(f"stereo.azimuth_px = {sc['azimuth_px']}: allowed 0 (the outer lobe's circumference) to 20000")
+    if not 0.05 <= sc["min_range_m"] <= 100.0:
+        raise InputError(f"stereo.min_range_m = {sc['min_range_m']:g}: allowed 0.05 to 100 m")
+    match = MatchParams(block_size=sc["block_size"], uniqueness_ratio=sc["uniqueness_ratio"],
+                        speckle_window=sc["speckle_window"], speckle_range=sc["speckle_range"],
+                        lr_max_diff=sc["lr_max_diff"], texture_threshold=sc["texture_threshold"],
+                        support_px=sc["support_px"], contrast=sc["contrast"])
+    params = StereoParams(match=match, min_range=sc["min_range_m"] * 1e3,
+                          elevation_step=math.radians(step) if step > 0 else None,
+                          n_azimuth=sc["azimuth_px"] or None, equalise=sc["equalise"])
+    return StereoSettings(surface=parse(Surface, sc["surface"], "stereo.surface"), supersample=int(n),
+                          params=params, ply_binary=ply == "binary")
 
 
 def _tolerance(cfg: dict) -> ToleranceSettings:

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 from lathe_mirror.config import merge
-from lathe_mirror.design import mirror_from_config
 from lathe_mirror.optics.ranging.rectify import PanoramaGrid, make_grid, unwrap
 from lathe_mirror.optics.ranging.resolution import angular_resolution, r10, range_error_pct
 from lathe_mirror.optics.ranging.triangulate import meridian_point, stereo_centre_z, triangulate
@@ -109,10 +108,11 @@ def test_unwrap_puts_a_world_point_on_its_expected_pixel_in_both_lobes(paper_mir
 
 def test_true_range_of_a_box_a_wall_and_the_floor_by_hand(paper_config, paper_mirror):
     from lathe_mirror.optics.ranging.truth import true_range
-    from lathe_mirror.optics.scene import scene_from_config
+    from lathe_mirror.optics.scene import build_scene
+    from lathe_mirror.settings import from_config
 
     m = paper_mirror
-    scene = scene_from_config(paper_config, mirror_top=m.outer.h, mirror_radius=m.r_max)
+    scene = build_scene(from_config(paper_config).scene, mirror_top=m.outer.h, mirror_radius=m.r_max)
     z0, zc, zi = m.outer.focus_z, stereo_centre_z(m), m.inner.focus_z
     # The room (scene.toml): centre (150, -80), side 4000 -> x walls at -1850 and 2150;
     # floor 350 mm below the camera; box 1 centred (1100, 500), 500 mm cube: its -x face
@@ -238,14 +238,15 @@ def test_exact_mirror_ranges_within_the_one_pixel_model(paper_config):
     from lathe_mirror.optics.ranging.stereo import range_figures, stereo_range
     from lathe_mirror.optics.ranging.truth import true_range
     from lathe_mirror.optics.render import render_image
-    from lathe_mirror.optics.scene import scene_from_config
+    from lathe_mirror.optics.scene import build_scene
     from lathe_mirror.profile import ExactProfile
+    from lathe_mirror.settings import from_config
 
-    cfg = merge(paper_config, NEAR_BOX)
-    m = mirror_from_config(cfg)
-    scene = scene_from_config(cfg, mirror_top=m.outer.h, mirror_radius=m.r_max)
+    settings = from_config(merge(paper_config, NEAR_BOX))
+    m = settings.mirror()
+    scene = build_scene(settings.scene, mirror_top=m.outer.h, mirror_radius=m.r_max)
     image = render_image(ExactProfile(m), m, scene, supersample=2)
-    res = stereo_range(image, m)
+    res = stereo_range(image, m, settings.stereo.params)
     fig = range_figures(res, true_range(m, scene, res.grid), m)
     assert fig["valid_fraction"] > 0.5
     for b in fig["bins"]:

@@ -29,47 +29,45 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ..design import mirror_from_config
+    from ..enums import Surface, parse
     from ..optics.ranging.stereo import (band_visibility, error_curve, image_mask, prepare,
                                          range_figures, stereo_range)
     from ..optics.ranging.truth import true_range
     from ..optics.render import render_image
-    from ..optics.scene import scene_from_config
-    from ..optics.surfaces import make_surface
+    from ..pipeline import design, named_surface, scene_for
     from ..progress import Stages
 
-    cfg = load(args)
-    sc = cfg["stereo"]
-    surface = args.surface if args.surface is not None else sc["surface"]
-    params, supersample, binary = stereo_settings(cfg)
-    mirror = mirror_from_config(cfg)
-    pose = pose_from_config(cfg)
-    grid, match = prepare(mirror, params)  # an empty or too narrow band stops here
+    settings = load(args)
+    st = settings.stereo
+    surface = parse(Surface, args.surface, "--surface") if args.surface is not None else st.surface
+    mirror = design(settings)
+    pose = settings.pose
+    grid, match = prepare(mirror, st.params)  # an empty or too narrow band stops here
     stages = Stages(["surface", "render", "match", "truth", "write"], enabled=not args.no_progress)
     try:
         stages.start("surface")
-        made = make_surface(surface, mirror, cfg)
+        made = named_surface(surface, mirror, settings)
         seen = band_visibility(made, mirror, grid, pose)
         for name, frac in zip(("inner", "outer"), seen):
             if frac < 0.5:
-                raise_unseen(surface, name, frac)
+                raise_unseen(surface.value, name, frac)
         z_top = float(max(np.max(made.z(np.linspace(0, made.r_max, 2001))), mirror.outer.h))
-        scene = scene_from_config(cfg, mirror_top=z_top + abs(pose.axial_offset), mirror_radius=mirror.r_max)
+        scene = scene_for(settings, mirror, mirror_top=z_top + abs(pose.axial_offset))
         stages.done()
         if args.output:
             from ..report.range_plots import preload
 
             preload()  # pyplot's import overlaps the render and the matching
         stages.start("render")
-        image = render_image(made, mirror, scene, pose=pose, supersample=supersample,
+        image = render_image(made, mirror, scene, pose=pose, supersample=st.supersample,
                              pixels=image_mask(mirror, grid, match.num_disparities))
         stages.done()
         stages.start("match")
-        result = stereo_range(image, mirror, params)
+        result = stereo_range(image, mirror, st.params)
         stages.done()
         stages.start("truth")
         truth = true_range(mirror, scene, grid)
-        figures = {"surface": surface, "supersample": supersample,
+        figures = {"surface": surface.value, "supersample": st.supersample,
                    "camera_pose_aligned": pose.aligned, **range_figures(result, truth, mirror)}
         precision = figures["disparity_error_px"]["precision"]
         curve = {**error_curve(result, truth, mirror, precision), "precision_px": precision}
@@ -78,9 +76,13 @@ def run(args: argparse.Namespace) -> int:
         stages.start("write")
         files = []
         if args.output:
-            files = write_outputs(args.output, surface, result, figures, curve, binary)
+            files = write_outputs(args.output, surface.value, result, figures, curve, st.ply_binary)
         figures["files"] = files
         stages.done()
+    except BaseException:
+        if stages.bar is not None:
+            stages.bar.leave = False  # clear the bar: the error stays the only line on stderr
+        raise
     finally:
         stages.close()
     if args.json:
@@ -88,57 +90,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_figures(figures))
     return 0
-
-
-def stereo_settings(cfg: dict):
-    """(StereoParams, supersample, binary PLY) from the [stereo] section; InputError naming
-    the key on a value out of range."""
-    import math
-
-    from ..errors import InputError
-    from ..optics.ranging.match import MatchParams
-    from ..optics.ranging.stereo import StereoParams
-
-    sc = cfg["stereo"]
-    n = sc["supersample"]
-    if not 1 <= n <= 4:
-        raise InputError(f"stereo.supersample = {n}: allowed 1..4 (n x n rays per pixel)")
-    if sc["ply_format"] not in ("binary", "ascii"):
-        raise InputError(f"stereo.ply_format = {sc['ply_format']!r}: allowed binary, ascii")
-    step = sc["elevation_step_deg"]
-    if not 0.0 <= step <= 5.0:
-        raise InputError(f"stereo.elevation_step_deg = {step:g}: allowed 0 (auto) to 5 deg")
-    if not 0 <= sc["azimuth_px"] <= 20000:
-        raise InputError(f"stereo.azimuth_px = {sc['azimuth_px']}: allowed 0 (auto) to 20000")
-    if not 0.05 <= sc["min_range_m"] <= 100.0:
-        raise InputError(f"stereo.min_range_m = {sc['min_range_m']:g}: allowed 0.05 to 100 m")
-    match = MatchParams(
-        block_size=sc["block_size"], uniqueness_ratio=sc["uniqueness_ratio"],
-        speckle_window=sc["speckle_window"], speckle_range=sc["speckle_range"],
-        lr_max_diff=sc["lr_max_diff"], texture_threshold=sc["texture_threshold"],
-        support_px=sc["support_px"], contrast=sc["contrast"])
-    params = StereoParams(match=match, min_range=sc["min_range_m"] * 1e3,
-                          elevation_step=math.radians(step) if step > 0 else None,
-                          n_azimuth=sc["azimuth_px"] or None, equalise=sc["equalise"])
-    return params, n, sc["ply_format"] == "binary"
-
-
-def pose_from_config(cfg: dict):
-    """The camera's pose from [camera_pose] (as render takes it): the image is rendered with
-    it, and ranged through the aligned design (what a robot that assumes alignment does)."""
-    import math
-
-    from ..errors import InputError
-    from ..optics.camera import CameraPose
-
-    pc = cfg["camera_pose"]
-    if len(pc["decentre"]) != 2 or len(pc["tilt_deg"]) != 2:
-        raise InputError("camera_pose: decentre and tilt_deg take two numbers each (mm, degrees)")
-    if max(abs(t) for t in pc["tilt_deg"]) >= 45:
-        raise InputError(f"camera_pose.tilt_deg = {pc['tilt_deg']}: allowed |tilt| < 45 degrees")
-    return CameraPose(decentre=(float(pc["decentre"][0]), float(pc["decentre"][1])),
-                      axial_offset=float(pc["axial_offset"]),
-                      tilt=tuple(math.radians(float(t)) for t in pc["tilt_deg"]))
 
 
 def raise_unseen(surface: str, lobe: str, frac: float) -> None:
