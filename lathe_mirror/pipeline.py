@@ -54,7 +54,10 @@ DEPTH_REPORT_M = 2.0
 #: The mirrors compared throughout the report, in order.
 MIRRORS = ("exact", "paper", "best", "polished")
 #: The report's stages, in order (the progress display names them).
-STAGES = ["design", "toolpaths", "polishing", "distortion", "stereo", "renders", "tolerance"]
+STAGES = ["design", "toolpaths", "polishing", "distortion", "stereo", "renders", "ranging", "tolerance"]
+#: Ranges (m) and elevations (deg) of the report's resolution table.
+RESOLUTION_RANGES_M = (0.5, 1.0, 1.5, 2.0, 3.0)
+RESOLUTION_ELEVATIONS_DEG = (-20.0, -10.0, 0.0)
 
 
 # --------------------------------------------------------------------------------------
@@ -440,6 +443,11 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
         data.images, out["renders"] = _renders(made, mirror, settings)
     steps.done()
 
+    steps.start("ranging")
+    if renders:
+        out["ranging"], data.curves["range_maps"] = ranging_figures(made, mirror, settings)
+    steps.done()
+
     steps.start("tolerance")
     if tolerance:
         times = {Program.PAPER: curve_paper.optimum_time_s, Program.BEST: curve_best.optimum_time_s}
@@ -549,6 +557,47 @@ def _renders(made: dict, mirror: Mirror, settings: Settings):
     images = {name: render_image(made[name], mirror, scene) for name in MIRRORS}
     stats = {name: image_difference(images[name], images["exact"]) for name in MIRRORS if name != "exact"}
     return images, {"against_exact": stats}
+
+
+def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings) -> tuple[dict, dict]:
+    """Range from the image for each of MIRRORS (optics.ranging, the [stereo] settings,
+    aligned camera): figures per mirror against the room's true range, the resolution
+    table at the exact mirror's achieved disparity precision, and the range maps (m,
+    arrays for the plots)."""
+    from .optics.ranging.resolution import resolution_table
+    from .optics.ranging.stereo import error_curve, image_mask, prepare, range_figures, stereo_range
+    from .optics.ranging.truth import true_range
+    from .optics.render import render_image
+
+    st = settings.stereo
+    grid, match = prepare(mirror, st.params)
+    scene = scene_for(settings, mirror)
+    truth = true_range(mirror, scene, grid)
+    mask = image_mask(mirror, grid, match.num_disparities)
+    mirrors, maps = {}, {}
+    precision = math.nan
+    for name in MIRRORS:  # exact first: its disparity error is the matcher's precision
+        image = render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask)
+        result = stereo_range(image, mirror, st.params)
+        fig = range_figures(result, truth, mirror, precision_px=None if name == "exact" else precision)
+        if name == "exact":
+            precision = fig["disparity_error_px"]["precision"]
+        fig["error_curve"] = {**error_curve(result, truth, mirror, precision), "precision_px": precision}
+        mirrors[name] = fig
+        maps[name] = result.range_map.range_mm / 1e3
+    table = resolution_table(mirror, RESOLUTION_RANGES_M, RESOLUTION_ELEVATIONS_DEG, precision * grid.step)
+    figures = {
+        "definition": "range error = 100 (R - R_true) / R_true, R from the stereo centre triangulated from "
+                      "StereoSGBM disparities of the two lobes' panoramas (rendered at supersample "
+                      f"{st.supersample}), R_true the room along the outer lobe's pixel ray; over the common "
+                      "band's pixels with a range (valid_fraction of them)",
+        "supersample": st.supersample,
+        "matcher_precision_px": precision,
+        "resolution": table,
+        "mirrors": mirrors,
+    }
+    maps["band_deg"] = tuple(math.degrees(x) for x in grid.band)
+    return figures, maps
 
 
 @dataclasses.dataclass(frozen=True)

@@ -179,6 +179,15 @@ def report_plots(data: ReportData) -> dict[str, bytes]:
     plots["depth_error"] = depth_error_plot(out["stereo"]["curves"])
     if data.images:
         plots["images"] = images_side_by_side(data.images)
+    if "range_maps" in curves:
+        from .range_plots import error_vs_range_png, range_maps_png
+
+        maps = dict(curves["range_maps"])
+        band = maps.pop("band_deg")
+        plots["range_maps"] = range_maps_png(maps, band)
+        plots["range_error"] = error_vs_range_png(
+            {n: m["error_curve"] for n, m in out["ranging"]["mirrors"].items()},
+            title="median |range error| against range, each mirror, with the resolution model")
     for name, t in out.get("tolerance", {}).get("programs", {}).items():
         mc = t["monte_carlo"]
         plots[f"monte_carlo_{name}"] = monte_carlo_histograms(mc["per_trial"], mc["spec"], mc["yield"],

@@ -58,8 +58,8 @@ def error_vs_range_png(curves: dict[str, dict], *, title: str = "") -> bytes:
     lists), with the resolution model at one pixel of disparity and at the matcher's
     precision (dashed, of the first curve: the model is the design's, not the mirror's)."""
     plt = _pyplot()
-    fig = plt.figure(figsize=(7, 4))
-    ax = fig.add_axes((0.11, 0.12, 0.86, 0.8))
+    fig = plt.figure(figsize=(9, 4))
+    ax = fig.add_axes((0.085, 0.12, 0.6, 0.8))
     first = True
     for name, c in curves.items():
         if not c["range_m"]:
@@ -75,7 +75,7 @@ def error_vs_range_png(curves: dict[str, dict], *, title: str = "") -> bytes:
     ax.set_ylabel("median |range error| (%)")
     ax.set_title(title or "range error against range")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     return png(fig)
 
 

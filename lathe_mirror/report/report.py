@@ -82,6 +82,7 @@ def render_html(data: ReportData) -> str:
         depth_plot=img("depth_error", "depth error against range"),
         tolerance_section=_tolerance_html(f, img),
         calibration_table=_calibration_table(f.get("calibration")),
+        ranging_section=_ranging_html(f.get("ranging"), img),
         notes="".join(f"<li>{html.escape(n)}</li>" for n in f.get("notes", [])),
     )
 
@@ -204,6 +205,57 @@ def _calibration_table(cal: dict | None) -> str:
             "the lobe's viewpoint; the refit (scipy least_squares; principal point fixed at the sensor "
             "centre) shows what a calibration of the made mirror can recover.</p>"
             f"<table>{made_head}{made_rows}</table>")
+
+
+def _ranging_html(rg: dict | None, img) -> str:
+    """Range from the image: each mirror's figures per range bin, the maps, error against
+    range with the model, and the resolution table."""
+    if not rg:
+        return "<p>(ranging not computed: it renders, so --no-render skips it)</p>"
+    head = ("<tr><th>mirror</th><th>ranged (% of band)</th><th>range m</th><th>pixels</th><th>ranged (%)</th>"
+            "<th>median |range error| (%)</th><th>RMS (%)</th><th>signed median (%)</th>"
+            "<th>model, 1 px (%)</th><th>model, matcher's precision (%)</th></tr>")
+    body = ""
+    for name, m in rg["mirrors"].items():
+        e = m["range_error_pct"]
+        body += (f"<tr><td>{name}</td><td>{_pct(100 * m['valid_fraction'])}</td><td>all</td><td>{m['pixels']}</td>"
+                 f"<td></td><td>{_pct(e['median'])}</td><td>{_pct(e['rms'])}</td><td>{_pct(e['signed_median'])}</td>"
+                 "<td></td><td></td></tr>")
+        for b in m["bins"]:
+            r = b["range_error_pct"]
+            body += (f"<tr><td></td><td></td><td>{b['range_m'][0]:g}-{b['range_m'][1]:g}</td><td>{b['pixels']}</td>"
+                     f"<td>{_pct(100 * b['valid_fraction'])}</td><td>{_pct(r['median'])}</td><td>{_pct(r['rms'])}</td>"
+                     f"<td>{_pct(r['signed_median'])}</td><td>{_pct(b['model_1px_pct'])}</td>"
+                     f"<td>{_pct(b['model_matcher_pct'])}</td></tr>")
+    res = rg["resolution"]
+    els = res["elevations_deg"]
+    rhead = ("<tr><th>range m</th>" + "".join(f"<th>1 px at {e:g} deg (%)</th>" for e in els)
+             + "<th>1 px, band median (%)</th>" + "".join(f"<th>matcher at {e:g} deg (%)</th>" for e in els)
+             + "<th>matcher, band median (%)</th></tr>")
+    rbody = "".join(
+        f"<tr><td>{row['range_m']:g}</td>" + "".join(f"<td>{_pct(v)}</td>" for v in row["one_px_pct"])
+        + f"<td>{_pct(row['one_px_band_median_pct'])}</td>"
+        + "".join(f"<td>{_pct(v)}</td>" for v in row.get("matcher_pct", []))
+        + f"<td>{_pct(row.get('matcher_band_median_pct', math.nan))}</td></tr>" for row in res["rows"])
+    exact = rg["mirrors"]["exact"]
+    starved = ", ".join(f"{k} {_pct(100 * v['valid_fraction'])} %" for k, v in exact["valid_by_surface"].items()
+                        if v["pixels"])
+    return (f"<p>{html.escape(rg['definition'])}. One pixel of disparity (one image pixel in each lobe) stands "
+            f"for {exact['parallax_per_px_deg']:.3f} deg of parallax (band median): R10 = "
+            f"{res['r10_m']:.3f} m. The matcher's precision on the exact mirror (median |disparity error|): "
+            f"{rg['matcher_precision_px']:.3f} panorama px of {exact['grid']['elevation_step_deg']:.4f} deg. Ranged on the exact mirror by "
+            f"surface: {html.escape(starved)} (flat faces whose edges run along the radial epipolar lines give "
+            "the matcher nothing: grey on the maps).</p>"
+            f"<table>{head}{body}</table>"
+            + img("range_maps", "range maps of the exact, paper, best and polished mirrors")
+            + img("range_error", "range error against range with the resolution model")
+            + f"<p>Resolution model: the range error one pixel of disparity causes, and the matcher's "
+            f"precision, against range and elevation.</p><table>{rhead}{rbody}</table>")
+
+
+def _pct(v: float) -> str:
+    """A percentage (or any figure read to two decimals); n/a where not finite."""
+    return f"{v:.2f}" if isinstance(v, (int, float)) and math.isfinite(v) else "n/a"
 
 
 def _tolerance_html(f: dict, img) -> str:

@@ -97,3 +97,25 @@ def range_error_pct(mirror: Mirror, range_mm: np.ndarray | float, elevation: np.
     el = np.asarray(elevation, dtype=float)
     dg = parallax_per_px(mirror, el) if parallax_error is None else np.asarray(parallax_error, float)
     return 100.0 * np.asarray(range_mm, float) * dg / (mirror.baseline * np.cos(el))
+
+
+def resolution_table(mirror: Mirror, ranges_m: tuple[float, ...], elevations_deg: tuple[float, ...],
+                     precision_rad: float | None = None) -> dict:
+    """The resolution model as a table: the range error (%) of one pixel of disparity (and
+    of a parallax error precision_rad, the matcher's achieved precision, if given) at each
+    range (m) and elevation (deg), plus the median over the common band; and R10 (m)."""
+    el = np.radians(np.asarray(elevations_deg, float))
+    band = band_elevations(mirror)
+    rows = []
+    for r in ranges_m:
+        row = {"range_m": float(r),
+               "one_px_pct": [float(x) for x in range_error_pct(mirror, r * 1e3, el)],
+               "one_px_band_median_pct": float(np.median(range_error_pct(mirror, r * 1e3, band)))}
+        if precision_rad is not None:
+            row["matcher_pct"] = [float(x) for x in range_error_pct(mirror, r * 1e3, el, precision_rad)]
+            row["matcher_band_median_pct"] = float(np.median(range_error_pct(mirror, r * 1e3, band, precision_rad)))
+        rows.append(row)
+    return {"elevations_deg": [float(x) for x in elevations_deg],
+            "parallax_per_px_deg": [float(x) for x in np.degrees(parallax_per_px(mirror, el))],
+            "matcher_precision_deg": None if precision_rad is None else float(np.degrees(precision_rad)),
+            "rows": rows, "r10_m": r10(mirror)}

@@ -193,15 +193,16 @@ def stereo_range(image: np.ndarray, mirror: Mirror, params: StereoParams = Stere
                         colour=np.clip(np.rint(colour), 0, 255).astype(np.uint8), match=mp)
 
 
-def range_figures(result: StereoResult, truth: TrueRange, mirror: Mirror) -> dict:
+def range_figures(result: StereoResult, truth: TrueRange, mirror: Mirror, *,
+                  precision_px: float | None = None) -> dict:
     """The figures of a ranged image against the room's truth (plain data; m, %, px, deg).
 
     valid_fraction: share of the common band's (reference) pixels with a range.
     range_error_pct: |100 (R - R_true) / R_true| over them (median, RMS; signed_median
     shows a bias); per range bin of the true range, with the resolution model's error at
     one pixel of disparity (model_1px_pct) and at the matcher's achieved precision
-    (model_matcher_pct; the median |disparity error| measured here, in panorama px of
-    elevation_step), each the median over the bin's valid pixels. valid_by_surface: the
+    (model_matcher_pct; precision_px, default the median |disparity error| measured here,
+    in panorama px of elevation_step), each the median over the bin's valid pixels. valid_by_surface: the
     valid share on the floor, walls, ceiling and boxes (flat colour starves the matcher).
     """
     from ..scene import BOX_FACE0, CEILING, FLOOR
@@ -210,7 +211,8 @@ def range_figures(result: StereoResult, truth: TrueRange, mirror: Mirror) -> dic
     valid = result.valid & np.isfinite(truth.range_mm)
     err = 100.0 * (result.range_map.range_mm - truth.range_mm) / truth.range_mm
     derr = result.disparity - truth.disparity
-    precision = float(np.median(np.abs(derr[valid]))) if valid.any() else math.nan
+    measured = float(np.median(np.abs(derr[valid]))) if valid.any() else math.nan
+    precision = measured if precision_px is None else float(precision_px)
     r_true = truth.range_mm
     model_1px = range_error_pct(mirror, r_true, truth.elevation)
     model_match = range_error_pct(mirror, r_true, truth.elevation, precision * grid.step)
@@ -243,16 +245,23 @@ def range_figures(result: StereoResult, truth: TrueRange, mirror: Mirror) -> dic
                                  if m.any() else math.nan} for k, m in classes.items()},
         "true_range_m": {"min": float(np.min(r_true)) / 1e3, "max": float(np.max(r_true)) / 1e3},
         "range_error_pct": _stats(err[valid]),
-        "disparity_error_px": {**_stats(derr[valid]), "precision": precision},
+        "disparity_error_px": {**_stats(derr[valid]), "precision": measured},
+        "model_precision_px": precision,
         "bins": bins,
     }
 
 
+#: Fewest ranged pixels a bin of the error curve needs to be drawn (a few pixels on an
+#: object's edge say nothing about the matcher).
+CURVE_MIN_PIXELS = 200
+
+
 def error_curve(result: StereoResult, truth: TrueRange, mirror: Mirror, precision_px: float, *,
                 edges_m: np.ndarray | None = None) -> dict:
-    """Median |range error| (%) of the valid pixels in fine bins of true range (m), with
+    """Median |range error| (%) of the valid pixels in 0.1 m bins of true range (m), with
     the model's error at one pixel of disparity and at precision_px (panorama px), each
-    the median over the bin's pixels: lists for a plot."""
+    the median over the bin's pixels: lists for a plot. Bins with fewer than
+    CURVE_MIN_PIXELS ranged pixels are left out."""
     edges = np.arange(0.5, 3.01, 0.1) if edges_m is None else np.asarray(edges_m, float)
     valid = result.valid & np.isfinite(truth.range_mm)
     r = truth.range_mm / 1e3
@@ -262,7 +271,7 @@ def error_curve(result: StereoResult, truth: TrueRange, mirror: Mirror, precisio
     out = {"range_m": [], "measured_pct": [], "model_1px_pct": [], "model_matcher_pct": [], "pixels": []}
     for lo, hi in zip(edges[:-1], edges[1:]):
         v = valid & (r >= lo) & (r < hi)
-        if not v.any():
+        if v.sum() < CURVE_MIN_PIXELS:
             continue
         out["range_m"].append(float(0.5 * (lo + hi)))
         out["measured_pct"].append(float(np.median(err[v])))
