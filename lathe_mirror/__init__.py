@@ -14,7 +14,8 @@ Settings and the design: `load`, `Settings` (`.mirror()` designs it), `Mirror`, 
 The lathe: `Lathe`, `Tool`, `Stock`, `Strategy`, `plan` (the toolpath), `machine` (the
 nose envelope), `made_surface` / `MadeSurface` (plan -> machine -> polish, the one builder).
 Polishing: `PolishParams`, `polish`, `polishing_curve`. Optics: `image_displacement`
-(per-pixel maps), `distortion_figures`. Tolerance: `monte_carlo`.
+(per-pixel maps), `distortion_figures`; ranging: `r10` (the range at which one pixel of
+disparity costs 10 %, m), `stereo_range` (range an image). Tolerance: `monte_carlo`.
 Lengths in mm, angles in radians, image positions in px (docs/architecture.md).
 """
 
@@ -31,6 +32,7 @@ _API = {
     "Lathe": "lathe", "Tool": "lathe", "Stock": "lathe", "Strategy": "enums",
     "PolishParams": "polishing", "polish": "polishing",
     "image_displacement": "optics.distortion", "distortion_figures": "optics.distortion",
+    "r10": "optics.ranging.resolution", "stereo_range": "optics.ranging.stereo",
 }
 
 __all__ = ["__version__", *_API]
