@@ -85,6 +85,12 @@ def prepare(mirror: Mirror, params: StereoParams = StereoParams()) -> tuple[Pano
     """The grid and the matcher's settings for a design; InputError if the common band is
     empty or narrower than the matcher's window."""
     grid = make_grid(mirror, elevation_step=params.elevation_step, n_azimuth=params.n_azimuth)
+    if not mirror.outer.focus_z - mirror.inner.focus_z > 1e-6:
+        # The matcher searches one way along the line: the inner lobe's lower viewpoint sees
+        # a point higher. (No design with a common band found puts it the other way.)
+        raise InputError(
+            f"design: the outer lobe's viewpoint (z = {mirror.outer.focus_z:.4f} mm) must lie above "
+            f"the inner lobe's (z = {mirror.inner.focus_z:.4f} mm) for stereo")
     nd = num_disparities(mirror, grid, params.min_range)
     mp = MatchParams(**{**params.match.__dict__, "num_disparities": nd})
     if grid.n_elevation < 2 * mp.block_size:
@@ -187,7 +193,9 @@ def stereo_range(image: np.ndarray, mirror: Mirror, params: StereoParams = Stere
     hit = np.clip(np.rint(rows - np.nan_to_num(d)).astype(np.intp), 0, n + 2 * pad - 1)
     ok = np.isfinite(d) & outer_seen[pad:pad + n] & inner_seen[hit, np.arange(grid.n_azimuth)[None, :]]
     d = np.where(ok, d, np.nan)
-    colour = unwrap(img, mirror, 1, grid)[0] if img.ndim == 3 else grey
+    colour = unwrap(img, mirror, 1, grid)[0]
+    if colour.ndim == 2:
+        colour = np.repeat(colour[..., None], 3, axis=-1)
     return StereoResult(grid=grid, disparity=d, range_map=triangulate(mirror, grid, d),
                         outer_panorama=outer[pad:pad + n], inner_panorama=inner[pad:pad + n],
                         colour=np.clip(np.rint(colour), 0, 255).astype(np.uint8), match=mp)
