@@ -187,7 +187,8 @@ def report_plots(data: ReportData) -> dict[str, bytes]:
         plots["range_maps"] = range_maps_png(maps, band)
         plots["range_error"] = error_vs_range_png(
             {n: m["error_curve"] for n, m in out["ranging"]["mirrors"].items()},
-            title="median |range error| against range, each mirror, with the resolution model")
+            title="median |range error| against range, each mirror, with the resolution model",
+            colours=MIRROR_COLOURS)
     for name, t in out.get("tolerance", {}).get("programs", {}).items():
         mc = t["monte_carlo"]
         plots[f"monte_carlo_{name}"] = monte_carlo_histograms(mc["per_trial"], mc["spec"], mc["yield"],

@@ -8,8 +8,6 @@ import math
 
 import numpy as np
 
-from .plots import MIRROR_COLOURS
-
 #: Colour scale of every range map (m), so maps of several mirrors compare.
 RANGE_SCALE_M = (0.5, 3.0)
 #: Colour of pixels without a range.
@@ -53,10 +51,12 @@ def range_maps_png(maps: dict[str, np.ndarray], band_deg: tuple[float, float]) -
     return png(fig)
 
 
-def error_vs_range_png(curves: dict[str, dict], *, title: str = "") -> bytes:
+def error_vs_range_png(curves: dict[str, dict], *, title: str = "",
+                       colours: dict[str, str] | None = None) -> bytes:
     """Median |range error| (%) against true range (m) per mirror (stereo.error_curve's
     lists), with the resolution model at one pixel of disparity and at the matcher's
-    precision (dashed, of the first curve: the model is the design's, not the mirror's)."""
+    precision (dashed, of the first curve: the model is the design's, not the mirror's).
+    colours: per mirror name (default black)."""
     plt = _pyplot()
     fig = plt.figure(figsize=(9, 4))
     ax = fig.add_axes((0.085, 0.12, 0.6, 0.8))
@@ -69,7 +69,8 @@ def error_vs_range_png(curves: dict[str, dict], *, title: str = "") -> bytes:
             ax.plot(c["range_m"], c["model_matcher_pct"], ":", color="0.3",
                     label=f"model, the matcher's precision ({c.get('precision_px', math.nan):.2f} px)")
             first = False
-        ax.plot(c["range_m"], c["measured_pct"], "o-", ms=3, color=MIRROR_COLOURS.get(name), label=f"{name}, measured")
+        ax.plot(c["range_m"], c["measured_pct"], "o-", ms=3, color=(colours or {}).get(name, "black"),
+                label=f"{name}, measured")
     ax.set_yscale("log")
     ax.set_xlabel("true range (m)")
     ax.set_ylabel("median |range error| (%)")
