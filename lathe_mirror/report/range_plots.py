@@ -92,8 +92,7 @@ def png(fig) -> bytes:
 
 
 def _draw_map(ax, plt, range_m: np.ndarray, band_deg: tuple[float, float]):
-    cmap = plt.get_cmap("viridis").copy()
-    cmap.set_bad(NO_RANGE)
+    cmap = plt.get_cmap("viridis").with_extremes(bad=NO_RANGE)
     lo, hi = band_deg
     im = ax.imshow(np.ma.masked_invalid(range_m), cmap=cmap, vmin=RANGE_SCALE_M[0], vmax=RANGE_SCALE_M[1],
                    extent=(0.0, 360.0, lo, hi), aspect="auto", interpolation="nearest")
