@@ -73,10 +73,13 @@ def nose_envelope(toolpath: Toolpath, rho: float, *, include_junction: bool = Tr
         r = np.linspace(lo, hi, n)
         if k == 1:
             r[0] = np.nextafter(lo, hi)
-        else:
-            # the fillet at the wall is the nose circle near its side, steep: sample finer
+        # the fillet at the wall's foot (on the recessed lobe) is the nose circle near its
+        # side, steep: sample finer
+        if k == 0 and m.step > 0:
             r = np.union1d(r, np.linspace(max(lo, hi - 2 * rho), hi, 8001))
-            n = r.size
+        elif k == 1 and m.step <= 0:
+            r = np.union1d(r, np.linspace(r[0], min(hi, lo + 2 * rho), 8001))
+        n = r.size
         keep = [i for i, lb in enumerate(lobes) if lb == name or (include_junction and lb == "junction")]
         zbest = np.full(n, np.inf)
         sbest = np.zeros(n)
@@ -219,8 +222,9 @@ def gouge_depth(toolpath: Toolpath, nose_radius: float | None = None) -> float:
             beside = (z <= zi) & (z >= zo)
             inside = np.where(beside, np.minimum(inside, r - m.r_junction), inside)
         depth = max(depth, float(inside.max()))
-    # the step's top corner (machine frame) against the nose along the junction moves
-    corner = np.array([m.r_junction, m.vertex_z - float(m.outer.z(m.r_junction))])
+    # the step's top corner (machine frame: the higher sheet at the junction) against the
+    # nose along the junction moves
+    corner = np.array([m.r_junction, m.vertex_z - min(m.junction_z)])
     for seg, lb in zip(toolpath.segments, toolpath.lobe_of):
         if lb != "junction":
             continue
@@ -233,10 +237,13 @@ def gouge_depth(toolpath: Toolpath, nose_radius: float | None = None) -> float:
 def junction_fillet(toolpath: Toolpath, nose_radius: float | None = None) -> dict | None:
     """What the nose leaves in the junction's inside corner, or None for a sharp tool.
 
-    r_start_mm: where the fillet leaves the inner lobe (the nose's contact point with
-    the sheet when its centre is at the corner); height_mm: how far above the wall's
-    foot the fillet meets the wall (r = r_junction). The camera sees this band of the
-    inner lobe's rim through a fillet, not the designed sheet.
+    The corner is at the foot of the step wall, on the recessed lobe's rim (the inner
+    lobe's outer edge, or the outer lobe's inner edge). lobe: which lobe carries the
+    fillet. r_start_mm .. r_end_mm: the radii it spans, from where it leaves the lobe's
+    sheet (the nose's contact point when its centre is at the corner) to the wall (r =
+    r_junction), or from the wall out; height_mm: how far above the wall's foot the
+    fillet meets the wall. The camera sees this band through a fillet, not the designed
+    sheet.
     """
     from .sheet import foot_on_sheet
 
@@ -244,8 +251,14 @@ def junction_fillet(toolpath: Toolpath, nose_radius: float | None = None) -> dic
     if rho == 0.0:
         return None
     m = toolpath.mirror
-    c = toolpath.lobe_segments("inner")[-1].end
-    r_start = float(foot_on_sheet(m.inner, np.array([c[0]]), np.array([c[1]]), zero=m.vertex_z)[0])
     rj = np.array([m.r_junction])
-    height = float(m.inner.z(rj)[0] - as_machined(toolpath, rho).z(rj)[0])
-    return {"r_start_mm": r_start, "r_end_mm": m.r_junction, "height_mm": height}
+    if m.step > 0:
+        c = toolpath.lobe_segments("inner")[-1].end
+        r_start = float(foot_on_sheet(m.inner, np.array([c[0]]), np.array([c[1]]), zero=m.vertex_z)[0])
+        height = float(m.inner.z(rj)[0] - as_machined(toolpath, rho).z(rj)[0])
+        return {"lobe": "inner", "r_start_mm": r_start, "r_end_mm": m.r_junction, "height_mm": height}
+    # the nose centre at the wall's foot; the fillet meets the wall at its height
+    c = toolpath.lobe_segments("outer")[0].start
+    r_end = float(foot_on_sheet(m.outer, np.array([c[0]]), np.array([c[1]]), zero=m.vertex_z)[0])
+    height = float(c[1] - (m.vertex_z - m.outer.z(rj)[0]))
+    return {"lobe": "outer", "r_start_mm": m.r_junction, "r_end_mm": r_end, "height_mm": height}

@@ -93,7 +93,9 @@ def normal_angles(mirror: Mirror) -> np.ndarray:
         r = np.linspace(lo, hi, 201)
         nr, nz = _normal_m(lobe, r)
         angles.append(np.arctan2(nz, nr))
-    angles.append(np.array([math.pi]))  # the step wall faces the axis (-r)
+    # the step wall faces the axis (-r) when the inner lobe is recessed, the rim (+r) when
+    # the outer lobe is
+    angles.append(np.array([math.pi if mirror.step > 0 else 0.0]))
     return np.concatenate(angles)
 
 

@@ -1,45 +1,39 @@
 """What a toolpath must respect before it is planned or written: the junction, the travel.
 
-check_junction: the largest nose that can still reach the step wall. check_travel: every
+check_junction: the largest nose that can still reach the step wall (whichever lobe is
+recessed; junction_margin is the graded form the design optimiser uses); check_reach /
+reach_margin: the held tool's flanks against the profile's normals. check_travel: every
 point inside the lathe's travel (used for the finishing contour here and for the whole
 program by export.gcode). Both raise InputError with the setting to change.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..design import Mirror
 from ..errors import InputError
 from ..lathe import Lathe, Tool
-from ..sheet import nose_centre, solve_rs_for_centre_r
+from ..sheet import normal_angles
+from .moves import Hand
 
 
 def check_junction(mirror: Mirror, tool: Tool) -> float:
     """Largest nose radius (mm) the junction allows; raise InputError if the tool's is larger.
 
-    A nose in the inside corner at the wall's foot touches the inner lobe and the wall
-    at once; its centre then sits on the corner's bisector, rho / tan(half opening)
-    above the foot. If that is above the top of the step, the nose can never touch the
-    wall: it would round the whole step and the inner lobe's rim with it. So rho_max is
-    the radius whose wall contact is the top of the step (found exactly on the curved
-    lobe by bisection).
+    Whichever lobe is recessed: a nose in the inside corner at the wall's foot touches the
+    recessed lobe and the wall at once; its centre then sits on the corner's bisector, rho
+    / tan(half opening) above the foot. If that is above the top of the step, the nose can
+    never touch the wall: it would round the whole step and the recessed lobe's rim with
+    it. So rho_max is the radius whose wall contact is the top of the step (found exactly
+    on the curved lobe by bisection on junction_margin).
     """
-    if mirror.recessed != "inner":
-        raise InputError("lobes: this toolpath handles a recessed inner lobe only (the paper's "
-                         "design); the outer lobe is recessed in this design")
-    rj = mirror.r_junction
-    z_top_m = mirror.vertex_z - mirror.outer.z(rj)  # machine Z of the step's top
-
-    def centre_z(rho: float) -> float:
-        # nose centre at r = rj - rho touching the inner lobe: on its offset curve
-        rs = solve_rs_for_centre_r(mirror.inner, rho, rj - rho)
-        return float(nose_centre(mirror.inner, rs, mirror.vertex_z, rho)[1])
-
     lo, hi = 0.0, float(abs(mirror.step)) * 2
     for _ in range(60):
         mid = 0.5 * (lo + hi)
-        if centre_z(mid) <= z_top_m:
+        if junction_margin(mirror, mid) >= 0.0:
             lo = mid
         else:
             hi = mid
@@ -48,10 +42,65 @@ def check_junction(mirror: Mirror, tool: Tool) -> float:
         zi, zo = mirror.junction_z
         raise InputError(
             f"tool.nose_radius = {tool.nose_radius:g} mm is too large for the junction: a nose "
-            f"touching both the inner lobe and the step wall (step {abs(zi - zo):.3f} mm) needs "
+            f"touching both the {mirror.recessed} lobe and the step wall (step {abs(zi - zo):.3f} mm) needs "
             f"nose_radius <= {rho_max:.3f} mm, else it cannot reach the wall at all"
         )
     return rho_max
+
+
+def junction_margin(mirror: Mirror, nose_radius: float) -> float:
+    """How far (mm, machine Z) the top of the step lies above the centre of a nose of
+    `nose_radius` mm sitting in the step's inside corner (touching the recessed lobe and
+    the wall): >= 0 when the nose reaches the wall, whichever lobe is recessed.
+
+    The centre is on the recessed lobe's offset curve at the column r_junction -/+ rho
+    (the wall faces the axis / the rim); the column is solved by Newton's method on the
+    offset curve's radius (a few scalar steps: the design optimiser calls this per design).
+    """
+    rho = float(nose_radius)
+    rj = mirror.r_junction
+    zi, zo = mirror.junction_z
+    lobe, column = (mirror.inner, rj - rho) if zi > zo else (mirror.outer, rj + rho)
+    a, b = lobe.a, lobe.b
+
+    def slope(r: float) -> tuple[float, float]:
+        q = math.sqrt(1.0 + (r / b) ** 2)
+        return a * r / (b * b * q), a / (b * b * q**3)  # dz/dr, d2z/dr2
+
+    rs = column
+    for _ in range(30):
+        s, s2 = slope(rs)
+        w = math.sqrt(1.0 + s * s)
+        g = rs + rho * s / w - column
+        dg = 1.0 + rho * s2 / w**3
+        step = g / dg
+        rs -= step
+        if abs(step) < 1e-13:
+            break
+    s, _ = slope(rs)
+    z_centre = mirror.vertex_z - float(lobe.z(rs)) + rho / math.sqrt(1.0 + s * s)  # machine Z
+    z_top = mirror.vertex_z - min(zi, zo)
+    return z_top - z_centre
+
+
+def check_reach(mirror: Mirror, tool: Tool, hand: Hand) -> None:
+    """Raise InputError unless the tool, held by `hand`, clears every normal of the
+    profile (the lobes and the step wall; Tool.check_reach). The message names the hand."""
+    try:
+        hand.held(tool).check_reach(normal_angles(mirror), what="the mirror's profile")
+    except InputError as exc:
+        if hand is Hand.AS_CONFIGURED:
+            raise
+        raise InputError(f"{exc} (in the opposite-hand holder the outer lobe's recessed step "
+                         "needs: flanks at 90 - approach - included .. 90 - approach deg)") from None
+
+
+def reach_margin(mirror: Mirror, tool: Tool, hand: Hand) -> float:
+    """Smallest clearance (rad) of the held tool's flanks against the profile's normals
+    (Tool.check_reach's two inequalities); >= 0 when the tool can cut the whole profile."""
+    lo, hi = hand.held(tool).flank_directions()
+    n = normal_angles(mirror)
+    return float(min(n.min() - (hi - math.pi / 2), (lo + math.pi / 2) - n.max()))
 
 
 def check_travel(points: np.ndarray, lathe: Lathe, what: str) -> None:

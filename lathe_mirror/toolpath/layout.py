@@ -23,10 +23,7 @@ class Layout:
         res = lathe.resolution
         zero = mirror.vertex_z
         rj = mirror.r_junction
-        # the nose centre's column on the wall: at or inside rj - rho (never into the wall)
-        self.r_wall = math.floor((rj - rho) / res + 1e-9) * res
-        rs_end = rj if rho == 0.0 else solve_rs_for_centre_r(mirror.inner, rho, self.r_wall)
-        self.inner = Target(mirror.inner, zero, rho, 0.0, rs_end)
+        self.inner_recessed = mirror.step > 0
         # With a nose the outer path's last point floats to the lattice point nearest the
         # curve, up to ~1.5 steps short of the target: past_rim aims 2 steps past the rim
         # so that the nose's offset, not its side, cuts the rim's last microns (the side
@@ -34,11 +31,26 @@ class Layout:
         # faced at the last point's height by the exit move anyway. (The paper's method
         # keeps its target, the rim.)
         rs_rim = mirror.r_max + (2 * res if rho > 0.0 and past_rim else 0.0)
-        self.outer = Target(mirror.outer, zero, rho, rj, rs_rim)
-        # fixed columns of the end points: the axis, the wall; for a sharp tool also the
-        # rim; with a nose the outer ends float (nearest lattice point to the target)
-        self.inner_cols = (0.0, self.r_wall)
-        self.outer_cols = (rj, mirror.r_max) if rho == 0.0 else (None, None)
+        if self.inner_recessed:
+            # the nose centre's column on the wall: at or inside rj - rho (never into the wall)
+            self.r_wall = math.floor((rj - rho) / res + 1e-9) * res
+            rs_end = rj if rho == 0.0 else solve_rs_for_centre_r(mirror.inner, rho, self.r_wall)
+            self.inner = Target(mirror.inner, zero, rho, 0.0, rs_end)
+            self.outer = Target(mirror.outer, zero, rho, rj, rs_rim)
+            # fixed columns of the end points: the axis, the wall; for a sharp tool also the
+            # rim; with a nose the outer ends float (nearest lattice point to the target)
+            self.inner_cols = (0.0, self.r_wall)
+            self.outer_cols = (rj, mirror.r_max) if rho == 0.0 else (None, None)
+        else:
+            # The outer lobe recessed: the mirror image at the wall. The nose centre comes
+            # down the wall at or outside rj + rho; the inner lobe's end floats to the
+            # lattice point nearest its rim's offset point.
+            self.r_wall = math.ceil((rj + rho) / res - 1e-9) * res
+            rs_start = rj if rho == 0.0 else solve_rs_for_centre_r(mirror.outer, rho, self.r_wall)
+            self.inner = Target(mirror.inner, zero, rho, 0.0, rj)
+            self.outer = Target(mirror.outer, zero, rho, rs_start, rs_rim)
+            self.inner_cols = (0.0, rj) if rho == 0.0 else (0.0, None)
+            self.outer_cols = (self.r_wall, mirror.r_max) if rho == 0.0 else (self.r_wall, None)
 
     def targets(self) -> tuple[Target, Target]:
         return self.inner, self.outer
@@ -71,21 +83,33 @@ class Layout:
         return segs, lobes
 
     def junction_moves(self, inner_end: np.ndarray, outer_start: np.ndarray) -> list[Move]:
-        """Up the step wall from the inner lobe's last point to the outer lobe's first.
+        """From the inner lobe's last point over the step to the outer lobe's first.
 
-        Sharp tool: one G1 up the wall (same column). With a nose: up the wall at the
-        nose's column, then along the outer lobe's start tangent to its first point, so
-        the path passes the step's top corner at >= rho (a corner circumscribed by two
-        tangents, the corner left sharp).
+        Sharp tool: one G1 along the wall (same column), up or down. With a nose and the
+        inner lobe recessed: up the wall at the nose's column, then along the outer lobe's
+        start tangent to its first point; with the outer lobe recessed, the mirror image:
+        along the inner lobe's end tangent out to the nose's column, then down the wall.
+        Either way the path passes the step's top corner at >= rho (a corner
+        circumscribed by two tangents, the corner left sharp).
         """
         if self.rho == 0.0:
             return [Line(as_point(inner_end), as_point(outer_start))]
         res = self.lathe.resolution
-        lobe = self.mirror.outer
-        s0 = float(lobe.slope(self.mirror.r_junction))
-        # the outer offset's tangent line at its start, back to the wall column; round
-        # up (away from the part)
-        z2 = outer_start[1] + (outer_start[0] - self.r_wall) * s0
+        rj = self.mirror.r_junction
+        if self.inner_recessed:
+            s0 = float(self.mirror.outer.slope(rj))
+            # the outer offset's tangent line at its start, back to the wall column; round
+            # up (away from the part)
+            z2 = outer_start[1] + (outer_start[0] - self.r_wall) * s0
+            z2 = math.ceil(z2 / res - 1e-9) * res
+            p2 = np.array([self.r_wall, z2])
+            return [Line(as_point(inner_end), as_point(p2)), Line(as_point(p2), as_point(outer_start))]
+        if inner_end[0] >= self.r_wall - 1e-12:  # the inner end already clears the wall
+            return [Line(as_point(inner_end), as_point(outer_start))]
+        s0 = float(self.mirror.inner.slope(rj))
+        # the inner offset's tangent line at its end, out to the wall column (machine Z
+        # falls with r at the sheet's slope); round up (away from the part)
+        z2 = inner_end[1] - (self.r_wall - inner_end[0]) * s0
         z2 = math.ceil(z2 / res - 1e-9) * res
         p2 = np.array([self.r_wall, z2])
         return [Line(as_point(inner_end), as_point(p2)), Line(as_point(p2), as_point(outer_start))]

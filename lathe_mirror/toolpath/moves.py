@@ -7,6 +7,8 @@ nose_envelope cuts with them.
 
 from __future__ import annotations
 
+import dataclasses
+import enum
 import math
 from dataclasses import dataclass
 
@@ -15,7 +17,50 @@ import numpy as np
 from ..design import Mirror
 from ..enums import BEST, Strategy
 from ..lathe import Lathe, Tool
-from ..path import Arc, Move
+from ..path import Arc, Line, Move
+
+
+class Hand(enum.Enum):
+    """How the insert is held and which way the finishing contour is cut.
+
+    AS_CONFIGURED: the [tool] as given (its body leans toward the axis: flanks at
+      90 + approach .. 90 + approach + included deg from +r), cutting from the axis out
+      to the rim. It climbs a step wall that faces the axis: the inner lobe recessed.
+    OPPOSITE: the same insert in an opposite-hand holder (the mirror image: flanks at
+      90 - approach - included .. 90 - approach deg, its body leaning toward the rim),
+      cutting from the rim in to the axis. It climbs a step wall that faces the rim: the
+      outer lobe recessed. The mirror image of the first cut, move for move.
+    """
+
+    AS_CONFIGURED = "as configured"
+    OPPOSITE = "opposite hand"
+
+    @staticmethod
+    def for_mirror(mirror: Mirror) -> Hand:
+        """The hand that cuts this mirror's step: its wall faces the axis when the inner
+        lobe is recessed (AS_CONFIGURED), the rim when the outer lobe is (OPPOSITE)."""
+        return Hand.AS_CONFIGURED if mirror.step > 0 else Hand.OPPOSITE
+
+    def held(self, tool: Tool) -> Tool:
+        """The tool as this hand holds it (OPPOSITE: approach -> -(approach + included),
+        which mirrors its flanks about the Z axis; nose and insert unchanged)."""
+        if self is Hand.AS_CONFIGURED:
+            return tool
+        return dataclasses.replace(tool, approach_angle=-(tool.approach_angle + tool.included_angle))
+
+    @property
+    def tool_number(self) -> int:
+        """The tool station the program calls: T1 as configured, T2 the opposite hand."""
+        return 1 if self is Hand.AS_CONFIGURED else 2
+
+    def describe(self, tool: Tool) -> str:
+        """One line for the program header: the holder, its flanks (deg), the direction."""
+        lo, hi = (math.degrees(a) for a in self.held(tool).flank_directions())
+        if self is Hand.AS_CONFIGURED:
+            return f"held as configured, flanks at {lo:g}..{hi:g} deg from +r, cutting from the axis out"
+        return (f"the same insert in an OPPOSITE-HAND holder, flanks at {lo:g}..{hi:g} deg from +r "
+                "(body toward the rim), cutting from the rim in to the axis: the outer lobe is "
+                "recessed and its step wall faces the rim")
 
 
 @dataclass(frozen=True)
@@ -57,6 +102,8 @@ class Toolpath:
     lobe_of: for each segment, "inner", "junction" or "outer".
     n_points: points of the controller's budget used (G1: 1 per move; G2/G3: 2, the end
       point and the centre; plus the start point).
+    hand: how the insert is held and which way the contour is cut (`cutting_moves`);
+      `segments` always run from the axis out, whichever way they are cut.
     """
 
     strategy: Strategy
@@ -66,6 +113,21 @@ class Toolpath:
     segments: tuple[Move, ...]
     lobe_of: tuple[str, ...]
     n_points: int
+    hand: Hand = Hand.AS_CONFIGURED
+
+    @property
+    def held_tool(self) -> Tool:
+        """The tool as the program's hand holds it (flanks mirrored for Hand.OPPOSITE)."""
+        return self.hand.held(self.tool)
+
+    def cutting_moves(self) -> tuple[Move, ...]:
+        """The moves in the order the tool cuts them: `segments` as they are for
+        Hand.AS_CONFIGURED (axis -> rim); for Hand.OPPOSITE reversed, each move run
+        backwards (rim -> axis). An arc run backwards is the same spiral: LinuxCNC's radius
+        is linear in the swept angle, from the start radius to the end radius."""
+        if self.hand is Hand.AS_CONFIGURED:
+            return self.segments
+        return tuple(reversed_move(s) for s in reversed(self.segments))
 
     @property
     def nose_radius(self) -> float:
@@ -86,3 +148,10 @@ class Toolpath:
         c = [s.centre for s in self.segments if isinstance(s, Arc)]
         return np.asarray(c, dtype=float).reshape(-1, 2)
 
+
+
+def reversed_move(move: Move) -> Move:
+    """The same move run from its end to its start (machine frame, mm)."""
+    if isinstance(move, Arc):
+        return Arc(start=move.end, end=move.start, centre=move.centre, clockwise=not move.clockwise)
+    return Line(start=move.end, end=move.start)

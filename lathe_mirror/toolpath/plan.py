@@ -10,12 +10,11 @@ import math
 from ..design import Mirror
 from ..errors import InputError
 from ..lathe import Lathe, Tool
-from ..sheet import normal_angles
 from .arcs import arc_moves
-from .checks import check_junction, check_travel
+from .checks import check_junction, check_reach, check_travel
 from .lattice import lattice_points
 from .layout import Layout
-from .moves import BEST, Strategy, Toolpath
+from .moves import BEST, Hand, Strategy, Toolpath
 from .paper import paper_points
 
 
@@ -25,8 +24,10 @@ def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy =
 
     max_deviation (mm): the largest normal deviation the budget must allow a polyline
     (decides "budget too small"; the config's toolpath.max_deviation).
+    The hand (toolpath.Hand) follows the step: as configured, axis -> rim, when the inner
+    lobe is recessed; the opposite-hand holder, rim -> axis, when the outer lobe is.
     Raises InputError when the budget cannot hold the profile within it, the nose
-    cannot fit the junction, the tool's flanks would rub the profile, or the contour
+    cannot fit the junction, the held tool's flanks would rub the profile, or the contour
     leaves the lathe's travel.
     """
     if not (isinstance(max_deviation, (int, float)) and math.isfinite(max_deviation) and max_deviation > 0):
@@ -34,8 +35,9 @@ def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy =
     if not isinstance(strategy, Strategy):
         raise InputError(f"strategy {strategy!r}: allowed {', '.join(s.value for s in Strategy)}")
     rho = tool.nose_radius
+    hand = Hand.for_mirror(mirror)
     check_junction(mirror, tool)
-    tool.check_reach(normal_angles(mirror), what="the mirror's profile")
+    check_reach(mirror, tool, hand)
     layout = Layout(mirror, lathe, rho, past_rim=strategy is not Strategy.PAPER)
     need = layout.min_points(max_deviation)
     if lathe.max_points < need:
@@ -54,7 +56,7 @@ def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy =
     _check_advancing(segs, lobes, lathe, strategy)
     n_points = 1 + sum(s.n_points for s in segs)
     tp = Toolpath(strategy=strategy, lathe=lathe, tool=tool, mirror=mirror,
-                  segments=tuple(segs), lobe_of=tuple(lobes), n_points=n_points)
+                  segments=tuple(segs), lobe_of=tuple(lobes), n_points=n_points, hand=hand)
     if n_points > lathe.max_points:  # a bug, not bad input: every strategy plans within it
         raise RuntimeError(f"{strategy.value}: {n_points} points exceed the budget {lathe.max_points}")
     check_travel(tp.points(), lathe, what="the finishing contour")
