@@ -16,7 +16,8 @@ import traceback
 from .version import __version__
 from .errors import InputError
 
-COMMANDS = ("design", "toolpath", "cad", "render", "polish", "tolerance", "calib", "stereo", "report", "run")
+COMMANDS = ("design", "toolpath", "cad", "render", "polish", "tolerance", "calib", "stereo", "report", "run",
+            "optimize")
 
 
 class _Parser(argparse.ArgumentParser):

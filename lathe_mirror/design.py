@@ -38,16 +38,19 @@ class Camera:
     """Pinhole camera looking up the mirror axis.
 
     f: focal length, mm. t_pixel: pixel pitch, mm. sensor_px: (width, height), pixels;
-    the principal point is the sensor centre.
+    the principal point is the sensor centre. f_number: the lens's aperture, f / diameter
+    (the design does not use it; the optimiser's thin-lens focus model does).
     """
 
     f: float = 16.0
     t_pixel: float = 0.009
     sensor_px: tuple[int, int] = (1008, 1018)
+    f_number: float = 8.0
 
     def __post_init__(self) -> None:
         _positive("camera.f", self.f, "mm")
         _positive("camera.t_pixel", self.t_pixel, "mm")
+        _positive("camera.f_number", self.f_number, "(f / aperture diameter)")
         if len(self.sensor_px) != 2 or any(int(n) != n or n <= 0 for n in self.sensor_px):
             raise DesignError(
                 f"camera.sensor_px = {list(self.sensor_px)} must be two positive integers "

@@ -35,6 +35,7 @@ from .optics.camera import CameraPose
 from .optics.ranging.match import MatchParams
 from .optics.ranging.stereo import StereoParams
 from .optics.scene import BoxSpec, SceneSpec
+from .optimise.spec import Objective, OptimizeSettings, SearchSpace
 from .polishing import PolishParams
 from .shop import options_from_settings
 from .tolerance.spec import MAX_SAMPLE_RAYS, Spec, ToleranceSettings
@@ -93,6 +94,7 @@ class Settings:
     pose: CameraPose = field(default_factory=CameraPose)
     tolerance: ToleranceSettings | None = None
     stereo: StereoSettings = field(default_factory=StereoSettings)
+    optimize: OptimizeSettings = field(default_factory=OptimizeSettings)
 
     def mirror(self) -> Mirror:
         """The designed mirror (design.mirror_from_specs; cheap, the design is closed form)."""
@@ -105,7 +107,8 @@ def from_config(cfg: dict[str, Any]) -> Settings:
     The design is built once here, so an impossible design fails before anything else.
     """
     camera = Camera(f=float(cfg["camera"]["f"]), t_pixel=float(cfg["camera"]["t_pixel"]),
-                    sensor_px=tuple(int(n) for n in cfg["camera"]["sensor_px"]))
+                    sensor_px=tuple(int(n) for n in cfg["camera"]["sensor_px"]),
+                    f_number=float(cfg["camera"]["f_number"]))
     lobes = tuple(_lobe_spec(name, cfg["lobes"][name]) for name in ("inner", "outer"))
     settings = Settings(
         camera=camera,
@@ -127,6 +130,7 @@ def from_config(cfg: dict[str, Any]) -> Settings:
         pose=_pose(cfg["camera_pose"]),
         tolerance=_tolerance(cfg),
         stereo=_stereo(cfg["stereo"]),
+        optimize=_optimize(cfg["optimize"]),
     )
     settings.mirror()  # the design's own checks (DesignError / InputError naming the key)
     return settings
@@ -297,6 +301,21 @@ def _tolerance(cfg: dict) -> ToleranceSettings:
         lattice_phases=int(t["lattice_phases"]), azimuths=int(t["azimuths"]),
         bin_px=float(t["bin_px"]), depth_points=int(t["depth_points"]),
         spec=Spec(**{k: float(v) for k, v in s.items()}), tolerances=tol)
+
+
+def _optimize(o: dict) -> OptimizeSettings:
+    """The [optimize] section (OptimizeSettings checks the values, naming each key)."""
+    pairs = {}
+    for key, value in o["search"].items():
+        if len(value) != 2:
+            raise InputError(f"optimize.search.{key} = {value!r}: give [low, high]")
+        pairs[key] = (float(value[0]), float(value[1]))
+    if len(o["band_deg"]) != 2:
+        raise InputError(f"optimize.band_deg = {o['band_deg']!r}: give [lowest, highest] elevation in deg")
+    scalars = {k: v for k, v in o.items() if k not in ("objective", "search", "band_deg")}
+    return OptimizeSettings(objective=parse(Objective, o["objective"], "optimize.objective"),
+                            band_deg=(float(o["band_deg"][0]), float(o["band_deg"][1])),
+                            search=SearchSpace(**pairs), **scalars)
 
 
 def _int_at_least(key: str, value: int, lo: int) -> None:

@@ -194,3 +194,36 @@ def report_plots(data: ReportData) -> dict[str, bytes]:
         plots[f"monte_carlo_{name}"] = monte_carlo_histograms(mc["per_trial"], mc["spec"], mc["yield"],
                                                               title=f"{name} program")
     return plots
+
+
+def pareto_plot(label: str, candidates: dict[str, np.ndarray], fronts: dict[str, np.ndarray],
+                marks: dict[str, dict[str, float]]) -> bytes:
+    """The design optimiser's Pareto plot: the objective (`label`) against the common band's
+    width and against the mirror's depth, two panels.
+
+    candidates: "objective", "band_width_deg", "depth_mm" of every feasible design the
+    search evaluated; fronts: "band" and "depth", indices into them of each front (more
+    objective for more band; more objective for less depth); marks: named designs (the
+    paper's, the winner) with the same three keys.
+    """
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.0))
+    styles = {0: dict(marker="*", s=160, color="tab:red", zorder=5),
+              1: dict(marker="D", s=60, color="tab:green", zorder=5)}
+    for ax, (xkey, xlabel, front) in zip(axes, (("band_width_deg", "common band width [deg]", "band"),
+                                                ("depth_mm", "mirror depth [mm]", "depth"))):
+        ax.scatter(candidates[xkey], candidates["objective"], s=4, color="0.75", label="feasible designs",
+                   rasterized=True)
+        f = np.asarray(fronts[front], dtype=int)
+        if f.size:
+            order = np.argsort(candidates[xkey][f])
+            ax.plot(candidates[xkey][f][order], candidates["objective"][f][order], "-o", ms=3,
+                    color="tab:blue", label="Pareto front")
+        for i, (name, m) in enumerate(marks.items()):
+            ax.scatter([m[xkey]], [m["objective"]], label=name, **styles[i % 2])
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="best", fontsize=8)
+    fig.suptitle("design optimiser: the objective against the band and the depth")
+    return png(fig)

@@ -99,8 +99,12 @@ def reach_margin(mirror: Mirror, tool: Tool, hand: Hand) -> float:
     """Smallest clearance (rad) of the held tool's flanks against the profile's normals
     (Tool.check_reach's two inequalities); >= 0 when the tool can cut the whole profile."""
     lo, hi = hand.held(tool).flank_directions()
-    n = normal_angles(mirror)
-    return float(min(n.min() - (hi - math.pi / 2), (lo + math.pi / 2) - n.max()))
+    # a lobe's normal turns monotonically from its inner to its outer end (the slope grows
+    # with r), so the extremes of sheet.normal_angles are at the lobes' ends and the wall
+    ends = [(mirror.inner, 0.0), (mirror.inner, mirror.r_junction), (mirror.outer, mirror.r_junction),
+            (mirror.outer, mirror.r_max)]
+    n = [math.atan2(1.0, float(lobe.slope(r))) for lobe, r in ends] + [math.pi if mirror.step > 0 else 0.0]
+    return float(min(min(n) - (hi - math.pi / 2), (lo + math.pi / 2) - max(n)))
 
 
 def check_travel(points: np.ndarray, lathe: Lathe, what: str) -> None:

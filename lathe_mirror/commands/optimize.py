@@ -1,0 +1,211 @@
+"""`lathe-mirror optimize`: search the design under the envelope, the focus and the lathe."""
+
+from __future__ import annotations
+
+import argparse
+
+from .common import add_common, add_no_progress, load, print_json
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "optimize", help="search the lobes for the best design under the constraints",
+        description="Keep the camera fixed, search both lobes' r_top, r_pixel and alpha with seeded "
+        "differential evolution, and maximise [optimize] objective (R10 by default) under the "
+        "envelope, band, image, focus and lathe constraints. Prints the winner beside the configured "
+        "(paper's) design; -o writes it as a TOML every command takes with --config, and the Pareto "
+        "plot beside it.")
+    add_common(p, output_help="write the best design as a TOML configuration (and <stem>_pareto.png "
+                              "beside it)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="processes evaluating each generation (default optimize.workers, 1)")
+    add_no_progress(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from ..errors import InputError
+    from ..optimise import Problem, search
+    from ..optimise.evaluate import constraint_table
+
+    settings = load(args)
+    out = pareto_path = None
+    if args.output:
+        from ..export.files import check_writable
+
+        out = check_writable(args.output)
+        pareto_path = check_writable(out.with_name(out.stem + "_pareto.png"))
+    if args.workers is not None and not 1 <= args.workers <= 64:
+        raise InputError(f"--workers {args.workers}: allowed 1 .. 64")
+    problem = Problem(camera=settings.camera, tool=settings.tool, stock=settings.stock, body=settings.body,
+                      clearance=settings.toolpath.clearance, settings=settings.optimize,
+                      reference=settings.lobes)
+    result = search(problem, workers=args.workers, progress=not args.no_progress)
+    best = dataclasses.replace(settings, lobes=result.best)
+    check_made(best)
+    ref_name = "paper" if _is_paper(settings) else "configured"
+    o = settings.optimize
+    data = {
+        "objective": o.objective.value,
+        "objective_unit": o.objective.unit,
+        "band_deg": {"min": o.band_deg[0], "max": o.band_deg[1]},
+        "best": result.best_figures.to_dict(),
+        "reference": None if result.reference_figures is None else result.reference_figures.to_dict(),
+        "reference_name": ref_name,
+        "reference_feasible": result.reference_feasible,
+        "gain": result.gain,
+        "constraints": constraint_table(result.best_figures, problem),
+        "search": {"seed": o.seed, "workers": result.workers, "evaluations": result.evaluations,
+                   "feasible": int(result.history.feasible.sum()), "generations": result.generations,
+                   "converged": result.converged, "seconds": result.seconds,
+                   "evaluations_per_second": result.evaluations_per_second},
+        "pareto": _fronts(result),
+    }
+    if out is not None:
+        from ..export.design_toml import design_toml, write_design_toml
+        from ..export.files import write_bytes
+
+        text = design_toml(settings.camera, result.best, comments=_toml_comments(data),
+                           extra=_user_sections(args.config))
+        png = _pareto_png(result, o.objective, ref_name)
+        write_design_toml(out, text)
+        write_bytes(pareto_path, png)
+        data["output"] = {"design": str(out), "pareto_plot": str(pareto_path)}
+    if args.json:
+        print_json(data)
+    else:
+        print(format_result(data))
+    return 0
+
+
+def check_made(settings) -> None:
+    """The winner through the stages `run` takes it through, before anything is written:
+    the configured program planned and checked (gouge, bar, travel: export.gcode.program),
+    the polishing times and the junction (pipeline.check_programs), the CAD body
+    (pipeline.check_cad). An InputError here names the check the winner fails."""
+    from ..errors import InputError
+    from ..export.gcode import program, program_options
+    from ..pipeline import check_cad, check_programs, plan
+
+    mirror = settings.mirror()
+    try:
+        check_programs(settings, mirror)
+        check_cad(settings, mirror)
+        tp = plan(mirror, settings.machine, settings.tool, settings.toolpath.strategy,
+                  max_deviation=settings.toolpath.max_deviation)
+        program(tp, settings.stock, options=program_options(settings))
+    except InputError as exc:
+        raise InputError(f"the best design found cannot be made as configured: {exc}") from None
+
+
+def format_result(data: dict) -> str:
+    """The winner beside the configured design, the search and the active constraints."""
+    best, ref = data["best"], data["reference"]
+    name = data["reference_name"]
+    s = data["search"]
+    lines = [f"objective {data['objective']} (median over {data['band_deg']['min']:g}..{data['band_deg']['max']:g} "
+             f"deg for r10), seed {s['seed']}: {s['evaluations']} designs ({s['feasible']} feasible) in "
+             f"{s['seconds']:.1f} s, {s['evaluations_per_second']:.0f} per second on {s['workers']} "
+             f"process{'es' if s['workers'] > 1 else ''}, {s['generations']} generations"
+             + ("" if s["converged"] else " (not converged: raise optimize.maxiter)"), ""]
+    cols = [(name, ref), ("best", best)] if ref is not None else [("best", best)]
+    lines.append(f"{'':26s}" + "".join(f"{c:>18s}" for c, _ in cols))
+
+    def row(label, fmt):
+        lines.append(f"{label:26s}" + "".join(f"{fmt(d):>18s}" for _, d in cols))
+
+    for k, lobe in enumerate(("inner", "outer")):
+        row(f"{lobe} r_top [mm]", lambda d, k=k: f"{d['lobes'][k]['r_top']:.3f}")
+        row(f"{lobe} r_pixel [px]", lambda d, k=k: f"{d['lobes'][k]['r_pixel']:.3f}")
+        row(f"{lobe} alpha [deg]", lambda d, k=k: f"{d['lobes'][k]['alpha_deg']:.3f}")
+    row("baseline [mm]", lambda d: f"{d['baseline_mm']:.3f}")
+    row("common band [deg]", lambda d: f"{d['band_deg']['min']:.2f}..{d['band_deg']['max']:.2f}")
+    row("R10 [m]", lambda d: f"{d['r10_m']:.4f}")
+    row("blur [px]", lambda d: f"{d['blur_px']:.2f}")
+    row("step [mm]", lambda d: f"{d['step_mm']:.3f} {d['recessed']}")
+    row("usable pixels", lambda d: f"{100 * d['usable_share']:.1f} %")
+    row("vertex..far [mm]", lambda d: f"{d['vertex_mm']:.2f}..{d['far_mm']:.2f}")
+    row("depth [mm]", lambda d: f"{d['depth_mm']:.3f}")
+    lines.append("")
+    if data["gain"] is not None:
+        lines.append(f"best / {name}: {data['gain']:.4f} x the {name} design's {data['objective']} "
+                     f"({100 * (data['gain'] - 1):+.2f} %)"
+                     + ("" if data["reference_feasible"] else f"; the {name} design breaks a constraint"))
+    active = [c for c in data["constraints"] if c["active"]]
+    if active:
+        lines.append("active constraints: " + "; ".join(
+            f"{c['key']} ({c['what']} {c['value']:.4g}, {c['bound']} {c['limit']:.4g}"
+            f"{' ' + c['unit'] if c['unit'] else ''})" for c in active))
+    if best["hand"] != "as configured":
+        lines.append("the outer lobe is recessed: the program cuts it with the opposite-hand holder "
+                     "(T2), from the rim in")
+    if "output" in data:
+        lines.append(f"wrote {data['output']['design']} and {data['output']['pareto_plot']}")
+    return "\n".join(lines)
+
+
+def _fronts(result) -> dict:
+    h = result.history
+    obj, band, depth = h.column("objective"), h.column("band_width_deg"), h.column("depth_mm")
+    return {"band_width": [[float(obj[i]), float(band[i])] for i in result.pareto_band],
+            "depth": [[float(obj[i]), float(depth[i])] for i in result.pareto_depth]}
+
+
+def _pareto_png(result, objective, ref_name: str) -> bytes:
+    from ..report.plots import pareto_plot
+
+    h = result.history
+    feas = h.feasible
+    idx = {i: k for k, i in enumerate(feas.nonzero()[0])}
+    cand = {k: h.column(k)[feas] for k in ("objective", "band_width_deg", "depth_mm")}
+    fronts = {"band": [idx[i] for i in result.pareto_band], "depth": [idx[i] for i in result.pareto_depth]}
+    marks = {}
+    for name, fig in ((ref_name + " design", result.reference_figures), ("best", result.best_figures)):
+        if fig is not None:
+            marks[name] = {"objective": fig.objective(objective), "band_width_deg": fig.band_width_deg,
+                           "depth_mm": fig.depth_mm}
+    return pareto_plot(objective.label, cand, fronts, marks)
+
+
+def _toml_comments(data: dict) -> list[str]:
+    best, s = data["best"], data["search"]
+    lines = ["lathe-mirror optimize: the best design found (lathe-mirror run --config THIS_FILE machines it)",
+             f"objective {data['objective']}: {best_value(data, best):.6g} {data['objective_unit']}".rstrip()]
+    if data["gain"] is not None:
+        lines.append(f"{data['gain']:.4f} x the {data['reference_name']} design's "
+                     f"{best_value(data, data['reference']):.6g} {data['objective_unit']}".rstrip())
+    lines.append(f"seed {s['seed']}, {s['generations']} generations, {s['evaluations']} designs evaluated")
+    lines.append(f"baseline {best['baseline_mm']:.3f} mm, common band {best['band_deg']['min']:.2f}.."
+                 f"{best['band_deg']['max']:.2f} deg, R10 {best['r10_m']:.4f} m, blur {best['blur_px']:.2f} px, "
+                 f"step {best['step_mm']:.3f} mm ({best['recessed']} lobe recessed), usable "
+                 f"{100 * best['usable_share']:.1f} %")
+    return lines
+
+
+def best_value(data: dict, fig: dict) -> float:
+    key = {"r10": "r10_m", "baseline": "baseline_mm", "band_width": "band_width_deg",
+           "usable_area": "usable_share"}[data["objective"]]
+    return fig[key]
+
+
+def _user_sections(path) -> dict:
+    """The user's own configuration file (already checked by load), passed through to the
+    written design: every section but [camera] and [lobes], which the design replaces."""
+    if path is None:
+        return {}
+    import tomllib
+    from pathlib import Path
+
+    doc = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    return {k: v for k, v in doc.items() if k not in ("camera", "lobes")}
+
+
+def _is_paper(settings) -> bool:
+    from ..config import load as load_settings
+
+    paper = load_settings()
+    cam, ref = settings.camera, paper.camera
+    return settings.lobes == paper.lobes and (cam.f, cam.t_pixel, cam.sensor_px) == (ref.f, ref.t_pixel,
+                                                                                     ref.sensor_px)

@@ -1,0 +1,295 @@
+"""One design's figures, objective and constraints: what the search calls per candidate.
+
+A candidate is a design vector x (spec.PARAMETERS): the outer rim's radius as a fraction of
+the radial envelope, the junction as a fraction of it, the outer rim's image radius as a
+fraction of the inscribed circle (less the margin), the inner rim's as a fraction of that,
+and both lobes' Table 1 alpha (deg). `design_of` turns it into the two LobeSpecs (r_top,
+r_pixel, alpha_deg) that a configuration file carries, and `figures` designs the mirror
+(design.mirror_from_specs, Eqs. 3-6) and measures it.
+
+The constraints (CONSTRAINTS, each named by the key that sets it):
+  envelope   optimize.r_max_mm (outer r_top), optimize.vertex_min_mm (the vertex, the
+             nearest point to the pinhole), optimize.rim_max_mm (the farthest point, the
+             higher rim)
+  band       optimize.band_deg (the common band covers the elevations the robot needs),
+             optimize.band_width_min_deg
+  image      optimize.rim_margin_px (outer rim inside the inscribed circle),
+             optimize.usable_min (share of its pixels that see the scene, after the ring
+             lost at the junction and the step's vignetting)
+  focus      optimize.blur_max_px (focus.defocus, [camera] f_number)
+  lathe      tool.nose_radius (the nose reaches the step wall, whichever lobe is
+             recessed), tool.approach_angle (the held tool's flanks clear the profile),
+             stock.diameter, stock.length and cad.thickness (the bar and the body hold it)
+Each violation is normalised by a natural unit (1 mm, 1 deg, 1 px, 1 % of the image,
+0.01 rad) so that they add up into one measure of infeasibility.
+
+Units: mm, radians inside; the figures carry their unit in their names.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..body import BodySpec
+from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
+from ..errors import DesignError
+from ..lathe import Stock, Tool
+from ..optics.ranging.resolution import r10
+from ..toolpath.checks import junction_margin, reach_margin
+from ..toolpath.moves import Hand
+from .focus import defocus
+from .spec import PARAMETERS, Objective, OptimizeSettings
+
+#: Energy of a vector that designs no mirror at all (DesignError).
+NO_DESIGN = 1.0e6
+#: Energy offset of a mirror that breaks a constraint: every infeasible candidate scores
+#: worse than every feasible one (the objectives are all well below this).
+INFEASIBLE = 1.0e3
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Everything a candidate is judged by: the camera (fixed), the lathe's tool, the bar,
+    the body, the [toolpath] clearance (mm, the bar's length beyond the mirror's depth),
+    the [optimize] settings and the configured design (the reference the winner beats)."""
+
+    camera: Camera
+    tool: Tool
+    stock: Stock
+    body: BodySpec
+    clearance: float
+    settings: OptimizeSettings
+    reference: tuple[LobeSpec, LobeSpec]
+
+
+@dataclass(frozen=True)
+class Figures:
+    """A design's figures (the table beside the paper's; the constraints' inputs).
+
+    r10_m: R10 over the required band (optics.ranging.resolution.r10). baseline_mm: F1
+    to F1. band_deg: the common band (lowest, highest elevation). band_width_deg.
+    usable_share: share of the inscribed circle's pixels that see the scene. blur_px,
+    focus_mm: the thin-lens model's largest blur and focus distance. step_mm, recessed:
+    the junction. vertex_mm, far_mm: nearest (the vertex) and farthest point (the higher
+    rim) from the pinhole; depth_mm = far - vertex. junction_margin_mm: the step's top
+    above the nose centre in its inside corner (>= 0: the nose reaches the wall);
+    reach_margin_deg: the held tool's flanks' least clearance of the profile's normals.
+    hand: how the tool is held (toolpath.Hand).
+    """
+
+    lobes: tuple[LobeSpec, LobeSpec]
+    r10_m: float
+    baseline_mm: float
+    band_deg: tuple[float, float]
+    band_width_deg: float
+    usable_share: float
+    blur_px: float
+    focus_mm: float
+    step_mm: float
+    recessed: str
+    vertex_mm: float
+    far_mm: float
+    depth_mm: float
+    junction_margin_mm: float
+    reach_margin_deg: float
+    hand: str
+    r_pixel_outer: float = field(default=0.0)
+
+    def objective(self, objective: Objective) -> float:
+        """The value of `objective` (larger is better)."""
+        return {Objective.R10: self.r10_m, Objective.BASELINE: self.baseline_mm,
+                Objective.BAND_WIDTH: self.band_width_deg,
+                Objective.USABLE_AREA: self.usable_share}[objective]
+
+    def to_dict(self) -> dict:
+        """Plain data (JSON): the lobes under the configuration's keys, then the figures."""
+        out = {"lobes": [{"name": s.name, "r_top": s.r_top, "r_pixel": s.r_pixel, "alpha_deg": s.alpha_deg}
+                         for s in self.lobes]}
+        for k in ("r10_m", "baseline_mm", "band_width_deg", "usable_share", "blur_px", "focus_mm",
+                  "step_mm", "recessed", "vertex_mm", "far_mm", "depth_mm", "junction_margin_mm",
+                  "reach_margin_deg", "hand"):
+            out[k] = getattr(self, k)
+        out["band_deg"] = {"min": self.band_deg[0], "max": self.band_deg[1]}
+        return out
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """One constraint: the key that sets it, what it holds, its unit and normalising scale.
+
+    value(fig, problem) -> (measured, limit); the violation is (measured - limit) / scale
+    for an upper bound (sense +1), (limit - measured) / scale for a lower one (-1).
+    """
+
+    key: str
+    what: str
+    unit: str
+    sense: int
+    scale: float
+    value: object
+
+    def violation(self, fig: Figures, problem: Problem) -> float:
+        got, limit = self.value(fig, problem)
+        return max(0.0, self.sense * (got - limit) / self.scale)
+
+
+def _band_low(fig: Figures, p: Problem):
+    return fig.band_deg[0], p.settings.band_deg[0]
+
+
+def _band_high(fig: Figures, p: Problem):
+    return fig.band_deg[1], p.settings.band_deg[1]
+
+
+CONSTRAINTS: tuple[Constraint, ...] = (
+    Constraint("optimize.r_max_mm", "outer r_top (the radial envelope)", "mm", +1, 1.0,
+               lambda f, p: (f.lobes[1].r_top, p.settings.r_max_mm)),
+    Constraint("optimize.vertex_min_mm", "the vertex's height above the pinhole", "mm", -1, 1.0,
+               lambda f, p: (f.vertex_mm, p.settings.vertex_min_mm)),
+    Constraint("optimize.rim_max_mm", "the farthest point's height above the pinhole", "mm", +1, 1.0,
+               lambda f, p: (f.far_mm, p.settings.rim_max_mm)),
+    Constraint("optimize.band_deg", "the common band's lowest elevation", "deg", +1, 1.0, _band_low),
+    Constraint("optimize.band_deg", "the common band's highest elevation", "deg", -1, 1.0, _band_high),
+    Constraint("optimize.band_width_min_deg", "the common band's width", "deg", -1, 1.0,
+               lambda f, p: (f.band_width_deg, p.settings.band_width_min_deg)),
+    Constraint("optimize.rim_margin_px", "the outer rim's image radius", "px", +1, 1.0,
+               lambda f, p: (f.r_pixel_outer, p.camera.r_pixel_max - p.settings.rim_margin_px)),
+    Constraint("optimize.usable_min", "the usable share of the image", "", -1, 0.01,
+               lambda f, p: (f.usable_share, p.settings.usable_min)),
+    Constraint("optimize.blur_max_px", "the largest defocus blur", "px", +1, 1.0,
+               lambda f, p: (f.blur_px, p.settings.blur_max_px)),
+    Constraint("tool.nose_radius", "the step's top above the nose centre in its inside corner", "mm", -1, 0.01,
+               lambda f, p: (f.junction_margin_mm, 0.0)),
+    Constraint("tool.approach_angle", "the held tool's flank clearance of the profile", "deg", -1, 0.5,
+               lambda f, p: (f.reach_margin_deg, 0.0)),
+    Constraint("stock.diameter", "the mirror's diameter", "mm", +1, 1.0,
+               lambda f, p: (2.0 * f.lobes[1].r_top, p.stock.diameter)),
+    Constraint("stock.length", "the mirror's depth plus toolpath.clearance", "mm", +1, 1.0,
+               lambda f, p: (f.depth_mm + p.clearance, p.stock.length)),
+    Constraint("cad.thickness", "the mirror's depth plus cad.min_wall", "mm", +1, 1.0,
+               lambda f, p: (f.depth_mm + p.body.min_wall, p.body.thickness)),
+)
+
+
+def design_of(x: np.ndarray, problem: Problem) -> tuple[LobeSpec, LobeSpec]:
+    """The two LobeSpecs (inner, outer) of a design vector (spec.PARAMETERS order)."""
+    s = problem.settings
+    r_top_outer = float(x[0]) * s.r_max_mm
+    r_pixel_outer = float(x[2]) * (problem.camera.r_pixel_max - s.rim_margin_px)
+    return (LobeSpec("inner", r_top=float(x[1]) * r_top_outer, r_pixel=float(x[3]) * r_pixel_outer,
+                     alpha_deg=float(x[4])),
+            LobeSpec("outer", r_top=r_top_outer, r_pixel=r_pixel_outer, alpha_deg=float(x[5])))
+
+
+def vector_of(lobes: tuple[LobeSpec, LobeSpec], problem: Problem) -> np.ndarray:
+    """The design vector of two LobeSpecs (alpha from the designed lobes when a spec gives
+    a/b or e instead). Raises DesignError if they design no mirror."""
+    mirror = mirror_from_specs(problem.camera, lobes)
+    s = problem.settings
+    inner, outer = mirror.inner, mirror.outer
+    return np.array([outer.r_top / s.r_max_mm, inner.r_top / outer.r_top,
+                     outer.r_pixel / (problem.camera.r_pixel_max - s.rim_margin_px),
+                     inner.r_pixel / outer.r_pixel, math.degrees(inner.alpha), math.degrees(outer.alpha)])
+
+
+def figures(lobes: tuple[LobeSpec, LobeSpec], problem: Problem) -> Figures:
+    """Design the mirror of `lobes` on the problem's camera and measure it (module doc).
+    Raises DesignError if the lobes design no mirror."""
+    mirror = mirror_from_specs(problem.camera, lobes)
+    return measure(mirror, problem, lobes)
+
+
+def measure(mirror: Mirror, problem: Problem, lobes: tuple[LobeSpec, LobeSpec], *,
+            with_r10: bool = True) -> Figures:
+    """The Figures of a designed mirror (with_r10=False: r10_m is NaN, left out because
+    the search only needs it for a feasible design; it is a third of the cost)."""
+    s = problem.settings
+    band = mirror.common_band
+    radii = mirror.image_radii_px
+    r_max_px = problem.camera.r_pixel_max
+    inner_used = radii["inner_blocked_by_step"][0]
+    o_lo, o_hi = radii["outer_annulus"]
+    usable = (inner_used**2 + max(0.0, o_hi**2 - o_lo**2)) / r_max_px**2
+    blur = defocus(mirror, problem.camera.f_number, s.focus_range_m * 1000.0, radii=radii)
+    zi, zo = mirror.junction_z
+    vertex = mirror.vertex_z
+    far = max(mirror.inner.h, mirror.outer.h)
+    hand = Hand.for_mirror(mirror)
+    return Figures(
+        lobes=lobes,
+        r10_m=r10(mirror, s.band) if with_r10 else math.nan,
+        baseline_mm=mirror.baseline,
+        band_deg=(math.degrees(band[0]), math.degrees(band[1])),
+        band_width_deg=max(0.0, math.degrees(band[1] - band[0])),
+        usable_share=usable,
+        blur_px=blur.blur_px,
+        focus_mm=blur.focus_mm,
+        step_mm=abs(zi - zo),
+        recessed=mirror.recessed,
+        vertex_mm=vertex,
+        far_mm=far,
+        depth_mm=far - vertex,
+        junction_margin_mm=junction_margin(mirror, problem.tool.nose_radius),
+        reach_margin_deg=math.degrees(reach_margin(mirror, problem.tool, hand)),
+        hand=hand.value,
+        r_pixel_outer=mirror.outer.r_pixel,
+    )
+
+
+def violations(fig: Figures, problem: Problem) -> np.ndarray:
+    """Each constraint's normalised violation (>= 0; 0 when it holds), CONSTRAINTS order."""
+    return np.array([c.violation(fig, problem) for c in CONSTRAINTS])
+
+
+def constraint_table(fig: Figures, problem: Problem, *, active: float = 0.02) -> list[dict]:
+    """Each constraint at a design: key, what it holds, unit, the design's value, the
+    limit, "bound" ("max" / "min"), the normalised slack (>= 0 when it holds) and whether
+    it is active (slack below `active`, in the constraint's normalising units)."""
+    rows = []
+    for c in CONSTRAINTS:
+        got, limit = c.value(fig, problem)
+        slack = -c.sense * (got - limit) / c.scale
+        rows.append({"key": c.key, "what": c.what, "unit": c.unit, "value": float(got), "limit": float(limit),
+                     "bound": "max" if c.sense > 0 else "min", "slack": float(slack),
+                     "active": bool(slack < active)})
+    return rows
+
+
+#: What a candidate's record holds (search.History): the objective, the two Pareto axes,
+#: the total violation, then each constraint's.
+RECORD = ("objective", "band_width_deg", "depth_mm", "violation")
+
+
+def evaluate(x: np.ndarray, problem: Problem) -> tuple[float, np.ndarray]:
+    """(energy, record) of a design vector: energy = -objective when every constraint
+    holds, INFEASIBLE + the summed violations when one does not, NO_DESIGN when the vector
+    designs no mirror (DE minimises energy). record: RECORD's fields then each
+    constraint's violation (NaN when there is no design)."""
+    n = len(RECORD) + len(CONSTRAINTS)
+    objective = problem.settings.objective
+    try:
+        with np.errstate(all="ignore"):
+            lobes = design_of(x, problem)
+            mirror = mirror_from_specs(problem.camera, lobes)
+            fig = measure(mirror, problem, lobes, with_r10=objective is not Objective.R10)
+            v = violations(fig, problem)
+            if objective is Objective.R10 and not v.any():
+                fig = dataclasses.replace(fig, r10_m=r10(mirror, problem.settings.band))
+    except (DesignError, ValueError, ZeroDivisionError, OverflowError):
+        # no mirror (the design's own checks), or one whose geometry degenerates (no ray
+        # meets a lobe): no design either
+        return NO_DESIGN, np.full(n, np.nan)
+    obj = fig.objective(objective)
+    if not np.all(np.isfinite(v)) or (not v.any() and not math.isfinite(obj)):
+        return NO_DESIGN, np.full(n, np.nan)
+    total = float(v.sum())
+    rec = np.concatenate([[obj, fig.band_width_deg, fig.depth_mm, total], v])
+    return (INFEASIBLE + total if total > 0.0 else -obj), rec
+
+
+__all__ = ["CONSTRAINTS", "Constraint", "Figures", "PARAMETERS", "Problem", "constraint_table", "design_of", "evaluate",
+           "figures", "measure", "vector_of", "violations"]

@@ -1,0 +1,156 @@
+"""The [optimize] section as typed data: the objective, the constraints, the search.
+
+Every constraint is a key with a default that keeps the paper's design feasible
+(data/optimize.toml documents each one). Lengths in mm, angles in degrees as the file
+gives them (converted where they are used), image radii in px, ranges in m.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+
+from ..errors import InputError
+
+#: Names of the searched parameters, in the order of a design vector (see search.py).
+PARAMETERS = ("outer_r_top_fraction", "junction_fraction", "outer_r_pixel_fraction",
+              "pixel_fraction", "alpha_inner_deg", "alpha_outer_deg")
+
+#: Most DE generations and population factor a configuration may ask for (cost bound).
+MAX_GENERATIONS = 5000
+MAX_POPSIZE = 100
+MAX_WORKERS = 64
+
+
+class Objective(str, Enum):
+    """What the optimiser maximises (larger is better for each)."""
+
+    R10 = "r10"                  # m: range at which 1 px of disparity costs 10 % of range
+    BASELINE = "baseline"        # mm: distance between the two viewpoints F1
+    BAND_WIDTH = "band_width"    # deg: width of the common (stereo) band
+    USABLE_AREA = "usable_area"  # share of the inscribed circle's pixels that see the scene
+
+    @property
+    def unit(self) -> str:
+        return {"r10": "m", "baseline": "mm", "band_width": "deg", "usable_area": ""}[self.value]
+
+    @property
+    def label(self) -> str:
+        return {"r10": "R10 [m]", "baseline": "baseline [mm]", "band_width": "common band [deg]",
+                "usable_area": "usable share of the image"}[self.value]
+
+
+@dataclass(frozen=True)
+class SearchSpace:
+    """Ranges (low, high) of the searched parameters; low == high fixes a parameter.
+
+    outer_r_top_fraction: outer r_top as a fraction of the radial envelope r_max_mm.
+    junction_fraction: inner r_top / outer r_top. outer_r_pixel_fraction: outer r_pixel as
+    a fraction of the inscribed circle's radius less rim_margin_px. pixel_fraction: inner
+    r_pixel / outer r_pixel. alpha_inner_deg, alpha_outer_deg: each lobe's Table 1 alpha
+    (deg). Fractions keep the inner lobe inside the outer one by construction.
+    """
+
+    outer_r_top_fraction: tuple[float, float] = (0.5, 1.0)
+    junction_fraction: tuple[float, float] = (0.15, 0.9)
+    outer_r_pixel_fraction: tuple[float, float] = (0.5, 1.0)
+    pixel_fraction: tuple[float, float] = (0.15, 0.95)
+    alpha_inner_deg: tuple[float, float] = (-20.0, 60.0)
+    alpha_outer_deg: tuple[float, float] = (-30.0, 30.0)
+
+    def __post_init__(self) -> None:
+        for name in PARAMETERS:
+            lo, hi = getattr(self, name)
+            key = f"optimize.search.{name}"
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+                raise InputError(f"{key} = [{lo!r}, {hi!r}]: need two finite numbers, low <= high")
+            if name.endswith("_deg"):
+                if not -89.0 <= lo <= hi <= 89.0:
+                    raise InputError(f"{key} = [{lo:g}, {hi:g}] deg: allowed within -89 .. 89 deg")
+            elif not 0.0 < lo <= hi <= 1.0:
+                raise InputError(f"{key} = [{lo:g}, {hi:g}]: a fraction, allowed within (0, 1]")
+        if self.junction_fraction[1] >= 1.0 or self.pixel_fraction[1] >= 1.0:
+            which = "junction_fraction" if self.junction_fraction[1] >= 1.0 else "pixel_fraction"
+            raise InputError(f"optimize.search.{which}: the high end must be < 1 (the inner lobe lies "
+                             "inside the outer one)")
+
+    def bounds(self) -> list[tuple[float, float]]:
+        """(low, high) of every parameter, in PARAMETERS order."""
+        return [getattr(self, name) for name in PARAMETERS]
+
+
+@dataclass(frozen=True)
+class OptimizeSettings:
+    """The [optimize] section (see data/optimize.toml for each key's meaning).
+
+    Objective and search: objective, seed, workers (processes), popsize (DE population
+    per searched parameter), maxiter (DE generations at most), tol (DE's relative
+    convergence tolerance), search (the parameter ranges).
+    Constraints: r_max_mm (radial envelope: the outer r_top), vertex_min_mm (the nearest
+    point of the mirror, its vertex, at least this far from the pinhole), rim_max_mm (the
+    farthest point, the higher rim, at most this far), band_deg (elevations, deg, the
+    common band must cover; R10 is its median over this band), band_width_min_deg,
+    rim_margin_px (the outer rim this far inside the sensor's inscribed circle),
+    usable_min (share of the inscribed circle's pixels that see the scene), blur_max_px
+    (largest defocus blur over both usable annuli, thin-lens model, [camera] f_number),
+    focus_range_m (range of the scene points whose virtual images the focus serves).
+    The lathe's constraints come from [tool], [stock], [toolpath] and [cad].
+    """
+
+    objective: Objective = Objective.R10
+    seed: int = 1
+    workers: int = 1
+    popsize: int = 15
+    maxiter: int = 500
+    tol: float = 0.001
+    r_max_mm: float = 35.0
+    vertex_min_mm: float = 103.6
+    rim_max_mm: float = 123.5
+    band_deg: tuple[float, float] = (-20.0, 0.0)
+    band_width_min_deg: float = 0.0
+    rim_margin_px: float = 0.0
+    usable_min: float = 0.8
+    blur_max_px: float = 7.0
+    focus_range_m: float = 2.0
+    search: SearchSpace = field(default_factory=SearchSpace)
+
+    def __post_init__(self) -> None:
+        _int_in("optimize.seed", self.seed, 0, 2**32 - 1)
+        _int_in("optimize.workers", self.workers, 1, MAX_WORKERS)
+        _int_in("optimize.popsize", self.popsize, 5, MAX_POPSIZE)
+        _int_in("optimize.maxiter", self.maxiter, 1, MAX_GENERATIONS)
+        if not (math.isfinite(self.tol) and 0.0 < self.tol < 1.0):
+            raise InputError(f"optimize.tol = {self.tol!r}: allowed 0 < tol < 1")
+        if not (math.isfinite(self.r_max_mm) and 0.0 < self.r_max_mm <= 10000.0):
+            raise InputError(f"optimize.r_max_mm = {self.r_max_mm!r} mm: allowed > 0 and <= 10000 mm")
+        if not (math.isfinite(self.vertex_min_mm) and self.vertex_min_mm > 0.0):
+            raise InputError(f"optimize.vertex_min_mm = {self.vertex_min_mm!r} mm: must be > 0 (the "
+                             "vertex lies above the pinhole)")
+        if not (math.isfinite(self.rim_max_mm) and self.rim_max_mm > self.vertex_min_mm):
+            raise InputError(f"optimize.rim_max_mm = {self.rim_max_mm!r} mm: must exceed "
+                             f"optimize.vertex_min_mm = {self.vertex_min_mm:g} mm")
+        lo, hi = self.band_deg
+        if not (math.isfinite(lo) and math.isfinite(hi) and -90.0 <= lo < hi <= 90.0):
+            raise InputError(f"optimize.band_deg = [{lo!r}, {hi!r}]: need lowest < highest elevation, "
+                             "within -90 .. 90 deg")
+        if not (math.isfinite(self.band_width_min_deg) and 0.0 <= self.band_width_min_deg < 180.0):
+            raise InputError(f"optimize.band_width_min_deg = {self.band_width_min_deg!r}: allowed 0 .. 180 deg")
+        if not (math.isfinite(self.rim_margin_px) and self.rim_margin_px >= 0.0):
+            raise InputError(f"optimize.rim_margin_px = {self.rim_margin_px!r} px: must be >= 0")
+        if not (math.isfinite(self.usable_min) and 0.0 <= self.usable_min <= 1.0):
+            raise InputError(f"optimize.usable_min = {self.usable_min!r}: a share, allowed 0 .. 1")
+        if not (math.isfinite(self.blur_max_px) and self.blur_max_px > 0.0):
+            raise InputError(f"optimize.blur_max_px = {self.blur_max_px!r} px: must be > 0")
+        if not (math.isfinite(self.focus_range_m) and 0.05 <= self.focus_range_m <= 1e6):
+            raise InputError(f"optimize.focus_range_m = {self.focus_range_m!r} m: allowed 0.05 .. 1e6 m")
+
+    @property
+    def band(self) -> tuple[float, float]:
+        """The required band, rad (lowest, highest elevation)."""
+        return (math.radians(self.band_deg[0]), math.radians(self.band_deg[1]))
+
+
+def _int_in(key: str, value: int, lo: int, hi: int) -> None:
+    if isinstance(value, bool) or int(value) != value or not lo <= value <= hi:
+        raise InputError(f"{key} = {value!r}: allowed an integer {lo} .. {hi}")
