@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -159,7 +160,7 @@ class Mirror:
         """Height of the mirror's vertex (the inner lobe's), mm; machine Z = 0 there."""
         return self.inner.vertex_z
 
-    @property
+    @cached_property  # asked for by most other figures (the design optimiser: per design)
     def junction_z(self) -> tuple[float, float]:
         """Heights (mm) of the inner and outer sheets at the junction radius."""
         r = self.r_junction
@@ -185,7 +186,7 @@ class Mirror:
         """Stereo baseline: distance between the two viewpoints F1 (mm)."""
         return abs(self.outer.focus_z - self.inner.focus_z)
 
-    @property
+    @cached_property
     def r_outer_visible(self) -> float:
         """Smallest radius of the outer lobe the camera sees (mm).
 

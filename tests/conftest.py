@@ -19,11 +19,18 @@ from lathe_mirror.config import default_config
 IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
 
 #: A design whose OUTER lobe is recessed at the step (README "Your own design", with
-#: r_pixel = 265): it designs, but no program cuts it, so every stage that needs a
-#: program refuses it with one line before it writes anything.
+#: r_pixel = 265): the program cuts it with the insert in an opposite-hand holder, from the
+#: rim in (toolpath.Hand.OPPOSITE).
 RECESSED_OUTER = ("[camera]\nf = 6.0\nt_pixel = 0.003\nsensor_px = [1280, 1024]\n"
                   "[lobes.inner]\nr_top = 12.0\nr_pixel = 265.0\na_over_b = 2.0\n"
                   "[lobes.outer]\nr_top = 25.0\nr_pixel = 500.0\nalpha_deg = 5.0\n")
+
+
+#: A configuration no program can cut (the paper's 1.82 mm step with a 1 mm nose, which
+#: cannot reach the step wall): every stage that needs a program refuses it with one line
+#: (UNCUTTABLE_PHRASE) before it writes anything.
+UNCUTTABLE = "[tool]\nnose_radius = 1.0\n"
+UNCUTTABLE_PHRASE = "too large for the junction"
 
 
 def require_program(name: str) -> str:

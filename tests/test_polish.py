@@ -15,7 +15,7 @@ from lathe_mirror.optics.polishing_curve import form_change, polish_curve
 from lathe_mirror.polishing import PolishParams, polish
 from lathe_mirror.profile import ExactProfile, LobeSamples, PolylineProfile, SampledProfile
 
-from conftest import RECESSED_OUTER, run_cli
+from conftest import UNCUTTABLE, UNCUTTABLE_PHRASE, run_cli
 
 
 def paper_polyline(mirror, n: int = 528, res: float = 0.005) -> PolylineProfile:
@@ -204,11 +204,11 @@ def test_the_pad_spares_wavelengths_longer_than_itself(paper_mirror, lam):
 
 def test_polish_cli_uncuttable_design_leaves_no_output_dir(tmp_path):
     cfg = tmp_path / "recessed.toml"
-    cfg.write_text(RECESSED_OUTER)
+    cfg.write_text(UNCUTTABLE)
     out = tmp_path / "out" / "polish"
     proc = run_cli("polish", "--config", str(cfg), "-o", str(out))
     assert proc.returncode == 2, proc.stderr
-    assert "outer lobe is recessed" in proc.stderr and "Traceback" not in proc.stderr
+    assert UNCUTTABLE_PHRASE in proc.stderr and "Traceback" not in proc.stderr
     assert not (tmp_path / "out").exists()
 
 

@@ -19,7 +19,7 @@ from lathe_mirror.report import dumps, render_html, write_report
 from lathe_mirror.optics.radial import radial_figures
 from lathe_mirror.toolpath import BEST, Strategy, plan_toolpath
 
-from conftest import RECESSED_OUTER, run_cli
+from conftest import UNCUTTABLE, UNCUTTABLE_PHRASE, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -180,11 +180,11 @@ def test_same_config_same_json(small_cfg, report):
 
 def test_report_cli_uncuttable_design_leaves_no_output_dir(tmp_path):
     cfg = tmp_path / "recessed.toml"
-    cfg.write_text(RECESSED_OUTER)
+    cfg.write_text(UNCUTTABLE)
     out = tmp_path / "out" / "report"
     proc = run_cli("report", "--config", str(cfg), "-o", str(out), "--no-render")
     assert proc.returncode == 2, proc.stderr
-    assert "outer lobe is recessed" in proc.stderr and "Traceback" not in proc.stderr
+    assert UNCUTTABLE_PHRASE in proc.stderr and "Traceback" not in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1  # refused before the progress display
     assert not (tmp_path / "out").exists()
 

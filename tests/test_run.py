@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from conftest import RECESSED_OUTER, run_cli
+from conftest import UNCUTTABLE, UNCUTTABLE_PHRASE, run_cli
 from lathe_mirror.export.calib import FILE_NAMES
 
 SMALL = """
@@ -57,8 +57,8 @@ def test_run_bad_stage_setting_exit_2_writes_nothing(tmp_path):
                       ("[polish]\npressure_kpa = 0.0\n", "polish.pressure_kpa"),
                       ("[cad]\nthickness = 15.0\n", "cad.thickness"),
                       ("[stock]\ndiameter = -1.0\n", "stock.diameter"),
-                      # A design whose OUTER lobe is recessed at the step: no program cuts it yet.
-                      (RECESSED_OUTER, "outer lobe is recessed")):
+                      # A nose too large for the step: no program cuts it.
+                      (UNCUTTABLE, UNCUTTABLE_PHRASE)):
         cfg = tmp_path / "bad.toml"
         cfg.write_text(text)
         out = tmp_path / "out"

@@ -34,7 +34,7 @@ from lathe_mirror.tolerance.sensitivity import sensitivity_table
 from lathe_mirror.enums import Program, Strategy
 from lathe_mirror.pipeline import made_surface, tolerance_context
 
-from conftest import RECESSED_OUTER, run_cli
+from conftest import UNCUTTABLE, UNCUTTABLE_PHRASE, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -245,11 +245,11 @@ def test_tolerance_cli_bad_tolerances_exit_2_before_writing(tmp_path):
 
 def test_tolerance_cli_uncuttable_design_leaves_no_output_dir(tmp_path):
     cfg = tmp_path / "recessed.toml"
-    cfg.write_text(RECESSED_OUTER)
+    cfg.write_text(UNCUTTABLE)
     out = tmp_path / "out" / "tolerance"
     proc = run_cli("tolerance", "--config", str(cfg), "-o", str(out), "--trials", "2")
     assert proc.returncode == 2, proc.stderr
-    assert "outer lobe is recessed" in proc.stderr and "Traceback" not in proc.stderr
+    assert UNCUTTABLE_PHRASE in proc.stderr and "Traceback" not in proc.stderr
     assert not (tmp_path / "out").exists()
 
 

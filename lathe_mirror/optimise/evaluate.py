@@ -18,7 +18,9 @@ The constraints (CONSTRAINTS, each named by the key that sets it):
              lost at the junction and the step's vignetting)
   focus      optimize.blur_max_px (focus.defocus, [camera] f_number)
   lathe      tool.nose_radius (the nose reaches the step wall, whichever lobe is
-             recessed), tool.approach_angle (the held tool's flanks clear the profile),
+             recessed, and the fillet it leaves in the step's corner lies where the
+             camera does not see it), tool.approach_angle (the held tool's flanks clear
+             the profile),
              stock.diameter, stock.length and cad.thickness (the bar and the body hold it)
 Each violation is normalised by a natural unit (1 mm, 1 deg, 1 px, 1 % of the image,
 0.01 rad) so that they add up into one measure of infeasibility.
@@ -39,7 +41,7 @@ from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
 from ..errors import DesignError
 from ..lathe import Stock, Tool
 from ..optics.ranging.resolution import r10
-from ..toolpath.checks import junction_margin, reach_margin
+from ..toolpath.checks import corner_nose, fillet_hidden_margin, reach_margin
 from ..toolpath.moves import Hand
 from .focus import defocus
 from .spec import PARAMETERS, Objective, OptimizeSettings
@@ -77,7 +79,8 @@ class Figures:
     the junction. vertex_mm, far_mm: nearest (the vertex) and farthest point (the higher
     rim) from the pinhole; depth_mm = far - vertex. junction_margin_mm: the step's top
     above the nose centre in its inside corner (>= 0: the nose reaches the wall);
-    reach_margin_deg: the held tool's flanks' least clearance of the profile's normals.
+    fillet_hidden_mm: how far (in r) the fillet the nose leaves there stays out of the
+    camera's sight (>= 0: unseen); reach_margin_deg: the held tool's flanks' least clearance of the profile's normals.
     hand: how the tool is held (toolpath.Hand).
     """
 
@@ -95,6 +98,7 @@ class Figures:
     far_mm: float
     depth_mm: float
     junction_margin_mm: float
+    fillet_hidden_mm: float
     reach_margin_deg: float
     hand: str
     r_pixel_outer: float = field(default=0.0)
@@ -111,7 +115,7 @@ class Figures:
                          for s in self.lobes]}
         for k in ("r10_m", "baseline_mm", "band_width_deg", "usable_share", "blur_px", "focus_mm",
                   "step_mm", "recessed", "vertex_mm", "far_mm", "depth_mm", "junction_margin_mm",
-                  "reach_margin_deg", "hand"):
+                  "fillet_hidden_mm", "reach_margin_deg", "hand"):
             out[k] = getattr(self, k)
         out["band_deg"] = {"min": self.band_deg[0], "max": self.band_deg[1]}
         return out
@@ -164,6 +168,7 @@ CONSTRAINTS: tuple[Constraint, ...] = (
                lambda f, p: (f.blur_px, p.settings.blur_max_px)),
     Constraint("tool.nose_radius", "the step's top above the nose centre in its inside corner", "mm", -1, 0.01,
                lambda f, p: (f.junction_margin_mm, 0.0)),
+    Constraint("tool.nose_radius", "the nose's corner fillet's distance (in r) from the camera's sight", "mm", -1, 0.01, lambda f, p: (f.fillet_hidden_mm, 0.0)),
     Constraint("tool.approach_angle", "the held tool's flank clearance of the profile", "deg", -1, 0.5,
                lambda f, p: (f.reach_margin_deg, 0.0)),
     Constraint("stock.diameter", "the mirror's diameter", "mm", +1, 1.0,
@@ -233,7 +238,8 @@ def measure(mirror: Mirror, problem: Problem, lobes: tuple[LobeSpec, LobeSpec], 
         vertex_mm=vertex,
         far_mm=far,
         depth_mm=far - vertex,
-        junction_margin_mm=junction_margin(mirror, problem.tool.nose_radius),
+        junction_margin_mm=corner_nose(mirror, problem.tool.nose_radius)[0],
+        fillet_hidden_mm=fillet_hidden_margin(mirror, problem.tool.nose_radius),
         reach_margin_deg=math.degrees(reach_margin(mirror, problem.tool, hand)),
         hand=hand.value,
         r_pixel_outer=mirror.outer.r_pixel,

@@ -38,8 +38,9 @@ import numpy as np
 
 from ..design import Lobe, Mirror
 
-#: Image radii sampled per lobe over its usable annulus.
-SAMPLES = 65
+#: Image radii sampled per lobe over its usable annulus (the blur changes slowly along
+#: it: 33 samples give the paper's largest blur to 1e-4 px of 257).
+SAMPLES = 33
 
 
 @dataclass(frozen=True)

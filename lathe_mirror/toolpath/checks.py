@@ -51,7 +51,14 @@ def check_junction(mirror: Mirror, tool: Tool) -> float:
 def junction_margin(mirror: Mirror, nose_radius: float) -> float:
     """How far (mm, machine Z) the top of the step lies above the centre of a nose of
     `nose_radius` mm sitting in the step's inside corner (touching the recessed lobe and
-    the wall): >= 0 when the nose reaches the wall, whichever lobe is recessed.
+    the wall): >= 0 when the nose reaches the wall, whichever lobe is recessed."""
+    return corner_nose(mirror, nose_radius)[0]
+
+
+def corner_nose(mirror: Mirror, nose_radius: float) -> tuple[float, float]:
+    """A nose of `nose_radius` mm in the step's inside corner, touching the recessed lobe
+    and the wall: (junction margin, mm: the step's top above its centre in machine Z;
+    contact radius, mm: where it touches the lobe, the far end of the fillet it leaves).
 
     The centre is on the recessed lobe's offset curve at the column r_junction -/+ rho
     (the wall faces the axis / the rim); the column is solved by Newton's method on the
@@ -80,7 +87,23 @@ def junction_margin(mirror: Mirror, nose_radius: float) -> float:
     s, _ = slope(rs)
     z_centre = mirror.vertex_z - float(lobe.z(rs)) + rho / math.sqrt(1.0 + s * s)  # machine Z
     z_top = mirror.vertex_z - min(zi, zo)
-    return z_top - z_centre
+    return z_top - z_centre, rs
+
+
+def fillet_hidden_margin(mirror: Mirror, nose_radius: float) -> float:
+    """How far (mm, in r) the fillet a nose of `nose_radius` leaves in the step's inside
+    corner stays out of the camera's sight: >= 0 when the camera sees none of it.
+
+    Inner lobe recessed: the step wall blocks the inner lobe's world rays beyond the
+    radius metrics.usable_ranges gives; the fillet must start beyond it. Outer lobe
+    recessed: the inner rim hides the outer lobe up to Mirror.r_outer_visible; the
+    fillet must end before it."""
+    from .metrics import usable_ranges
+
+    contact = corner_nose(mirror, nose_radius)[1]
+    if mirror.step > 0:
+        return contact - usable_ranges(mirror)[0][1]
+    return mirror.r_outer_visible - contact
 
 
 def check_reach(mirror: Mirror, tool: Tool, hand: Hand) -> None:
