@@ -523,15 +523,17 @@ def test_another_step_design_passes_rs274(tmp_path, strategy):
     assert "PROGRAM_END" in out and out.count("CHANGE_TOOL(") == 4  # T1 x3 (restartable ops), T2
 
 
-def test_outer_recessed_step_is_refused_in_one_line(tmp_path):
-    """This tool's body lies on the axis side of its nose (it cannot touch a wall that
-    faces outward), so a design whose outer lobe is recessed is refused before planning."""
+def test_outer_recessed_step_is_cut_by_the_opposite_hand(tmp_path):
+    """A design whose outer lobe is recessed (its step wall faces the rim) is cut by the
+    same insert in opposite-hand holders (T3 roughing, T4 finishing), from the rim in;
+    rs274 reads the program (test_outer_step.py sweeps the nose and the flanks)."""
     from conftest import RECESSED_OUTER
 
     cfg = tmp_path / "outer.toml"
     cfg.write_text(RECESSED_OUTER)
     res = run_cli("toolpath", "--config", str(cfg), "-o", str(tmp_path / "p.ngc"))
-    assert res.returncode == 2
-    err = res.stderr.strip().splitlines()
-    assert len(err) == 1 and "outer lobe is recessed" in err[0] and "Traceback" not in res.stderr
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["outer.toml"]
+    assert res.returncode == 0, res.stderr
+    tools = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4))
+    out = rs274(tmp_path, (tmp_path / "p.ngc").read_text(), tools)
+    assert out.count("CHANGE_TOOL(3)") == 3 and out.count("CHANGE_TOOL(4)") == 1
+    assert "CHANGE_TOOL(1)" not in out and "PROGRAM_END" in out

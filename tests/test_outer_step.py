@@ -6,7 +6,6 @@ the wall facing the rim, the outer sheet)."""
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import re
@@ -18,14 +17,24 @@ import pytest
 
 from conftest import RECESSED_OUTER, require_program, run_cli
 from lathe_mirror.config import load
-from lathe_mirror.export.gcode import Dialect, ProgramOptions, program
+from lathe_mirror.export.gcode import Dialect, format_program
 from lathe_mirror.lathe import Stock, Tool
 from lathe_mirror.path import Arc
+from lathe_mirror.pipeline import shop_program
+from lathe_mirror.shop import ProgramOptions, plan_program
 from lathe_mirror.toolpath import Strategy, check_junction, plan_toolpath
 from lathe_mirror.toolpath.checks import junction_margin
 from lathe_mirror.toolpath.moves import Hand
 
 GOUGE_TOL = ProgramOptions().gouge_tolerance
+#: rs274's tool table: every station's offsets zero (the nose centre is programmed).
+TOOLS = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4))
+
+
+def program(tp, stock, dialect=Dialect.LINUXCNC) -> str:
+    """The whole program around a toolpath as text, after the stock simulation passed it
+    (pipeline.shop_program refuses a rapid or the insert's body in stock)."""
+    return format_program(shop_program(tp, stock).program, dialect)
 
 
 @pytest.fixture(scope="module")
@@ -52,20 +61,22 @@ def rs274(tmp_path: Path, text: str) -> str:
     exe = require_program("rs274")
     prog = tmp_path / "prog.ngc"
     prog.write_text(text)
-    (tmp_path / "tools.tbl").write_text("T1 P1 X0 Z0 D0 Q2 ;as configured\nT2 P2 X0 Z0 D0 Q1 ;opposite hand\n")
+    (tmp_path / "tools.tbl").write_text(TOOLS)
     res = subprocess.run([exe, "-t", str(tmp_path / "tools.tbl"), "-g", str(prog)], capture_output=True,
                          text=True, cwd=tmp_path, env=dict(os.environ, HOME=str(tmp_path)), timeout=60)
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
     return res.stdout
 
 
-def canonical(out: str) -> list[tuple]:
+def canonical(out: str) -> tuple[list[tuple], tuple[float, float]]:
     """Every move rs274 reports, in order: (kind, end (r, Z), centre or None, rotation,
-    finishing?) with kind "rapid", "line" or "arc" (G7: X reported as a radius)."""
-    moves, finishing = [], False
+    finishing?) with kind "rapid", "line" or "arc" (G7: X reported as a radius); and the
+    position the finishing contour starts from (the end of the move before "finish
+    contour begin")."""
+    moves, finishing, start = [], False, None
     for ln in out.splitlines():
         if 'COMMENT("finish contour begin")' in ln:
-            finishing = True
+            finishing, start = True, moves[-1][1]
         if 'COMMENT("finish contour end")' in ln:
             finishing = False
         m = re.search(r"(STRAIGHT_FEED|STRAIGHT_TRAVERSE|ARC_FEED)\(([^)]*)\)", ln)
@@ -77,7 +88,7 @@ def canonical(out: str) -> list[tuple]:
         else:
             moves.append(("rapid" if m.group(1) == "STRAIGHT_TRAVERSE" else "line", (v[0], v[2]), None, 0,
                           finishing))
-    return moves
+    return moves, start
 
 
 def sample_moves(moves, start, step=0.002):
@@ -176,21 +187,22 @@ def test_rs274_runs_the_program_and_the_nose_stays_out_of_the_part(tmp_path, pla
                                                                   rho):
     tp = plans[(strategy, rho)]
     text = program(tp, settings.stock, Dialect.LINUXCNC)
-    assert "T2 M6 G43" in text and "OPPOSITE-HAND holder" in text and "cutting from the rim in" in text
-    moves = canonical(rs274(tmp_path, text))
+    assert "T3 M6 G43" in text and "T4 M6 G43" in text and "T1 M6" not in text
+    assert "OPPOSITE-HAND holder" in text and "cutting from the rim in" in text
+    moves, start = canonical(rs274(tmp_path, text))
     fin = [mv for mv in moves if mv[4]]
     want = tp.cutting_moves()
-    # "finish contour begin", a feed to the contour's start, then the moves themselves
-    assert len(fin) == len(want) + 1
-    assert np.allclose(fin[0][1], want[0].start, atol=1e-4)
-    for seg, mv in zip(want, fin[1:]):
+    # from the contour's start (the rim), the moves themselves, rim to axis
+    assert len(fin) == len(want)
+    assert np.allclose(start, want[0].start, atol=1e-4)
+    for seg, mv in zip(want, fin):
         assert mv[0] == ("arc" if isinstance(seg, Arc) else "line")
         assert np.allclose(mv[1], seg.end, atol=1e-4)
         if isinstance(seg, Arc):
             assert np.allclose(mv[2], seg.centre, atol=1e-4)
             assert (mv[3] == -1) == seg.clockwise
     # the nose swept along rs274's finishing moves: no gouge beyond the tolerance
-    pieces = sample_moves(fin[1:], fin[0][1], step=0.002)
+    pieces = sample_moves(fin, start, step=0.002)
     if rho > 0:
         depth = nose_depth(pieces, rho, mirror)
         assert depth <= GOUGE_TOL
@@ -206,7 +218,7 @@ def test_roughing_never_cuts_the_part_and_the_held_flanks_clear_it(tmp_path, pla
     holder as configured would run its flank into the inner lobe's rim (the step wall
     faces the rim)."""
     tp = plans[(Strategy.ARCS, 0.2)]
-    moves = canonical(rs274(tmp_path, program(tp, settings.stock, Dialect.LINUXCNC)))
+    moves, _ = canonical(rs274(tmp_path, program(tp, settings.stock, Dialect.LINUXCNC)))
     first = moves[0][1]
     pieces = sample_moves(moves[1:], first, step=0.01)
     before = [p for p in pieces if not p[1]]
@@ -247,15 +259,16 @@ def test_toolpath_cli_cuts_it(tmp_path):
 
     data = json.loads(proc.stdout)
     assert data["junction_fillet"]["lobe"] == "outer"
-    assert "T2 M6 G43" in out.read_text()
+    assert "T4 M6 G43" in out.read_text()
 
 
-def test_fanuc_calls_the_second_station(plans, settings):
-    text = program(plans[(Strategy.ARCS, 0.2)], dataclasses.replace(settings.stock), Dialect.FANUC)
-    assert "T0202" in text and "T0101" not in text
+def test_fanuc_calls_the_opposite_hand_stations(plans, settings):
+    text = program(plans[(Strategy.ARCS, 0.2)], settings.stock, Dialect.FANUC)
+    assert "T0303" in text and "T0404" in text and "T0101" not in text
 
 
 def test_the_paper_is_still_cut_as_configured(paper_mirror):
     tp = plan_toolpath(paper_mirror, load().machine, Tool(nose_radius=0.2), Strategy.ARCS)
     assert tp.hand is Hand.AS_CONFIGURED and tp.cutting_moves() == tp.segments
-    assert "T1 M6 G43" in program(tp, Stock())
+    text = program(tp, Stock())
+    assert "T1 M6 G43" in text and "T2 M6 G43" in text and "OPPOSITE" not in text

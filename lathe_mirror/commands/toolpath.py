@@ -120,7 +120,11 @@ def check(args: argparse.Namespace, settings) -> int:
     ops = read_program(text, lathe, source=args.check)
     if not ops:
         raise InputError(f"--check {args.check}: no moves to simulate")
-    sim = simulate(ops, design(settings), settings.tool, lathe, settings.stock,
+    from ..toolpath.moves import Hand
+
+    mirror = design(settings)
+    # the tool as the design's hand holds it (the opposite hand when the outer lobe is recessed)
+    sim = simulate(ops, mirror, Hand.for_mirror(mirror).held(settings.tool), lathe, settings.stock,
                    rapid_rate=t.rapid_rate, gouge_tolerance=t.gouge_tolerance)
     sim.check()
     if args.json:

@@ -156,10 +156,14 @@ class _Writer:
         c(f"machine: resolution {lathe.resolution:g} mm, budget {lathe.max_points} points, "
           f"spindle cap {lathe.spindle_max_rpm} rpm, {_plain(lathe.surface_speed)} m/min, "
           f"feeds {_plain(lathe.feed_rough)}/{_plain(lathe.feed_finish)} mm/rev")
-        t_r, t_f = self.tool_word(1), self.tool_word(2)
+        from ..shop.program import stations
+
+        t_r, t_f = (self.tool_word(st) for st in stations(tp))
         c(f"tools {t_r} roughing, {t_f} finishing: nose radius {tool.nose_radius:g} mm, included "
           f"{math.degrees(tool.included_angle):g} deg, approach {math.degrees(tool.approach_angle):g} deg; "
           f"offsets set to the NOSE CENTRE, see {p.name}.setup.html")
+        if tp.held_tool is not tool:
+            c(f"tools {t_r} and {t_f}: {tp.hand.describe(tool)}")
         c(f"stock: diameter {stock.diameter:g} mm, face allowance {stock.face_allowance:g} mm, "
           f"length {stock.length:g} mm")
         n_arcs = sum(1 for s in tp.segments if isinstance(s, Arc))
@@ -169,17 +173,23 @@ class _Writer:
           f"{opts.gouge_tolerance:g} mm")
         fillet = p.fillet
         if fillet is not None:
-            c(f"junction fillet: the nose cannot reach the inside corner; the inner lobe is "
+            c(f"junction fillet: the nose cannot reach the inside corner; the {fillet['lobe']} lobe is "
               f"filleted from r {fillet['r_start_mm']:.3f} to {fillet['r_end_mm']:g} mm, "
               f"{fillet['height_mm']:.3f} mm up the wall; the whole-lobe figures include it")
         for lobe in p.figures["lobes"]:
             nd, se = lobe["normal_deviation_mm"], lobe["slope_error_rad"]
             c(f"as machined {lobe['name']}, whole lobe: normal deviation rms {nd['rms']:.2e} max "
               f"{nd['max']:.2e} mm, slope error rms {se['rms']:.2e} max {se['max']:.2e} rad")
-        inner_hi = p.used["lobes"][0]["r_range_mm"]["max"]
-        hidden = fillet is not None and fillet["r_start_mm"] >= inner_hi
-        c(f"used zone: the step wall blocks the camera's view of the inner lobe beyond r {inner_hi:.3f} mm"
-          + ("; the fillet lies there, out of the image" if hidden else ""))
+        if m.step > 0:
+            inner_hi = p.used["lobes"][0]["r_range_mm"]["max"]
+            hidden = fillet is not None and fillet["r_start_mm"] >= inner_hi
+            c(f"used zone: the step wall blocks the camera's view of the inner lobe beyond r {inner_hi:.3f} mm"
+              + ("; the fillet lies there, out of the image" if hidden else ""))
+        else:
+            outer_lo = p.used["lobes"][1]["r_range_mm"]["min"]
+            hidden = fillet is not None and fillet["r_end_mm"] <= outer_lo
+            c(f"used zone: the inner lobe's rim hides the outer lobe from the camera below r {outer_lo:.3f} mm"
+              + ("; the fillet lies there, out of the image" if hidden else ""))
         for lobe in p.used["lobes"]:
             nd, se, rr = lobe["normal_deviation_mm"], lobe["slope_error_rad"], lobe["r_range_mm"]
             c(f"as machined {lobe['name']}, used r {rr['min']:.3f}..{rr['max']:.3f} mm: normal deviation "

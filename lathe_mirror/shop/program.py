@@ -30,6 +30,20 @@ if TYPE_CHECKING:
 #: Tool stations: the roughing tool and a separate finishing tool with a fresh edge.
 ROUGHING_STATION = 1
 FINISHING_STATION = 2
+#: The same two tools in opposite-hand holders (toolpath.Hand.OPPOSITE: a design whose
+#: outer lobe is recessed), on stations of their own so that a turret set up for one hand
+#: never runs the other's program.
+OPPOSITE_ROUGHING_STATION = 3
+OPPOSITE_FINISHING_STATION = 4
+
+
+def stations(toolpath: Toolpath) -> tuple[int, int]:
+    """(roughing, finishing) stations of the toolpath's hand."""
+    from ..toolpath.moves import Hand
+
+    if toolpath.hand is Hand.OPPOSITE:
+        return OPPOSITE_ROUGHING_STATION, OPPOSITE_FINISHING_STATION
+    return ROUGHING_STATION, FINISHING_STATION
 
 #: Largest block number a 5-digit N word carries (Fanuc's format).
 MAX_BLOCK_NUMBER = 99999

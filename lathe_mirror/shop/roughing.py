@@ -18,6 +18,11 @@ part). The moves are the nose centre's. What each operation leaves:
   the shoulder at the finished shoulder's height plus the allowance.
 - finish (the finishing tool, after M1): a ramped lead-in onto the contour's start, the
   contour (the toolpath's moves, unchanged), out across the shoulder, up.
+- A design whose OUTER lobe is recessed (toolpath.Hand.OPPOSITE): both tools in
+  opposite-hand holders (stations 3 and 4), every pass the mirror image: the semi-finish
+  and the finishing pass run from outside the bar in across the shoulder, along the
+  outer lobe, up the wall (it faces the rim), around the step's top, along the inner
+  lobe to the axis, and up.
 - spring pass (optional): the same contour again.
 Between tools and at the end the tool goes home: up in Z, then across in X.
 """
@@ -33,9 +38,8 @@ import numpy as np
 from ..lathe import Stock
 from ..path import Line
 from ..sheet import Target, solve_rs_for_centre_r
-from .program import (FINISHING_STATION, ROUGHING_STATION, Comment, Coolant, Feed, FeedRate,
-                      Operation, OptionalStop, ProgramEnd, ProgramOptions, Rapid, SpindleOn,
-                      SpindleStop, ToolCall)
+from .program import (Comment, Coolant, Feed, FeedRate, Operation, OptionalStop, ProgramEnd,
+                      ProgramOptions, Rapid, SpindleOn, SpindleStop, ToolCall, stations)
 
 if TYPE_CHECKING:
     from ..toolpath import Toolpath
@@ -92,6 +96,11 @@ class _Planner:
         self.lathe, self.m = tp.lathe, tp.mirror
         self.res = self.lathe.resolution
         self.rho = tp.nose_radius
+        # the tool as the program's hand holds it; the opposite hand (the outer lobe
+        # recessed) runs every pass from the rim in (toolpath.Hand)
+        self.tool = tp.held_tool
+        self.inward = tp.hand.value != "as configured"
+        self.stations = stations(tp)
         self.r_out = self.ceil(stock.radius + opts.clearance)
         self.safe_z = self.ceil(stock.face_allowance + opts.clearance)
         self.home = (self.ceil(opts.home_r), self.ceil(opts.home_z))
@@ -106,13 +115,15 @@ class _Planner:
 
     def plan(self) -> Plan:
         lathe, o = self.lathe, self.opts
-        rough = _Ops(self, ROUGHING_STATION, "roughing", lathe.feed_rough)
+        rough = _Ops(self, self.stations[0], "roughing", lathe.feed_rough)
         levels_face, levels_rough, floor_map = self.levels()
         rough.start("face", f"face: {len(levels_face)} level{'s' if len(levels_face) != 1 else ''} from the stock face, through X0",
                     first=True)
         top = self.stock.face_allowance
         for z in levels_face:
-            self.level(rough, z, [(0.0, None)], top)
+            # through X0; the opposite hand a little past it (see past_axis)
+            d = self.past_axis(top - z + self.rho)
+            self.level(rough, z, [(-d if d > 0.0 else 0.0, None)], top)
             top = z - self.rho
         rough.start("rough", f"rough: {len(levels_rough)} Z levels of at most {o.rough_depth:g} mm, "
                              f"{o.rough_allowance:g} mm left on the profile, pockets ramped")
@@ -124,7 +135,7 @@ class _Planner:
                                    "into the step corner")
         self.semi_finish(rough)
         rough.go_home(stop=True)
-        fin = _Ops(self, FINISHING_STATION, "finishing", lathe.feed_finish, pos=self.home)
+        fin = _Ops(self, self.stations[1], "finishing", lathe.feed_finish, pos=self.home)
         fin.start("finish", "finish: the finishing contour, a fresh edge", first=True)
         self.finish_pass(fin, "finish contour")
         if o.spring_pass:
@@ -186,14 +197,20 @@ class _Planner:
         from .stock import reach_toward_axis
 
         c = self.opts.clearance
-        reach = reach_toward_axis(self.tp.tool, top - z)
+        reach = reach_toward_axis(self.tool, top - z)
         r_down = self.ceil(self.stock.radius + c + max(0.0, reach - c / 2))
         for lo, hi in runs:
             if hi is None:
                 ops.rapid((max(r_down, self.r_out), ops.pos[1]))  # out first (no-op after a level)
                 ops.rapid((max(r_down, self.r_out), z))           # down outside the bar
                 ops.feed((lo, z))                                 # across toward the axis
-                ops.rapid((lo, self.ceil(z + c)))     # retract in Z
+                if self.inward:
+                    # the opposite hand's leading flank leans toward the rim, over the step
+                    # in the stock it just cut: straight up it would drag into it; out
+                    # and up at 45 deg it leaves it (through what this level cleared)
+                    ops.feed((self.ceil(lo + c), self.ceil(z + c)))
+                else:
+                    ops.rapid((lo, self.ceil(z + c)))     # retract in Z
                 ops.rapid((self.r_out, self.ceil(z + c)))  # then out
             else:
                 self.pocket(ops, z, lo, hi, prev)
@@ -240,6 +257,8 @@ class _Planner:
     # Semi-finish
 
     def semi_finish(self, ops: _Ops) -> None:
+        if self.m.step <= 0:
+            return self.semi_finish_outer_recessed(ops)
         m, o = self.m, self.opts
         allow = o.rough_allowance + self.rho
         rj = m.r_junction
@@ -258,6 +277,41 @@ class _Planner:
         z0 = self.ceil(float(outer.z_at_r(r0)))
         s0 = math.tan(float(outer.theta(rj)))
         pts.append((r_w, self.ceil(z0 + (r_w - r0) * s0)))
+        self.semi_finish_outer_lobe(ops, pts, outer, r0)
+
+    def semi_finish_outer_recessed(self, ops: _Ops) -> None:
+        """The semi-finish when the outer lobe is recessed (the mirror image at the wall):
+        the inner lobe's offset to its rim's offset point, out along its end tangent to
+        the wall's offset column (r_junction + allowance), down that column to the outer
+        lobe's offset, along it to the shoulder; run from the rim in."""
+        m, o = self.m, self.opts
+        allow = o.rough_allowance + self.rho
+        rj = m.r_junction
+        inner = Target(m.inner, m.vertex_z, allow, 0.0, rj, n=2001)
+        p_end = inner.point(rj)
+        r_end_in = float(p_end[0])
+        cols = sorted(set(self.ceil(v) for v in np.arange(0.0, r_end_in, SEMI_CHORD)))
+        pts = [(c, self.ceil(float(inner.z_at_r(c)))) for c in cols if c < r_end_in]
+        r_w = self.ceil(rj + allow)
+        # the inner offset's end tangent (machine Z falls at the sheet's slope) out to the
+        # wall's offset column, rounded up: around the step's top at >= allow
+        s_end = float(m.inner.slope(rj))
+        z_w = self.ceil(float(p_end[1]) - (r_w - float(p_end[0])) * s_end)
+        pts.append((self.ceil(r_end_in), self.ceil(float(p_end[1]))))
+        pts.append((r_w, z_w))
+        rs_w = solve_rs_for_centre_r(m.outer, allow, r_w)
+        outer = Target(m.outer, m.vertex_z, allow, rs_w, m.r_max + 2 * allow + 1.0, n=4001)
+        # down the wall's offset: the outer sheet is highest at the wall's foot, so allow
+        # above it there clears the corner
+        pts.append((r_w, self.ceil(float(m.vertex_z - m.outer.z(rj)) + allow)))
+        self.semi_finish_outer_lobe(ops, pts, outer, r_w)
+
+    def semi_finish_outer_lobe(self, ops: _Ops, pts: list, outer: Target, r0: float) -> None:
+        """Append the outer lobe's offset (from column r0) down to the shoulder to `pts`
+        and cut the whole semi-finish: from the axis out, or from the rim in for the
+        opposite hand."""
+        m, o = self.m, self.opts
+        allow = o.rough_allowance + self.rho
         # the outer lobe's offset to the shoulder: the finished shoulder (the finishing
         # exit's nose bottom) plus the allowance
         z_sh = self.ceil(self.tp.segments[-1].end[1] + o.rough_allowance)
@@ -278,6 +332,12 @@ class _Planner:
             pts.append((last[0], z_sh))
         ops.rapid((self.r_out, ops.pos[1]))
         ops.rapid((self.r_out, self.safe_z))
+        if self.inward:  # down outside the bar, across the shoulder, the profile to the axis
+            ops.rapid((self.r_out, z_sh))
+            for p in pts[::-1]:
+                ops.feed(p)
+            ops.rapid((0.0, self.safe_z))  # up the axis
+            return
         ops.rapid((0.0, self.safe_z))
         ops.feed(pts[0])  # down the axis through air: the facing level left this height
         for p in pts[1:]:
@@ -292,6 +352,8 @@ class _Planner:
         """Ramped onto the contour's start from above its allowance, the contour's moves
         exactly, then out across the shoulder at the last point's height and up."""
         o = self.opts
+        if self.inward:
+            return self.finish_pass_inward(ops, marker)
         segs = self.tp.segments
         start, end = segs[0].start, segs[-1].end
         r_s = self.ceil(start[0] + (o.rough_allowance + 0.02) / self.tan_ramp)
@@ -308,6 +370,40 @@ class _Planner:
         ops.comment(f"{marker} end")
         ops.feed((self.r_out, end[1]))
         ops.rapid((self.r_out, self.safe_z))
+
+
+    def past_axis(self, height: float) -> float:
+        """How far past the axis (mm, on the lattice) a pass of the opposite hand that ends
+        on the axis must run so that its leading flank, leaning toward the rim, leaves no
+        cone of stock `height` mm tall standing on the axis (the part turns: beyond X0
+        the tool cuts the other side of the same material)."""
+        if not self.inward or height <= 0.0:
+            return 0.0
+        lean = self.tool.flank_directions()[1]  # the flank on the axis side, from +r
+        return self.ceil(height / math.tan(lean) + self.res) if lean < math.pi / 2 else 0.0
+
+    def finish_pass_inward(self, ops: _Ops, marker: str) -> None:
+        """The opposite hand's pass: down outside the bar, in across the shoulder at the
+        rim's height onto the contour's start (the rim), the contour's moves from the rim
+        in (Toolpath.cutting_moves), a little past the axis at the vertex's height
+        (past_axis: the other side of the turning part, above it), then up."""
+        moves = self.tp.cutting_moves()
+        start = moves[0].start
+        c = self.opts.clearance
+        ops.rapid((self.r_out, ops.pos[1]))
+        ops.rapid((self.r_out, self.ceil(start[1] + c)))
+        ops.feed((self.r_out, start[1]))
+        ops.comment(f"{marker} lead-in: across the shoulder onto the start")
+        ops.feed(start)
+        ops.comment(f"{marker} begin")
+        for seg in moves:
+            ops.move(seg)
+        ops.comment(f"{marker} end")
+        end = moves[-1].end
+        d = self.past_axis(self.opts.rough_allowance + 2 * self.rho)
+        if d > 0.0:
+            ops.feed((end[0] - d, end[1]))
+        ops.rapid((ops.pos[0], self.safe_z))
 
 
 class _Ops:

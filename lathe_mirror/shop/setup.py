@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from .program import FINISHING_STATION, ROUGHING_STATION
+from .program import stations
 from .stock import INSERT_IC, edge_length
 
 if TYPE_CHECKING:
@@ -137,7 +137,8 @@ def insert_designation(tool: Tool) -> str:
 def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict) -> SetupSheet:
     """The sheet of a planned, simulated program (see the module doc)."""
     tp, stock, lathe = program.toolpath, program.stock, program.toolpath.lathe
-    tool, m = tp.tool, tp.mirror
+    tool, m = tp.held_tool, tp.mirror  # as the program's hand holds it (toolpath.Hand)
+    opposite = tp.held_tool is not tp.tool
     rho = tool.nose_radius
     if can_touch(tool, -math.pi / 2):
         face_z = stock.face_allowance
@@ -145,13 +146,18 @@ def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict) -
         raise RuntimeError("the tool cannot touch a face with its nose")
     x_side = "bore" if can_touch(tool, 0.0) else "outside"
     offs = Offsets(nose_radius=rho, diameter_mode=lathe.diameter_mode, x_side=x_side)
-    approach = 90 + round(math.degrees(tool.approach_angle))
+    approach = 90 + round(math.degrees(tp.tool.approach_angle))
     shape = insert_designation(tool)[:1]
     holder = (f"{approach} deg approach holder ({'SVJC' if shape == 'V' else 'ISO style J'} type, hand to "
               f"suit the turret), the tip toward -Z and {'+X: it cuts from the axis outward' if x_side == 'bore' else '-X'}")
+    if opposite:
+        holder = (f"{approach} deg approach holder of the OPPOSITE HAND ({'SVJC' if shape == 'V' else 'ISO style J'} "
+                  "type mirrored: its body toward the rim), the tip toward -Z and -X: it cuts from the rim in "
+                  "(the outer lobe is recessed; its step wall faces the rim)")
     tools = []
-    for station, role in ((ROUGHING_STATION, "roughing"), (FINISHING_STATION, "finishing, a fresh edge")):
-        insert = insert_designation(tool) + ("" if station == ROUGHING_STATION else " (polished, for aluminium)")
+    rough_station, finish_station = stations(tp)
+    for station, role in ((rough_station, "roughing"), (finish_station, "finishing, a fresh edge")):
+        insert = insert_designation(tool) + ("" if station == rough_station else " (polished, for aluminium)")
         tools.append(ToolSheet(
             station=station, role=role, insert=insert, holder=holder, offsets=offs,
             linuxcnc_table=(f"T{station} P{station} X<touched> Z<touched> D{2 * rho:.3f} Q{offs.linuxcnc_orientation} "

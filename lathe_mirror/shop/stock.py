@@ -199,7 +199,7 @@ def simulate_program(program: Program) -> Simulation:
     tp = program.toolpath
     # the shoulder is where the finishing pass leaves it: its last point's nose bottom
     planned = tp.segments[-1].end[1] - tp.nose_radius
-    return simulate(operations_of(program), tp.mirror, tp.tool, tp.lathe, program.stock,
+    return simulate(operations_of(program), tp.mirror, tp.held_tool, tp.lathe, program.stock,
                     rapid_rate=program.options.rapid_rate, gouge_tolerance=program.options.gouge_tolerance,
                     shoulder_z=min(planned, shoulder_height(tp.mirror, tp.tool)) - 1e-3)
 

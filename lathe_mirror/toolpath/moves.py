@@ -48,11 +48,6 @@ class Hand(enum.Enum):
             return tool
         return dataclasses.replace(tool, approach_angle=-(tool.approach_angle + tool.included_angle))
 
-    @property
-    def tool_number(self) -> int:
-        """The tool station the program calls: T1 as configured, T2 the opposite hand."""
-        return 1 if self is Hand.AS_CONFIGURED else 2
-
     def describe(self, tool: Tool) -> str:
         """One line for the program header: the holder, its flanks (deg), the direction."""
         lo, hi = (math.degrees(a) for a in self.held(tool).flank_directions())
