@@ -270,14 +270,15 @@ def test_written_design_reproduces_through_design_and_runs(tmp_path):
     run = run_cli("run", "--config", str(out), "-o", str(tmp_path / "out"), "--no-render", "--no-progress")
     assert run.returncode == 0, run.stderr[-3000:]
     exe = require_program("rs274")
-    (tmp_path / "tools.tbl").write_text("T1 P1 X0 Z0 D0 Q2\nT2 P2 X0 Z0 D0 Q1\n")
+    (tmp_path / "tools.tbl").write_text("".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4)))
     programs = sorted((tmp_path / "out" / "gcode").glob("*.ngc"))
     assert [p.name for p in programs] == ["mirror_arcs.ngc", "mirror_paper.ngc"]
     for prog in programs:
         res = subprocess.run([exe, "-t", str(tmp_path / "tools.tbl"), "-g", str(prog)], capture_output=True,
                              text=True, cwd=tmp_path, env=dict(os.environ, HOME=str(tmp_path)), timeout=120)
         assert res.returncode == 0, res.stdout[-2000:]
-        assert "CHANGE_TOOL(2)" in res.stdout  # the opposite-hand holder
+        assert "CHANGE_TOOL(3)" in res.stdout and "CHANGE_TOOL(4)" in res.stdout  # opposite-hand holders
+        assert "CHANGE_TOOL(1)" not in res.stdout
         assert ("ARC_FEED" in res.stdout) == (prog.name == "mirror_arcs.ngc")
     cad = {p.name for p in (tmp_path / "out" / "cad").iterdir()}
     assert {"mirror_design.step", "mirror_programmed.step", "mirror_profile.dxf"} <= cad

@@ -81,21 +81,19 @@ def run(args: argparse.Namespace) -> int:
 
 
 def check_made(settings) -> None:
-    """The winner through the stages `run` takes it through, before anything is written:
-    the configured program planned and checked (gouge, bar, travel: export.gcode.program),
-    the polishing times and the junction (pipeline.check_programs), the CAD body
-    (pipeline.check_cad). An InputError here names the check the winner fails."""
+    """The winner through the checks `run` makes before it writes anything: the junction
+    and the polishing times (pipeline.check_programs), the CAD body (pipeline.check_cad),
+    and both programs planned and simulated against the stock (pipeline.shop_programs:
+    gouge, bar, travel, no rapid or insert body in stock). An InputError here names the
+    check the winner fails."""
     from ..errors import InputError
-    from ..export.gcode import program, program_options
-    from ..pipeline import check_cad, check_programs, plan
+    from ..pipeline import check_cad, check_programs, shop_programs
 
     mirror = settings.mirror()
     try:
         check_programs(settings, mirror)
         check_cad(settings, mirror)
-        tp = plan(mirror, settings.machine, settings.tool, settings.toolpath.strategy,
-                  max_deviation=settings.toolpath.max_deviation)
-        program(tp, settings.stock, options=program_options(settings))
+        shop_programs(settings, mirror)
     except InputError as exc:
         raise InputError(f"the best design found cannot be made as configured: {exc}") from None
 
