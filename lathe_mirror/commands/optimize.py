@@ -137,8 +137,8 @@ def format_result(data: dict) -> str:
             f"{c['key']} ({c['what']} {c['value']:.4g}, {c['bound']} {c['limit']:.4g}"
             f"{' ' + c['unit'] if c['unit'] else ''})" for c in active))
     if best["hand"] != "as configured":
-        lines.append("the outer lobe is recessed: the program cuts it with the opposite-hand holder "
-                     "(T2), from the rim in")
+        lines.append("the outer lobe is recessed: the programs cut it with the tools in opposite-hand "
+                     "holders (T3, T4), from the rim in")
     if "output" in data:
         lines.append(f"wrote {data['output']['design']} and {data['output']['pareto_plot']}")
     return "\n".join(lines)
