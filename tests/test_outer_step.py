@@ -17,7 +17,8 @@ import pytest
 
 from conftest import RECESSED_OUTER, require_program, run_cli
 from lathe_mirror.config import load
-from lathe_mirror.export.gcode import Dialect, format_program
+from lathe_mirror.enums import Dialect
+from lathe_mirror.export.gcode import format_program
 from lathe_mirror.lathe import Stock, Tool
 from lathe_mirror.path import Arc
 from lathe_mirror.pipeline import shop_program
