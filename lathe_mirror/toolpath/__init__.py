@@ -22,23 +22,31 @@ is the contour itself). Each strategy puts that path on the lattice:
   lattice centre cuts an arc within `Lathe.arc_radius_tolerance` (a very coarse
   lattice) the move is a G1 chord, and the gouge check judges it.
 
-The junction: the contour runs out along the inner lobe, up the step wall (r =
-r_junction, the inner lobe recessed), then out along the outer lobe. A nose of radius
-rho touches the wall at r = r_junction - rho and cannot reach the inside corner at the
-wall's foot: it leaves a fillet there (see nose_envelope.as_machined). The fillet lies where
-the step wall already hides the inner lobe from the camera (usable_ranges), so the
-G-code header and `--json` give the figures over those radii beside the whole lobe's.
+The junction, whichever lobe is recessed. Inner lobe recessed (the paper's design): the
+contour runs out along the inner lobe, up the step wall (r = r_junction, facing the axis),
+then out along the outer lobe, cut by the [tool] as configured from the axis out. A nose
+of radius rho touches the wall at r = r_junction - rho and cannot reach the inside corner
+at the wall's foot: it leaves a fillet there (see nose_envelope.as_machined). The fillet
+lies where the step wall already hides the inner lobe from the camera (usable_ranges), so
+the G-code header and `--json` give the figures over those radii beside the whole lobe's.
+Outer lobe recessed: the mirror image. The wall faces the rim; the contour runs along the
+inner lobe, over the step's top on the inner lobe's end tangent, down the wall at
+r_junction + rho and out along the outer lobe, and the same insert in an opposite-hand
+holder cuts it from the rim in (Hand.OPPOSITE, Toolpath.cutting_moves); the fillet is on
+the outer lobe, where the inner rim hides it from the camera if the design keeps it so
+(the optimiser's constraint). `segments` always run from the axis out.
 
 Modules:
 
-- moves.py     Strategy, BEST, Line, Arc, Toolpath: the data
+- moves.py     Strategy, BEST, Line, Arc, Toolpath, Hand: the data
 - plan.py      plan_toolpath: checks, then one strategy
 - paper.py, lattice.py, arcs.py   the three strategies
 - layout.py    what they share: lobe end columns, junction moves, budget split, lattice
                candidates near the curve
 - geometry.py  a lobe's sheet in the machine frame (foot_on_sheet, normals) and the
                nose-centre curve
-- checks.py    check_junction, check_travel
+- checks.py    check_junction, junction_margin / corner_nose / fillet_hidden_margin,
+               check_reach / reach_margin (the held tool's flanks), check_travel
 - metrics.py   profile_errors (normal deviation, slope error), usable_ranges (the
                radii the camera uses: the step wall blocks the inner lobe's rim)
 """
@@ -47,11 +55,11 @@ from ..path import Arc, Line, Move
 from ..sheet import foot_on_sheet
 from .checks import check_junction, check_travel
 from .metrics import profile_errors, usable_ranges
-from .moves import BEST, Strategy, Toolpath, ToolpathSettings
+from .moves import BEST, Hand, Strategy, Toolpath, ToolpathSettings
 from .plan import plan_toolpath
 
 __all__ = [
-    "BEST", "Arc", "Line", "Move", "Strategy", "Toolpath", "ToolpathSettings",
+    "BEST", "Arc", "Hand", "Line", "Move", "Strategy", "Toolpath", "ToolpathSettings",
     "check_junction", "check_travel", "foot_on_sheet", "plan_toolpath", "profile_errors",
     "usable_ranges",
 ]
