@@ -296,11 +296,22 @@ def _tolerance(cfg: dict) -> ToleranceSettings:
         if not (math.isfinite(value) and value >= 0):
             raise InputError(f"tolerance.params.{key} = {value!r} must be a finite number >= 0")
         tol[key] = float(value)
+    for key, lo, hi in (("seat_pivot_mm", -1000.0, 1000.0), ("nose_step_mm", 1e-5, 0.01),
+                        ("matching_noise_px", 0.0, 10.0), ("target_yield", 0.5, 0.999)):
+        if not lo <= t[key] <= hi:
+            raise InputError(f"tolerance.{key} = {t[key]!r} must be {lo:g} .. {hi:g}")
+    for key, value in t["cost"].items():
+        if not value > 0:
+            raise InputError(f"tolerance.cost.{key} = {value!r} must be a finite number > 0")
     return ToleranceSettings(
         seed=int(t["seed"]), trials=int(t["trials"]), programs=programs, distribution=dist,
         lattice_phases=int(t["lattice_phases"]), azimuths=int(t["azimuths"]),
         bin_px=float(t["bin_px"]), depth_points=int(t["depth_points"]),
-        spec=Spec(**{k: float(v) for k, v in s.items()}), tolerances=tol)
+        spec=Spec(calibrated=bool(s["calibrated"]),
+                  **{k: float(v) for k, v in s.items() if k != "calibrated"}), tolerances=tol,
+        seat_pivot_mm=float(t["seat_pivot_mm"]), nose_step_mm=float(t["nose_step_mm"]),
+        matching_noise_px=float(t["matching_noise_px"]), target_yield=float(t["target_yield"]),
+        cost={k: float(v) for k, v in t["cost"].items()})
 
 
 def _optimize(o: dict) -> OptimizeSettings:

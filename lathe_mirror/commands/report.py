@@ -42,7 +42,11 @@ def summary(fig: dict, paths: dict) -> str:
     lines.append("depth error at 2 m (RMS / median over the band, each point capped at 100 %): " + ", ".join(
         f"{k} {v['rms']:.3g} / {v['median']:.3g} % ({v['failed']} of {v['points']} points failed)"
         for k, v in at.items()))
+    from ..tolerance.stats import percent_interval
+
     for name, v in fig.get("verdict", {}).items():
+        passed = round(v["yield"] * v["trials"])
         lines.append(f"{name} program: nominal {'PASS' if v['nominal_pass'] else 'FAIL'}, "
-                     f"yield {100 * v['yield']:.1f} % of {v['trials']} trials")
+                     f"yield {percent_interval(passed, v['trials'])}"
+                     + (f"; {v['allocation']}" if "allocation" in v else ""))
     return "\n".join(lines)

@@ -1,4 +1,4 @@
-"""`lathe-mirror tolerance`: seeded Monte Carlo, sensitivity table and yield against the spec."""
+"""`lathe-mirror tolerance`: seeded Monte Carlo, sensitivity, yield, and what to tighten."""
 
 from __future__ import annotations
 
@@ -8,31 +8,47 @@ from .common import add_common, add_no_progress, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("tolerance", help="Monte Carlo over machine, polishing and assembly; yield",
+    p = sub.add_parser("tolerance", help="Monte Carlo over machine, polishing and assembly; yield; allocation",
                        description="Tolerance analysis ([tolerance] settings): a seeded Monte Carlo "
-                       "over the machine (lattice, nose radius, tool setting X and Z), the polishing "
-                       "time and the camera's assembly (decentre, tilt, axial), a sensitivity table "
-                       "and the yield against the spec, for each program in tolerance.programs.")
+                       "over the machine (lattice phase, nose radius, tool setting X and Z), the polishing "
+                       "time and the assembly (camera decentre, tilt and pupil, the mirror seat's tilt), "
+                       "judged after what a calibration removes, a sensitivity table, each parameter's "
+                       "inverse sensitivity and the yield against the spec, for each program in "
+                       "tolerance.programs. --allocate: the least-cost tolerances that reach the target "
+                       "yield, confirmed by a fresh Monte Carlo.")
     add_common(p, output_help="directory for tolerance.json")
     p.add_argument("--trials", type=int, default=None, metavar="N", help="override tolerance.trials")
     p.add_argument("--seed", type=int, default=None, metavar="S", help="override tolerance.seed")
+    p.add_argument("--allocate", action="store_true",
+                   help="tighten the tolerances at least cost ([tolerance.cost]) to reach the target yield, "
+                   "confirmed by a fresh Monte Carlo of as many trials (about the Monte Carlo's time again)")
+    p.add_argument("--target-yield", type=float, default=None, metavar="P",
+                   help="the allocation's target yield, 0.5 .. 0.999 (default tolerance.target_yield, 0.95)")
+    p.add_argument("--csv", metavar="FILE", default=None,
+                   help="write one row per trial (drawn parameters, every figure, pass flags) of every "
+                   "Monte Carlo run, the allocation's confirming runs included; its directory must exist")
     add_no_progress(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from ..enums import BEST, Program, Strategy
-    from ..pipeline import (
-        check_programs,
-        design,
-        made_surface,
-        polishing_curve,
-        tolerance_analysis,
-    )
+    from ..errors import InputError
+    from ..pipeline import check_programs, design, made_surface, polishing_curve, tolerance_runs
 
-    settings = load(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed")])
+    if args.target_yield is not None:
+        if not args.allocate:
+            raise InputError("--target-yield applies to --allocate (the allocation's target)")
+        if not 0.5 <= args.target_yield <= 0.999:
+            raise InputError(f"--target-yield {args.target_yield:g}: allowed 0.5 .. 0.999 (a fraction: 0.95 for 95 %)")
+    settings = load(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed"),
+                           ("tolerance.target_yield", args.target_yield, "--target-yield")])
     mirror = design(settings)
     check_programs(settings, mirror)  # bad input stops here, before the output directory is made
+    if args.csv:
+        from ..export.files import check_writable
+
+        check_writable(args.csv, "--csv")
     if args.output:
         from .common import output_dir
 
@@ -42,7 +58,9 @@ def run(args: argparse.Namespace) -> int:
         strategy = BEST if program is Program.BEST else Strategy.PAPER
         made = made_surface(mirror, settings.machine, settings.tool, strategy)
         times[program] = polishing_curve(made.profile, mirror, settings.polish).optimum_time_s
-    out = tolerance_analysis(mirror, settings, times, progress=not args.no_progress)
+    runs = tolerance_runs(mirror, settings, times, progress=not args.no_progress,
+                          allocate=settings.tolerance.programs if args.allocate else ())
+    out = runs.figures
     if args.output:
         from pathlib import Path
 
@@ -50,6 +68,11 @@ def run(args: argparse.Namespace) -> int:
         from ..report import dumps
 
         write_text(Path(args.output) / "tolerance.json", dumps(out))
+    if args.csv:
+        from ..export.files import write_text
+        from ..tolerance.montecarlo import trials_csv
+
+        write_text(args.csv, trials_csv(runs.results), "--csv")
     if args.json:
         print_json(out)
     else:
@@ -58,19 +81,41 @@ def run(args: argparse.Namespace) -> int:
 
 
 def format_tolerance(out: dict) -> str:
-    lines = [f"spec: {out['spec']}"]
+    """The analysis as text: per program the verdict, the yield with its interval, what to
+    tighten, the headline figures, the sensitivity and inverse sensitivity."""
+    from ..tolerance.stats import percent_interval
+
+    spec = out["spec"]
+    lines = [f"spec ({'calibrated' if spec['calibrated'] else 'raw'} figures): RMS image displacement <= "
+             f"{spec['image_displacement_px']:g} px per lobe, depth error <= {spec['depth_error_pct']:g} % at "
+             f"{spec['depth_range_m']:g} m (as disparity, 90 % of the band), RMS slope error <= "
+             f"{spec['slope_error_rad']:g} rad; {out['trials']} trials, seed {out['seed']}"]
     for name, t in out["programs"].items():
-        v = t["verdict"]
-        mc = t["monte_carlo"]
-        lines.append(f"{name} program ({t['surfaces']}; polished {t['nominal_polish_time_s']:g} s nominal):")
+        v, mc = t["verdict"], t["monte_carlo"]
+        lines.append(f"{name} program ({t['surfaces']}; polished {t['nominal_polish_time_s']:g} s nominal): "
+                     f"nominal {'PASS' if v['nominal_pass'] else 'FAIL'}, yield "
+                     f"{percent_interval(mc['passed'], mc['trials'])}")
+        if "allocation" in t:
+            lines.append(f"  {t['allocation']['statement']}")
         for k, c in v["checks"].items():
-            lines.append(f"  nominal {k}: {c['nominal']:.4g} (limit {c['limit']:g}) "
-                         f"{'PASS' if c['pass'] else 'FAIL'}")
-        lines.append(f"  yield {100 * mc['yield']:.1f} % of {mc['trials']} trials (seed {mc['seed']}); "
-                     f"per criterion {mc['pass_fraction']}")
+            lines.append(f"  nominal {k}: {c['nominal']:.4g} (limit {c['limit']:.4g}) {'PASS' if c['pass'] else 'FAIL'}; "
+                         f"pass fraction {100 * mc['pass_fraction'][k]:.1f} %")
+        st = t["stereo"]
+        i = st["ranges_m"].index(spec["depth_range_m"]) if spec["depth_range_m"] in st["ranges_m"] else None
+        if i is not None:
+            c = st["calibrated"]
+            lines.append(f"  stereo at {spec['depth_range_m']:g} m (nominal, calibrated): disparity median "
+                         f"{c['disparity_px_median'][i]:.3g} / p90 {c['disparity_px_p90'][i]:.3g} px (limit "
+                         f"{st['disparity_limit_px']:.3g}), within 5 % {100 * c['within_5_pct'][i]:.0f} %, within 10 % "
+                         f"{100 * c['within_10_pct'][i]:.0f} %, seen {100 * c['seen_fraction'][i]:.0f} %; matching "
+                         f"floor {st['matching_floor_pct'][i]:.3g} %")
         for r in t["sensitivity"]["rows"]:
             m, p = r["minus"], r["plus"]
-            lines.append(f"  {r['parameter']:>20s} -/+ {r['tolerance']}: image disp. px "
-                         f"{max(m['image_displacement_px_rms']):.3f} / {max(p['image_displacement_px_rms']):.3f}, "
-                         f"depth err % {m['depth_error_pct_rms']:.3g} / {p['depth_error_pct_rms']:.3g}")
+            lines.append(f"  {r['parameter']:>20s} -/+ {r['tolerance']}: calibrated image disp. px "
+                         f"{max(m['calibrated']['image_displacement_px_rms']):.3f} / "
+                         f"{max(p['calibrated']['image_displacement_px_rms']):.3f}, disparity p90 px "
+                         f"{m['calibrated']['disparity_px_p90']:.3g} / {p['calibrated']['disparity_px_p90']:.3g}")
+        for r in t["inverse_sensitivity"]:
+            lines.append(f"  {r['parameter']:>20s} alone within its share of the margin up to +/-{r['largest']:.3g} "
+                         f"{r['unit']} (set by {r['limited_by']}; tolerance {r['tolerance']:g})")
     return "\n".join(lines)

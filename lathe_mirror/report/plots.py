@@ -140,29 +140,36 @@ def depth_error_plot(curves: dict[str, dict]) -> bytes:
     return png(fig)
 
 
-def monte_carlo_histograms(per_trial: dict, spec: dict, yield_fraction: float, *, title: str = "") -> bytes:
-    """Histograms of the trials' figures with the spec's limits."""
+def monte_carlo_histograms(per_trial: dict, limits: dict, *, calibrated: bool, passed: int, title: str = "") -> bytes:
+    """Histograms of the trials' judged figures (image displacement per lobe, disparity
+    90th percentile, slope error per lobe) with the limits; the yield with its Wilson
+    95 % interval in the title."""
+    from ..tolerance.stats import percent_interval
+
     plt = _pyplot()
     disp = np.asarray(per_trial["image_displacement_px_rms"])
     slope = np.asarray(per_trial["slope_error_rad_rms"])
-    depth = np.asarray(per_trial["depth_error_pct_rms"])
+    disparity = np.asarray(per_trial["disparity_px_p90"], dtype=float)
     fig, axes = plt.subplots(1, 3, figsize=(11, 3.2))
     for k, name in enumerate(("inner", "outer")):
-        axes[0].hist(disp[:, k], bins=40, alpha=0.6, color=LOBE_COLOURS[name], label=name)
-        axes[1].hist(slope[:, k], bins=40, alpha=0.6, color=LOBE_COLOURS[name], label=name)
-    axes[2].hist(np.clip(depth, 0, 5 * spec["depth_error_pct"]), bins=40, color="grey")
-    axes[0].axvline(spec["image_displacement_px"], color="red", ls="--", label="limit")
-    axes[1].axvline(spec["slope_error_rad"], color="red", ls="--", label="limit")
-    axes[2].axvline(spec["depth_error_pct"], color="red", ls="--", label="limit")
-    axes[0].set_xlabel("RMS image displacement (px)")
-    axes[1].set_xlabel("RMS slope error (rad)")
-    axes[2].set_xlabel(f"RMS |depth error| at {spec['depth_range_m']:g} m (%, clipped at 5x limit)")
+        axes[0].hist(np.clip(disp[:, k], 0, 5 * limits["image_displacement_px"]), bins=40, alpha=0.6,
+                     color=LOBE_COLOURS[name], label=name)
+        axes[2].hist(slope[:, k], bins=40, alpha=0.6, color=LOBE_COLOURS[name], label=name)
+    cap = 5 * limits["disparity_px"]
+    axes[1].hist(np.clip(np.nan_to_num(disparity, nan=cap, posinf=cap), 0, cap), bins=40, color="grey",
+                 label="90 % of the band")
+    axes[0].axvline(limits["image_displacement_px"], color="red", ls="--", label="limit")
+    axes[1].axvline(limits["disparity_px"], color="red", ls="--", label="limit")
+    axes[2].axvline(limits["slope_error_rad"], color="red", ls="--", label="limit")
+    which = "calibrated" if calibrated else "raw"
+    axes[0].set_xlabel(f"RMS image displacement, {which} (px, clipped at 5x limit)")
+    axes[1].set_xlabel(f"disparity-equivalent error, {which} (px, clipped at 5x limit)")
+    axes[2].set_xlabel("RMS slope error (rad)")
     for ax in axes:
         ax.set_ylabel("trials")
         ax.legend(loc="best")
         ax.grid(alpha=0.3)
-    fig.suptitle(f"Monte Carlo{', ' + title if title else ''}, {disp.shape[0]} trials: yield "
-                 f"{100 * yield_fraction:.1f} %")
+    fig.suptitle(f"Monte Carlo{', ' + title if title else ''}: yield {percent_interval(passed, disp.shape[0])}")
     return png(fig)
 
 
@@ -191,7 +198,8 @@ def report_plots(data: ReportData) -> dict[str, bytes]:
             colours=MIRROR_COLOURS)
     for name, t in out.get("tolerance", {}).get("programs", {}).items():
         mc = t["monte_carlo"]
-        plots[f"monte_carlo_{name}"] = monte_carlo_histograms(mc["per_trial"], mc["spec"], mc["yield"],
+        plots[f"monte_carlo_{name}"] = monte_carlo_histograms(mc["per_trial"], mc["limits"],
+                                                              calibrated=mc["calibrated"], passed=mc["passed"],
                                                               title=f"{name} program")
     return plots
 

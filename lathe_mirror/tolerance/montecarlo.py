@@ -1,49 +1,65 @@
 """Seeded Monte Carlo over the machine, the polishing and the assembly; the yield.
 
-`prepare` does everything that does not vary per trial (the machined surfaces at each
-lattice phase and nose-radius node, their polishing snapshots, the pixel sample);
-`run_monte_carlo` draws the trials from numpy.random.default_rng(seed) in a fixed order
-and evaluates them vectorised (tolerance.perturb). Same config and seed, same JSON bytes.
+`prepare` does what does not vary per trial (the program cut at each lattice phase, the
+pixel sample, the spec's limits); `run_monte_carlo` draws the trials from
+numpy.random.default_rng(seed) in a fixed order, cuts the nose radii they drew
+(tolerance.surfaces) and evaluates them vectorised (tolerance.perturb), raw and after
+calibration. Same config and seed, same JSON bytes. Every yield is quoted with its
+Wilson 95 % interval and its trial count.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..design import Mirror
 from .perturb import (
-    NodeSurfaces,
+    LOBE_FIGURES,
+    STEREO_FIGURES,
     PixelSample,
     TrialFigures,
     Trials,
-    build_nodes,
     evaluate,
+    parallax_px_scale,
     pixel_sample,
 )
-from .spec import Distribution, Program, ToleranceSettings
+from .spec import DRAWN, Distribution, Program, ToleranceSettings
+from .stats import wilson
+from .surfaces import SurfaceBank, time_nodes
 
-#: Polishing-time snapshots per machined surface, as fractions of the time tolerance.
-TIME_NODES = (-1.0, -0.5, 0.0, 0.5, 1.0)
-#: Nose radii of the machined node surfaces, as fractions of the nose tolerance.
-NOSE_NODES = (-1.0, -0.5, 0.0, 0.5, 1.0)
+#: The judged criteria, in order.
+CRITERIA = ("image_displacement_px", "disparity_px", "slope_error_rad")
 
 
-@dataclass(frozen=True)
+@dataclass
 class Context:
-    """What every trial shares: the mirror, the node surfaces, the pixel samples, nominals."""
+    """What every trial of one program's part shares: the mirror, its made surfaces, the
+    pixel samples, the nominal nose (mm) and polishing time (s), the judged limits."""
 
     mirror: Mirror
     settings: ToleranceSettings
-    nodes: NodeSurfaces
+    bank: SurfaceBank
     samples: tuple[PixelSample, PixelSample]
     nominal_nose_mm: float
     nominal_time_s: float
     source: str
     program: Program
+    limits: dict[str, float]
+    progress: bool = False
+
+    def ensure(self, trials: Trials, progress: bool | None = None) -> None:
+        """Cut and polish every nose the trials drew that is not made yet."""
+        new = self.bank.missing(trials.nose_mm)
+        if new.size == 0:
+            return
+        bar = _bar(int(new.size), f"tolerance ({self.program.value}): cutting the noses drawn",
+                   self.progress if progress is None else progress)
+        self.bank.ensure(trials.nose_mm, progress=bar)
+        bar.close()
 
 
 @dataclass
@@ -55,6 +71,12 @@ class MonteCarloResult:
     passed: dict[str, np.ndarray]
     settings: ToleranceSettings
     program: Program
+    limits: dict[str, float]
+    tolerances: dict[str, float]
+    seed: int
+    nominal_nose_mm: float = 0.0
+    nominal_time_s: float = 0.0
+    phases: np.ndarray = field(default_factory=lambda: np.zeros(1))
 
     @property
     def pass_all(self) -> np.ndarray:
@@ -68,84 +90,145 @@ class MonteCarloResult:
         return float(np.mean(self.pass_all))
 
     def to_dict(self, *, per_trial: bool = True) -> dict:
-        """JSON-ready: yield, pass fraction per criterion, distributions (mean, p05, p50, p95,
-        max) of the per-lobe figures (px, rad, mm) and of the depth error (%); per_trial adds
-        every trial's parameters and figures."""
+        """JSON-ready: the yield and each criterion's pass fraction with Wilson 95 %
+        intervals, the limits, distributions over trials (mean, p05, p50, p95, max) of the
+        raw and calibrated figures; per_trial adds every trial's parameters and figures."""
         f = self.figures
-        lobes = []
-        for k, name in enumerate(("inner", "outer")):
-            lobes.append({"name": name,
-                          "image_displacement_px": _dist(f.image_displacement_px_rms[:, k]),
-                          "slope_error_rad": _dist(f.slope_error_rad_rms[:, k]),
-                          "normal_deviation_mm": _dist(f.normal_deviation_mm_rms[:, k])})
+        n = len(self.trials)
+        k_pass = int(np.sum(self.pass_all))
+        judged = f.judged(self.settings.spec.calibrated)
+
+        def figs(d: dict) -> dict:
+            out = {"lobes": [{"name": name, **{key: _dist(d[key][:, k]) for key in LOBE_FIGURES}}
+                             for k, name in enumerate(("inner", "outer"))]}
+            out.update({key: _dist(d[key][:, 0]) for key in STEREO_FIGURES})
+            return out
+
         out = {
             "program": self.program.value,
-            "seed": self.settings.seed,
-            "trials": len(self.trials),
-            "yield": self.yield_fraction,
-            "pass_fraction": {k: float(np.mean(v)) for k, v in self.passed.items()},
-            "spec": self.settings.spec.__dict__,
-            "lobes": lobes,
-            "depth_error_pct": _dist(f.depth_error_pct_rms),
+            "seed": self.seed,
+            "trials": n,
+            "calibrated": self.settings.spec.calibrated,
+            "tolerances": dict(self.tolerances),
+            "yield": k_pass / n,
+            "passed": k_pass,
+            "yield_wilson95": list(wilson(k_pass, n)),
+            "pass_fraction": {c: float(np.mean(v)) for c, v in self.passed.items()},
+            "pass_fraction_wilson95": {c: list(wilson(int(np.sum(v)), n)) for c, v in self.passed.items()},
+            "limits": dict(self.limits),
+            "spec": self.settings.spec_dict(),
+            "judged": {"image_displacement_px": _dist(np.max(judged["image_displacement_px_rms"], axis=1)),
+                       "disparity_px": _dist(judged["disparity_px_p90"][:, 0]),
+                       "slope_error_rad": _dist(np.max(f.slope_error_rad_rms, axis=1))},
+            "raw": figs(f.raw),
+            "calibrated_figures": figs(f.calibrated),
+            "surface": {"lobes": [{"name": name, "slope_error_rad": _dist(f.slope_error_rad_rms[:, k]),
+                                   "normal_deviation_mm": _dist(f.normal_deviation_mm_rms[:, k])}
+                                  for k, name in enumerate(("inner", "outer"))]},
             "lost_pixel_fraction": _dist(f.lost_fraction),
-            "note": "per-trial figures are RMS over each lobe's pixels (image displacement), its "
-                    "radii (slope error, normal deviation) or the band's points (depth error); "
-                    "distributions give the mean and percentiles over trials",
+            "calibration_rotation_deg": _dist(np.degrees(_rotation_angle(f.calibration.rotation))),
+            "note": "per-trial figures: RMS over each lobe's pixels (image displacement, ray error, viewpoint "
+                    "spread), over its radii (slope error, normal deviation); stereo figures over the band's "
+                    "points at the spec's range (disparity px: the point value with 50 % / 90 % of the points "
+                    "at or below it, unseen points counting as infinite); distributions give the mean and "
+                    "percentiles over trials",
         }
         if per_trial:
-            out["per_trial"] = {
-                **{k: [float(x) for x in v] for k, v in self.trials.__dict__.items()},
-                "image_displacement_px_rms": f.image_displacement_px_rms.tolist(),
-                "slope_error_rad_rms": f.slope_error_rad_rms.tolist(),
-                "depth_error_pct_rms": f.depth_error_pct_rms.tolist(),
-                "pass": [bool(x) for x in self.pass_all],
-            }
+            out["per_trial"] = {**self.parameter_columns(),
+                                "image_displacement_px_rms": judged["image_displacement_px_rms"].tolist(),
+                                "disparity_px_p90": judged["disparity_px_p90"][:, 0].tolist(),
+                                "slope_error_rad_rms": f.slope_error_rad_rms.tolist(),
+                                "depth_error_pct_rms": judged["depth_error_pct_rms"][:, 0].tolist(),
+                                "pass": [bool(x) for x in self.pass_all]}
         return out
+
+    def parameter_columns(self) -> dict[str, list]:
+        """Each trial's drawn parameters, edge units (phase in lattice steps, tilts in deg)."""
+        t = self.trials
+        deg = 180.0 / math.pi
+        return {"phase_steps": [float(self.phases[i]) for i in t.phase], "nose_mm": t.nose_mm.tolist(),
+                "polish_time_s": t.time_s.tolist(), "tool_x_mm": t.tool_x_mm.tolist(),
+                "tool_z_mm": t.tool_z_mm.tolist(), "camera_x_mm": t.cam_x_mm.tolist(),
+                "camera_y_mm": t.cam_y_mm.tolist(), "camera_axial_mm": t.cam_z_mm.tolist(),
+                "camera_tilt_x_deg": (t.tilt_x * deg).tolist(), "camera_tilt_y_deg": (t.tilt_y * deg).tolist(),
+                "seat_tilt_x_deg": (t.seat_x * deg).tolist(), "seat_tilt_y_deg": (t.seat_y * deg).tolist()}
+
+    def csv_rows(self, run: str) -> tuple[list[str], list[list]]:
+        """Header and one row per trial: the drawn parameters, every raw and calibrated
+        figure (per lobe for the lobe figures), the surface figures, the fitted rotation,
+        each criterion's pass flag and the trial's."""
+        f = self.figures
+        cols: dict[str, list] = {"program": [self.program.value] * len(self.trials), "run": [run] * len(self.trials),
+                                 "trial": list(range(len(self.trials))), **self.parameter_columns()}
+        for label, d in (("raw", f.raw), ("cal", f.calibrated)):
+            for key in LOBE_FIGURES:
+                for k, lobe in enumerate(("inner", "outer")):
+                    cols[f"{label}_{key}_{lobe}"] = d[key][:, k].tolist()
+            for key in STEREO_FIGURES:
+                cols[f"{label}_{key}"] = d[key][:, 0].tolist()
+        for k, lobe in enumerate(("inner", "outer")):
+            cols[f"slope_error_rad_rms_{lobe}"] = f.slope_error_rad_rms[:, k].tolist()
+            cols[f"normal_deviation_mm_rms_{lobe}"] = f.normal_deviation_mm_rms[:, k].tolist()
+        cols["lost_pixel_fraction"] = f.lost_fraction.tolist()
+        ang = f.calibration.angles_deg()
+        for i, axis in enumerate("xyz"):
+            cols[f"cal_rotation_{axis}_deg"] = ang[:, i].tolist()
+        for c, v in self.passed.items():
+            cols[f"pass_{c}"] = [bool(x) for x in v]
+        cols["pass"] = [bool(x) for x in self.pass_all]
+        header = list(cols)
+        return header, [list(row) for row in zip(*cols.values())]
+
+
+def disparity_limit_px(mirror: Mirror, depth_error_pct: float, depth_range_m: float, n_elev: int) -> float:
+    """The disparity-equivalent limit (px) of a depth-error limit (%) at a range (m): the
+    parallax error depth_error_pct / 100 x B cos(el) / R (first order) over the px scale of
+    perturb.parallax_px_scale, at the band's median elevation. 20 % at 1 m on the paper
+    mirror: 2.5 mrad, 0.44 px."""
+    from ..optics.stereo import band_elevations
+
+    el = float(np.median(band_elevations(mirror, max(n_elev, 2))))
+    parallax = mirror.baseline * math.cos(el) / (depth_range_m * 1e3)
+    return float(depth_error_pct / 100.0 * parallax / parallax_px_scale(mirror, np.array([el]))[0])
 
 
 def prepare(mirror: Mirror, settings: ToleranceSettings, polish_params, nominal_time_s: float,
-            program: Program, *, nose0: float, machine_at: Callable, progress: bool = False) -> Context:
-    """Machined surfaces at each lattice phase x nose node, polished at the time nodes.
+            program: Program, *, nose0: float, machine_at: Callable, progress: bool = False,
+            repolish: bool = False) -> Context:
+    """The program's part cut at each lattice phase with the programmed nose, polished at
+    the time nodes (nominal -/+ the time tolerance); noses are cut as trials draw them.
 
     nose0: the programmed nose radius, mm. machine_at(phase, nose_radius) -> a made surface
     (attributes profile, source): the pipeline's made-surface builder for this program,
     the part cut with its work zero `phase` lattice steps off and a nose of nose_radius mm.
+    repolish: polish each nose's part rather than carry the nose's change of the cut
+    through polishing (tolerance.surfaces explains why not by default).
     """
     tol = settings.tolerances
-    dn = tol.get("nose_radius_mm", 0.0)
-    # Five nose nodes: a nose larger than the program's rounds the step's sharp top edge,
-    # a feature that grows non-linearly with the excess; linear interpolation needs the
-    # nodes close together to follow it.
-    # (settings.py has checked dn <= nose0: no node has a negative nose.)
-    nose_nodes = nose0 + dn * np.array(NOSE_NODES) if dn > 0 else np.array([nose0])
-    dt = tol.get("polish_time_s", 0.0)
-    times = np.unique(np.clip([nominal_time_s + f * dt for f in TIME_NODES], 0.0, None))
+    times = time_nodes(nominal_time_s, tol.get("polish_time_s", 0.0))
     phases = np.arange(settings.lattice_phases) / settings.lattice_phases
-    bar = _bar(len(phases) * len(nose_nodes), f"tolerance ({program.value}): machining + polishing", progress)
-    machined = []
-    source = ""
-    for ph in phases:
-        row = []
-        for nose in nose_nodes:
-            made = machine_at(float(ph), float(nose))
-            if ph == 0.0 and math.isclose(nose, nose0):
-                source = made.source
-            row.append(made.profile)
-        machined.append(row)
-    nodes = build_nodes(mirror, machined, nose_nodes, phases, polish_params, times, source=source,
-                        progress=bar)
+    bar = _bar(len(phases), f"tolerance ({program.value}): cutting the lattice phases", progress)
+    bank = SurfaceBank(mirror, machine_at, polish_params, times, phases, nose0, settings.nose_step_mm,
+                       repolish=repolish, progress=bar)
     bar.close()
     samples = (pixel_sample(mirror, 0, bin_px=settings.bin_px, azimuths=settings.azimuths),
                pixel_sample(mirror, 1, bin_px=settings.bin_px, azimuths=settings.azimuths))
-    return Context(mirror, settings, nodes, samples, nose0, float(nominal_time_s), source, program)
+    sp = settings.spec
+    limits = {"image_displacement_px": sp.image_displacement_px,
+              "disparity_px": disparity_limit_px(mirror, sp.depth_error_pct, sp.depth_range_m, settings.depth_points),
+              "slope_error_rad": sp.slope_error_rad}
+    return Context(mirror, settings, bank, samples, float(nose0), float(nominal_time_s), bank.source, program,
+                   limits, progress)
 
 
-def draw_trials(ctx: Context, n: int | None = None, seed: int | None = None) -> Trials:
-    """Trials drawn from default_rng(seed), parameters in a fixed order."""
+def draw_trials(ctx: Context, n: int | None = None, seed: int | None = None,
+                tolerances: dict[str, float] | None = None) -> Trials:
+    """Trials drawn from default_rng(seed), parameters in a fixed order (lattice phase,
+    then DRAWN's order, x before y), each within `tolerances` (default the settings')."""
     s = ctx.settings
     n = s.trials if n is None else n
     rng = np.random.default_rng(s.seed if seed is None else seed)
-    tol = s.tolerances
+    tol = s.tolerances if tolerances is None else tolerances
 
     def draw(key: str, scale: float = 1.0) -> np.ndarray:
         t = tol.get(key, 0.0) * scale
@@ -153,7 +236,7 @@ def draw_trials(ctx: Context, n: int | None = None, seed: int | None = None) -> 
             return rng.normal(0.0, t / 3.0, n)
         return rng.uniform(-t, t, n)
 
-    phase = rng.integers(0, len(ctx.nodes.phases), n)
+    phase = rng.integers(0, len(ctx.bank.phases), n)
     nose = ctx.nominal_nose_mm + draw("nose_radius_mm")
     time = np.maximum(ctx.nominal_time_s + draw("polish_time_s"), 0.0)
     tx, tz = draw("tool_x_mm"), draw("tool_z_mm")
@@ -161,43 +244,104 @@ def draw_trials(ctx: Context, n: int | None = None, seed: int | None = None) -> 
     cz = draw("camera_axial_mm")
     deg = math.pi / 180.0
     ax, ay = draw("camera_tilt_deg", deg), draw("camera_tilt_deg", deg)
-    return Trials(phase=phase.astype(np.intp), nose_mm=np.maximum(nose, 0.0), time_s=time, tool_x_mm=tx,
-                  tool_z_mm=tz, cam_x_mm=cx, cam_y_mm=cy, cam_z_mm=cz, tilt_x=ax, tilt_y=ay)
+    sx, sy = draw("seat_tilt_deg", deg), draw("seat_tilt_deg", deg)
+    # The nose is cut as drawn, rounded to the nose step; never at or below zero.
+    nose = ctx.bank.snapped(np.maximum(nose, ctx.bank.nose_step))
+    return Trials(phase=phase.astype(np.intp), nose_mm=nose, time_s=time, tool_x_mm=tx,
+                  tool_z_mm=tz, cam_x_mm=cx, cam_y_mm=cy, cam_z_mm=cz, tilt_x=ax, tilt_y=ay, seat_x=sx, seat_y=sy)
 
 
 def evaluate_trials(ctx: Context, trials: Trials, *, progress: bool = False, desc: str = "tolerance: trials",
-                    **kw) -> TrialFigures:
-    """Figures of each trial (tolerance.perturb.evaluate) at the spec's depth range (m), with
-    a progress bar on stderr when asked."""
+                    ranges_m=None, **kw) -> TrialFigures:
+    """Figures of each trial (tolerance.perturb.evaluate) at ranges_m (m; default the
+    spec's range), the noses they drew cut first, with a progress bar when asked."""
+    ctx.ensure(trials, progress)
     bar = _bar(len(trials), desc, progress)
-    fig = evaluate(ctx.mirror, ctx.nodes, trials, ctx.samples, depth_range_m=ctx.settings.spec.depth_range_m,
-                   depth_points=ctx.settings.depth_points, progress=bar, **kw)
+    ranges = (ctx.settings.spec.depth_range_m,) if ranges_m is None else tuple(ranges_m)
+    fig = evaluate(ctx.mirror, ctx.bank, trials, ctx.samples, ranges_m=ranges, depth_points=ctx.settings.depth_points,
+                   seat_pivot_mm=ctx.settings.seat_pivot_mm, progress=bar, **kw)
     bar.close()
     return fig
 
 
-def judge(figures: TrialFigures, settings: ToleranceSettings) -> dict[str, np.ndarray]:
-    """Pass flags of each criterion of the spec, per trial (both lobes must pass)."""
-    sp = settings.spec
+def judge(figures: TrialFigures, limits: dict[str, float], calibrated: bool) -> dict[str, np.ndarray]:
+    """Pass flags of each criterion per trial (both lobes must pass): the RMS image
+    displacement, the 90th percentile of the disparity-equivalent error over the band at
+    the spec's range (the first range of the figures), the RMS slope error; calibrated or
+    raw figures."""
+    d = figures.judged(calibrated)
     return {
-        "image_displacement_px": np.all(figures.image_displacement_px_rms <= sp.image_displacement_px, axis=1),
-        "depth_error_pct": figures.depth_error_pct_rms <= sp.depth_error_pct,
-        "slope_error_rad": np.all(figures.slope_error_rad_rms <= sp.slope_error_rad, axis=1),
+        "image_displacement_px": np.all(d["image_displacement_px_rms"] <= limits["image_displacement_px"], axis=1),
+        "disparity_px": d["disparity_px_p90"][:, 0] <= limits["disparity_px"],
+        "slope_error_rad": np.all(figures.slope_error_rad_rms <= limits["slope_error_rad"], axis=1),
     }
 
 
-def run_monte_carlo(ctx: Context, *, progress: bool = False) -> MonteCarloResult:
-    """Draw settings.trials trials from settings.seed, evaluate them and judge them: same
-    context and seed, same result to the bit."""
-    trials = draw_trials(ctx)
-    fig = evaluate_trials(ctx, trials, progress=progress)
-    return MonteCarloResult(trials, fig, judge(fig, ctx.settings), ctx.settings, ctx.program)
+def run_monte_carlo(ctx: Context, *, progress: bool = False, seed: int | None = None,
+                    tolerances: dict[str, float] | None = None, desc: str = "tolerance: trials") -> MonteCarloResult:
+    """Draw settings.trials trials from `seed` (default settings.seed) within `tolerances`
+    (default the settings'), evaluate and judge them: same context and seed, same result
+    to the bit."""
+    tol = dict(ctx.settings.tolerances if tolerances is None else tolerances)
+    seed = ctx.settings.seed if seed is None else seed
+    trials = draw_trials(ctx, seed=seed, tolerances=tol)
+    fig = evaluate_trials(ctx, trials, progress=progress, desc=desc)
+    return MonteCarloResult(trials, fig, judge(fig, ctx.limits, ctx.settings.spec.calibrated), ctx.settings,
+                            ctx.program, dict(ctx.limits), {k: tol.get(k, 0.0) for k in DRAWN}, seed,
+                            ctx.nominal_nose_mm, ctx.nominal_time_s, ctx.bank.phases)
+
+
+def stereo_table(ctx: Context, ranges_m) -> dict:
+    """The nominal part's stereo figures at each range (m), raw and calibrated, beside the
+    matcher's floor: per range the band's median and 90th-percentile disparity-equivalent
+    error (px), the fractions of its points within 5 % and 10 % of their range and seen
+    by both lobes, the capped RMS depth error (%), and the depth error (%) that
+    matching_noise_px alone gives."""
+    from .perturb import matching_floor_pct
+
+    fig = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s), ranges_m=ranges_m)
+    floor = matching_floor_pct(ctx.mirror, ranges_m, ctx.settings.matching_noise_px, ctx.settings.depth_points)
+    out = {"ranges_m": [float(r) for r in ranges_m], "matching_noise_px": ctx.settings.matching_noise_px,
+           "matching_floor_pct": [float(x) for x in floor], "disparity_limit_px": ctx.limits["disparity_px"]}
+    for label, d in (("raw", fig.raw), ("calibrated", fig.calibrated)):
+        out[label] = {key: [float(x) for x in d[key][0]] for key in STEREO_FIGURES}
+    return out
+
+
+def trials_csv(results: list[tuple[str, MonteCarloResult]]) -> str:
+    """CSV text (RFC 4180, "," separated, a header line): one row per trial of each
+    (run name, result), every drawn parameter and figure; numbers as repr (17 digits)."""
+    import csv
+    import io
+
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    header_written = None
+    for run, res in results:
+        header, rows = res.csv_rows(run)
+        if header_written is None:
+            writer.writerow(header)
+            header_written = header
+        for row in rows:
+            writer.writerow([repr(v) if isinstance(v, float) else v for v in row])
+    return buf.getvalue()
+
+
+def _rotation_angle(r: np.ndarray) -> np.ndarray:
+    """Angle (rad) of each rotation matrix (trials, 3, 3)."""
+    c = (np.trace(r, axis1=1, axis2=2) - 1.0) / 2.0
+    s = np.linalg.norm(np.stack([r[:, 2, 1] - r[:, 1, 2], r[:, 0, 2] - r[:, 2, 0], r[:, 1, 0] - r[:, 0, 1]], 1),
+                       axis=1) / 2.0
+    return np.arctan2(s, c)
 
 
 def _dist(x: np.ndarray) -> dict:
     x = np.asarray(x, float)
-    return {"mean": float(np.mean(x)), "p05": float(np.percentile(x, 5)), "p50": float(np.percentile(x, 50)),
-            "p95": float(np.percentile(x, 95)), "max": float(np.max(x))}
+    fin = np.where(np.isfinite(x), x, np.inf)
+    return {"mean": float(np.mean(x)) if np.all(np.isfinite(x)) else math.inf,
+            "p05": float(np.quantile(fin, 0.05, method="inverted_cdf")),
+            "p50": float(np.quantile(fin, 0.50, method="inverted_cdf")),
+            "p95": float(np.quantile(fin, 0.95, method="inverted_cdf")), "max": float(np.max(fin))}
 
 
 def _bar(total: int, desc: str, enabled: bool):

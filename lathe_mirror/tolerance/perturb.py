@@ -2,23 +2,26 @@
 
 What varies from part to part, and how each enters:
 
-- lattice phase (resolution): which of the precomputed rounding realisations was cut;
-- nose radius: the as-machined surface with the actual nose, linear between surfaces
-  precomputed at the nominal and +/- the tolerance;
-- polishing time: linear between snapshots of one polishing run per machined surface
-  (nominal +/- tolerance, 5 snapshots);
+- lattice phase, nose radius, polishing time: the trial's own made surface
+  (tolerance.surfaces.SurfaceBank: re-machined per phase and per nose drawn);
 - tool setting error in X: the turned surface is the program's shifted across the axis,
   z(rho) = z_prog(|rho - dx|); in Z: the whole surface moves along the axis, z + dz;
-- camera decentre (x, y), tilt (about x then y, CameraPose's convention) and axial offset.
+- camera decentre (x, y), tilt about its pinhole (about x then y, CameraPose's
+  convention) and axial offset (the lens's entrance pupil);
+- the mirror's seat tilt: the mirror turned rigidly about a pivot on the axis
+  seat_pivot_mm above the pinhole, which in the mirror's frame is the camera turned the
+  other way about that pivot: a rotation plus a decentre of (pivot x tilt), correlated.
 
-Precomputing the surfaces that do not vary continuously (the "nodes") and interpolating
-is what makes a thousand trials fast; everything else is traced per trial, vectorised
-over trials and pixels: a sparse pixel sample (image-radius bins x azimuths, each ray
-weighted by the pixel centres it stands for) through the trial's surface in 3-D, the
-exact lobe's image point of each reflected direction (closed form), and the stereo
-crossing of the two lobes' rays for points at the spec's range.
+Everything is traced per trial, vectorised over trials and pixels: a sparse pixel sample
+(image-radius bins x azimuths, each ray weighted by the pixel centres it stands for)
+through the trial's surface in 3-D, in the mirror's frame. Each trial gets two sets of
+figures: raw, against the design's own model (the aligned exact mirror), and calibrated,
+against the model a calibration of that very camera fits (tolerance.calibration: the
+camera's rotation and a smooth radial map per lobe removed). The stereo figures cross
+the two lobes' made rays for points of the common band at a range: the depth error and,
+the figure users read, the disparity-equivalent error (px) beside the matcher's floor.
 
-Camera frame, mm and radians inside.
+Mirror frame (the design's camera frame), mm and radians inside.
 """
 
 from __future__ import annotations
@@ -30,42 +33,27 @@ import numpy as np
 
 from ..design import Mirror
 from ..optics.radial import ideal_radius_px, lobe_pixel_radii, used_extent
-from ..optics.stereo import band_elevations, capped_abs_error, stereo_centre_z
-from ..profile import Profile
+from ..optics.stereo import band_elevations, capped_abs_error, stereo_centre_z, triangulate
+from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals
+from .surfaces import SurfaceBank
 
-#: Fixed-point iterations of the 3-D ray-surface intersection (contraction <= ~0.22).
-_MAX_ITER = 40
+#: Newton steps of the 3-D ray-surface intersection (2-3 from the exact sheet's hit).
+_MAX_ITER = 8
+#: Height (mm) by which a made surface must miss the design for a point to be no part of
+#: the lobe's surface (polishing's form change is ~0.04 mm; the step 1.8 mm).
+OFF_SURFACE_MM = 0.1
 #: A hit this far (mm) outside its lobe's radial extent landed on the wall or the other lobe.
 _LOBE_SLACK = 1e-6
-#: Rays x trials per vectorised batch of evaluate (memory: ~0.25 kB each).
-_BATCH_RAYS = 200_000
-
-
-@dataclass(frozen=True)
-class NodeSurfaces:
-    """Precomputed surfaces per lobe on a uniform r grid: z and slope of shape
-    (phases, nose nodes, time nodes, n). nose_mm: nose radius of each nose node, mm;
-    time_s: polishing time of each time node, s."""
-
-    r0: tuple[float, float]
-    dr: tuple[float, float]
-    n: tuple[int, int]
-    z: tuple[np.ndarray, np.ndarray]
-    s: tuple[np.ndarray, np.ndarray]
-    nose_mm: np.ndarray
-    time_s: np.ndarray
-    phases: np.ndarray
-    source: str = ""
-
-    @property
-    def shape(self) -> tuple[int, int, int]:
-        return self.z[0].shape[:3]
+#: Rays x trials per vectorised batch of evaluate (memory: ~1 kB each with the calibration).
+_BATCH_RAYS = 150_000
+#: Azimuths of the stereo points.
+DEPTH_AZIMUTHS = 4
 
 
 @dataclass
 class Trials:
-    """Parameters of each trial (arrays of one length). Units in the names; phase is an index
-    into NodeSurfaces.phases; tilt in rad."""
+    """Parameters of each trial (arrays of one length). Units in the names; phase is an
+    index into the bank's phases; camera tilt and seat tilt in rad."""
 
     phase: np.ndarray
     nose_mm: np.ndarray
@@ -77,6 +65,8 @@ class Trials:
     cam_z_mm: np.ndarray
     tilt_x: np.ndarray
     tilt_y: np.ndarray
+    seat_x: np.ndarray
+    seat_y: np.ndarray
 
     def __len__(self) -> int:
         return int(self.phase.size)
@@ -90,7 +80,11 @@ class Trials:
         return Trials(phase=np.zeros(n, dtype=np.intp), nose_mm=np.full(n, nose_mm),
                       time_s=np.full(n, time_s), tool_x_mm=z.copy(), tool_z_mm=z.copy(),
                       cam_x_mm=z.copy(), cam_y_mm=z.copy(), cam_z_mm=z.copy(), tilt_x=z.copy(),
-                      tilt_y=z.copy())
+                      tilt_y=z.copy(), seat_x=z.copy(), seat_y=z.copy())
+
+    @staticmethod
+    def concat(parts: list["Trials"]) -> "Trials":
+        return Trials(**{k: np.concatenate([getattr(p, k) for p in parts]) for k in parts[0].__dict__})
 
 
 @dataclass(frozen=True)
@@ -103,57 +97,35 @@ class PixelSample:
     weight: np.ndarray
 
 
+#: Per-lobe figures (arrays (trials, 2)) and stereo figures (arrays (trials, ranges)).
+LOBE_FIGURES = ("image_displacement_px_rms", "image_displacement_px_max", "image_displacement_px_median",
+                "ray_error_deg_rms", "viewpoint_spread_mm_rms")
+STEREO_FIGURES = ("disparity_px_median", "disparity_px_p90", "within_5_pct", "within_10_pct", "seen_fraction",
+                  "depth_error_pct_rms")
+
+
 @dataclass
 class TrialFigures:
-    """Figures per trial (arrays over trials; per-lobe ones have shape (trials, 2))."""
+    """Figures per trial. raw / calibrated: name -> array (LOBE_FIGURES: (trials, 2);
+    STEREO_FIGURES: (trials, ranges)); slope_error_rad_rms and normal_deviation_mm_rms
+    (trials, 2) of the surface; lost_fraction (trials,) of the sample's pixels whose made
+    ray misses their lobe; calibration: what was fitted."""
 
-    image_displacement_px_rms: np.ndarray
-    image_displacement_px_max: np.ndarray
+    raw: dict[str, np.ndarray]
+    calibrated: dict[str, np.ndarray]
     slope_error_rad_rms: np.ndarray
     normal_deviation_mm_rms: np.ndarray
-    depth_error_pct_rms: np.ndarray
     lost_fraction: np.ndarray
+    calibration: Calibration
+    ranges_m: tuple[float, ...]
     extra: dict = field(default_factory=dict)
+
+    def judged(self, calibrated: bool) -> dict[str, np.ndarray]:
+        return self.calibrated if calibrated else self.raw
 
 
 # --------------------------------------------------------------------------------------
-# Building the nodes and the sample
-
-
-def build_nodes(mirror: Mirror, machined: list[list[Profile]], nose_mm: np.ndarray, phases: np.ndarray,
-                polish_params, time_s: np.ndarray, *, grid_step: float | None = None,
-                source: str = "", progress=None) -> NodeSurfaces:
-    """Polish every machined surface (machined[phase][nose node]) and sample the snapshots.
-
-    time_s: snapshot times (s, ascending, >= 0). The grid is the polishing grid.
-    """
-    from ..polishing import polish_series
-
-    step = polish_params.grid_step_mm if grid_step is None else grid_step
-    grids = []
-    for k in (0, 1):
-        lo, hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
-        n = int(math.ceil((hi - lo) / step)) + 1
-        grids.append((lo, (hi - lo) / (n - 1), n))
-    P, J, T = len(machined), len(machined[0]), len(time_s)
-    z = [np.empty((P, J, T, g[2])) for g in grids]
-    s = [np.empty((P, J, T, g[2])) for g in grids]
-    for p in range(P):
-        for j in range(J):
-            snaps = polish_series(machined[p][j], polish_params, time_s)
-            for i, prof in enumerate(snaps):
-                for k, (lo, dr, n) in enumerate(grids):
-                    r = lo + dr * np.arange(n)
-                    if k == 1:
-                        r[0] = np.nextafter(lo, np.inf)
-                    z[k][p, j, i] = prof.z(r)
-                    s[k][p, j, i] = prof.slope(r)
-            if progress is not None:
-                progress.update(1)
-    return NodeSurfaces(r0=(grids[0][0], grids[1][0]), dr=(grids[0][1], grids[1][1]),
-                        n=(grids[0][2], grids[1][2]), z=(z[0], z[1]), s=(s[0], s[1]),
-                        nose_mm=np.asarray(nose_mm, float), time_s=np.asarray(time_s, float),
-                        phases=np.asarray(phases, float), source=source)
+# The sample
 
 
 def pixel_sample(mirror: Mirror, k: int, *, bin_px: float, azimuths: int) -> PixelSample:
@@ -169,127 +141,249 @@ def pixel_sample(mirror: Mirror, k: int, *, bin_px: float, azimuths: int) -> Pix
     return PixelSample(u=(rho * np.cos(ang)).ravel(), v=(rho * np.sin(ang)).ravel(), weight=w.ravel())
 
 
+@dataclass(frozen=True)
+class StereoPoints:
+    """World points of the common band at each range from the stereo centre (mirror frame).
+
+    w: (ranges, m, 3) mm; unit: (m, 3) their directions from the stereo centre; range_mm
+    (ranges,); elevation (m,) rad; parallax_base: B cos(elevation) (m,) mm, the baseline's
+    part across the line of sight; px_scale: (m,) rad of parallax per px of image error in
+    each lobe, sqrt(s_inner^2 + s_outer^2) with s_k the lobe's d(elevation)/d(image radius).
+    """
+
+    w: np.ndarray
+    unit: np.ndarray
+    range_mm: np.ndarray
+    elevation: np.ndarray
+    centre_z: float
+    parallax_base: np.ndarray
+    px_scale: np.ndarray
+
+
+def stereo_points(mirror: Mirror, ranges_m, n_elev: int, n_azimuth: int = DEPTH_AZIMUTHS) -> StereoPoints:
+    """Points at each range (m) at n_elev elevations across the common band x n_azimuth."""
+    elev = band_elevations(mirror, n_elev) if n_elev > 1 else np.array([np.mean(mirror.common_band)])
+    psi = np.arange(n_azimuth) * (2.0 * math.pi / n_azimuth)
+    e, a = np.meshgrid(elev, psi, indexing="ij")
+    e, a = e.ravel(), a.ravel()
+    unit = np.stack([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)], -1)
+    rng = np.asarray(ranges_m, float) * 1e3
+    zc = stereo_centre_z(mirror)
+    w = rng[:, None, None] * unit[None] + np.array([0.0, 0.0, zc])
+    return StereoPoints(w, unit, rng, e, zc, mirror.baseline * np.cos(e), parallax_px_scale(mirror, e))
+
+
+def parallax_px_scale(mirror: Mirror, elevation: np.ndarray) -> np.ndarray:
+    """rad of parallax per px of image-position error in each lobe, at each elevation (rad):
+    sqrt(s_inner^2 + s_outer^2), s_k = |d elevation / d image radius| of the exact lobe k
+    (independent errors in the two lobes add in quadrature). 5.6e-3 at -13 deg on the
+    paper mirror."""
+    h = 1e-6
+    s = []
+    for lobe in mirror.lobes:
+        d = (ideal_radius_px(lobe, mirror.camera, elevation + h)
+             - ideal_radius_px(lobe, mirror.camera, elevation - h)) / (2 * h)
+        s.append(1.0 / np.abs(d))
+    return np.hypot(s[0], s[1])
+
+
+def matching_floor_pct(mirror: Mirror, ranges_m, noise_px: float, n_elev: int) -> np.ndarray:
+    """The depth error (%) that a matching noise of noise_px (px, in each lobe) alone gives
+    at each range (m), to first order: 100 noise px_scale R / (B cos elevation), median over
+    the band's elevations."""
+    sp = stereo_points(mirror, [1.0], n_elev, 1)
+    per_m = 100.0 * noise_px * sp.px_scale / sp.parallax_base  # % per mm of range
+    return np.asarray(ranges_m, float) * 1e3 * float(np.median(per_m))
+
+
 # --------------------------------------------------------------------------------------
 # Evaluation
 
 
-def evaluate(mirror: Mirror, nodes: NodeSurfaces, trials: Trials, samples: tuple[PixelSample, PixelSample], *,
-             depth_range_m: float, depth_points: int = 5, chunk: int = 100, progress=None,
-             keep_displacements: bool = False) -> TrialFigures:
-    """Figures of every trial. depth_range_m: m. chunk: trials per vectorised batch."""
+def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[PixelSample, PixelSample], *,
+             ranges_m=(1.0,), depth_points: int = 9, seat_pivot_mm: float = 125.0, calibrate: bool = True,
+             chunk: int = 100, progress=None, keep_displacements: bool = False) -> TrialFigures:
+    """Figures of every trial (TrialFigures). ranges_m: ranges (m) of the stereo figures.
+    calibrate=False skips the calibration fit (the calibrated figures then equal the raw).
+    chunk: trials per vectorised batch. The bank must hold every trial's nose (ensure)."""
     n = len(trials)
-    disp_rms = np.empty((n, 2))
-    disp_max = np.empty((n, 2))
-    slope = np.empty((n, 2))
-    ndev = np.empty((n, 2))
-    depth = np.empty(n)
-    lost = np.empty(n)
+    R = len(ranges_m)
+    raw = {k: np.empty((n, 2)) for k in LOBE_FIGURES} | {k: np.empty((n, R)) for k in STEREO_FIGURES}
+    cal = {k: np.empty_like(v) for k, v in raw.items()}
+    slope, ndev, lost = np.empty((n, 2)), np.empty((n, 2)), np.empty(n)
+    rot, coeffs = np.empty((n, 3, 3)), np.empty((n, 2, 4))
     kept: list = []
-    depth_pix = _depth_pixels(mirror, depth_range_m, depth_points)
-    # Each batch holds ~10 arrays of (trials, rays, 3) floats: keep it near 2e5 rays x trials.
+    sp = stereo_points(mirror, ranges_m, depth_points)
+    span = (lobe_span(samples[0].u, samples[0].v), lobe_span(samples[1].u, samples[1].v))
     chunk = max(1, min(chunk, _BATCH_RAYS // max(samples[0].u.size, samples[1].u.size, 1)))
     for a in range(0, n, chunk):
         sl = slice(a, min(n, a + chunk))
         tr = trials.take(sl)
-        surf = [_trial_surface(nodes, k, tr) for k in (0, 1)]
-        origin, rot = _poses(tr)
-        n_lost = 0.0
-        n_all = 0.0
+        m = len(tr)
+        surf = [bank.trial_surface(k, tr.phase, tr.nose_mm, tr.time_s, tr.tool_z_mm) for k in (0, 1)]
+        origin, rotation = poses(tr, seat_pivot_mm)
+        traced = [_trace(mirror, bank, k, surf, tr, origin, rotation, samples[k].u, samples[k].v) for k in (0, 1)]
+        valid = [t[2] for t in traced]
+        n_lost = sum(np.sum(np.where(valid[k], 0.0, samples[k].weight[None, :]), axis=1) for k in (0, 1))
+        lost[sl] = n_lost / (samples[0].weight.sum() + samples[1].weight.sum())
+        ident = Calibration.identity(m, span)
+        fitted = fit(mirror, [(s.u, s.v, s.weight) for s in samples], [t[1] for t in traced], valid) \
+            if calibrate else ident
+        rot[sl], coeffs[sl] = fitted.rotation, fitted.coeffs
+        for model, out in ((ident, raw), (fitted, cal)):
+            for k in (0, 1):
+                smp = samples[k]
+                p, o, ok, _ = traced[k]
+                disp = residuals(mirror, k, o, model, smp.u[None, :], smp.v[None, :])
+                ok_k = ok & np.isfinite(disp)
+                w = np.where(ok_k, smp.weight[None, :], 0.0)
+                out["image_displacement_px_rms"][sl, k] = _wrms(np.where(ok_k, disp, 0.0), w)
+                out["image_displacement_px_max"][sl, k] = np.max(np.where(ok_k, disp, 0.0), axis=1)
+                out["image_displacement_px_median"][sl, k] = _wquantile(np.where(ok_k, disp, np.inf), w, 0.5)
+                d_model = model_directions(mirror, k, smp.u, smp.v, model)
+                ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(o, d_model), axis=-1), np.sum(o * d_model, -1)))
+                out["ray_error_deg_rms"][sl, k] = _wrms(np.where(ok_k & np.isfinite(ang), ang, 0.0), w)
+                f1 = np.array([0.0, 0.0, mirror.lobes[k].focus_z])
+                spread = np.linalg.norm(np.cross(f1 - p, o), axis=-1)
+                out["viewpoint_spread_mm_rms"][sl, k] = _wrms(np.where(ok_k, spread, 0.0), w)
+                if keep_displacements and model is ident:
+                    kept.append((k, sl, disp, ok_k))
+            stereo = _stereo(mirror, bank, surf, tr, origin, rotation, sp, model)
+            for key, v in stereo.items():
+                out[key][sl] = v
         for k in (0, 1):
-            smp = samples[k]
-            disp, ok = _displacement(mirror, nodes, k, surf, tr, origin, rot, smp.u, smp.v)
-            w = np.where(ok, smp.weight[None, :], 0.0)
-            d2 = np.where(ok, disp**2, 0.0)
-            disp_rms[sl, k] = np.sqrt(np.sum(w * d2, axis=1) / np.maximum(np.sum(w, axis=1), 1e-300))
-            disp_max[sl, k] = np.max(np.where(ok, disp, 0.0), axis=1)
-            n_lost += np.sum(np.where(ok, 0.0, smp.weight[None, :]), axis=1)
-            n_all += np.sum(smp.weight)
-            slope[sl, k], ndev[sl, k] = _surface_errors(mirror, nodes, k, surf[k], tr)
-            if keep_displacements:
-                kept.append((k, sl, disp, ok))
-        lost[sl] = n_lost / n_all
-        depth[sl] = _depth_error(mirror, nodes, surf, tr, origin, rot, depth_pix)
+            slope[sl, k], ndev[sl, k] = _surface_errors(mirror, bank, k, surf[k], tr)
         if progress is not None:
-            progress.update(sl.stop - sl.start)
-    fig = TrialFigures(disp_rms, disp_max, slope, ndev, depth, lost)
+            progress.update(m)
+    if not calibrate:
+        cal = {k: v.copy() for k, v in raw.items()}
+    fig = TrialFigures(raw, cal, slope, ndev, lost, Calibration(rot, coeffs, span), tuple(float(r) for r in ranges_m))
     if keep_displacements:
         fig.extra["displacements"] = kept
     return fig
 
 
-def _interp_weights(x: np.ndarray, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Lower node index and weight of the upper node (linear; extrapolates past the ends)."""
-    if nodes.size == 1:
-        return np.zeros(x.shape, dtype=np.intp), np.zeros(x.shape)
-    j = np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, nodes.size - 2)
-    span = nodes[j + 1] - nodes[j]
-    w = np.where(span > 0, (x - nodes[j]) / np.where(span > 0, span, 1.0), 0.0)
-    return j, w
+def poses(tr: Trials, seat_pivot_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """The camera's pinhole (trials, 3) and rotation (camera -> mirror frame, (trials, 3, 3))
+    in the mirror's frame.
+
+    The camera is decentred (cam_x, cam_y), moved along the axis (cam_z) and turned about
+    its pinhole by R_c = R_y(tilt_y) R_x(tilt_x); the mirror is turned by S = R_y(seat_y)
+    R_x(seat_x) about the pivot C = (0, 0, seat_pivot_mm). In the mirror's frame the
+    pinhole is S^T (o - C) + C and the rotation S^T R_c: a seat tilt t moves the pinhole
+    sideways by seat_pivot_mm sin t (0.218 mm for 0.1 deg at 125 mm).
+    """
+    o = np.stack([tr.cam_x_mm, tr.cam_y_mm, tr.cam_z_mm], axis=1)
+    rc = _rot_yx(tr.tilt_x, tr.tilt_y)
+    s = _rot_yx(tr.seat_x, tr.seat_y)
+    st = np.transpose(s, (0, 2, 1))
+    c = np.array([0.0, 0.0, seat_pivot_mm])
+    origin = np.einsum("tij,tj->ti", st, o - c) + c
+    return origin, st @ rc
 
 
-def _trial_surface(nodes: NodeSurfaces, k: int, tr: Trials) -> tuple[np.ndarray, np.ndarray]:
-    """(z, slope) of lobe k of each trial on the node grid (trials, n): bilinear in nose and time."""
-    j, wj = _interp_weights(tr.nose_mm, nodes.nose_mm)
-    i, wt = _interp_weights(tr.time_s, nodes.time_s)
-    J, T = nodes.shape[1], nodes.shape[2]
-    j1 = np.minimum(j + 1, J - 1)
-    i1 = np.minimum(i + 1, T - 1)
-    p = tr.phase
-    out = []
-    for arr in (nodes.z[k], nodes.s[k]):
-        v = ((1 - wj) * (1 - wt))[:, None] * arr[p, j, i] + (wj * (1 - wt))[:, None] * arr[p, j1, i] \
-            + ((1 - wj) * wt)[:, None] * arr[p, j, i1] + (wj * wt)[:, None] * arr[p, j1, i1]
-        out.append(v)
-    z, s = out
-    return z + tr.tool_z_mm[:, None], s
-
-
-def _lookup(nodes: NodeSurfaces, k: int, grid: np.ndarray, rows: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Linear interpolation of per-trial grid values (trials, n) at radii q (trials, m)."""
-    g = (q - nodes.r0[k]) / nodes.dr[k]
-    i0 = np.clip(np.floor(g).astype(np.intp), 0, nodes.n[k] - 2)
-    f = g - i0
-    return grid[rows, i0] * (1.0 - f) + grid[rows, i0 + 1] * f
-
-
-def _poses(tr: Trials) -> tuple[np.ndarray, np.ndarray]:
-    """Pinhole positions (trials, 3) and rotations R = R_y(ty) R_x(tx) (trials, 3, 3)."""
-    origin = np.stack([tr.cam_x_mm, tr.cam_y_mm, tr.cam_z_mm], axis=1)
-    cx, sx, cy, sy = np.cos(tr.tilt_x), np.sin(tr.tilt_x), np.cos(tr.tilt_y), np.sin(tr.tilt_y)
+def _rot_yx(ax: np.ndarray, ay: np.ndarray) -> np.ndarray:
+    """R_y(ay) R_x(ax) for arrays of angles (rad)."""
+    cx, sx, cy, sy = np.cos(ax), np.sin(ax), np.cos(ay), np.sin(ay)
     zero, one = np.zeros_like(cx), np.ones_like(cx)
     rx = np.stack([np.stack([one, zero, zero], -1), np.stack([zero, cx, -sx], -1),
                    np.stack([zero, sx, cx], -1)], axis=1)
     ry = np.stack([np.stack([cy, zero, sy], -1), np.stack([zero, one, zero], -1),
                    np.stack([-sy, zero, cy], -1)], axis=1)
-    return origin, ry @ rx
+    return ry @ rx
 
 
-def _trace(mirror: Mirror, nodes: NodeSurfaces, k: int, surfs, tr: Trials, origin, rot, u, v):
+def _wrms(x: np.ndarray, w: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.sum(w * x**2, axis=1) / np.maximum(np.sum(w, axis=1), 1e-300))
+
+
+def _wquantile(x: np.ndarray, w: np.ndarray, q: float) -> np.ndarray:
+    """Weighted quantile per row (the smallest value with at least q of the weight at or
+    below it); weights 0 are ignored (x may be inf there)."""
+    order = np.argsort(x, axis=1)
+    xs = np.take_along_axis(x, order, axis=1)
+    ws = np.take_along_axis(w, order, axis=1)
+    cw = np.cumsum(ws, axis=1)
+    tot = cw[:, -1:]
+    idx = np.argmax(cw >= q * tot, axis=1)
+    return xs[np.arange(x.shape[0]), idx]
+
+
+def _lookup(bank: SurfaceBank, k: int, grid: np.ndarray, rows: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Linear interpolation of per-trial grid values (trials, n) at radii q (trials, m)."""
+    g = (q - bank.r0[k]) / bank.dr[k]
+    i0 = np.clip(np.floor(g).astype(np.intp), 0, bank.n[k] - 2)
+    f = g - i0
+    return grid[rows, i0] * (1.0 - f) + grid[rows, i0 + 1] * f
+
+
+def _sheet_hit(lobe, o: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Ray parameter s where o + s d meets the lobe's exact upper sheet
+    (z - e)^2 / a^2 - (x^2 + y^2) / b^2 = 1, z > e (the vertex plane where it misses)."""
+    a2, b2, e = lobe.a**2, lobe.b**2, lobe.e
+    oz = o[..., 2] - e
+    A = d[..., 2] ** 2 / a2 - (d[..., 0] ** 2 + d[..., 1] ** 2) / b2
+    B = 2.0 * (oz * d[..., 2] / a2 - (o[..., 0] * d[..., 0] + o[..., 1] * d[..., 1]) / b2)
+    C = oz**2 / a2 - (o[..., 0] ** 2 + o[..., 1] ** 2) / b2 - 1.0
+    disc = np.sqrt(np.maximum(B * B - 4.0 * A * C, 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r1, r2 = (-B + disc) / (2 * A), (-B - disc) / (2 * A)
+    best = np.full(np.broadcast(A, oz).shape, np.inf)
+    for r in (r1, r2):
+        up = np.isfinite(r) & (r > 0) & (oz + r * d[..., 2] > 0)
+        best = np.where(up & (r < best), r, best)
+    plane = (lobe.vertex_z - o[..., 2]) / d[..., 2]
+    return np.where(np.isfinite(best), best, plane)
+
+
+def _lookup_with_slope(bank: SurfaceBank, k: int, grid: np.ndarray, rows: np.ndarray, q: np.ndarray):
+    """_lookup and the slope of the interpolant (the cell's chord) at q."""
+    g = (q - bank.r0[k]) / bank.dr[k]
+    i0 = np.clip(np.floor(g).astype(np.intp), 0, bank.n[k] - 2)
+    f = g - i0
+    a, b = grid[rows, i0], grid[rows, i0 + 1]
+    return a * (1.0 - f) + b * f, (b - a) / bank.dr[k]
+
+
+def _trace(mirror: Mirror, bank: SurfaceBank, k: int, surfs, tr: Trials, origin, rot, u, v):
     """Hit points, reflected unit directions (trials, m, 3), and masks (trials, m): ok, the
     ray lands on lobe k (not the wall, the other lobe, past the rim); blocked, leaving the
-    recessed inner lobe it runs into the step wall (vignetted).
-    """
+    recessed inner lobe it runs into the step wall (vignetted). u, v: px, (m,) shared by
+    the trials or (trials, m) each its own."""
     surf = surfs[k]
     cam = mirror.camera
-    dc = np.stack([u * cam.t_pixel, v * cam.t_pixel, np.full_like(u, cam.f)], axis=-1)
+    dc = np.stack(np.broadcast_arrays(u * cam.t_pixel, v * cam.t_pixel, cam.f), axis=-1).astype(float)
     dc = dc / np.linalg.norm(dc, axis=-1, keepdims=True)
-    d = np.einsum("tij,mj->tmi", rot, dc)  # (trials, m, 3)
+    d = dc @ np.transpose(rot, (0, 2, 1))  # (trials, m, 3): each row R dc
     o = origin[:, None, :]
     z_grid, s_grid = surf
     rows = np.arange(len(tr))[:, None]
     lo, hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
     dx = tr.tool_x_mm[:, None]
-    # Start on the vertex height of the lobe; iterate s = (Z(rho(s)) - o_z) / d_z.
-    s = (mirror.lobes[k].vertex_z - o[..., 2]) / d[..., 2]
+    # Start where the ray meets the exact sheet; Newton on g(s) = Z(q(s)) - o_z - s d_z,
+    # q = |rho(s) - dx|, with Z' the interpolant's own slope (exact on its linear pieces):
+    # two or three steps where the plain fixed point s = (Z - o_z) / d_z, contracting by
+    # ~0.22, takes ~16.
+    s = _sheet_hit(mirror.lobes[k], o, d)
     for _ in range(_MAX_ITER):
         x = o[..., 0] + s * d[..., 0]
         y = o[..., 1] + s * d[..., 1]
-        q = np.clip(np.abs(np.hypot(x, y) - dx), lo, hi)
-        s_new = (_lookup(nodes, k, z_grid, rows, q) - o[..., 2]) / d[..., 2]
-        done = np.max(np.abs(s_new - s)) < 1e-11
-        s = s_new
-        if done:
+        rho = np.hypot(x, y)
+        q_raw = rho - dx
+        q = np.clip(np.abs(q_raw), lo, hi)
+        z, chord = _lookup_with_slope(bank, k, z_grid, rows, q)
+        g = z - o[..., 2] - s * d[..., 2]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            dq = np.sign(q_raw) * np.where(rho > 0, (x * d[..., 0] + y * d[..., 1]) / rho, 0.0)
+        inside = (np.abs(q_raw) > lo) & (np.abs(q_raw) < hi)
+        dg = np.where(inside, chord * dq, 0.0) - d[..., 2]
+        step = g / dg
+        s = s - step
+        if np.max(np.abs(step)) < 1e-11:
             break
+    # A ray that does not settle (it meets a near-vertical cell: the step's wall, a groove
+    # the nose cut into the lobe's edge) has no hit on the lobe's surface.
+    settled = np.abs(step) < 1e-9
     p = o + s[..., None] * d
     rho = np.hypot(p[..., 0], p[..., 1])
     q_raw = rho - dx
@@ -297,7 +391,11 @@ def _trace(mirror: Mirror, nodes: NodeSurfaces, k: int, surfs, tr: Trials, origi
     if k == 1:
         ok &= np.abs(q_raw) > lo
     q = np.clip(np.abs(q_raw), lo, hi)
-    slope = _lookup(nodes, k, s_grid, rows, q) * np.sign(np.where(q_raw == 0, 1.0, q_raw))
+    # Off the lobe's surface: where the made surface stands more than OFF_SURFACE_MM from the
+    # design (the step's wall or the groove a larger nose cuts into the outer lobe's edge,
+    # the rim a smaller one leaves on the inner lobe): the ray hit the wall, not the lobe.
+    ok &= settled & (np.abs(p[..., 2] - mirror.lobes[k].z(q)) < OFF_SURFACE_MM)
+    slope = _lookup(bank, k, s_grid, rows, q) * np.sign(np.where(q_raw == 0, 1.0, q_raw))
     # Normal (toward the camera) of z = Z(rho): (s x/rho, s y/rho, -1) / sqrt(1 + s^2).
     with np.errstate(invalid="ignore", divide="ignore"):
         er_x = np.where(rho > 0, p[..., 0] / rho, 1.0)
@@ -315,32 +413,18 @@ def _trace(mirror: Mirror, nodes: NodeSurfaces, k: int, surfs, tr: Trials, origi
             s_wall = (-b + np.sqrt(np.maximum(b * b - 4 * a * c, 0.0))) / (2 * a)
         z_cross = p[..., 2] + s_wall * out[..., 2]
         q_top = np.clip(np.abs(rj - tr.tool_x_mm), mirror.r_junction, mirror.r_max)
-        z_top = _lookup(nodes, 1, surfs[1][0], np.arange(len(tr)), q_top)
+        z_top = _lookup(bank, 1, surfs[1][0], np.arange(len(tr)), q_top)
         blocked = z_cross > z_top[:, None]
     else:
         blocked = np.zeros(ok.shape, bool)
     return p, out, ok, blocked
 
 
-def _displacement(mirror, nodes, k, surfs, tr, origin, rot, u, v):
-    """|image displacement| (px) of each sample pixel of each trial, and validity."""
-    # Image figures on the sample's pixels (the exact design's unvignetted ones) wherever the
-    # made ray lands on the lobe: the rule of radial.radial_figures and optics.distortion.
-    _, out, ok, _ = _trace(mirror, nodes, k, surfs, tr, origin, rot, u, v)
-    horiz = np.hypot(out[..., 0], out[..., 1])
-    rho_id = ideal_radius_px(mirror.lobes[k], mirror.camera, np.arctan2(out[..., 2], horiz))
-    with np.errstate(invalid="ignore"):
-        cu, cv = out[..., 0] / horiz, out[..., 1] / horiz
-    disp = np.hypot(rho_id * cu - u[None, :], rho_id * cv - v[None, :])
-    ok = ok & np.isfinite(disp)
-    return np.where(ok, disp, np.nan), ok
-
-
-def _surface_errors(mirror, nodes, k, surf, tr, stride: int = 4):
+def _surface_errors(mirror: Mirror, bank: SurfaceBank, k: int, surf, tr: Trials, stride: int = 4):
     """RMS slope error (rad) and RMS normal deviation (mm) of lobe k per trial, uniform in r
     over the extent the image uses (radial.used_extent)."""
     lobe = mirror.lobes[k]
-    r = nodes.r0[k] + nodes.dr[k] * np.arange(0, nodes.n[k], stride)
+    r = bank.r0[k] + bank.dr[k] * np.arange(0, bank.n[k], stride)
     if k == 1:
         r[0] = np.nextafter(r[0], np.inf)
     u_lo, u_hi = used_extent(mirror, k)
@@ -349,46 +433,62 @@ def _surface_errors(mirror, nodes, k, surf, tr, stride: int = 4):
     rows = np.arange(len(tr))[:, None]
     q_raw = r[None, :] - tr.tool_x_mm[:, None]
     q = np.clip(np.abs(q_raw), lo, hi)
-    z = _lookup(nodes, k, surf[0], rows, q)
-    s = _lookup(nodes, k, surf[1], rows, q) * np.sign(np.where(q_raw == 0, 1.0, q_raw))
+    z = _lookup(bank, k, surf[0], rows, q)
+    s = _lookup(bank, k, surf[1], rows, q) * np.sign(np.where(q_raw == 0, 1.0, q_raw))
     s_ex = lobe.slope(r)[None, :]
     slope_err = np.arctan(s) - np.arctan(s_ex)
     ndev = (z - lobe.z(r)[None, :]) / np.sqrt(1.0 + s_ex**2)
-    return np.sqrt(np.mean(slope_err**2, axis=1)), np.sqrt(np.mean(ndev**2, axis=1))
+    # A point off the lobe's surface (perturb._trace's rule: the wall moved into the lobe) is
+    # no slope of the lobe; its pixels count as lost instead.
+    on = np.abs(z - lobe.z(q)) < OFF_SURFACE_MM
+    cnt = np.maximum(np.sum(on, axis=1), 1)
+    return (np.sqrt(np.sum(np.where(on, slope_err**2, 0.0), axis=1) / cnt),
+            np.sqrt(np.sum(np.where(on, ndev**2, 0.0), axis=1) / cnt))
 
 
-def _depth_pixels(mirror: Mirror, range_m: float, n_elev: int, n_azimuth: int = 4):
-    """World points at range_m from the stereo centre and the exact pixels (u, v) of each lobe."""
-    elev = band_elevations(mirror, n_elev) if n_elev > 1 else np.array([np.mean(mirror.common_band)])
-    psi = np.arange(n_azimuth) * (2.0 * math.pi / n_azimuth)
-    e, a = np.meshgrid(elev, psi, indexing="ij")
-    e, a = e.ravel(), a.ravel()
-    rng = range_m * 1e3
-    zc = stereo_centre_z(mirror)
-    w = np.stack([rng * np.cos(e) * np.cos(a), rng * np.cos(e) * np.sin(a), zc + rng * np.sin(e)], -1)
-    pix = []
-    for lobe in mirror.lobes:
-        phi = np.arctan2(w[:, 2] - lobe.focus_z, rng * np.cos(e))
-        rho = ideal_radius_px(lobe, mirror.camera, phi)
-        pix.append((rho * np.cos(a), rho * np.sin(a)))
-    unit = np.stack([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)], -1)
-    return {"w": w, "unit": unit, "range": rng, "zc": zc, "pix": pix}
+def _stereo(mirror: Mirror, bank: SurfaceBank, surf, tr: Trials, origin, rot, sp: StereoPoints,
+            model: Calibration) -> dict[str, np.ndarray]:
+    """Stereo figures of each trial at each range, against `model`.
 
-
-def _depth_error(mirror, nodes, surf, tr, origin, rot, dp) -> np.ndarray:
-    """RMS over the depth points of |depth error| (%) of each trial, each point capped at
-    optics.stereo.FAILED_PCT (a lost point counts at the cap)."""
-    from ..optics.stereo import triangulate
-
+    The model believes a pixel pair shows the point W where its two model rays cross;
+    take the pair the model assigns to W (model_pixels of the directions from each F1 to
+    W), trace the two pixels through the trial's made mirror and camera, and cross the
+    made rays at X: the point the robot actually sees there. Depth error = 100 (R_X - R)
+    / R, R_X the signed range of X along W's direction; parallax error delta =
+    B cos(elevation) (1 / R - 1 / R_X) (first order; finite where the depth error
+    diverges), in px: |delta| / px_scale. A point either lobe does not show (ray off its
+    lobe, vignetted) is not seen.
+    """
+    n = len(tr)
+    R, M = sp.w.shape[:2]
+    w_all = sp.w.reshape(-1, 3)
     rays = []
-    for k in (0, 1):
-        u, v = dp["pix"][k]
-        p, o, ok, blocked = _trace(mirror, nodes, k, surf, tr, origin, rot, u, v)
-        rays.append((p, o, ok & ~blocked))  # a vignetted ray sees no point
+    for k, lobe in enumerate(mirror.lobes):
+        dirs = w_all - np.array([0.0, 0.0, lobe.focus_z])
+        dirs = dirs / np.linalg.norm(dirs, axis=-1, keepdims=True)
+        u, v = model_pixels(mirror, k, np.broadcast_to(dirs, (n,) + dirs.shape), model)
+        bad = ~(np.isfinite(u) & np.isfinite(v))
+        u, v = np.where(bad, 0.0, u), np.where(bad, 0.0, v)
+        p, o, ok, blocked = _trace(mirror, bank, k, surf, tr, origin, rot, u, v)
+        rays.append((p, o, ok & ~blocked & ~bad))
     x = triangulate(rays[0][0], rays[0][1], rays[1][0], rays[1][1])
-    r_made = np.sum((x - np.array([0.0, 0.0, dp["zc"]])) * dp["unit"][None], axis=-1)
-    err = 100.0 * (r_made - dp["range"]) / dp["range"]
-    # A point a lobe cannot see counts as a total failure, not as a success; so does one whose
-    # rays cross (nearly) parallel or behind, where the error diverges: optics.stereo's cap.
-    err = np.where(rays[0][2] & rays[1][2], err, np.nan)
-    return np.sqrt(np.mean(capped_abs_error(err) ** 2, axis=1))
+    unit = np.tile(sp.unit, (R, 1))
+    rng = np.repeat(sp.range_mm, M)
+    r_made = np.sum((x - np.array([0.0, 0.0, sp.centre_z])) * unit[None], axis=-1)
+    seen = rays[0][2] & rays[1][2] & np.isfinite(r_made)
+    err = np.where(seen, 100.0 * (r_made - rng) / rng, np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        delta = np.tile(sp.parallax_base, R) * (1.0 / rng - 1.0 / r_made)
+    px = np.where(seen, np.abs(delta) / np.tile(sp.px_scale, R), np.inf)
+    out = {key: np.empty((n, R)) for key in STEREO_FIGURES}
+    w1 = np.ones((n, M))
+    for i in range(R):
+        cols = slice(i * M, (i + 1) * M)
+        e, d, s = err[:, cols], px[:, cols], seen[:, cols]
+        out["disparity_px_median"][:, i] = _wquantile(d, w1, 0.5)
+        out["disparity_px_p90"][:, i] = _wquantile(d, w1, 0.9)
+        out["within_5_pct"][:, i] = np.mean(s & (np.abs(np.nan_to_num(e, nan=np.inf)) <= 5.0), axis=1)
+        out["within_10_pct"][:, i] = np.mean(s & (np.abs(np.nan_to_num(e, nan=np.inf)) <= 10.0), axis=1)
+        out["seen_fraction"][:, i] = np.mean(s, axis=1)
+        out["depth_error_pct_rms"][:, i] = np.sqrt(np.mean(capped_abs_error(e) ** 2, axis=1))
+    return out

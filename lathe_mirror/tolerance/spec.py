@@ -7,22 +7,33 @@ converts to mm and radians.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..enums import Distribution, Program
 
 
 @dataclass(frozen=True)
 class Spec:
-    """Limits (defaults: lathe_mirror/data/tolerance.toml). image_displacement_px: per-lobe
-    RMS, px. depth_error_pct: RMS |depth error| over the common band at depth_range_m (m),
-    each point capped at 100 % (optics.stereo.FAILED_PCT), %. slope_error_rad: per-lobe RMS
-    over the radii the image uses, rad."""
+    """Limits (defaults: lathe_mirror/data/tolerance.toml).
+
+    image_displacement_px: per-lobe RMS image displacement, px (after calibration when
+    `calibrated`: the residual of the calibration fit).
+    depth_error_pct at depth_range_m (m): the stereo limit, %. It is judged as a
+    disparity-equivalent error: the parallax error that this depth error means at the
+    band's median elevation (to first order, depth_error_pct / 100 of the parallax angle),
+    in pixels of image position (montecarlo.disparity_limit_px; 0.44 px for 20 % at 1 m
+    on the paper mirror), against the 90th percentile over the band's points.
+    slope_error_rad: per-lobe RMS over the radii the image uses, rad.
+    calibrated: judge the figures left after what a user's calibration removes (the
+    camera's rotation, a smooth radial mapping per lobe: tolerance.calibration) instead
+    of the raw ones against the design's own model.
+    """
 
     image_displacement_px: float
     depth_error_pct: float
     depth_range_m: float
     slope_error_rad: float
+    calibrated: bool = True
 
 
 #: The toleranced parameters, in table order: key -> (what it is, unit at the edge).
@@ -34,10 +45,14 @@ PARAMETERS: dict[str, tuple[str, str]] = {
     "tool_z_mm": ("tool setting error along the axis", "mm"),
     "polish_time_s": ("polishing time", "s"),
     "camera_decentre_mm": ("camera pinhole off the mirror axis (x and y)", "mm"),
-    "camera_tilt_deg": ("camera axis tilt (about x and y)", "deg"),
-    "camera_axial_mm": ("camera pinhole along the axis", "mm"),
+    "camera_tilt_deg": ("camera axis tilt about its pinhole (x and y)", "deg"),
+    "camera_axial_mm": ("lens entrance pupil along the axis", "mm"),
+    "seat_tilt_deg": ("mirror seat tilt about the seat pivot (x and y)", "deg"),
 }
 
+#: The parameters the Monte Carlo draws and the allocation may tighten, in draw order.
+DRAWN = ("nose_radius_mm", "polish_time_s", "tool_x_mm", "tool_z_mm", "camera_decentre_mm",
+         "camera_axial_mm", "camera_tilt_deg", "seat_tilt_deg")
 
 #: Largest sparse pixel sample per lobe (rays): image-radius bins x azimuths.
 MAX_SAMPLE_RAYS = 200_000
@@ -45,7 +60,15 @@ MAX_SAMPLE_RAYS = 200_000
 
 @dataclass(frozen=True)
 class ToleranceSettings:
-    """Everything the tolerance analysis reads from [tolerance]."""
+    """Everything the tolerance analysis reads from [tolerance].
+
+    seat_pivot_mm: height above the pinhole (mm, on the axis) of the point the mirror's
+    seat tilts about. nose_step_mm: the drawn nose radius is rounded to this step and the
+    part re-machined with it (mm). matching_noise_px: the stereo matcher's sub-pixel noise
+    (px), the floor of the depth error. target_yield: the allocation's target (0..1).
+    cost: relative cost of holding each drawn parameter at its configured tolerance
+    (tightening it by a factor k costs k times as much).
+    """
 
     seed: int
     trials: int
@@ -57,3 +80,12 @@ class ToleranceSettings:
     depth_points: int
     spec: Spec
     tolerances: dict[str, float]  # PARAMETERS' keys except lattice_phase; edge units
+    seat_pivot_mm: float = 125.0
+    nose_step_mm: float = 0.001
+    matching_noise_px: float = 0.1
+    target_yield: float = 0.95
+    cost: dict[str, float] = field(default_factory=dict)
+
+    def spec_dict(self) -> dict:
+        """The spec as JSON-ready key -> value."""
+        return dict(self.spec.__dict__)

@@ -1,0 +1,278 @@
+"""What the shop must tighten: inverse sensitivity and a least-cost allocation to a yield.
+
+Inverse sensitivity: for each parameter, the largest +/- offset that alone keeps each
+judged criterion within its share of the margin. The margin of a criterion is what its
+limit leaves above the nominal part's worst lattice phase, taken in squares (independent
+errors add in quadrature: c^2 = c0^2 + sum_i h_i(x_i)), and split evenly among the
+toleranced parameters: h_i(x) <= (limit^2 - c0^2) / N.
+
+Allocation: the response scans (sensitivity.responses) give each parameter's h_i(x) per
+criterion; the surrogate c_j^2 = c0_j(phase)^2 + sum_i h_ij(x_i) judges thousands of draws
+at the cost of a lookup. A greedy least-cost search (marginal analysis) tightens, one
+rung of TIGHTEN at a time, the parameter whose rung buys the most surrogate yield per unit
+of cost (cost of parameter i at k times tighter: cost_i x k, [tolerance.cost]), until the
+surrogate yield reaches the yield a Monte Carlo of n trials must show for its Wilson 95 %
+interval to clear the target; then loosens back any rung not needed. A fresh Monte Carlo
+(seed + 1) with the allocated tolerances confirms it; if it falls short, the surrogate's
+aim is raised by the shortfall and the search continues (at most ROUNDS times).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .montecarlo import CRITERIA, Context, MonteCarloResult, run_monte_carlo
+from .sensitivity import Responses
+from .spec import PARAMETERS, Distribution
+from .stats import percent_interval, wilson, yield_to_show
+
+#: One rung of tightening: the tolerance times this.
+TIGHTEN = 0.8
+#: Rungs down from the configured tolerance (0.8^20 ~ 1/87).
+MAX_RUNGS = 20
+#: Draws of the surrogate (common random numbers for every candidate).
+SURROGATE_DRAWS = 4000
+#: Confirming Monte Carlo runs at most.
+ROUNDS = 3
+#: Parameters drawn as a pair (x, y) whose response depends on the magnitude.
+PAIRED = ("camera_decentre_mm", "camera_tilt_deg", "seat_tilt_deg")
+
+
+@dataclass
+class Surrogate:
+    """The additive-in-squares model of the judged criteria, from the response scans."""
+
+    resp: Responses
+    limits: np.ndarray  # (criteria,)
+
+    def squares(self, key: str, x: np.ndarray) -> np.ndarray:
+        """h_ij(x): the increase of each criterion's square with parameter `key` at x (edge
+        units), (..., criteria); linear between the scan points, growing as x^2 beyond."""
+        v = self.resp.values[key]
+        c = self.resp.criteria[key]
+        c0 = c[np.searchsorted(self.resp.fractions, 0.0)]
+        with np.errstate(invalid="ignore"):
+            h = c**2 - c0**2
+        h = np.where(np.isfinite(h), h, 1e30)
+        x = np.asarray(x, float)
+        out = np.empty(x.shape + (c.shape[1],))
+        for j in range(c.shape[1]):
+            out[..., j] = np.interp(x, v, h[:, j])
+            lo, hi = v[0], v[-1]
+            out[..., j] = np.where(x > hi, h[-1, j] * (x / hi) ** 2, out[..., j])
+            out[..., j] = np.where(x < lo, h[0, j] * (x / lo) ** 2, out[..., j])
+        return out
+
+    def criteria(self, phase: np.ndarray, x: dict[str, np.ndarray]) -> np.ndarray:
+        """Surrogate criteria (draws, criteria) for phase indices and offsets x[key]."""
+        sq = self.resp.phases[phase] ** 2
+        sq = np.where(np.isfinite(sq), sq, 1e30)
+        for key, val in x.items():
+            sq = sq + self.squares(key, val)
+        return np.sqrt(np.maximum(sq, 0.0))
+
+    def passes(self, phase: np.ndarray, x: dict[str, np.ndarray]) -> np.ndarray:
+        return np.all(self.criteria(phase, x) <= self.limits, axis=1)
+
+
+def inverse_sensitivity(resp: Responses, limits: dict[str, float]) -> list[dict]:
+    """Per parameter: the largest +/- offset (edge units) that alone keeps each criterion
+    within its share of the margin ((limit^2 - c0^2) / N, c0 the worst lattice phase's
+    nominal), the smallest of them and the criterion that sets it. An offset at the end of
+    the scan means "at least this much"; 0 means the nominal part leaves no margin."""
+    lim = np.array([limits[c] for c in CRITERIA])
+    c0 = np.max(resp.phases, axis=0)
+    n = max(len(resp.keys), 1)
+    share = (lim**2 - c0**2) / n
+    rows = []
+    for key in resp.keys:
+        v = resp.values[key]
+        c = resp.criteria[key]
+        mid = np.searchsorted(resp.fractions, 0.0)
+        with np.errstate(invalid="ignore"):
+            h = np.where(np.isfinite(c), c**2 - c[mid] ** 2, np.inf)
+        per = {}
+        for j, crit in enumerate(CRITERIA):
+            if share[j] <= 0:
+                per[crit] = 0.0
+                continue
+            sides = []
+            for side in (slice(mid, None), slice(mid, None, -1)):
+                xs, hs = np.abs(v[side]), h[side, j]
+                over = np.flatnonzero(hs > share[j])
+                if over.size == 0:
+                    sides.append(float(xs[-1]))
+                    continue
+                i = int(over[0])
+                # linear between the last point within the share and the first beyond it
+                x0, x1, h0, h1 = xs[i - 1], xs[i], hs[i - 1], hs[i]
+                sides.append(float(x0 + (x1 - x0) * (share[j] - h0) / (h1 - h0)) if np.isfinite(h1) else float(x0))
+            per[crit] = min(sides)
+        limiting = min(per, key=per.get)
+        rows.append({"parameter": key, "unit": PARAMETERS[key][1], "tolerance": resp.tolerances[key],
+                     "largest": per[limiting], "limited_by": limiting, "per_criterion": per,
+                     "scanned_to": float(abs(resp.values[key][-1]))})
+    return rows
+
+
+def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: float | None = None,
+             progress: bool = False) -> tuple[dict, MonteCarloResult | None]:
+    """Least-cost tolerances that reach the target yield (default the settings'), confirmed
+    by a fresh Monte Carlo; mc is the Monte Carlo at the configured tolerances (its trials
+    check the surrogate). Returns the JSON-ready allocation and the last confirming Monte
+    Carlo (None when the configured tolerances already reach the target)."""
+    s = ctx.settings
+    target = s.target_yield if target is None else float(target)
+    n = s.trials
+    lim = np.array([ctx.limits[c] for c in CRITERIA])
+    sur = Surrogate(resp, lim)
+    keys = resp.keys
+    base = {k: s.tolerances[k] for k in keys}
+    cost = {k: s.cost.get(k, 1.0) for k in keys}
+    # Common random numbers: one set of standard draws for every candidate.
+    rng = np.random.default_rng(s.seed + 2)
+    phase = rng.integers(0, len(ctx.bank.phases), SURROGATE_DRAWS)
+    std = {}
+    for k in keys:
+        m = 2 if k in PAIRED else 1
+        if s.distribution is Distribution.NORMAL:
+            std[k] = rng.normal(0.0, 1.0 / 3.0, (m, SURROGATE_DRAWS))
+        else:
+            std[k] = rng.uniform(-1.0, 1.0, (m, SURROGATE_DRAWS))
+
+    def offsets(scale: dict[str, float]) -> dict[str, np.ndarray]:
+        out = {}
+        for k in keys:
+            d = std[k] * base[k] * scale[k]
+            out[k] = np.hypot(d[0], d[1]) if k in PAIRED else d[0]
+        return out
+
+    def surrogate_yield(scale: dict[str, float]) -> float:
+        return float(np.mean(sur.passes(phase, offsets(scale))))
+
+    check = _surrogate_check(sur, mc, keys)
+    rungs = {k: 0 for k in keys}
+    scale = {k: 1.0 for k in keys}
+    aim = yield_to_show(target, n)
+    history = []
+    confirm = None
+    reached = mc.yield_fraction >= target
+    rounds = 0
+    nominal_fails = [c for j, c in enumerate(CRITERIA) if not np.min(resp.phases[:, j]) <= lim[j]]
+    unreachable = ""
+    if nominal_fails:
+        unreachable = ("no tolerance can fix it: the nominal part fails " + ", ".join(
+            f"{c} ({_num(float(np.min(resp.phases[:, CRITERIA.index(c)])))} > {_num(ctx.limits[c])})"
+            for c in nominal_fails) + " at every lattice phase")
+    while not reached and not unreachable and rounds < ROUNDS:
+        rungs, scale, y_sur = _greedy(surrogate_yield, rungs, cost, aim)
+        if y_sur < aim and rounds == 0:
+            unreachable = (f"the surrogate reaches only {100 * y_sur:.1f} % with every useful tolerance "
+                           f"tightened up to {1 / TIGHTEN ** MAX_RUNGS:.0f} times")
+            scale = {k: 1.0 for k in keys}
+            break
+        rounds += 1
+        tol = {k: base[k] * scale[k] for k in keys}
+        confirm = run_monte_carlo(ctx, seed=s.seed + rounds, tolerances={**s.tolerances, **tol},
+                                  progress=progress, desc=f"tolerance: confirming the allocation ({rounds})")
+        k_pass = int(np.sum(confirm.pass_all))
+        history.append({"round": rounds, "aim": aim, "surrogate_yield": y_sur, "yield": k_pass / n,
+                        "yield_wilson95": list(wilson(k_pass, n)), "seed": confirm.seed,
+                        "tolerances": {k: tol[k] for k in keys}})
+        reached = confirm.yield_fraction >= target
+        if not reached:
+            if y_sur < aim:  # the surrogate could not reach its aim: nothing left to tighten
+                break
+            aim = min(1.0, aim + (target - confirm.yield_fraction) + 1.0 / n)
+    rows = []
+    for k in keys:
+        rows.append({"parameter": k, "what": PARAMETERS[k][0], "unit": PARAMETERS[k][1], "tolerance": base[k],
+                     "allocated": base[k] * scale[k], "factor": scale[k], "cost": cost[k],
+                     "tighten": scale[k] < 1.0})
+    total0 = sum(cost.values())
+    total = sum(cost[k] / scale[k] for k in keys)
+    final = confirm if confirm is not None else mc
+    k_final = int(np.sum(final.pass_all))
+    out = {"program": ctx.program.value, "target_yield": target, "trials": n, "reached": bool(reached),
+           "yield": k_final / n, "yield_wilson95": list(wilson(k_final, n)), "seed": final.seed,
+           "confirmed_by": "a fresh Monte Carlo" if confirm is not None else "the Monte Carlo at the configured tolerances",
+           "rounds": history, "tolerances": rows, "cost_ratio": total / total0 if total0 > 0 else 1.0,
+           "surrogate": {"draws": SURROGATE_DRAWS, "yield_at_configured": surrogate_yield({k: 1.0 for k in keys}),
+                         **check},
+           "unreachable": unreachable,
+           "statement": statement(target, reached, rows, k_final, n, unreachable)}
+    return out, confirm
+
+
+def statement(target: float, reached: bool, rows: list[dict], k: int, n: int, unreachable: str = "") -> str:
+    """One sentence: what to tighten to reach the target, and the yield that shows it."""
+    got = percent_interval(k, n)
+    tight = [r for r in rows if r["tighten"]]
+    goal = f"{100 * target:g} %"
+    if not tight and reached:
+        return f"already at {goal}: yield {got} at the configured tolerances; nothing to tighten"
+    what = ", ".join(f"{r['parameter']} to +/-{_num(r['allocated'])} {r['unit']} (from {_num(r['tolerance'])})"
+                     for r in tight)
+    if reached:
+        return f"to reach {goal}: tighten {what}; confirmed yield {got}"
+    if unreachable:
+        return f"{goal} is out of reach by tightening: {unreachable}; yield {got}"
+    return f"{goal} not confirmed: tightening {what or 'nothing'} gave a yield of {got}"
+
+
+def _greedy(surrogate_yield, rungs: dict[str, int], cost: dict[str, float], aim: float):
+    """Tighten rung by rung where the surrogate yield per unit cost gains most, until `aim`;
+    then loosen every rung that is not needed. Returns (rungs, scales, surrogate yield)."""
+    def scales(r):
+        return {k: TIGHTEN ** r[k] for k in r}
+
+    r = dict(rungs)
+    y = surrogate_yield(scales(r))
+    while y < aim:
+        best, best_gain, best_y = None, 0.0, y
+        for k in r:
+            if r[k] >= MAX_RUNGS:
+                continue
+            trial = {**r, k: r[k] + 1}
+            yk = surrogate_yield(scales(trial))
+            dc = cost[k] * (TIGHTEN ** -trial[k] - TIGHTEN ** -r[k])
+            gain = (yk - y) / dc
+            if yk > y and gain > best_gain:
+                best, best_gain, best_y = k, gain, yk
+        if best is None:
+            break
+        r[best] += 1
+        y = best_y
+    changed = True
+    while changed and y >= aim:
+        changed = False
+        for k in sorted(r, key=lambda k: -cost[k]):
+            if r[k] == 0:
+                continue
+            trial = {**r, k: r[k] - 1}
+            yk = surrogate_yield(scales(trial))
+            if yk >= aim:
+                r, y, changed = trial, yk, True
+    return r, scales(r), y
+
+
+def _surrogate_check(sur: Surrogate, mc: MonteCarloResult, keys) -> dict:
+    """The surrogate on the Monte Carlo's own trials: its yield and how often it agrees
+    with the traced pass / fail."""
+    t = mc.trials
+    deg = 180.0 / math.pi
+    x = {"nose_radius_mm": t.nose_mm - mc.nominal_nose_mm, "polish_time_s": t.time_s - mc.nominal_time_s,
+         "tool_x_mm": t.tool_x_mm, "tool_z_mm": t.tool_z_mm, "camera_decentre_mm": np.hypot(t.cam_x_mm, t.cam_y_mm),
+         "camera_axial_mm": t.cam_z_mm, "camera_tilt_deg": np.hypot(t.tilt_x, t.tilt_y) * deg,
+         "seat_tilt_deg": np.hypot(t.seat_x, t.seat_y) * deg}
+    pred = sur.passes(t.phase, {k: x[k] for k in keys})
+    actual = mc.pass_all
+    return {"yield_on_monte_carlo_trials": float(np.mean(pred)), "monte_carlo_yield": float(np.mean(actual)),
+            "agreement": float(np.mean(pred == actual))}
+
+
+def _num(v: float) -> str:
+    return f"{v:.3g}"

@@ -1,0 +1,235 @@
+"""The made surfaces the trials are cut with: one program's part, re-machined per trial.
+
+What varies from part to part in the shop, and how each trial gets its own surface:
+
+- the lattice phase (where the work zero falls on the controller's lattice): one of
+  `phases` realisations, each a program planned, cut and polished
+  (pipeline.made_surface, then the polishing snapshots), drawn uniformly;
+- the nose radius: the drawn nose, rounded to `nose_step` (mm), is the nose the part is
+  cut with: a machining of its own (made when a trial first draws it), not a blend of
+  neighbouring surfaces. A nose larger than the program's moves the step's wall into the
+  outer lobe (a groove as wide as the excess) and a smaller one leaves a rim as wide on
+  the inner lobe, besides moving the whole cut along the normal: features that appear and
+  move with the nose, which interpolating between surfaces cut with other noses smears
+  (measured on the best program at 0.205 mm, between nodes 0.2 and 0.21 mm: 1.55 px
+  interpolated against 2.41 px re-machined, in the old figures);
+- the polishing time: linear between snapshots of each surface's one polishing run.
+
+What the nose changes is carried through polishing unchanged (repolish=False, the
+default): the trial's surface is its phase's polished part plus the difference between
+the phase-0 part cut with the trial's nose and cut with the programmed one. Polishing
+removes the same layer from a cut moved along its normal, and the pad does not reach a
+groove or rim a few micrometres wide at the step. repolish=True polishes each nose's
+part instead; polishing.py then treats the groove's bottom as the outer lobe's edge (its
+pad fit spreads a 1.3 mm deep sample over the 6 mm pad: ~8 px over 2 mm of the lobe) and,
+for a smaller nose, takes the rim for the other lobe's step (polishing._recessed_lobe
+flips), so the figures jump with how the wall falls on the 5 um polishing grid.
+
+The phase and the nose combine additively (the phase's surface plus the nose's change
+on the phase-0 part): the phase moves the program along the axis on the lattice, the
+nose moves the cut along the normal and the wall across it, so the two barely interact;
+benchmarks/bench_tolerance.py --bias measures it against parts cut with both at once.
+
+Each surface is sampled per lobe on the polishing grid (z and slope, camera frame, mm).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from ..design import Mirror
+from ..profile import Profile
+
+#: Polishing-time snapshots per machined surface, as fractions of the time tolerance.
+TIME_NODES = (-1.0, -0.5, 0.0, 0.5, 1.0)
+#: Slope (dimensionless) by which the chords either side of a sample must differ for the
+#: sample to sit at a jump (the step's wall, a groove): 0.5 is a kink of ~25 deg, far
+#: beyond any facet of a program on the lattice.
+JUMP_SLOPE = 0.5
+
+
+class SurfaceBank:
+    """Sampled made surfaces of one program's part: per lattice phase (cut with the
+    programmed nose, polished at `time_s`) and per nose radius drawn (cut at phase 0).
+
+    machine_at(phase, nose_radius) -> a made surface (attribute `profile`, camera frame):
+    the pipeline's builder for the program, cut at that lattice phase (steps) with a nose
+    of that radius (mm). Phases are made up front, noses on demand (`ensure`).
+    polish_params: the polishing (None: the surfaces are used as cut).
+    """
+
+    def __init__(self, mirror: Mirror, machine_at: Callable, polish_params, time_s: np.ndarray,
+                 phases: np.ndarray, nose0: float, nose_step: float, *, grid_step_mm: float | None = None,
+                 repolish: bool = False, progress=None):
+        self.mirror = mirror
+        self.machine_at = machine_at
+        self.polish_params = polish_params
+        self.repolish = bool(repolish) and polish_params is not None
+        self.time_s = np.asarray(time_s, float)
+        self.phases = np.asarray(phases, float)
+        self.nose0 = float(nose0)
+        self.nose_step = float(nose_step)
+        step = grid_step_mm if grid_step_mm is not None else polish_params.grid_step_mm
+        grids = []
+        for k in (0, 1):
+            lo, hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
+            n = int(math.ceil((hi - lo) / step)) + 1
+            grids.append((lo, (hi - lo) / (n - 1), n))
+        self.r0 = (grids[0][0], grids[1][0])
+        self.dr = (grids[0][1], grids[1][1])
+        self.n = (grids[0][2], grids[1][2])
+        T = self.time_s.size
+        self.phase_z = [np.empty((self.phases.size, T, n)) for n in self.n]
+        self.phase_s = [np.empty((self.phases.size, T, n)) for n in self.n]
+        self.source = ""
+        self._cut0: list[tuple[np.ndarray, np.ndarray]] = []
+        for p, ph in enumerate(self.phases):
+            made = machine_at(float(ph), self.nose0)
+            if p == 0:
+                self.source = made.source
+                self._cut0 = self._sample(made.profile, polished=False)
+            for k, (z, s) in enumerate(self._sample(made.profile)):
+                self.phase_z[k][p], self.phase_s[k][p] = z, s
+            if progress is not None:
+                progress.update(1)
+        #: nose offset index m (nose = nose0 + m nose_step) -> row of the nose tables
+        self._rows: dict[int, int] = {0: 0}
+        self._nose_dz = [[np.zeros((T, n))] for n in self.n]
+        self._nose_ds = [[np.zeros((T, n))] for n in self.n]
+
+    @classmethod
+    def fixed(cls, mirror: Mirror, profile: Profile, grid_step_mm: float, *, nose_mm: float = 0.2,
+              time_s: float = 0.0) -> "SurfaceBank":
+        """A bank holding one given surface (its z and slope on the grid, not polished):
+        every trial is cut the same, whatever its phase, nose and polishing time."""
+        return cls(mirror, lambda phase, nose: _Given(profile), None, np.array([time_s]), np.array([0.0]),
+                   nose_mm, 1.0, grid_step_mm=grid_step_mm)
+
+    # ----------------------------------------------------------------------------------
+
+    @property
+    def nose_mm(self) -> np.ndarray:
+        """The nose radii (mm) cut so far, in the order they were cut."""
+        return np.array([self.nose0 + m * self.nose_step for m in self._rows])
+
+    def nose_index(self, nose_mm: np.ndarray) -> np.ndarray:
+        """Offset index m of each nose radius (mm) on the nose step (rounded)."""
+        return np.rint((np.asarray(nose_mm, float) - self.nose0) / self.nose_step).astype(np.int64)
+
+    def snapped(self, nose_mm: np.ndarray) -> np.ndarray:
+        """The nose radius each trial is cut with: nose_mm rounded to the step (mm)."""
+        return self.nose0 + self.nose_index(nose_mm) * self.nose_step
+
+    def missing(self, nose_mm: np.ndarray) -> np.ndarray:
+        """Offset indices of the noses (mm, rounded to the step) not cut yet."""
+        m = np.unique(self.nose_index(nose_mm))
+        return np.array([int(i) for i in m if int(i) not in self._rows], dtype=np.int64)
+
+    def ensure(self, nose_mm: np.ndarray, progress=None) -> int:
+        """Cut (at phase 0) every nose radius (mm, rounded to the step) not cut yet, and
+        polish it when repolish; returns how many were cut."""
+        todo = self.missing(nose_mm)
+        for m in todo:
+            nose = self.nose0 + int(m) * self.nose_step
+            if not nose > 0:
+                raise ValueError(f"nose radius {nose:g} mm: a trial drew a nose <= 0")
+            made = self.machine_at(0.0, nose)
+            if self.repolish:
+                for k, (z, s) in enumerate(self._sample(made.profile)):
+                    self._nose_dz[k].append(z - self.phase_z[k][0])
+                    self._nose_ds[k].append(s - self.phase_s[k][0])
+            else:
+                for k, (z, s) in enumerate(self._sample(made.profile, polished=False)):
+                    shape = self.phase_z[k].shape[1:]  # the same change at every snapshot
+                    self._nose_dz[k].append(np.broadcast_to(z[0] - self._cut0[k][0][0], shape))
+                    self._nose_ds[k].append(np.broadcast_to(s[0] - self._cut0[k][1][0], shape))
+            self._rows[int(m)] = len(self._rows)
+            if progress is not None:
+                progress.update(1)
+        return len(todo)
+
+    def trial_surface(self, k: int, phase: np.ndarray, nose_mm: np.ndarray, time_s: np.ndarray,
+                      tool_z_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(z, slope) of lobe k of each trial on the lobe's grid, shape (trials, n): its
+        phase's surface plus its nose's change, linear in polishing time between the
+        snapshots, the whole surface moved tool_z_mm (mm) along the axis."""
+        rows = np.array([self._rows[int(m)] for m in self.nose_index(nose_mm)], dtype=np.intp)
+        i, wt = _interp_weights(np.asarray(time_s, float), self.time_s)
+        i1 = np.minimum(i + 1, self.time_s.size - 1)
+        w0, w1 = (1.0 - wt)[:, None], wt[:, None]
+        p = np.asarray(phase, np.intp)
+        used = np.unique(rows)
+        local = np.searchsorted(used, rows)
+        dz = np.stack([self._nose_dz[k][j] for j in used])
+        ds = np.stack([self._nose_ds[k][j] for j in used])
+        z = w0 * (self.phase_z[k][p, i] + dz[local, i]) + w1 * (self.phase_z[k][p, i1] + dz[local, i1])
+        s = w0 * (self.phase_s[k][p, i] + ds[local, i]) + w1 * (self.phase_s[k][p, i1] + ds[local, i1])
+        return z + np.asarray(tool_z_mm, float)[:, None], s
+
+    def grid(self, k: int) -> np.ndarray:
+        """The radii (mm) of lobe k's samples (the outer lobe's first just past the junction)."""
+        r = self.r0[k] + self.dr[k] * np.arange(self.n[k])
+        if k == 1:
+            r[0] = np.nextafter(r[0], np.inf)
+        return r
+
+    # ----------------------------------------------------------------------------------
+
+    def _sample(self, profile: Profile, *, polished: bool = True) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(z, slope) per lobe on the grid, (snapshots, n): polished at every snapshot time
+        (or as cut, one row per snapshot)."""
+        from ..polishing import polish_series
+
+        T = self.time_s.size
+        polished = polished and self.polish_params is not None
+        snaps = polish_series(profile, self.polish_params, self.time_s) if polished else [profile]
+        out = []
+        for k in (0, 1):
+            r = self.grid(k)
+            z = np.stack([p.z(r) for p in snaps])
+            if not polished:
+                z = np.repeat(z, T, axis=0)
+                out.append((z, np.repeat(profile.slope(r)[None], T, axis=0)))
+                continue
+            # A polished surface is known by its samples (the polishing grid is this grid);
+            # its spline's slope rings for ~10 cells past a jump (the groove a larger nose
+            # cuts at the step: +/- 2 rad), so take the samples' own differences (accurate
+            # to h^2 z''' / 6 ~ 1e-9 rad on a smooth lobe).
+            out.append((z, _sample_slopes(r, z)))
+        return out
+
+
+class _Given:
+    """A made surface stand-in for SurfaceBank.fixed."""
+
+    def __init__(self, profile: Profile):
+        self.profile, self.source = profile, "a given surface"
+
+
+def time_nodes(nominal_time_s: float, tolerance_s: float) -> np.ndarray:
+    """Polishing-time snapshots (s, ascending, >= 0): nominal + TIME_NODES x tolerance."""
+    return np.unique(np.clip([nominal_time_s + f * tolerance_s for f in TIME_NODES], 0.0, None))
+
+
+def _sample_slopes(r: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """dz/dr at each sample (rows of z): central differences, or the gentler one-sided chord
+    where the two chords differ by more than JUMP_SLOPE."""
+    chord = np.diff(z, axis=-1) / np.diff(r)
+    left = np.concatenate([chord[..., :1], chord], axis=-1)
+    right = np.concatenate([chord, chord[..., -1:]], axis=-1)
+    central = np.gradient(z, r, axis=-1)
+    gentle = np.where(np.abs(left) < np.abs(right), left, right)
+    return np.where(np.abs(left - right) > JUMP_SLOPE, gentle, central)
+
+
+def _interp_weights(x: np.ndarray, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lower node index and weight of the upper node (linear; extrapolates past the ends)."""
+    if nodes.size == 1:
+        return np.zeros(x.shape, dtype=np.intp), np.zeros(x.shape)
+    j = np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, nodes.size - 2)
+    span = nodes[j + 1] - nodes[j]
+    w = np.where(span > 0, (x - nodes[j]) / np.where(span > 0, span, 1.0), 0.0)
+    return j, w
