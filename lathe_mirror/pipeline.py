@@ -395,6 +395,7 @@ def verdict(t: dict, spec: dict) -> dict:
     checks = {
         "image_displacement_px": {"limit": lim["image_displacement_px"],
                                   "nominal": max(fig["image_displacement_px_rms"])},
+        "outlier_pct": {"limit": lim["outlier_pct"], "nominal": max(fig["outlier_pct"])},
         "disparity_px": {"limit": lim["disparity_px"], "nominal": fig["disparity_px_p90"],
                          "range_m": spec["depth_range_m"], "depth_error_pct": spec["depth_error_pct"]},
         "slope_error_rad": {"limit": lim["slope_error_rad"], "nominal": max(nominal["slope_error_rad_rms"])},

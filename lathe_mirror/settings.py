@@ -286,7 +286,7 @@ def _tolerance(cfg: dict) -> ToleranceSettings:
         raise InputError("tolerance.programs = []: name at least one of \"paper\", \"best\"")
     dist = parse(Distribution, t["distribution"], "tolerance.distribution")
     s = t["spec"]
-    for key in ("image_displacement_px", "depth_error_pct", "slope_error_rad"):
+    for key in ("image_displacement_px", "depth_error_pct", "slope_error_rad", "outlier_pct"):
         if not (math.isfinite(s[key]) and s[key] > 0):
             raise InputError(f"tolerance.spec.{key} = {s[key]!r} must be a finite number > 0")
     if not (math.isfinite(s["depth_range_m"]) and 0.2 <= s["depth_range_m"] <= 100.0):

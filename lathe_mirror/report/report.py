@@ -269,7 +269,10 @@ def _tolerance_html(f: dict, img) -> str:
     first = next(iter(tol["programs"].values()), None)
     lim = first["limits"] if first else {}
     spec_rows = [
-        ("image displacement", f"RMS over each lobe's pixels, {which}", f"{_fmt(spec['image_displacement_px'])} px"),
+        ("image displacement", f"RMS over each lobe's pixels but its outliers, {which}",
+         f"{_fmt(spec['image_displacement_px'])} px"),
+        ("outlier pixels", f"share of each lobe's pixels displaced more than 5 x the image limit, {which}",
+         f"{_fmt(spec['outlier_pct'])} %"),
         ("stereo", f"90th percentile over the common band at {_fmt(spec['depth_range_m'])} m of the "
                    f"disparity-equivalent error, {which}",
          f"{_fmt(lim.get('disparity_px', float('nan')))} px (= {_fmt(spec['depth_error_pct'])} % depth error)"),

@@ -32,7 +32,10 @@ from .stats import wilson
 from .surfaces import SurfaceBank, time_nodes
 
 #: The judged criteria, in order.
-CRITERIA = ("image_displacement_px", "disparity_px", "slope_error_rad")
+CRITERIA = ("image_displacement_px", "outlier_pct", "disparity_px", "slope_error_rad")
+#: A pixel whose image displacement exceeds this many times the spec's limit is an outlier
+#: (perturb.evaluate): it leaves the RMS and counts in outlier_pct.
+OUTLIER_FACTOR = 5.0
 
 
 @dataclass
@@ -118,6 +121,7 @@ class MonteCarloResult:
             "limits": dict(self.limits),
             "spec": self.settings.spec_dict(),
             "judged": {"image_displacement_px": _dist(np.max(judged["image_displacement_px_rms"], axis=1)),
+                       "outlier_pct": _dist(np.max(judged["outlier_pct"], axis=1)),
                        "disparity_px": _dist(judged["disparity_px_p90"][:, 0]),
                        "slope_error_rad": _dist(np.max(f.slope_error_rad_rms, axis=1))},
             "raw": figs(f.raw),
@@ -136,6 +140,7 @@ class MonteCarloResult:
         if per_trial:
             out["per_trial"] = {**self.parameter_columns(),
                                 "image_displacement_px_rms": judged["image_displacement_px_rms"].tolist(),
+                                "outlier_pct": judged["outlier_pct"].tolist(),
                                 "disparity_px_p90": judged["disparity_px_p90"][:, 0].tolist(),
                                 "slope_error_rad_rms": f.slope_error_rad_rms.tolist(),
                                 "depth_error_pct_rms": judged["depth_error_pct_rms"][:, 0].tolist(),
@@ -194,27 +199,27 @@ def disparity_limit_px(mirror: Mirror, depth_error_pct: float, depth_range_m: fl
 
 def prepare(mirror: Mirror, settings: ToleranceSettings, polish_params, nominal_time_s: float,
             program: Program, *, nose0: float, machine_at: Callable, progress: bool = False,
-            repolish: bool = False) -> Context:
+            leave_junction: bool = True) -> Context:
     """The program's part cut at each lattice phase with the programmed nose, polished at
     the time nodes (nominal -/+ the time tolerance); noses are cut as trials draw them.
 
     nose0: the programmed nose radius, mm. machine_at(phase, nose_radius) -> a made surface
     (attributes profile, source): the pipeline's made-surface builder for this program,
     the part cut with its work zero `phase` lattice steps off and a nose of nose_radius mm.
-    repolish: polish each nose's part rather than carry the nose's change of the cut
-    through polishing (tolerance.surfaces explains why not by default).
+    leave_junction: polish each nose's part without the groove or rim its nose leaves at
+    the step (put back as cut); False polishes the part as cut (tolerance.surfaces).
     """
     tol = settings.tolerances
     times = time_nodes(nominal_time_s, tol.get("polish_time_s", 0.0))
     phases = np.arange(settings.lattice_phases) / settings.lattice_phases
     bar = _bar(len(phases), f"tolerance ({program.value}): cutting the lattice phases", progress)
     bank = SurfaceBank(mirror, machine_at, polish_params, times, phases, nose0, settings.nose_step_mm,
-                       repolish=repolish, progress=bar)
+                       leave_junction=leave_junction, progress=bar)
     bar.close()
     samples = (pixel_sample(mirror, 0, bin_px=settings.bin_px, azimuths=settings.azimuths),
                pixel_sample(mirror, 1, bin_px=settings.bin_px, azimuths=settings.azimuths))
     sp = settings.spec
-    limits = {"image_displacement_px": sp.image_displacement_px,
+    limits = {"image_displacement_px": sp.image_displacement_px, "outlier_pct": sp.outlier_pct,
               "disparity_px": disparity_limit_px(mirror, sp.depth_error_pct, sp.depth_range_m, settings.depth_points),
               "slope_error_rad": sp.slope_error_rad}
     return Context(mirror, settings, bank, samples, float(nose0), float(nominal_time_s), bank.source, program,
@@ -259,19 +264,21 @@ def evaluate_trials(ctx: Context, trials: Trials, *, progress: bool = False, des
     bar = _bar(len(trials), desc, progress)
     ranges = (ctx.settings.spec.depth_range_m,) if ranges_m is None else tuple(ranges_m)
     fig = evaluate(ctx.mirror, ctx.bank, trials, ctx.samples, ranges_m=ranges, depth_points=ctx.settings.depth_points,
-                   seat_pivot_mm=ctx.settings.seat_pivot_mm, progress=bar, **kw)
+                   seat_pivot_mm=ctx.settings.seat_pivot_mm, outlier_px=OUTLIER_FACTOR * ctx.limits["image_displacement_px"],
+                   progress=bar, **kw)
     bar.close()
     return fig
 
 
 def judge(figures: TrialFigures, limits: dict[str, float], calibrated: bool) -> dict[str, np.ndarray]:
     """Pass flags of each criterion per trial (both lobes must pass): the RMS image
-    displacement, the 90th percentile of the disparity-equivalent error over the band at
+    displacement and the outlier pixels' share, the 90th percentile of the disparity-equivalent error over the band at
     the spec's range (the first range of the figures), the RMS slope error; calibrated or
     raw figures."""
     d = figures.judged(calibrated)
     return {
         "image_displacement_px": np.all(d["image_displacement_px_rms"] <= limits["image_displacement_px"], axis=1),
+        "outlier_pct": np.all(d["outlier_pct"] <= limits["outlier_pct"], axis=1),
         "disparity_px": d["disparity_px_p90"][:, 0] <= limits["disparity_px"],
         "slope_error_rad": np.all(figures.slope_error_rad_rms <= limits["slope_error_rad"], axis=1),
     }

@@ -35,13 +35,10 @@ from ..design import Mirror
 from ..optics.radial import ideal_radius_px, lobe_pixel_radii, used_extent
 from ..optics.stereo import band_elevations, capped_abs_error, stereo_centre_z, triangulate
 from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals
-from .surfaces import SurfaceBank
+from .surfaces import OFF_SURFACE_MM, SurfaceBank
 
 #: Newton steps of the 3-D ray-surface intersection (2-3 from the exact sheet's hit).
 _MAX_ITER = 8
-#: Height (mm) by which a made surface must miss the design for a point to be no part of
-#: the lobe's surface (polishing's form change is ~0.04 mm; the step 1.8 mm).
-OFF_SURFACE_MM = 0.1
 #: A hit this far (mm) outside its lobe's radial extent landed on the wall or the other lobe.
 _LOBE_SLACK = 1e-6
 #: Rays x trials per vectorised batch of evaluate (memory: ~1 kB each with the calibration).
@@ -99,7 +96,7 @@ class PixelSample:
 
 #: Per-lobe figures (arrays (trials, 2)) and stereo figures (arrays (trials, ranges)).
 LOBE_FIGURES = ("image_displacement_px_rms", "image_displacement_px_max", "image_displacement_px_median",
-                "ray_error_deg_rms", "viewpoint_spread_mm_rms")
+                "outlier_pct", "ray_error_deg_rms", "viewpoint_spread_mm_rms")
 STEREO_FIGURES = ("disparity_px_median", "disparity_px_p90", "within_5_pct", "within_10_pct", "seen_fraction",
                   "depth_error_pct_rms")
 
@@ -202,8 +199,18 @@ def matching_floor_pct(mirror: Mirror, ranges_m, noise_px: float, n_elev: int) -
 
 def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[PixelSample, PixelSample], *,
              ranges_m=(1.0,), depth_points: int = 9, seat_pivot_mm: float = 125.0, calibrate: bool = True,
-             chunk: int = 100, progress=None, keep_displacements: bool = False) -> TrialFigures:
+             outlier_px: float = np.inf, chunk: int = 100, progress=None,
+             keep_displacements: bool = False) -> TrialFigures:
     """Figures of every trial (TrialFigures). ranges_m: ranges (m) of the stereo figures.
+
+    Of the pixels whose made ray lands on their lobe, those displaced more than outlier_px
+    (px; against the model, raw or calibrated) are outliers: the image displacement's RMS
+    and median are over the others, outlier_pct (%) is their share, the max is over all.
+    A ring of pixels at a lobe's edge that sees a feature a few micrometres wide (the flank
+    of the groove a larger nose cuts at the step: ~200 px off) would otherwise set a lobe's
+    RMS alone; a calibration rejects such points, and the robot loses them as it loses the
+    step's ring. Pixels whose ray misses the lobe (past the rim of a tilted camera) count
+    in lost_fraction.
     calibrate=False skips the calibration fit (the calibrated figures then equal the raw).
     chunk: trials per vectorised batch. The bank must hold every trial's nose (ensure)."""
     n = len(trials)
@@ -235,11 +242,14 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
                 smp = samples[k]
                 p, o, ok, _ = traced[k]
                 disp = residuals(mirror, k, o, model, smp.u[None, :], smp.v[None, :])
-                ok_k = ok & np.isfinite(disp)
+                landed = ok & np.isfinite(disp)
+                ok_k = landed & (disp <= outlier_px)
                 w = np.where(ok_k, smp.weight[None, :], 0.0)
                 out["image_displacement_px_rms"][sl, k] = _wrms(np.where(ok_k, disp, 0.0), w)
-                out["image_displacement_px_max"][sl, k] = np.max(np.where(ok_k, disp, 0.0), axis=1)
+                out["image_displacement_px_max"][sl, k] = np.max(np.where(landed, disp, 0.0), axis=1)
                 out["image_displacement_px_median"][sl, k] = _wquantile(np.where(ok_k, disp, np.inf), w, 0.5)
+                n_landed = np.sum(np.where(landed, smp.weight[None, :], 0.0), axis=1)
+                out["outlier_pct"][sl, k] = 100.0 * (1.0 - np.sum(w, axis=1) / np.maximum(n_landed, 1e-300))
                 d_model = model_directions(mirror, k, smp.u, smp.v, model)
                 ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(o, d_model), axis=-1), np.sum(o * d_model, -1)))
                 out["ray_error_deg_rms"][sl, k] = _wrms(np.where(ok_k & np.isfinite(ang), ang, 0.0), w)
@@ -391,10 +401,13 @@ def _trace(mirror: Mirror, bank: SurfaceBank, k: int, surfs, tr: Trials, origin,
     if k == 1:
         ok &= np.abs(q_raw) > lo
     q = np.clip(np.abs(q_raw), lo, hi)
-    # Off the lobe's surface: where the made surface stands more than OFF_SURFACE_MM from the
-    # design (the step's wall or the groove a larger nose cuts into the outer lobe's edge,
-    # the rim a smaller one leaves on the inner lobe): the ray hit the wall, not the lobe.
-    ok &= settled & (np.abs(p[..., 2] - mirror.lobes[k].z(q)) < OFF_SURFACE_MM)
+    # Off the lobe's surface: a hit in a grid cell with a sample more than OFF_SURFACE_MM
+    # from the design (the step's wall, the groove a larger nose cuts into the outer lobe's
+    # edge, the rim a smaller one leaves on the inner lobe) hit the wall, not the lobe; the
+    # samples cannot say where in the cell the wall stands (the cell is 5 um, 0.06 px).
+    off = np.abs(z_grid - bank.design_z(k)[None, :]) >= OFF_SURFACE_MM
+    i0 = np.clip(np.floor((q - bank.r0[k]) / bank.dr[k]).astype(np.intp), 0, bank.n[k] - 2)
+    ok &= settled & ~off[rows, i0] & ~off[rows, i0 + 1]
     slope = _lookup(bank, k, s_grid, rows, q) * np.sign(np.where(q_raw == 0, 1.0, q_raw))
     # Normal (toward the camera) of z = Z(rho): (s x/rho, s y/rho, -1) / sqrt(1 + s^2).
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -73,12 +73,13 @@ def apply(tr: Trials, i: int, key: str, value: float) -> None:
 
 
 def judged_values(fig: TrialFigures, calibrated: bool) -> np.ndarray:
-    """(trials, criteria): the worse lobe's RMS image displacement (px), the 90th percentile
+    """(trials, criteria): the worse lobe's RMS image displacement (px) and outlier pixels
+    (%), the 90th percentile
     of the disparity-equivalent error (px) at the spec's range, the worse lobe's RMS slope
     error (rad)."""
     d = fig.judged(calibrated)
-    return np.stack([np.max(d["image_displacement_px_rms"], axis=1), d["disparity_px_p90"][:, 0],
-                     np.max(fig.slope_error_rad_rms, axis=1)], axis=1)
+    return np.stack([np.max(d["image_displacement_px_rms"], axis=1), np.max(d["outlier_pct"], axis=1),
+                     d["disparity_px_p90"][:, 0], np.max(fig.slope_error_rad_rms, axis=1)], axis=1)
 
 
 def responses(ctx: Context, *, progress: bool = False) -> Responses:
@@ -124,6 +125,7 @@ def sensitivity_table(ctx: Context, resp: Responses | None = None, *, progress: 
         out = {}
         for label, d in (("raw", fig.raw), ("calibrated", fig.calibrated)):
             out[label] = {"image_displacement_px_rms": [float(x) for x in d["image_displacement_px_rms"][i]],
+                          "outlier_pct": [float(x) for x in d["outlier_pct"][i]],
                           "disparity_px_median": float(d["disparity_px_median"][i, 0]),
                           "disparity_px_p90": float(d["disparity_px_p90"][i, 0]),
                           "depth_error_pct_rms": float(d["depth_error_pct_rms"][i, 0])}
@@ -174,6 +176,7 @@ def resolution_row(ctx: Context, polish_params, *, res0: float, machine_at, prog
         entry = {"resolution_mm": res}
         for label, dd in (("raw", fig.raw), ("calibrated", fig.calibrated)):
             entry[label] = {"image_displacement_px_rms": [float(x) for x in dd["image_displacement_px_rms"][0]],
+                            "outlier_pct": [float(x) for x in dd["outlier_pct"][0]],
                             "disparity_px_median": float(dd["disparity_px_median"][0, 0]),
                             "disparity_px_p90": float(dd["disparity_px_p90"][0, 0]),
                             "depth_error_pct_rms": float(dd["depth_error_pct_rms"][0, 0])}

@@ -17,7 +17,9 @@ class Spec:
     """Limits (defaults: lathe_mirror/data/tolerance.toml).
 
     image_displacement_px: per-lobe RMS image displacement, px (after calibration when
-    `calibrated`: the residual of the calibration fit).
+    `calibrated`: the residual of the calibration fit), over the pixels whose ray lands on
+    the lobe, but its outliers (displaced more than 5 x this limit).
+    outlier_pct: per lobe, the outliers' share of those pixels, %.
     depth_error_pct at depth_range_m (m): the stereo limit, %. It is judged as a
     disparity-equivalent error: the parallax error that this depth error means at the
     band's median elevation (to first order, depth_error_pct / 100 of the parallax angle),
@@ -34,6 +36,7 @@ class Spec:
     depth_range_m: float
     slope_error_rad: float
     calibrated: bool = True
+    outlier_pct: float = 1.0
 
 
 #: The toleranced parameters, in table order: key -> (what it is, unit at the edge).

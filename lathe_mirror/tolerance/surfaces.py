@@ -15,15 +15,20 @@ What varies from part to part in the shop, and how each trial gets its own surfa
   interpolated against 2.41 px re-machined, in the old figures);
 - the polishing time: linear between snapshots of each surface's one polishing run.
 
-What the nose changes is carried through polishing unchanged (repolish=False, the
-default): the trial's surface is its phase's polished part plus the difference between
-the phase-0 part cut with the trial's nose and cut with the programmed one. Polishing
-removes the same layer from a cut moved along its normal, and the pad does not reach a
-groove or rim a few micrometres wide at the step. repolish=True polishes each nose's
-part instead; polishing.py then treats the groove's bottom as the outer lobe's edge (its
-pad fit spreads a 1.3 mm deep sample over the 6 mm pad: ~8 px over 2 mm of the lobe) and,
-for a smaller nose, takes the rim for the other lobe's step (polishing._recessed_lobe
-flips), so the figures jump with how the wall falls on the 5 um polishing grid.
+Polishing a part cut with another nose: the pad polishes the lobes as that nose cut
+them (its offset along the normal, its facets' rounding), but not the groove or rim a few
+micrometres wide at the step's wall, which it does not reach. So each nose's part is
+polished with that junction zone (the samples more than OFF_SURFACE_MM off the design,
+and one on either side) filled in from the programmed nose's part moved by the nose's
+offset next to it, and the groove or rim is put back afterwards, as cut
+(leave_junction=True, the default). Polishing the part as cut (leave_junction=False)
+hands polishing.py a groove sample 1.3 mm deep at the outer lobe's edge, which its pad
+fit spreads over the 6 mm pad (~8 px of image displacement over 2 mm of the lobe), and
+for a smaller nose a rim that flips polishing._recessed_lobe, so the figures jump with
+how the wall falls on the 5 um polishing grid (best program, calibrated RMS image
+displacement from +5 to +25 um: 0.9, 0.3, 0.9, 1.5, 0.4, 4.5, 0.4, 3.7, 0.4, 8.0 px).
+Carrying the cut's change through polishing unpolished instead keeps the paper program's
+facets' change unpolished (1.1 -> 3.5 px at -/+ 4 um).
 
 The phase and the nose combine additively (the phase's surface plus the nose's change
 on the phase-0 part): the phase moves the program along the axis on the lattice, the
@@ -45,6 +50,9 @@ from ..profile import Profile
 
 #: Polishing-time snapshots per machined surface, as fractions of the time tolerance.
 TIME_NODES = (-1.0, -0.5, 0.0, 0.5, 1.0)
+#: Height (mm) by which a made surface must miss the design for a sample to be no part of
+#: the lobe's surface (the groove or rim at the step; polishing's form change is ~0.04 mm).
+OFF_SURFACE_MM = 0.1
 #: Slope (dimensionless) by which the chords either side of a sample must differ for the
 #: sample to sit at a jump (the step's wall, a groove): 0.5 is a kink of ~25 deg, far
 #: beyond any facet of a program on the lattice.
@@ -63,11 +71,11 @@ class SurfaceBank:
 
     def __init__(self, mirror: Mirror, machine_at: Callable, polish_params, time_s: np.ndarray,
                  phases: np.ndarray, nose0: float, nose_step: float, *, grid_step_mm: float | None = None,
-                 repolish: bool = False, progress=None):
+                 leave_junction: bool = True, progress=None):
         self.mirror = mirror
         self.machine_at = machine_at
         self.polish_params = polish_params
-        self.repolish = bool(repolish) and polish_params is not None
+        self.leave_junction = bool(leave_junction)
         self.time_s = np.asarray(time_s, float)
         self.phases = np.asarray(phases, float)
         self.nose0 = float(nose0)
@@ -129,23 +137,17 @@ class SurfaceBank:
         return np.array([int(i) for i in m if int(i) not in self._rows], dtype=np.int64)
 
     def ensure(self, nose_mm: np.ndarray, progress=None) -> int:
-        """Cut (at phase 0) every nose radius (mm, rounded to the step) not cut yet, and
-        polish it when repolish; returns how many were cut."""
+        """Cut (at phase 0) and polish every nose radius (mm, rounded to the step) not cut
+        yet; returns how many were cut."""
         todo = self.missing(nose_mm)
         for m in todo:
             nose = self.nose0 + int(m) * self.nose_step
             if not nose > 0:
                 raise ValueError(f"nose radius {nose:g} mm: a trial drew a nose <= 0")
             made = self.machine_at(0.0, nose)
-            if self.repolish:
-                for k, (z, s) in enumerate(self._sample(made.profile)):
-                    self._nose_dz[k].append(z - self.phase_z[k][0])
-                    self._nose_ds[k].append(s - self.phase_s[k][0])
-            else:
-                for k, (z, s) in enumerate(self._sample(made.profile, polished=False)):
-                    shape = self.phase_z[k].shape[1:]  # the same change at every snapshot
-                    self._nose_dz[k].append(np.broadcast_to(z[0] - self._cut0[k][0][0], shape))
-                    self._nose_ds[k].append(np.broadcast_to(s[0] - self._cut0[k][1][0], shape))
+            for k, (z, s) in enumerate(self._polished_nose(made.profile)):
+                self._nose_dz[k].append(z - self.phase_z[k][0])
+                self._nose_ds[k].append(s - self.phase_s[k][0])
             self._rows[int(m)] = len(self._rows)
             if progress is not None:
                 progress.update(1)
@@ -169,6 +171,12 @@ class SurfaceBank:
         s = w0 * (self.phase_s[k][p, i] + ds[local, i]) + w1 * (self.phase_s[k][p, i1] + ds[local, i1])
         return z + np.asarray(tool_z_mm, float)[:, None], s
 
+    def design_z(self, k: int) -> np.ndarray:
+        """The design's z (mm) at lobe k's samples."""
+        if not hasattr(self, "_design_z"):
+            self._design_z = [self.mirror.lobes[j].z(self.grid(j)) for j in (0, 1)]
+        return self._design_z[k]
+
     def grid(self, k: int) -> np.ndarray:
         """The radii (mm) of lobe k's samples (the outer lobe's first just past the junction)."""
         r = self.r0[k] + self.dr[k] * np.arange(self.n[k])
@@ -177,6 +185,37 @@ class SurfaceBank:
         return r
 
     # ----------------------------------------------------------------------------------
+
+    def _polished_nose(self, cut: Profile) -> list[tuple[np.ndarray, np.ndarray]]:
+        """A part cut with another nose, polished at every snapshot: (z, slope) per lobe,
+        (snapshots, n); the junction zone left as cut (leave_junction, module doc)."""
+        if self.polish_params is None:
+            return self._sample(cut)
+        if not self.leave_junction:
+            return self._sample(cut)
+        from ..profile import LobeSamples, SampledProfile
+
+        m = self.mirror
+        pad, zone, z_cut = [], [], []
+        for k in (0, 1):
+            r = self.grid(k)
+            z = np.asarray(cut.z(r), float)
+            off = np.abs(z - m.lobes[k].z(r)) >= OFF_SURFACE_MM
+            off = off | np.concatenate([off[1:], [False]]) | np.concatenate([[False], off[:-1]])
+            keep = np.flatnonzero(~off)
+            fill = z.copy()
+            if off.any() and keep.size:
+                d = z[keep] - self._cut0[k][0][0][keep]
+                fill[off] = self._cut0[k][0][0][off] + np.interp(np.flatnonzero(off), keep, d)
+            pad.append(LobeSamples(r, fill))
+            zone.append(off)
+            z_cut.append(z)
+        padded = SampledProfile(pad[0], pad[1], r_junction=m.r_junction, r_max=m.r_max, vertex_z=cut.vertex_z)
+        out = []
+        for k, (z, _) in enumerate(self._sample(padded)):
+            z = np.where(zone[k][None, :], z_cut[k][None, :], z)  # the groove or rim, as cut
+            out.append((z, _sample_slopes(self.grid(k), z)))
+        return out
 
     def _sample(self, profile: Profile, *, polished: bool = True) -> list[tuple[np.ndarray, np.ndarray]]:
         """(z, slope) per lobe on the grid, (snapshots, n): polished at every snapshot time
