@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import html
+import io
 import json
 import re
 
@@ -114,15 +115,50 @@ def test_tolerance_section(report):
         passes = mc["per_trial"]["pass"]
         assert mc["yield"] == pytest.approx(sum(passes) / len(passes), abs=1e-15)
         assert report.figures["verdict"][name]["yield"] == mc["yield"]
-        # The verdict's nominal numbers are the sensitivity table's nominal case.
+        # The verdict's nominal numbers are the sensitivity table's nominal case, calibrated.
         nominal = prog["sensitivity"]["nominal"]
-        assert prog["verdict"]["checks"]["depth_error_pct"]["nominal"] == nominal["depth_error_pct_rms"]
+        assert prog["verdict"]["checks"]["disparity_px"]["nominal"] == nominal["calibrated"]["disparity_px_p90"]
+        lo, hi = mc["yield_wilson95"]
+        assert lo <= mc["yield"] <= hi and report.figures["verdict"][name]["yield_wilson95"] == [lo, hi]
+    # run and report allocate for the best program: the statement says what to tighten or
+    # that nothing needs it, with the yield's interval and trial count
+    alloc = t["programs"]["best"]["allocation"]
+    assert "95 % CI" in alloc["statement"] and f"{alloc['trials']} trials" in alloc["statement"]
     # The paper program rounds every point to the lattice: a finer controller (0.0025 mm)
     # must give a smaller image displacement than a coarser one (0.0075 mm).
     row = t["programs"]["paper"]["sensitivity"]["rows"][0]
     assert row["parameter"] == "resolution_mm"
     assert (row["minus"]["resolution_mm"], row["plus"]["resolution_mm"]) == pytest.approx((0.0025, 0.0075))
     assert max(row["minus"]["image_displacement_px_rms"]) < max(row["plus"]["image_displacement_px_rms"])
+
+
+def test_page_renders_in_chromium_and_its_figures_decode(report, tmp_path):
+    """The report opened by a real browser (headless Chromium): the page parses and
+    renders (its DOM dump holds the answer and the tolerance tables), and every embedded
+    figure is a PNG that Pillow decodes."""
+    import base64
+    import subprocess
+
+    from PIL import Image
+
+    from conftest import require_program
+
+    chromium = require_program("chromium")
+    paths = write_report(report, tmp_path / "out")
+    proc = subprocess.run([chromium, "--headless=new", "--no-sandbox", "--disable-gpu",
+                           "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                           "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}", "--dump-dom",
+                           paths["html"].resolve().as_uri()], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    dom = proc.stdout
+    assert "<h2>The answer</h2>" in dom and "Monte Carlo yield" in dom and "95 % CI" in dom
+    assert "to reach 95 %" in dom and "Inverse sensitivity" in dom and "Allocation to 95 %" in dom
+    pngs = re.findall(r"data:image/png;base64,([A-Za-z0-9+/=]+)", dom)
+    assert len(pngs) >= 7 and len(pngs) == paths["html"].read_text().count("data:image/png;base64,")
+    for b64 in pngs:
+        img = Image.open(io.BytesIO(base64.b64decode(b64)))
+        img.load()
+        assert img.format == "PNG" and min(img.size) > 50
 
 
 def test_renders_side_by_side(report):

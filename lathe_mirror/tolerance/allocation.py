@@ -43,10 +43,26 @@ PAIRED = ("camera_decentre_mm", "camera_tilt_deg", "seat_tilt_deg")
 
 @dataclass
 class Surrogate:
-    """The additive-in-squares model of the judged criteria, from the response scans."""
+    """The additive-in-squares model of the judged criteria, from the response scans:
+    c_j^2 = c0_j(phase)^2 + scale_j sum_i h_ij(x_i). scale_j (1 until `calibrate`) is
+    fitted to the Monte Carlo's own traced trials: the parameters' effects are patterns
+    over the pixels and the band's points that do not all peak together, so the squares
+    of a percentile add to less than their sum."""
 
     resp: Responses
     limits: np.ndarray  # (criteria,)
+    scale: np.ndarray | None = None
+
+    def calibrate(self, phase: np.ndarray, x: dict[str, np.ndarray], actual: np.ndarray) -> None:
+        """Fit scale_j by least squares (through the origin) of the traced trials' criteria
+        (trials, criteria) on the sum of their parameters' h_ij; bounded to 0.25 .. 4."""
+        c0 = self.resp.phases[phase] ** 2
+        h = sum(self.squares(k, v) for k, v in x.items())
+        y = actual**2 - c0
+        ok = np.isfinite(y) & np.isfinite(h) & (h < 1e29)
+        num = np.sum(np.where(ok, h * y, 0.0), axis=0)
+        den = np.sum(np.where(ok, h * h, 0.0), axis=0)
+        self.scale = np.clip(np.where(den > 0, num / np.where(den > 0, den, 1.0), 1.0), 0.25, 4.0)
 
     def squares(self, key: str, x: np.ndarray) -> np.ndarray:
         """h_ij(x): the increase of each criterion's square with parameter `key` at x (edge
@@ -70,9 +86,9 @@ class Surrogate:
         """Surrogate criteria (draws, criteria) for phase indices and offsets x[key]."""
         sq = self.resp.phases[phase] ** 2
         sq = np.where(np.isfinite(sq), sq, 1e30)
-        for key, val in x.items():
-            sq = sq + self.squares(key, val)
-        return np.sqrt(np.maximum(sq, 0.0))
+        add = sum(self.squares(key, val) for key, val in x.items())
+        scale = 1.0 if self.scale is None else self.scale
+        return np.sqrt(np.maximum(sq + scale * add, 0.0))
 
     def passes(self, phase: np.ndarray, x: dict[str, np.ndarray]) -> np.ndarray:
         return np.all(self.criteria(phase, x) <= self.limits, axis=1)
@@ -260,18 +276,24 @@ def _greedy(surrogate_yield, rungs: dict[str, int], cost: dict[str, float], aim:
 
 
 def _surrogate_check(sur: Surrogate, mc: MonteCarloResult, keys) -> dict:
-    """The surrogate on the Monte Carlo's own trials: its yield and how often it agrees
-    with the traced pass / fail."""
+    """Fit the surrogate's scales to the Monte Carlo's own trials, then: its yield on them
+    and how often it agrees with their traced pass / fail (before and after the fit)."""
+    from .sensitivity import judged_values
+
     t = mc.trials
     deg = 180.0 / math.pi
     x = {"nose_radius_mm": t.nose_mm - mc.nominal_nose_mm, "polish_time_s": t.time_s - mc.nominal_time_s,
          "tool_x_mm": t.tool_x_mm, "tool_z_mm": t.tool_z_mm, "camera_decentre_mm": np.hypot(t.cam_x_mm, t.cam_y_mm),
          "camera_axial_mm": t.cam_z_mm, "camera_tilt_deg": np.hypot(t.tilt_x, t.tilt_y) * deg,
          "seat_tilt_deg": np.hypot(t.seat_x, t.seat_y) * deg}
-    pred = sur.passes(t.phase, {k: x[k] for k in keys})
+    x = {k: x[k] for k in keys}
     actual = mc.pass_all
+    before = sur.passes(t.phase, x)
+    sur.calibrate(t.phase, x, judged_values(mc.figures, mc.settings.spec.calibrated))
+    pred = sur.passes(t.phase, x)
     return {"yield_on_monte_carlo_trials": float(np.mean(pred)), "monte_carlo_yield": float(np.mean(actual)),
-            "agreement": float(np.mean(pred == actual))}
+            "agreement": float(np.mean(pred == actual)), "agreement_unfitted": float(np.mean(before == actual)),
+            "scale": {c: float(v) for c, v in zip(CRITERIA, sur.scale)}}
 
 
 def _num(v: float) -> str:

@@ -451,9 +451,12 @@ def _surface_errors(mirror: Mirror, bank: SurfaceBank, k: int, surf, tr: Trials,
     s_ex = lobe.slope(r)[None, :]
     slope_err = np.arctan(s) - np.arctan(s_ex)
     ndev = (z - lobe.z(r)[None, :]) / np.sqrt(1.0 + s_ex**2)
-    # A point off the lobe's surface (perturb._trace's rule: the wall moved into the lobe) is
-    # no slope of the lobe; its pixels count as lost instead.
-    on = np.abs(z - lobe.z(q)) < OFF_SURFACE_MM
+    # A point in a grid cell with a sample off the lobe's surface (_trace's rule: the wall
+    # moved into the lobe, the groove's flank) is no slope of the lobe; its pixels are lost.
+    off = np.abs(surf[0] - bank.design_z(k)[None, :]) >= OFF_SURFACE_MM
+    off = off | np.roll(off, 1, axis=1) | np.roll(off, -1, axis=1)
+    i0 = np.clip(np.rint((q - bank.r0[k]) / bank.dr[k]).astype(np.intp), 0, bank.n[k] - 1)
+    on = ~off[rows, i0]
     cnt = np.maximum(np.sum(on, axis=1), 1)
     return (np.sqrt(np.sum(np.where(on, slope_err**2, 0.0), axis=1) / cnt),
             np.sqrt(np.sum(np.where(on, ndev**2, 0.0), axis=1) / cnt))

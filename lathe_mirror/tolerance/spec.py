@@ -84,7 +84,7 @@ class ToleranceSettings:
     spec: Spec
     tolerances: dict[str, float]  # PARAMETERS' keys except lattice_phase; edge units
     seat_pivot_mm: float = 125.0
-    nose_step_mm: float = 0.001
+    nose_step_mm: float = 0.002
     matching_noise_px: float = 0.1
     target_yield: float = 0.95
     cost: dict[str, float] = field(default_factory=dict)

@@ -49,7 +49,7 @@ from ..design import Mirror
 from ..profile import Profile
 
 #: Polishing-time snapshots per machined surface, as fractions of the time tolerance.
-TIME_NODES = (-1.0, -0.5, 0.0, 0.5, 1.0)
+TIME_NODES = (-1.0, -0.75, -0.5, -0.25, 0.0, 0.25, 0.5, 0.75, 1.0)
 #: Height (mm) by which a made surface must miss the design for a sample to be no part of
 #: the lobe's surface (the groove or rim at the step; polishing's form change is ~0.04 mm).
 OFF_SURFACE_MM = 0.1
