@@ -44,8 +44,8 @@ from ..design import Mirror
 RADIAL_TERMS = 4
 #: Gauss-Newton iterations: plain least squares, then with Huber weights (the problem is
 #: nearly linear: the residual after these is converged to < 1e-6 px on a pure rotation).
-PLAIN_ITERATIONS = 2
-ROBUST_ITERATIONS = 3
+PLAIN_ITERATIONS = 1
+ROBUST_ITERATIONS = 2
 #: The fit uses every FIT_STRIDE-th pixel of each lobe's sample (all of them are scored).
 FIT_STRIDE = 3
 #: Residual (px) beyond which a pixel's weight falls as 1 / residual (Huber).
