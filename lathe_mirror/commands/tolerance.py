@@ -116,6 +116,11 @@ def format_tolerance(out: dict) -> str:
                          f"{max(p['calibrated']['image_displacement_px_rms']):.3f}, disparity p90 px "
                          f"{m['calibrated']['disparity_px_p90']:.3g} / {p['calibrated']['disparity_px_p90']:.3g}")
         for r in t["inverse_sensitivity"]:
-            lines.append(f"  {r['parameter']:>20s} alone within its share of the margin up to +/-{r['largest']:.3g} "
-                         f"{r['unit']} (set by {r['limited_by']}; tolerance {r['tolerance']:g})")
+            if r["no_margin"]:
+                lines.append(f"  {r['parameter']:>20s} alone: no margin left (the nominal part fails "
+                             f"{', '.join(r['no_margin'])})")
+                continue
+            more = " or more" if r["largest"] >= r["scanned_to"] else ""
+            lines.append(f"  {r['parameter']:>20s} alone within its share of the margin up to +/-{r['largest']:.3g}"
+                         f"{more} {r['unit']} (set by {r['limited_by']}; tolerance {r['tolerance']:g})")
     return "\n".join(lines)

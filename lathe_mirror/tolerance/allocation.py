@@ -130,7 +130,8 @@ def inverse_sensitivity(resp: Responses, limits: dict[str, float]) -> list[dict]
         limiting = min(per, key=per.get)
         rows.append({"parameter": key, "unit": PARAMETERS[key][1], "tolerance": resp.tolerances[key],
                      "largest": per[limiting], "limited_by": limiting, "per_criterion": per,
-                     "scanned_to": float(abs(resp.values[key][-1]))})
+                     "scanned_to": float(abs(resp.values[key][-1])),
+                     "no_margin": [c for j, c in enumerate(CRITERIA) if share[j] <= 0]})
     return rows
 
 
