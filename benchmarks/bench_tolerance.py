@@ -60,7 +60,6 @@ def bias(n: int, nose_step: float | None = None) -> None:
     from lathe_mirror.enums import BEST, Program, Strategy
     from lathe_mirror.pipeline import made_surface, plan, machine, MadeSurface, polishing_curve, tolerance_context
     from lathe_mirror.tolerance.montecarlo import CRITERIA, Context, draw_trials, evaluate_trials, judge
-    from lathe_mirror.tolerance.perturb import Trials
     from lathe_mirror.tolerance.sensitivity import judged_values
     from lathe_mirror.tolerance.surfaces import SurfaceBank
 
