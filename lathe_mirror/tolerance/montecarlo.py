@@ -24,7 +24,6 @@ from .perturb import (
     TrialFigures,
     Trials,
     evaluate,
-    parallax_px_scale,
     pixel_sample,
 )
 from .spec import DRAWN, Distribution, Program, ToleranceSettings
@@ -187,14 +186,16 @@ class MonteCarloResult:
 
 def disparity_limit_px(mirror: Mirror, depth_error_pct: float, depth_range_m: float, n_elev: int) -> float:
     """The disparity-equivalent limit (px) of a depth-error limit (%) at a range (m): the
-    parallax error depth_error_pct / 100 x B cos(el) / R (first order) over the px scale of
-    perturb.parallax_px_scale, at the band's median elevation. 20 % at 1 m on the paper
+    parallax error depth_error_pct / 100 x B cos(el) / R (first order) over the parallax one
+    pixel stands for (optics.ranging.resolution.parallax_per_px), at the band's median
+    elevation. 20 % at 1 m on the paper
     mirror: 2.5 mrad, 0.44 px."""
+    from ..optics.ranging.resolution import parallax_per_px
     from ..optics.stereo import band_elevations
 
     el = float(np.median(band_elevations(mirror, max(n_elev, 2))))
     parallax = mirror.baseline * math.cos(el) / (depth_range_m * 1e3)
-    return float(depth_error_pct / 100.0 * parallax / parallax_px_scale(mirror, np.array([el]))[0])
+    return float(depth_error_pct / 100.0 * parallax / parallax_per_px(mirror, np.array([el]))[0])
 
 
 def prepare(mirror: Mirror, settings: ToleranceSettings, polish_params, nominal_time_s: float,

@@ -32,7 +32,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..design import Mirror
-from ..optics.radial import ideal_radius_px, lobe_pixel_radii, used_extent
+from ..optics.radial import lobe_pixel_radii, used_extent
+from ..optics.ranging.resolution import parallax_per_px, range_error_pct
 from ..optics.stereo import band_elevations, capped_abs_error, stereo_centre_z, triangulate
 from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals
 from .surfaces import OFF_SURFACE_MM, SurfaceBank
@@ -145,7 +146,8 @@ class StereoPoints:
     w: (ranges, m, 3) mm; unit: (m, 3) their directions from the stereo centre; range_mm
     (ranges,); elevation (m,) rad; parallax_base: B cos(elevation) (m,) mm, the baseline's
     part across the line of sight; px_scale: (m,) rad of parallax per px of image error in
-    each lobe, sqrt(s_inner^2 + s_outer^2) with s_k the lobe's d(elevation)/d(image radius).
+    each lobe (optics.ranging.resolution.parallax_per_px: sqrt(s_inner^2 + s_outer^2), s_k
+    the lobe's |d elevation / d image radius|; 5.6e-3 at -13 deg on the paper mirror).
     """
 
     w: np.ndarray
@@ -167,29 +169,15 @@ def stereo_points(mirror: Mirror, ranges_m, n_elev: int, n_azimuth: int = DEPTH_
     rng = np.asarray(ranges_m, float) * 1e3
     zc = stereo_centre_z(mirror)
     w = rng[:, None, None] * unit[None] + np.array([0.0, 0.0, zc])
-    return StereoPoints(w, unit, rng, e, zc, mirror.baseline * np.cos(e), parallax_px_scale(mirror, e))
-
-
-def parallax_px_scale(mirror: Mirror, elevation: np.ndarray) -> np.ndarray:
-    """rad of parallax per px of image-position error in each lobe, at each elevation (rad):
-    sqrt(s_inner^2 + s_outer^2), s_k = |d elevation / d image radius| of the exact lobe k
-    (independent errors in the two lobes add in quadrature). 5.6e-3 at -13 deg on the
-    paper mirror."""
-    h = 1e-6
-    s = []
-    for lobe in mirror.lobes:
-        d = (ideal_radius_px(lobe, mirror.camera, elevation + h)
-             - ideal_radius_px(lobe, mirror.camera, elevation - h)) / (2 * h)
-        s.append(1.0 / np.abs(d))
-    return np.hypot(s[0], s[1])
+    return StereoPoints(w, unit, rng, e, zc, mirror.baseline * np.cos(e), parallax_per_px(mirror, e))
 
 
 def matching_floor_pct(mirror: Mirror, ranges_m, noise_px: float, n_elev: int) -> np.ndarray:
     """The depth error (%) that a matching noise of noise_px (px, in each lobe) alone gives
-    at each range (m), to first order: 100 noise px_scale R / (B cos elevation), median over
-    the band's elevations."""
+    at each range (m), to first order (optics.ranging.resolution.range_error_pct), median
+    over the band's elevations."""
     sp = stereo_points(mirror, [1.0], n_elev, 1)
-    per_m = 100.0 * noise_px * sp.px_scale / sp.parallax_base  # % per mm of range
+    per_m = range_error_pct(mirror, 1.0, sp.elevation, noise_px * sp.px_scale)  # % per mm of range
     return np.asarray(ranges_m, float) * 1e3 * float(np.median(per_m))
 
 
