@@ -129,7 +129,7 @@ def test_tolerance_section(report):
     row = t["programs"]["paper"]["sensitivity"]["rows"][0]
     assert row["parameter"] == "resolution_mm"
     assert (row["minus"]["resolution_mm"], row["plus"]["resolution_mm"]) == pytest.approx((0.0025, 0.0075))
-    assert max(row["minus"]["image_displacement_px_rms"]) < max(row["plus"]["image_displacement_px_rms"])
+    assert max(row["minus"]["raw"]["image_displacement_px_rms"]) < max(row["plus"]["raw"]["image_displacement_px_rms"])
 
 
 def test_page_renders_in_chromium_and_its_figures_decode(report, tmp_path):
