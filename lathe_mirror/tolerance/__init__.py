@@ -1,12 +1,19 @@
-"""Tolerance analysis: what the made mirror does to the image, and how often it passes.
+"""Tolerance analysis: what the made mirror does to what the robot sees, how often it
+passes, and what the shop must tighten.
 
 One concern per module (after optiland's tolerancing package):
-  radial       the aligned camera's radial image displacement on a 1-D set of radii
-  spec         the tolerance spec (limits) and the parameter tolerances, from TOML
-  surfaces     the as-machined surface of a program (issue 3's planner and nose envelope)
-  perturb      one trial's surface and camera pose, evaluated vectorised over trials
-  montecarlo   the seeded Monte Carlo and its yield
-  sensitivity  each parameter at +/- its tolerance
+  spec         the tolerance spec (limits), the parameters' tolerances and costs, from TOML
+  surfaces     each trial's part: the program cut at each lattice phase and with each nose
+               drawn, polished (the pipeline's builder hands it machine_at)
+  perturb      one trial's surface and camera / seat pose, traced vectorised over trials:
+               image, ray and viewpoint figures, stereo figures, raw and calibrated
+  calibration  what a user's calibration removes (the camera's rotation, a smooth radial
+               map per lobe), fitted per trial
+  montecarlo   the seeded Monte Carlo, its yield and the per-trial CSV
+  sensitivity  each parameter alone: the -/+ tolerance table and the response scans
+  allocation   inverse sensitivity and the least-cost tolerances for a target yield
+  stats        Wilson's interval of a yield
+  setting      what a tool-setting error costs on the exact design
 
 This package imports nothing heavy at import time.
 """
