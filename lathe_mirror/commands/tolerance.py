@@ -120,7 +120,8 @@ def format_tolerance(out: dict) -> str:
                 lines.append(f"  {r['parameter']:>20s} alone: no margin left (the nominal part fails "
                              f"{', '.join(r['no_margin'])})")
                 continue
-            more = " or more" if r["largest"] >= r["scanned_to"] else ""
+            why = f"set by {r['limited_by']}" if r["limited_by"] else "no criterion reaches its share in the scan"
+            more = "" if r["limited_by"] else " or more"
             lines.append(f"  {r['parameter']:>20s} alone within its share of the margin up to +/-{r['largest']:.3g}"
-                         f"{more} {r['unit']} (set by {r['limited_by']}; tolerance {r['tolerance']:g})")
+                         f"{more} {r['unit']} ({why}; tolerance {r['tolerance']:g})")
     return "\n".join(lines)

@@ -311,8 +311,8 @@ def _tolerance_html(f: dict, img) -> str:
         block.append(_sensitivity_html(t["sensitivity"]))
         inv = [(r["parameter"], f"{_fmt(r['tolerance'])} {r['unit']}",
                 "none: the nominal part fails " + ", ".join(r["no_margin"]) if r["no_margin"] else
-                f"{_fmt(r['largest'])} {r['unit']}" + (" or more" if r["largest"] >= r["scanned_to"] else ""),
-                "" if r["no_margin"] else r["limited_by"]) for r in t["inverse_sensitivity"]]
+                f"{_fmt(r['largest'])} {r['unit']}" + ("" if r["limited_by"] else " or more"),
+                r["limited_by"] or "-") for r in t["inverse_sensitivity"]]
         block.append("<p>Inverse sensitivity: the largest +/- value of each parameter that alone keeps every "
                      "criterion within its share of the margin (limit&sup2; - worst phase&sup2;, split evenly among "
                      "the parameters).</p>"

@@ -128,9 +128,10 @@ def inverse_sensitivity(resp: Responses, limits: dict[str, float]) -> list[dict]
                 sides.append(float(x0 + (x1 - x0) * (share[j] - h0) / (h1 - h0)) if np.isfinite(h1) else float(x0))
             per[crit] = min(sides)
         limiting = min(per, key=per.get)
+        scanned = float(min(abs(resp.values[key][0]), abs(resp.values[key][-1])))
         rows.append({"parameter": key, "unit": PARAMETERS[key][1], "tolerance": resp.tolerances[key],
-                     "largest": per[limiting], "limited_by": limiting, "per_criterion": per,
-                     "scanned_to": float(abs(resp.values[key][-1])),
+                     "largest": per[limiting], "limited_by": limiting if per[limiting] < scanned else "",
+                     "per_criterion": per, "scanned_to": scanned,
                      "no_margin": [c for j, c in enumerate(CRITERIA) if share[j] <= 0]})
     return rows
 
