@@ -106,15 +106,17 @@ class MadeSurface:
 def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
                  nose_radius: float | None = None, phase: float = 0.0,
                  polish_params: PolishParams | None = None, polish_time_s: float = 0.0,
-                 max_deviation: float = 0.01) -> MadeSurface:
+                 max_deviation: float = 0.01, toolpath: Toolpath | None = None) -> MadeSurface:
     """The one made-surface builder: plan -> machine -> (polish).
 
     The program is planned for `tool` (its nose offset) at lattice `phase` (steps); the
     part is cut by a nose of `nose_radius` mm (default the tool's: a worn or mis-measured
     insert differs from the programmed one); with polish_params and polish_time_s > 0 it
-    is then polished for that time (s).
+    is then polished for that time (s). toolpath: the program already planned with these
+    arguments (a caller cutting one program with many noses plans it once).
     """
-    tp = plan(mirror, lathe, tool, strategy, max_deviation=max_deviation, phase=phase)
+    tp = toolpath if toolpath is not None else plan(mirror, lathe, tool, strategy,
+                                                    max_deviation=max_deviation, phase=phase)
     rho = tool.nose_radius if nose_radius is None else nose_radius
     profile = machine(tp, rho)
     source = f"{strategy.value} program, as-machined with a {rho:g} mm nose"
@@ -374,12 +376,12 @@ def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nomi
     programs: dict[float, Toolpath] = {}
 
     def machine_at(phase: float, nose: float) -> MadeSurface:
-        # made_surface's plan -> machine, each phase's program planned once: the noses the
-        # trials draw are all cut along the program planned for the [tool] nose.
+        # each phase's program planned once: the noses the trials draw are all cut along
+        # the program planned for the [tool] nose.
         if phase not in programs:
             programs[phase] = plan(mirror, settings.machine, settings.tool, strategy, phase=phase)
-        tp = programs[phase]
-        return MadeSurface(machine(tp, nose), tp, f"{strategy.value} program, as-machined with a {nose:g} mm nose")
+        return made_surface(mirror, settings.machine, settings.tool, strategy, nose_radius=nose,
+                            toolpath=programs[phase])
 
     return prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
                    nose0=settings.tool.nose_radius, machine_at=machine_at, progress=progress)
