@@ -123,6 +123,11 @@ class Lobe:
         r = np.asarray(r, dtype=float)
         return self.a * r / (self.b**2 * np.sqrt(1.0 + (r / self.b) ** 2))
 
+    def second_derivative(self, r: np.ndarray | float) -> np.ndarray:
+        """d2z/dr2 of the sheet at radius r (1/mm): a / (b^2 (1 + r^2 / b^2)^(3/2))."""
+        r = np.asarray(r, dtype=float)
+        return self.a / (self.b**2 * (1.0 + (r / self.b) ** 2) ** 1.5)
+
     def elevation(self, r: np.ndarray | float) -> np.ndarray:
         """Elevation (rad) above F1's horizon of the world direction seen at radius r."""
         r = np.asarray(r, dtype=float)

@@ -98,6 +98,44 @@ class CadFormat(str, Enum):
     DXF = "dxf"
 
 
+class Lap(str, Enum):
+    """How the polishing lap moves over a lobe (polishing.LapPlan).
+
+    FIXED: a lap covering the whole lobe, held still while the part spins (v = omega r:
+    nothing is removed at the vertex; the model of the first polishing issue, kept for
+    comparison). ROTATE: a full-size lap (the recessed lobe's pocket, or past the rim)
+    spinning on its own axis, its centre stroked off the part's axis by up to stroke_mm
+    with a dwell-time profile (removal at the vertex too). STROKE: a sub-aperture lap of
+    lap_radius_mm spinning on its own axis, its centre stroked across the lobe with a
+    dwell-time profile."""
+
+    FIXED = "fixed"
+    ROTATE = "rotate"
+    STROKE = "stroke"
+
+
+class Dwell(str, Enum):
+    """The dwell-time profile of a stroking lap along r: UNIFORM (a constant stroke speed)
+    or FLAT (the non-negative dwell that makes the removal most nearly uniform over the
+    lobe's clear aperture, as a deterministic-polishing planner computes it)."""
+
+    UNIFORM = "uniform"
+    FLAT = "flat"
+
+
+class Objective(str, Enum):
+    """The figure that chooses the polishing time (optics.polishing_curve).
+
+    STEREO: the calibrated stereo residual (depth error once a per-lobe smooth radial
+    remapping, what calibration absorbs, is fitted out). IMAGE_DISPLACEMENT: RMS image
+    displacement over both lobes. SLOPE_ERROR: RMS slope error over the clear aperture of
+    both lobes."""
+
+    STEREO = "stereo"
+    IMAGE_DISPLACEMENT = "image_displacement"
+    SLOPE_ERROR = "slope_error"
+
+
 def parse(enum: type[E], value: object, key: str, *, aliases: dict[str, E] | None = None) -> E:
     """The member of `enum` whose value is `value` (case-insensitive), or an alias.
 

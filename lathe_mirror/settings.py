@@ -22,7 +22,10 @@ from .design import Camera, LobeSpec, Mirror, mirror_from_specs
 from .enums import (
     BEST,
     Distribution,
+    Dwell,
+    Lap,
     Mount,
+    Objective,
     Program,
     StepSchema,
     Strategy,
@@ -30,6 +33,7 @@ from .enums import (
     parse,
 )
 from .errors import ConfigError, InputError
+from .finish import Process
 from .lathe import Lathe, Stock, Tool
 from .optics.camera import CameraPose
 from .optics.ranging.match import MatchParams
@@ -123,8 +127,7 @@ def from_config(cfg: dict[str, Any]) -> Settings:
         cad=CadSettings(schema=parse(StepSchema, cfg["cad"]["step_schema"], "cad.step_schema"),
                         product_name=cfg["cad"]["product_name"],
                         stl_tolerance=cfg["cad"]["stl_tolerance"]),
-        polish=PolishParams(**{k: (int(v) if k in ("curve_points", "form_degree") else float(v))
-                               for k, v in cfg["polish"].items()}),
+        polish=_polish(cfg["polish"]),
         scene=_scene(cfg["scene"]),
         render=_render(cfg["render"]),
         pose=_pose(cfg["camera_pose"]),
@@ -199,6 +202,21 @@ def _body(c: dict) -> BodySpec:
         mount=mount, mount_diameter=float(c["mount_diameter"]),
         mount_depth=float(c["mount_depth"]), min_wall=float(c["min_wall"]),
     )
+
+
+def _polish(pc: dict) -> PolishParams:
+    """PolishParams from [polish] (its presets from [polish.process.*]); PolishParams and
+    Process check the values."""
+    kinds = {"curve_points": int, "form_degree": int, "stroke_points": int, "precompensate": bool,
+             "lap": lambda v: parse(Lap, v, "polish.lap"), "dwell": lambda v: parse(Dwell, v, "polish.dwell"),
+             "objective": lambda v: parse(Objective, v, "polish.objective")}
+    values = {k: kinds.get(k, float)(v) for k, v in pc.items() if k != "process"}
+    processes = tuple(
+        Process(name=name, label=str(t["label"]), program=parse(Program, t["program"], f"polish.process.{name}.program"),
+                polish=bool(t["polish"]), **{k: float(t[k]) for k in ("nose_radius_mm", "feed_mm", "resolution_mm",
+                                                                       "turned_floor_nm", "polished_floor_nm")})
+        for name, t in pc.get("process", {}).items())
+    return PolishParams(**values, **({"processes": processes} if processes else {}))
 
 
 def _scene(sc: dict) -> SceneSpec:

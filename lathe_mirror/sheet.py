@@ -45,9 +45,9 @@ def _dzm(lobe: Lobe, r):
 
 
 def _d2zm(lobe: Lobe, r):
-    r = np.asarray(r, dtype=float)
-    q = np.sqrt(1.0 + (r / lobe.b) ** 2)
-    return -lobe.a / (lobe.b**2 * q**3)
+    # The lobe's own second derivative: a target lobe (a sheet offset by a polishing
+    # allowance, polishing.CompensatedLobe) is not a hyperbola.
+    return -lobe.second_derivative(r)
 
 
 def _normal_m(lobe: Lobe, r):

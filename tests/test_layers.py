@@ -22,7 +22,7 @@ RANKS = {
     "path": 2, "profile": 2, "sheet": 2,
     "lathe": 3,
     "toolpath": 4,
-    "nose_envelope": 5,
+    "nose_envelope": 5, "finish": 5,
     "shop": 5.5,
     "polishing": 6,
     "body": 7,

@@ -25,7 +25,7 @@ def run(args: argparse.Namespace) -> int:
     from ..enums import BEST, Program, Strategy, parse
     from ..optics.polishing_curve import polish_summary
     from ..optics.radial import radial_figures
-    from ..pipeline import check_programs, design, made_surface, polishing_curve
+    from ..pipeline import check_programs, design, made_surface, polish_params_dict, polishing_curve, process_for
     from ..polishing import polish
     from ..toolpath import profile_errors
 
@@ -39,12 +39,13 @@ def run(args: argparse.Namespace) -> int:
 
         output_dir(args.output)
     made = made_surface(mirror, settings.machine, settings.tool, BEST if program is Program.BEST else Strategy.PAPER)
-    curve = polishing_curve(made.profile, mirror, params, progress=not args.no_progress)
+    curve = polishing_curve(made.profile, mirror, params, process=process_for(settings),
+                            progress=not args.no_progress)
     polished = polish(made.profile, params)
     # The five figures of ARCHITECTURE.md per lobe, surface then optics, as the report's.
     at_time = [{**s, **{k: v for k, v in o.items() if k != "name"}} for s, o in
                zip(profile_errors(polished, mirror)["lobes"], radial_figures(polished, mirror)["lobes"])]
-    out = {"program": program.value, "surface": made.source, "params": dict(params.__dict__),
+    out = {"program": program.value, "surface": made.source, "params": polish_params_dict(params),
            "summary": polish_summary(curve, program.value), "curve": curve.to_dict(),
            "at_time_s": {"time_s": params.time_s, "lobes": at_time}}
     if args.output:
