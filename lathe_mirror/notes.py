@@ -24,12 +24,21 @@ NOTES = (
     "like a point one lobe does not see; 'failed' counts them) before the RMS over the band: uncapped, "
     "the RMS of a mirror whose delta crosses gamma in the band grows without bound as the band is "
     "sampled more finely (it is set by whichever sample falls nearest the pole), while the capped RMS "
-    "and the median converge. This is why polishing the paper program's mirror, which cuts its ray "
-    "deviation about tenfold, can still leave many points failed: its low-order form change bends the "
-    "two lobes' rays by a few tenths of a degree, the size of the parallax itself.",
-    "Polishing: removal k_p p omega r grows from nothing at the vertex, so facets near the "
-    "axis outlast those at the rim; the band at the foot of the step (polish.corner_mm) is "
-    "out of the pad's reach and stays as machined.",
+    "and the median converge. What carries a polished mirror's depth error is the facets the polish "
+    "has not yet worn away (the lattice steps, about one pixel apart in the image), not the form "
+    "change it adds: the form tilts both lobes' rays alike and barely moves the parallax, and a "
+    "calibration absorbs what is left of it (section 7 splits the two: the design carrying the form "
+    "alone against the design carrying the facets alone). So the polishing time is chosen by the "
+    "calibrated stereo residual (polish.objective), not by the image displacement, which counts the "
+    "form calibration absorbs.",
+    "Polishing: the lap's kinematics set the removal along r (polish.lap; the default, a full-size lap "
+    "spinning with the part on its own axis and stroked off centre, rubs every point under it at the "
+    "same speed, the vertex included; the first model's lap held still removed nothing at the vertex, "
+    "so there the facets outlasted those at the rim). The band at the foot of the step "
+    "(polish.corner_mm) is out of the pad's reach and stays as machined; a point deeper than the pad "
+    "reaches (the rounded top of the step, a groove) is out of contact and does not pull the pad. "
+    "Slope and form figures on the polishing curve are over the clear aperture (polish.clear_edge_mm "
+    "from each edge).",
     "Monte Carlo: machined surfaces are precomputed at tolerance.lattice_phases lattice phases "
     "(the Z work zero's offset on the controller's lattice) x 5 nose radii, each polished once "
     "with snapshots at 5 times; a trial interpolates linearly between them, shifts the surface "

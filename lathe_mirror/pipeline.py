@@ -223,7 +223,7 @@ def cad_model(settings: Settings, mirror: Mirror, *, programmed: bool,
     # The same planning as `lathe-mirror toolpath`: the config's max_deviation decides
     # whether the point budget can hold the profile, so both commands accept the same configs.
     tp = plan(mirror, settings.machine, settings.tool, settings.toolpath.strategy,
-              max_deviation=settings.toolpath.max_deviation)
+              max_deviation=settings.toolpath.max_deviation, target=program_target(settings, mirror))
     prog, centre, figures = programmed_parts(tp, mirror, prog_spec)
     return CadModel(mirror, design_face, prog, centre, figures)
 

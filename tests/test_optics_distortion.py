@@ -191,8 +191,10 @@ def test_paper_reference_model_is_within_its_hand_bound(paper_mirror, paper_conf
 
 def test_polished_surface_is_the_polishing_curves_optimum(paper_mirror, paper_config):
     """`--surface polished`: the per-pixel tracer's RMS image displacement of the polished
-    surface equals the polishing curve's optimum, which optics.radial computes on the
-    1-D set of image radii (another code path); and polishing beats the machined mirror."""
+    surface equals optics.radial's on the 1-D set of image radii (another code path) for the
+    polishing curve's optimum, and the curve's own figure there (0.1 px bins) to 2 %; and
+    polishing beats the machined mirror."""
+    from lathe_mirror.optics.radial import radial_figures
     from lathe_mirror.nose_envelope import as_machined
     from lathe_mirror.enums import Surface
     from lathe_mirror.pipeline import named_surface
@@ -205,7 +207,10 @@ def test_polished_surface_is_the_polishing_curves_optimum(paper_mirror, paper_co
     i = curve.optimum_index
     polished = distortion_figures(named_surface(Surface("polished"), paper_mirror, from_config(paper_config)), paper_mirror)
     made = distortion_figures(machined, paper_mirror)
+    radial = radial_figures(curve.profiles[i], paper_mirror)
     for k, lobe in enumerate(polished["lobes"]):
         assert lobe["image_displacement_px"]["rms"] == pytest.approx(
-            curve.lobes[k]["image_displacement_px"]["rms"][i], rel=1e-6)
+            radial["lobes"][k]["image_displacement_px"]["rms"], rel=1e-6)
+        assert lobe["image_displacement_px"]["rms"] == pytest.approx(
+            curve.lobes[k]["image_displacement_px"]["rms"][i], rel=0.02)
         assert lobe["image_displacement_px"]["rms"] < made["lobes"][k]["image_displacement_px"]["rms"] / 3

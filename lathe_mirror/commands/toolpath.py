@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
         gouge_depth,
         junction_fillet,
     )
-    from ..pipeline import design, plan, shop_program
+    from ..pipeline import design, plan, program_target, shop_program
     from ..shop import options_from_settings
     from ..toolpath import profile_errors, usable_ranges
 
@@ -60,7 +60,8 @@ def run(args: argparse.Namespace) -> int:
     mirror = design(settings)
     lathe, tool, stock = settings.machine, settings.tool, settings.stock
     opts = options_from_settings(settings.toolpath)
-    tp = plan(mirror, lathe, tool, strategy, max_deviation=settings.toolpath.max_deviation)
+    tp = plan(mirror, lathe, tool, strategy, max_deviation=settings.toolpath.max_deviation,
+              target=program_target(settings, mirror))  # polish.precompensate: the allowance
     shop = shop_program(tp, stock, opts)  # simulated against the stock; refused if it touches
     text = format_program(shop.program, dialect)
     if args.output:

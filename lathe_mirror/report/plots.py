@@ -100,27 +100,89 @@ def displacement_plot(curves: dict[str, tuple[np.ndarray, np.ndarray]], lost_rin
 
 
 def polishing_curve_plot(curve: dict, title: str) -> bytes:
-    """Image displacement, slope error and form change against polishing time."""
+    """Against polishing time: image displacement, the calibrated stereo residual and the
+    depth error, slope error over the clear aperture, roughness and haze; a dashed line at
+    the time each objective chooses (the curve's own in purple)."""
     plt = _pyplot()
     t = np.asarray(curve["times_s"]) / 60.0
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3.2))
-    opt = curve["optimum"]["time_s"] / 60.0
+    fig, axes = plt.subplots(2, 2, figsize=(11, 6.4))
+    ax_d, ax_s, ax_sl, ax_r = axes.ravel()
+    comb = curve["combined"]
     for lb in curve["lobes"]:
         c = LOBE_COLOURS[lb["name"]]
-        axes[0].plot(t, lb["image_displacement_px"]["rms"], color=c, label=f"{lb['name']} RMS")
-        axes[1].plot(t, lb["slope_error_rad"]["rms"], color=c, label=lb["name"])
-        axes[2].plot(t, np.asarray(lb["form_change_mm"]["rms"]) * 1e3, color=c, label=lb["name"])
-    axes[0].plot(t, curve["combined_image_displacement_px_rms"], color="black", label="both lobes")
-    for ax, yl in zip(axes, ("image displacement (px)", "slope error RMS (rad)", "form change RMS (um)")):
-        ax.axvline(opt, color="tab:purple", ls="--", lw=0.8)
-        ax.set_xlabel("polishing time (min)")
-        ax.set_ylabel(yl)
+        ax_d.plot(t, lb["image_displacement_px"]["rms"], color=c, label=f"{lb['name']} RMS")
+        ax_sl.plot(t, lb["slope_error_rad"]["rms"], color=c, label=lb["name"])
+        if "roughness_nm" in lb:
+            ax_r.plot(t, lb["roughness_nm"]["rms"], color=c, label=f"{lb['name']} roughness (nm RMS)")
+            ax_r.plot(t, 100.0 * np.asarray(lb["haze"]["mean"]), color=c, ls=":", label=f"{lb['name']} haze (%)")
+    ax_d.plot(t, comb["image_displacement_px"], color="black", label="both lobes")
+    rng = curve.get("range_m", 2.0)
+    ax_s.plot(t, np.maximum(comb["stereo_residual_pct"], 1e-3), color="tab:purple",
+              label=f"calibrated stereo residual at {rng:g} m")
+    ax_s.plot(t, np.maximum(comb["depth_error_pct"], 1e-3), color="grey", label=f"depth error at {rng:g} m (design assumed)")
+    styles = {"stereo": "tab:purple", "image_displacement": "black", "slope_error": "tab:green"}
+    for ax in axes.ravel():
+        for obj, ts in curve["chosen_time_s"].items():
+            ax.axvline(ts / 60.0, color=styles.get(obj, "grey"), ls="--", lw=1.2 if obj == curve["objective"] else 0.6)
+        ax.set_xlabel("polishing time per lobe (min)")
         ax.grid(alpha=0.3)
-        ax.legend(loc="best")
-    axes[0].set_yscale("log")
-    axes[1].set_yscale("log")
-    fig.suptitle(title)
-    fig.tight_layout()  # the middle panel's label otherwise runs into the first panel
+        ax.legend(loc="best", fontsize=7)
+    ax_d.set_ylabel("image displacement (px)")
+    ax_s.set_ylabel("RMS |depth error| (%)")
+    ax_sl.set_ylabel("slope error RMS, clear aperture (rad)")
+    ax_r.set_ylabel("roughness (nm) / haze (%)")
+    for ax in (ax_d, ax_s, ax_sl, ax_r):
+        ax.set_yscale("log")
+    fig.suptitle(f"{title} (dashed: the time each objective chooses; purple: stereo, black: image "
+                 f"displacement, green: slope)")
+    fig.tight_layout()
+    return png(fig)
+
+
+def decomposition_plot(decomposition: dict) -> bytes:
+    """Depth error (RMS over the band, %) of a polished mirror, of the design carrying only its
+    form, only its facets, and only the lap's removal: uncalibrated and calibrated, for each
+    polishing in the decomposition (first model, this plan)."""
+    plt = _pyplot()
+    names = list(decomposition)
+    parts = ("made", "form", "facets", "removal_only")
+    labels = {"made": "polished mirror", "form": "design + its form", "facets": "design + its facets",
+              "removal_only": "design + the lap's removal"}
+    fig, axes = plt.subplots(1, len(names), figsize=(5.5 * len(names), 3.6), squeeze=False)
+    for ax, name in zip(axes[0], names):
+        d = decomposition[name]
+        x = np.arange(len(parts))
+        raw = [max(d["depth_error_pct"][p]["rms"], 1e-3) for p in parts]
+        cal = [max(d["stereo_residual_pct"][p]["rms"], 1e-3) for p in parts]
+        ax.bar(x - 0.2, raw, 0.4, color="tab:red", label="design assumed")
+        ax.bar(x + 0.2, cal, 0.4, color="tab:purple", label="calibrated")
+        for xi, v in zip(x, raw):
+            ax.text(xi - 0.2, v, f"{v:.2g}", ha="center", va="bottom", fontsize=7)
+        for xi, v in zip(x, cal):
+            ax.text(xi + 0.2, v, f"{v:.2g}", ha="center", va="bottom", fontsize=7)
+        ax.set_xticks(x, [labels[p] for p in parts], rotation=15, fontsize=8)
+        ax.set_yscale("log")
+        ax.set_ylabel(f"RMS |depth error| at {d['range_m']:g} m (%)")
+        what = "first model: fixed lap" if name == "first_model" else f"this plan: {d['lap']} lap"
+        ax.set_title(f"{what}, {d['time_s'] / 60:.0f} min")
+        ax.grid(alpha=0.3, axis="y")
+        ax.legend(loc="best", fontsize=7)
+    fig.suptitle("Form against facets: the depth error of each part of the polished paper mirror alone")
+    fig.tight_layout()
+    return png(fig)
+
+
+def lap_plot(plan: dict) -> bytes:
+    """The lap's removal rate (um/h) along r on a smooth surface, per lobe."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 2.8))
+    for lb, name in zip(plan["lobes"], ("inner", "outer")):
+        ax.plot(lb["r_mm"], lb["removal_rate_um_per_h"], color=LOBE_COLOURS[name], label=f"{name} lobe")
+    ax.set_xlabel("r (mm)")
+    ax.set_ylabel("removal rate (um/h)")
+    ax.set_title("the lap's removal along r (dwell-time profile included; zero where the pad does not reach)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best")
     return png(fig)
 
 
@@ -179,10 +241,11 @@ def report_plots(data: ReportData) -> dict[str, bytes]:
     plots = {}
     plots["profile_error"] = profile_deviation_plot(curves["profile_error"], curves["r_junction"], curves["used"])
     plots["displacement"] = displacement_plot(curves["displacement"], curves["lost_ring_px"])
-    plots["polishing_paper"] = polishing_curve_plot(out["polishing"]["paper_program"],
-                                                    "polishing the paper program's mirror")
-    plots["polishing_best"] = polishing_curve_plot(out["polishing"]["best_program"],
-                                                   "polishing the best program's mirror")
+    pol = out["polishing"]
+    plots["polishing_paper"] = polishing_curve_plot(pol["paper_program"], "polishing the paper program's mirror")
+    plots["polishing_best"] = polishing_curve_plot(pol["best_program"], "polishing the best program's mirror")
+    plots["polishing_decomposition"] = decomposition_plot(pol["decomposition"])
+    plots["polishing_lap"] = lap_plot(pol["lap_plan"])
     plots["depth_error"] = depth_error_plot(out["stereo"]["curves"])
     if data.images:
         plots["images"] = images_side_by_side(data.images)
