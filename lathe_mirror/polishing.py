@@ -86,6 +86,10 @@ STROKE_STEP_MM = 0.02
 SMOOTHING = 0.05
 #: Gauss-Legendre nodes of the azimuth integral of the relative speed.
 AZIMUTH_NODES = 24
+#: A point this many compliances l_c below the pad's surface is bridged: left out of the fit.
+BRIDGE = 1.0
+#: Steps between renewals of the set of points the pad's surface rests on.
+CONTACT_EVERY = 8
 #: The pad's Gaussian weight: sigma = pad_size_mm / PAD_SIGMAS, cut at +-pad_size_mm.
 PAD_SIGMAS = 4.0
 #: Knot spacing (mm) of the spline the pre-compensation allowance is.
@@ -574,29 +578,37 @@ def _evolve(r: np.ndarray, z0: np.ndarray, rate: np.ndarray, params: PolishParam
     dt_max = ACCURACY * lc / max(float(rate.max()), 1e-300)
     z = z0.copy()
 
-    def pressure(z: np.ndarray, contact: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def pressure(z: np.ndarray, contact: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         fit = pad(z, contact)
         # Standing out toward the pad (toward the camera) is lower z; the pad deflects
         # along the normal, by the height difference times cos(beta).
         sec = np.sqrt(1.0 + (np.gradient(fit, dr)) ** 2)  # 1 / cos(beta)
-        return np.maximum(0.0, 1.0 + (fit - z) / (sec * lc)), sec
+        p = 1.0 + (fit - z) / (sec * lc)
+        # The pad's surface leaves out a point lying more than BRIDGE l_c below it (a deep
+        # groove, the rounded step edge); one that just lost its pressure still holds the fit
+        # (no flicker of the contact pattern between steps).
+        return np.maximum(0.0, p), sec, p > -BRIDGE
 
-    # Which points the pad touches at the start: a point the pad's surface passes more
-    # than l_c above (a deep groove, the rounded step edge) is out of contact, and the pad's
-    # surface is refitted without it.
+    # Which points the pad's surface rests on at the start: refitted without the deep ones.
     contact = np.ones(z.size, bool)
     for _ in range(3):
-        p_rel, _ = pressure(z, contact)
-        if np.array_equal(p_rel > 0, contact):
+        _, _, held = pressure(z, contact)
+        if np.array_equal(held, contact):
             break
-        contact = p_rel > 0
+        contact = held
     t = 0.0
     snaps = []
+    step = 0
     for target in times:
         while t < target - 1e-12:
             dt = min(dt_max, target - t)
-            p_rel, sec = pressure(z, contact)
-            contact = p_rel > 0
+            p_rel, sec, held = pressure(z, contact)
+            # The pattern the pad rests on is renewed every CONTACT_EVERY steps (a rounded
+            # edge wears into contact point by point; refitting at each would cost a fresh
+            # moment system per step for a change of a few micrometres of edge).
+            if step % CONTACT_EVERY == 0:
+                contact = held
+            step += 1
             # Removal k p v dt along the normal raises z by that over cos(beta).
             z = z + dt * rate * p_rel * sec
             t += dt
@@ -637,7 +649,9 @@ class PadFit:
         self.size = 1 << int(math.ceil(math.log2(n + 2 * h)))
         # Kernels flipped for a correlation: T_m[i] = sum_j g(u_j) u_j^m z[i + j].
         self.kernels_f = np.stack([np.fft.rfft(g * (-u) ** m, self.size) for m in range(2 * self.DEGREE + 1)])
-        self.rows = self._rows(np.ones(n))  # every point in contact
+        self.rows = self._solve(np.ones(n))  # every point in contact
+        self._cached_key: bytes | None = None
+        self._cached_rows = self.rows
 
     def _extend(self, x: np.ndarray) -> np.ndarray:
         m = self.mirror
@@ -648,10 +662,26 @@ class PadFit:
         return np.fft.irfft(f[None, :] * self.kernels_f[:m], self.size)[:, self.h:self.h + self.n]
 
     def _rows(self, contact: np.ndarray) -> np.ndarray:
-        """Row 0 of each point's inverse moment matrix (d, n), for this contact pattern."""
+        """Row 0 of each point's inverse moment matrix (d, n), for this contact pattern: only
+        the points within a window of one out of contact differ from full contact."""
+        if contact.all():
+            return self.rows
+        out = np.flatnonzero(contact < 0.5)
+        near = np.zeros(self.n + 1, int)
+        np.add.at(near, np.clip(out - self.h, 0, self.n), 1)
+        np.add.at(near, np.clip(out + self.h + 1, 0, self.n), -1)
+        touched = np.flatnonzero(np.cumsum(near)[:self.n] > 0)
+        rows = self.rows.copy()
+        rows[:, touched] = self._solve(contact, touched)
+        return rows
+
+    def _solve(self, contact: np.ndarray, points: np.ndarray | None = None) -> np.ndarray:
+        """Row 0 of the inverse moment matrix (d, len(points)) at `points` (default all)."""
         d = self.d
         moments = self._moments(contact, 2 * self.DEGREE + 1)
-        mat = np.empty((self.n, d, d))
+        if points is not None:
+            moments = moments[:, points]
+        mat = np.empty((moments.shape[1], d, d))
         for i in range(d):
             for j in range(d):
                 mat[:, i, j] = moments[i + j]
@@ -667,7 +697,12 @@ class PadFit:
             rows, t = self.rows, self._moments(zz, self.d)
         else:
             c = self._extend(contact.astype(float))
-            rows, t = self._rows(c), self._moments(zz * c, self.d)
+            # The pattern of points out of contact changes rarely (a rounded edge, a groove,
+            # until it wears in): its moment systems are kept for the next steps.
+            key = np.flatnonzero(~contact).tobytes()
+            if key != self._cached_key:
+                self._cached_key, self._cached_rows = key, self._rows(c)
+            rows, t = self._cached_rows, self._moments(zz * c, self.d)
         return np.einsum("mi,mi->i", rows, t)[self.mirror:] + ref
 
     @staticmethod
