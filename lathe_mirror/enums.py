@@ -123,7 +123,7 @@ class Dwell(str, Enum):
     FLAT = "flat"
 
 
-class Objective(str, Enum):
+class PolishObjective(str, Enum):
     """The figure that chooses the polishing time (optics.polishing_curve).
 
     STEREO: the calibrated stereo residual (depth error once a per-lobe smooth radial

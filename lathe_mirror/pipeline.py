@@ -309,8 +309,9 @@ def shop_programs(settings: Settings, mirror: Mirror, *,
 
     costs = setting_error_costs(mirror, SETTING_ERROR_MM)
     options = options_from_settings(settings.toolpath)
+    target = program_target(settings, mirror)  # polish.precompensate: the polish's allowance
     return [shop_program(plan(mirror, settings.machine, settings.tool, strategy,
-                              max_deviation=settings.toolpath.max_deviation),
+                              max_deviation=settings.toolpath.max_deviation, target=target),
                          settings.stock, options, setting_costs=costs)
             for strategy in strategies]
 
@@ -464,7 +465,6 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     its as-machined surface, polishing, the distortion of each made mirror, stereo depth
     error against range, renders, the tolerance analysis and the verdict. No files."""
     from .design import TABLE1_SWAP_NOTE, design_figures
-    from .optics.polishing_curve import polish_summary
     from .optics.radial import corner_limit_px, used_extent
     from .optics.stereo import depth_error_curve
 

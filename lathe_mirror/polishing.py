@@ -68,7 +68,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .design import Lobe, Mirror
-from .enums import Dwell, Lap, Objective
+from .enums import Dwell, Lap, PolishObjective
 from .errors import InputError
 from .finish import DEFAULT_PROCESSES, Process
 from .profile import LobeSamples, Profile, SampledProfile
@@ -124,7 +124,7 @@ class PolishParams:
     the band at the step's top edge on the proud lobe (both out of the pad's contact, mm);
     clear_edge_mm, the band at each edge of a lobe (the step and the rim) left out of every
     slope and form figure (the clear aperture, mm).
-    Objective: objective (Objective), the figure that chooses the time; objective_range_m,
+    PolishObjective: objective (PolishObjective), the figure that chooses the time; objective_range_m,
     the range of the stereo objective (m); objective_tolerance, the chosen time is the
     earliest whose objective is within this fraction of the explored minimum;
     calibration_knot_px, the knot spacing (px) of the per-lobe radial spline calibration
@@ -155,7 +155,7 @@ class PolishParams:
     corner_mm: float = 0.5
     step_edge_mm: float = 0.0
     clear_edge_mm: float = 0.5
-    objective: Objective = Objective.STEREO
+    objective: PolishObjective = PolishObjective.STEREO
     objective_range_m: float = 2.0
     objective_tolerance: float = 0.05
     calibration_knot_px: float = 24.0

@@ -25,7 +25,7 @@ from .enums import (
     Dwell,
     Lap,
     Mount,
-    Objective,
+    PolishObjective,
     Program,
     StepSchema,
     Strategy,
@@ -209,7 +209,7 @@ def _polish(pc: dict) -> PolishParams:
     Process check the values."""
     kinds = {"curve_points": int, "form_degree": int, "stroke_points": int, "precompensate": bool,
              "lap": lambda v: parse(Lap, v, "polish.lap"), "dwell": lambda v: parse(Dwell, v, "polish.dwell"),
-             "objective": lambda v: parse(Objective, v, "polish.objective")}
+             "objective": lambda v: parse(PolishObjective, v, "polish.objective")}
     values = {k: kinds.get(k, float)(v) for k, v in pc.items() if k != "process"}
     processes = tuple(
         Process(name=name, label=str(t["label"]), program=parse(Program, t["program"], f"polish.process.{name}.program"),

@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from lathe_mirror.enums import Objective, Strategy
+from lathe_mirror.enums import PolishObjective, Strategy
 from lathe_mirror.optics.calibrated_stereo import calibrated_depth_error
 from lathe_mirror.optics.polishing_curve import form_facet_decomposition, polish_curve
 from lathe_mirror.optics.radial import used_extent
@@ -100,13 +100,13 @@ def test_stereo_objective_polishes_longer_than_image_displacement(paper_mirror, 
     machined = made_surface(paper_mirror, settings.machine, settings.tool, Strategy.PAPER).profile
     curve = polish_curve(machined, paper_mirror, params, process=process_for(settings))
     chosen = {}
-    for obj, key in ((Objective.STEREO, "stereo_residual_pct"),
-                     (Objective.IMAGE_DISPLACEMENT, "image_displacement_px")):
+    for obj, key in ((PolishObjective.STEREO, "stereo_residual_pct"),
+                     (PolishObjective.IMAGE_DISPLACEMENT, "image_displacement_px")):
         v = curve.combined[key]
         chosen[obj] = int(np.flatnonzero(v <= v.min() * (1 + params.objective_tolerance))[0])
         assert curve.chosen_index(obj) == chosen[obj]
-    assert curve.objective is Objective.STEREO and curve.optimum_index == chosen[Objective.STEREO]
-    assert chosen[Objective.STEREO] > chosen[Objective.IMAGE_DISPLACEMENT] > 0
+    assert curve.objective is PolishObjective.STEREO and curve.optimum_index == chosen[PolishObjective.STEREO]
+    assert chosen[PolishObjective.STEREO] > chosen[PolishObjective.IMAGE_DISPLACEMENT] > 0
     i = curve.optimum_index
     full = calibrated_depth_error(curve.profiles[i], paper_mirror, [params.objective_range_m],
                                   clear_edge_mm=params.clear_edge_mm).at(params.objective_range_m)["rms"]
@@ -132,7 +132,7 @@ def test_slope_objective_is_over_the_clear_aperture(paper_mirror, settings):
              for p in (nominal, larger)]
     assert whole[0] < 3e-4 and whole[1] > 0.02
     assert clear[1] == pytest.approx(clear[0], rel=0.05)
-    params = dataclasses.replace(settings.polish, curve_points=5, objective=Objective.SLOPE_ERROR,
+    params = dataclasses.replace(settings.polish, curve_points=5, objective=PolishObjective.SLOPE_ERROR,
                                  curve_max_s=7200.0)
     curve = polish_curve(larger, paper_mirror, params)
     v = curve.combined["slope_error_rad"]

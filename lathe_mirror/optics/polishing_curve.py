@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..design import Mirror
-from ..enums import Objective
+from ..enums import PolishObjective
 from ..finish import Process
 from ..polishing import LapPlan, PolishParams, lap_plan, polish_series
 from ..profile import LobeSamples, Profile, SampledProfile
@@ -44,15 +44,15 @@ from ..progress import bar as progress_bar
 CURVE_BIN_PX = 0.1
 #: What each objective is called in a sentence, and its unit.
 OBJECTIVE_WORDS = {
-    Objective.STEREO: ("the calibrated stereo residual", "%"),
-    Objective.IMAGE_DISPLACEMENT: ("the image displacement", "px"),
-    Objective.SLOPE_ERROR: ("the slope error", "rad"),
+    PolishObjective.STEREO: ("the calibrated stereo residual", "%"),
+    PolishObjective.IMAGE_DISPLACEMENT: ("the image displacement", "px"),
+    PolishObjective.SLOPE_ERROR: ("the slope error", "rad"),
 }
 #: The figure (combined over both lobes) each objective minimises.
 OBJECTIVE_FIGURES = {
-    Objective.STEREO: "stereo_residual_pct",
-    Objective.IMAGE_DISPLACEMENT: "image_displacement_px",
-    Objective.SLOPE_ERROR: "slope_error_rad",
+    PolishObjective.STEREO: "stereo_residual_pct",
+    PolishObjective.IMAGE_DISPLACEMENT: "image_displacement_px",
+    PolishObjective.SLOPE_ERROR: "slope_error_rad",
 }
 
 
@@ -149,7 +149,7 @@ class PolishCurve:
     times_s: np.ndarray
     lobes: list[dict]
     combined: dict[str, np.ndarray]
-    objective: Objective = Objective.STEREO
+    objective: PolishObjective = PolishObjective.STEREO
     tolerance: float = 0.05
     range_m: float = 2.0
     profiles: list[SampledProfile] = field(repr=False, default_factory=list)
@@ -159,7 +159,7 @@ class PolishCurve:
         """RMS image displacement over all usable pixels of both lobes (px) at each time."""
         return self.combined["image_displacement_px"]
 
-    def chosen_index(self, objective: Objective | None = None) -> int:
+    def chosen_index(self, objective: PolishObjective | None = None) -> int:
         """Index of the time `objective` (default the curve's) chooses: the earliest whose
         value is within (1 + tolerance) of the least over the curve."""
         values = self.combined[OBJECTIVE_FIGURES[objective or self.objective]]
@@ -200,7 +200,7 @@ class PolishCurve:
             "lobes": [{"name": lb["name"], **{key: {s: [float(v) for v in arr] for s, arr in val.items()}
                                               for key, val in lb.items() if key != "name"}}
                       for lb in self.lobes],
-            "chosen_time_s": {o.value: float(self.times_s[self.chosen_index(o)]) for o in Objective},
+            "chosen_time_s": {o.value: float(self.times_s[self.chosen_index(o)]) for o in PolishObjective},
             "optimum": {
                 "time_s": self.optimum_time_s,
                 "inside_range": self.optimum_inside,
@@ -314,12 +314,12 @@ def polish_summary(curve: PolishCurve, program: str) -> dict:
     disp = curve.combined_displacement_px
     chosen = d["chosen_time_s"]
     others = "; ".join(f"{OBJECTIVE_WORDS[o][0]} would choose {chosen[o.value] / 60:.0f} min"
-                       for o in Objective if o is not curve.objective)
+                       for o in PolishObjective if o is not curve.objective)
 
     def fmt(v: float) -> str:
         return f"{v:.3g}"
 
-    where = f" at {curve.range_m:g} m" if curve.objective is Objective.STEREO else ""
+    where = f" at {curve.range_m:g} m" if curve.objective is PolishObjective.STEREO else ""
     if i == 0:
         statement = (f"The {program} program's mirror is best left unpolished by {word}{where}: "
                      f"{fmt(values[0])} {unit} as machined, {fmt(values[-1])} {unit} after "
