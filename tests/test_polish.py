@@ -346,13 +346,13 @@ def test_polish_cli_bad_choice_exit_2(tmp_path, text, key):
 
 
 def test_polishing_time_that_would_never_finish_is_refused(paper_mirror, tmp_path):
-    """The explicit step is 0.05 l_c over the fastest removal rate, bounded by k p0 v_max:
-    for the fixed lap v_max = omega r_max (by hand: 4e-13 * 20e3 Pa * 31.4 rad/s * 35 mm =
-    8.80e-6 mm/s, step 22.7 s), for the rotating lap omega_l * stroke (0.75 mm at 314 rad/s).
-    1e9 s would take 4.4e7 steps. Refused with the keys named, before any directory is made."""
-    step = 0.05 * 0.004 / (4e-13 * 20e3 * OMEGA_300 * 35.0)
+    """The step is 0.2 l_c over the fastest removal rate, bounded by k p0 v_max: for the fixed
+    lap v_max = omega r_max (by hand: 4e-13 * 20e3 Pa * 31.4 rad/s * 35 mm = 8.80e-6 mm/s,
+    step 90.9 s), for the rotating lap omega_l * stroke (0.75 mm at 314 rad/s). 1e9 s would
+    take 1.1e7 steps. Refused with the keys named, before any directory is made."""
+    step = 0.2 * 0.004 / (4e-13 * 20e3 * OMEGA_300 * 35.0)
     assert FIXED.time_steps(35.0, 7200.0) == pytest.approx(7200.0 / step, rel=1e-12)
-    step_rotate = 0.05 * 0.004 / (4e-13 * 30e3 * (3000 * 2 * math.pi / 60) * 0.75)
+    step_rotate = 0.2 * 0.004 / (4e-13 * 30e3 * (3000 * 2 * math.pi / 60) * 0.75)
     assert PolishParams().time_steps(35.0, 7200.0) == pytest.approx(7200.0 / step_rotate, rel=1e-12)
     with pytest.raises(InputError, match="polish.time_s"):
         polish(ExactProfile(paper_mirror), FIXED, 1e9)
