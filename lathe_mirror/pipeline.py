@@ -574,8 +574,8 @@ def polishing_study(settings: Settings, mirror: Mirror, made: dict[str, Profile]
 
     first = dataclasses.replace(params, **FIRST_MODEL)
     decomposition = {
-        "polished": decompose(paper.profiles[paper.optimum_index], params, time_s),
         "first_model": decompose(polish(made["paper"], first, 3600.0), first, 3600.0),
+        "polished": decompose(paper.profiles[paper.optimum_index], params, time_s),
     }
     # The paper program, the one polishing rescues (the best program's figures after the
     # same study are in the README; each program costs ~1.5 s).

@@ -400,3 +400,24 @@ def test_polish_cli_no_progress_keeps_stderr_empty(tmp_path):
     proc = run_cli("polish", "--config", str(cfg), "--no-progress")
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stderr == "" and proc.stdout.strip()
+
+
+def test_precompensate_puts_the_allowance_into_the_program(tmp_path):
+    """polish.precompensate: `toolpath` writes the finishing pass on the design lowered by the
+    allowance of polish.time_s. 4 h with the default lap removes k p0 omega (stroke / 2) t =
+    20.4 um at the vertex (by hand): the finishing tool comes in that much higher, to the
+    lattice (the roughing follows the same target, its allowance on top)."""
+    import re
+
+    cfg = tmp_path / "pc.toml"
+    cfg.write_text("[polish]\nprecompensate = true\ntime_s = 14400.0\n")
+    plain = run_cli("toolpath", "--strategy", "paper")
+    comp = run_cli("toolpath", "--strategy", "paper", "--config", str(cfg))
+    assert plain.returncode == 0 and comp.returncode == 0, comp.stderr
+
+    def finish_entry(text: str) -> float:
+        tail = text[text.index("T2 M6"):]
+        return [float(z) for z in re.findall(r"G0 X0\.\d+ Z(-?\d+\.\d+)", tail) if float(z) < 10][0]
+
+    allowance = 4e-13 * 30e3 * (3000 * 2 * math.pi / 60) * 0.375 * 14400.0
+    assert finish_entry(comp.stdout) - finish_entry(plain.stdout) == pytest.approx(allowance, abs=0.005)
