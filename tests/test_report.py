@@ -26,7 +26,8 @@ from conftest import UNCUTTABLE, UNCUTTABLE_PHRASE, run_cli
 @pytest.fixture(scope="module")
 def small_cfg(paper_config):
     cfg = copy.deepcopy(paper_config)
-    cfg["polish"]["curve_points"] = 9
+    cfg["polish"]["curve_points"] = 11  # hourly to 10 h: the stereo objective's floor (~7-8 h) inside
+    cfg["polish"]["curve_max_s"] = 36000.0
     cfg["tolerance"]["trials"] = 60
     cfg["tolerance"]["lattice_phases"] = 1
     return cfg
@@ -92,12 +93,12 @@ def test_polishing_curve_and_polished_mirror(report, made, paper_mirror, small_c
     assert curve["optimum"]["time_s"] == curve["times_s"][i]
     assert 0 < chosen["image_displacement"] < i < len(curve["times_s"]) - 1 and pol["summary"]["optimum_inside_range"]
     # The polished mirror is the paper program polished for that time, recomputed here in one
-    # run (the curve's run stops at every snapshot, so its Euler steps differ: ~1e-4).
+    # run (the curve's run stops at every snapshot, so its time steps differ: ~1e-3).
     polished = polish(made["paper"], from_config(small_cfg).polish, curve["optimum"]["time_s"])
     again = radial_figures(polished, paper_mirror)
     for k in (0, 1):
         assert report.figures["mirrors"]["polished"]["lobes"][k]["image_displacement_px"]["rms"] == pytest.approx(
-            again["lobes"][k]["image_displacement_px"]["rms"], rel=1e-3)
+            again["lobes"][k]["image_displacement_px"]["rms"], rel=3e-3)
     # The statement quotes the curve's own numbers (form cost in um, the chosen times in min).
     form_inner = curve["optimum"]["lobes"][0]["form_change_mm"]["rms"] * 1e3
     assert f"{form_inner:.1f} um RMS" in pol["summary"]["statement"]

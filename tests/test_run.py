@@ -9,7 +9,8 @@ from lathe_mirror.export.calib import FILE_NAMES
 
 SMALL = """
 [polish]
-curve_points = 9
+curve_points = 11
+curve_max_s = 36000.0
 [tolerance]
 trials = 100
 lattice_phases = 1
