@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import UNCUTTABLE, UNCUTTABLE_PHRASE, run_cli
 
 from lathe_mirror.enums import Dwell, Lap, Strategy
 from lathe_mirror.errors import InputError
@@ -23,10 +24,13 @@ from lathe_mirror.polishing import (
     lap_plan,
     polish,
 )
-from lathe_mirror.profile import ExactProfile, LobeSamples, PolylineProfile, SampledProfile
+from lathe_mirror.profile import (
+    ExactProfile,
+    LobeSamples,
+    PolylineProfile,
+    SampledProfile,
+)
 from lathe_mirror.settings import from_config
-
-from conftest import UNCUTTABLE, UNCUTTABLE_PHRASE, run_cli
 
 #: The first model's process: a lap held still over the lobe, the part at 300 rev/min, 20 kPa.
 FIXED = dataclasses.replace(PolishParams(), **FIRST_MODEL)

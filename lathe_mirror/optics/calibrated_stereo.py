@@ -44,7 +44,14 @@ import numpy as np
 
 from ..design import Mirror
 from ..profile import Profile
-from .stereo import DepthCurve, band_elevations, exact_pixels, stereo_centre_z, triangulate, world_points
+from .stereo import (
+    DepthCurve,
+    band_elevations,
+    exact_pixels,
+    stereo_centre_z,
+    triangulate,
+    world_points,
+)
 
 #: Fixed-point iterations for rho'' + P(rho'') = rho (P' is small: each contracts by |P'|).
 _PIXEL_ITER = 8

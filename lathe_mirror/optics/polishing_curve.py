@@ -270,8 +270,8 @@ def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams,
             ok = np.isfinite(d)
             sq += float(np.sum(w[ok] * d[ok] ** 2))
             cnt += float(np.sum(w[ok]))
-            slope_sq += surf["lobes"][k]["slope_error_rad"]["rms"] ** 2 * (lambda a: a[1] - a[0])(
-                clear_aperture(mirror, k, edge))
+            lo_c, hi_c = clear_aperture(mirror, k, edge)
+            slope_sq += surf["lobes"][k]["slope_error_rad"]["rms"] ** 2 * (hi_c - lo_c)
             figs = {"slope_error_rad": surf["lobes"][k]["slope_error_rad"],
                     "normal_deviation_mm": surf["lobes"][k]["normal_deviation_mm"],
                     "form_change_mm": form["lobes"][k]["form_change_mm"],
@@ -283,7 +283,7 @@ def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams,
                 slot = lobes[k].setdefault(key, {s: [] for s in figs[key]})
                 for s, v in figs[key].items():
                     slot[s].append(v)
-        span = sum((lambda a: a[1] - a[0])(clear_aperture(mirror, k, edge)) for k in (0, 1))
+        span = sum(hi - lo for lo, hi in (clear_aperture(mirror, k, edge) for k in (0, 1)))
         combined["image_displacement_px"].append(math.sqrt(sq / cnt))
         combined["slope_error_rad"].append(math.sqrt(slope_sq / span))
         cal = fit_calibration(prof, mirror, params.calibration_knot_px, displacements=[
