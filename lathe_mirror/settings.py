@@ -513,8 +513,14 @@ RANGES: dict[str, Range] = {
     "tolerance.azimuths": _r(1, None, "", why="the Monte Carlo estimate bounds it"),
     "tolerance.bin_px": _r(0.05, 50.0, "px"),
     "tolerance.depth_points": _r(1, 1000, "", why="elevations across the common band: finer than a pixel"),
+    "tolerance.nose_step_mm": _r(1e-5, 0.01, "mm", why="the analysis' estimate bounds it with the nose tolerance"),
+    "tolerance.seat_pivot_mm": _r(-1000.0, 1000.0, "mm"),
+    "tolerance.matching_noise_px": _r(0.0, 10.0, "px"),
+    "tolerance.target_yield": _r(0.5, 0.999, ""),
+    "tolerance.spec.calibrated": _choice("true or false"),
+    "tolerance.spec.outlier_pct": _r(0.0, 100.0, "%", lo_open=True),
     "tolerance.spec.image_displacement_px": _r(0.0, 10_000.0, "px", lo_open=True),
-    "tolerance.spec.depth_error_pct": _r(0.0, 100.0, "%", lo_open=True, why="each point is capped at 100 %"),
+    "tolerance.spec.depth_error_pct": _r(0.0, 100.0, "%", lo_open=True),
     "tolerance.spec.depth_range_m": _r(0.2, 100.0, "m"),
     "tolerance.spec.slope_error_rad": _r(0.0, math.pi / 2, "rad", lo_open=True),
     "tolerance.params.resolution_mm": _r(0.0, 0.1, "mm", why="below machine.resolution"),
@@ -525,6 +531,8 @@ RANGES: dict[str, Range] = {
     "tolerance.params.camera_decentre_mm": _r(0.0, 100.0, "mm", why="each lobe keeps half its pixels"),
     "tolerance.params.camera_tilt_deg": _r(0.0, 45.0, "deg", hi_open=True, why="each lobe keeps half its pixels"),
     "tolerance.params.camera_axial_mm": _r(0.0, 1000.0, "mm", why="each lobe keeps half its pixels"),
+    "tolerance.params.seat_tilt_deg": _r(0.0, 45.0, "deg", hi_open=True),
+    "tolerance.cost.*": _r(0.0, 1e6, "", lo_open=True, why="relative cost of holding each tolerance"),
     "stereo.surface": _choice("any render.surface name"),
     "stereo.supersample": _r(1, 4, "", why="the render estimate bounds it with the sensor"),
     "stereo.min_range_m": _r(0.05, 100.0, "m", why="its disparity search at most 256 px"),
@@ -737,9 +745,10 @@ _RENDER_PX_S = 0.66e-6            # render: per pixel, plus per sample below
 _RENDER_SAMPLE_S = 0.68e-6
 _REPORT_S = 8.0                   # report/run without the tolerance analysis: 8 s, plus a pixel's
 _REPORT_PX_S = 3.7e-6             # four images and distortion maps
-_MC_TRIAL_S = 3.0e-4              # Monte Carlo: per trial and program, plus per ray below
-_MC_RAY_S = 1.4e-6                # per sample ray (both lobes)
-_MC_DEPTH_RAY_S = 2.7e-6          # per depth ray (two lobes x 4 azimuths x depth_points)
+_MC_TRIAL_S = 4.5e-4              # Monte Carlo: per trial and program, plus per ray below
+_MC_RAY_S = 1.6e-6                # per sample ray (both lobes)
+_MC_DEPTH_RAY_S = 1.9e-6          # per depth ray (two lobes x 4 azimuths x depth_points)
+_TIME_NODES = 9                   # polishing snapshots of each surface of the tolerance analysis
 _MC_TRIAL_BYTES = 3000.0          # a trial's parameters, figures and JSON, per program
 _POLISH_S = 3.0                   # polishing: the curves' optics, plus per grid point and time step
 _POLISH_STEP_S = 1.5e-7
@@ -877,25 +886,34 @@ def estimate_costs(settings: Settings, mirror: Mirror) -> list[Cost]:
         "a coarser polish.grid_step_mm, fewer curve_points or a shorter curve_max_s"))
 
     if ts is not None:
+        from .tolerance.perturb import DEPTH_AZIMUTHS
+
         programs = len(ts.programs)
+        runs = programs + (1 if Program.BEST in ts.programs else 0)  # report confirms the best's allocation
         rays = ts.azimuths * mirror.outer.r_pixel / ts.bin_px
-        depth_rays = 8.0 * ts.depth_points
+        depth_rays = 2.0 * DEPTH_AZIMUTHS * ts.depth_points
         per_trial = _MC_TRIAL_S + _MC_RAY_S * rays + _MC_DEPTH_RAY_S * depth_rays
         costs.append(Cost(
             "the Monte Carlo",
-            f"tolerance.trials = {ts.trials} x {programs} programs x ({rays:.3g} sample rays (tolerance.azimuths, "
-            f"bin_px) + {depth_rays:.3g} depth rays (tolerance.depth_points))",
-            programs * ts.trials * per_trial, _BASE_BYTES + programs * ts.trials * _MC_TRIAL_BYTES,
+            f"tolerance.trials = {ts.trials} x {runs} runs ({programs} programs, the allocation's confirmation) x "
+            f"({rays:.3g} sample rays (tolerance.azimuths, bin_px) + {depth_rays:.3g} depth rays "
+            f"(tolerance.depth_points))",
+            runs * ts.trials * per_trial, _BASE_BYTES + runs * ts.trials * _MC_TRIAL_BYTES,
             "fewer trials, azimuths or depth_points, or wider bin_px"))
-        noses = 5 if tol.get("nose_radius_mm", 0.0) > 0 else 1
+        # Each lattice phase cut with the programmed nose, and each distinct nose the trials
+        # draw (rounded to nose_step_mm; a normal draw stays within about -/+ 1.5 tolerances).
+        span = 3.0 * tol.get("nose_radius_mm", 0.0)
+        noses = min(float(ts.trials), span / ts.nose_step_mm + 1.0)
+        surfaces = ts.lattice_phases + noses
         node_steps = pp.time_steps(mirror.r_max, pp.curve_max_s + tol.get("polish_time_s", 0.0))
         per_surface = machining_s + node_steps * grid * _POLISH_STEP_S
         costs.append(Cost(
             "the tolerance analysis' machined and polished surfaces",
-            f"tolerance.lattice_phases = {ts.lattice_phases} x {noses} nose radii x {programs} programs",
-            programs * ts.lattice_phases * noses * per_surface,
-            _BASE_BYTES + ts.lattice_phases * noses * 5 * grid * 16.0,
-            "fewer lattice_phases or a coarser polish.grid_step_mm"))
+            f"(tolerance.lattice_phases = {ts.lattice_phases} + {noses:.3g} noses (params.nose_radius_mm / "
+            f"nose_step_mm)) x {programs} programs",
+            programs * surfaces * per_surface,
+            _BASE_BYTES + surfaces * _TIME_NODES * grid * 16.0,
+            "fewer lattice_phases, a coarser nose_step_mm or polish.grid_step_mm"))
 
     tri = _STL_TRIANGLES * (0.01 / settings.cad.stl_tolerance) * (mirror.r_max / 35.0)
     costs.append(Cost(
