@@ -2,16 +2,20 @@
 
 Each subcommand lives in `lathe_mirror.commands.<name>` with `register(subparsers)`;
 those modules import nothing heavy at import time, so `--help` and `design` start fast.
-Exit status: 0 success, 2 bad input (one line on stderr), 1 internal failure.
+Exit status: 0 success, 2 bad input (one line on stderr), 1 internal failure, 130 / 143
+interrupted by SIGINT / SIGTERM. A command writes its files only when it succeeds
+(export.files.staging): on any failure or signal it leaves nothing behind.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import sys
 import traceback
+import warnings
 
 from .version import __version__
 from .errors import InputError
@@ -49,33 +53,83 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread like KeyboardInterrupt for SIGINT, so that a
+    terminated command cleans up as an interrupted one does."""
+
+
 def main(argv: list[str] | None = None) -> int:
-    from .commands.common import remove_made_dirs
+    from .export import files
 
     parser = build_parser()
     args = parser.parse_args(argv)
+    debug = bool(os.environ.get("LATHE_MIRROR_DEBUG"))
+    received: list[int] = []  # signals caught: one may surface as another exception
+    with warnings.catch_warnings(), _signals_raise(received):
+        if not debug:
+            # numpy's RuntimeWarnings (overflow, 0/0) are expected where a stage probes a
+            # surface's edge; they never reach the user's stderr (LATHE_MIRROR_DEBUG shows them).
+            warnings.simplefilter("ignore", RuntimeWarning)
+        try:
+            with files.staging():  # every file written at the end, or none (export.files)
+                try:
+                    status = int(args.func(args) or 0)
+                except BrokenPipeError:  # the reader of stdout left: the work is done
+                    status = 0
+            return status
+        except InputError as exc:
+            print(f"lathe-mirror {args.command}: error: {_one_line(exc)}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print("lathe-mirror: interrupted", file=sys.stderr)
+            return 130
+        except Terminated:
+            print("lathe-mirror: terminated", file=sys.stderr)
+            return 143
+        except BrokenPipeError:
+            return 0
+        except Exception as exc:  # an internal failure: say so, keep the trace on request
+            if received:  # e.g. SIGTERM inside an extension module's import: ImportError
+                print(f"lathe-mirror: {'interrupted' if received[0] == 2 else 'terminated'}", file=sys.stderr)
+                return 128 + received[0]
+            return _internal(args, exc, debug)
+
+
+def _internal(args: argparse.Namespace, exc: BaseException, debug: bool) -> int:
+    if debug:
+        traceback.print_exception(exc)
+    print(f"lathe-mirror {args.command}: internal error: {type(exc).__name__}: {_one_line(exc)} "
+          "(set LATHE_MIRROR_DEBUG=1 for the traceback)", file=sys.stderr)
+    return 1
+
+
+def _one_line(exc: BaseException) -> str:
+    """The message on one line, at most 1000 characters."""
+    text = " ".join(str(exc).split())
+    return text if len(text) <= 1000 else text[:997] + "..."
+
+
+@contextlib.contextmanager
+def _signals_raise(received: list[int]):
+    """Within the block SIGINT raises KeyboardInterrupt and SIGTERM Terminated in the main
+    thread, each noted in `received` (the handlers are restored after)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        received.append(signum)
+        raise KeyboardInterrupt() if signum == signal.SIGINT else Terminated()
+
+    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        return int(args.func(args) or 0)
-    except InputError as exc:
-        remove_made_dirs()  # a failed command leaves no empty output directory behind
-        print(f"lathe-mirror {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        remove_made_dirs()
-        print("lathe-mirror: interrupted", file=sys.stderr)
-        return 130
-    except BrokenPipeError:
-        return 0
-    except Exception as exc:  # an internal failure: say so, keep the trace on request
-        remove_made_dirs()
-        if os.environ.get("LATHE_MIRROR_DEBUG"):
-            traceback.print_exc()
-        print(
-            f"lathe-mirror {args.command}: internal error: {type(exc).__name__}: {exc} "
-            "(set LATHE_MIRROR_DEBUG=1 for the traceback)",
-            file=sys.stderr,
-        )
-        return 1
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
 
 
 if __name__ == "__main__":

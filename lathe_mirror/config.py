@@ -21,10 +21,13 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .errors import ConfigError
+from .errors import ConfigError, InputError
 
 if TYPE_CHECKING:
     from .settings import Settings
+
+#: Largest configuration file read (bytes): every input is bounded.
+MAX_CONFIG_BYTES = 1 << 20
 
 #: Keys of which a section takes exactly one; a user's section that names any of them
 #: replaces the default's choice instead of adding to it.
@@ -59,7 +62,15 @@ def load(path: str | Path | None = None, *,
     cfg = load_config(path)
     for dotted, value, source in overrides or ():
         set_value(cfg, dotted, value, source=source)
-    return from_config(cfg)
+    try:
+        return from_config(cfg)
+    except InputError as exc:
+        # A flag's value refused under its key's name: say which flag set it.
+        text = str(exc)
+        for dotted, _, source in overrides or ():
+            if f"{dotted} =" in text and source not in text:
+                raise type(exc)(f"{source}: {text}") from None
+        raise
 
 
 def load_config(path: str | Path | None = None) -> dict[str, Any]:
@@ -69,6 +80,10 @@ def load_config(path: str | Path | None = None) -> dict[str, Any]:
         return cfg
     path = Path(path)
     try:
+        size = path.stat().st_size
+        if size > MAX_CONFIG_BYTES and path.is_file():
+            raise ConfigError(f"--config {path}: {size} bytes; allowed at most {MAX_CONFIG_BYTES} "
+                              "(a configuration is a few kilobytes)")
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ConfigError(f"--config {path}: no such file") from None
@@ -80,6 +95,9 @@ def load_config(path: str | Path | None = None) -> dict[str, Any]:
         user = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"--config {path}: not valid TOML ({exc})") from None
+    except RecursionError:  # tomllib parses nested arrays and tables recursively
+        raise ConfigError(f"--config {path}: arrays or tables nested too deeply (the "
+                          "configuration nests at most 3 levels)") from None
     return merge(cfg, user, source=str(path))
 
 

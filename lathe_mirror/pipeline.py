@@ -900,3 +900,37 @@ class ZeroShiftedMirror(Mirror):
     @property
     def vertex_z(self) -> float:  # type: ignore[override]
         return self.inner.vertex_z + self.zero_shift
+
+
+# --------------------------------------------------------------------------------------
+# The one check of a program (issue 14, item 9)
+
+
+def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surface, *,
+                  tool: Tool | None = None) -> Toolpath | None:
+    """The program of `strategy` checked the same way by every command that uses one
+    (toolpath, cad, render, polish, tolerance, calib, stereo, report, run), before any work
+    or file: planned on the lattice within the point budget for toolpath.max_deviation
+    (plan), and its as-machined surface no deeper inside the part than
+    toolpath.gouge_tolerance (the check shop.plan_program makes before it writes G-code).
+    A named Surface stands for the program it is cut with (polished: the paper's; exact,
+    reference, uniform528: none, None returned). tool: default [tool]. Returns the
+    toolpath; InputError names the setting to change."""
+    from .nose_envelope import gouge_depth
+
+    if isinstance(strategy, Surface):
+        if strategy in (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528):
+            return None
+        strategy = (Strategy.PAPER if strategy is Surface.POLISHED else
+                    BEST if strategy is Surface.BEST else Strategy(strategy.value))
+    tp = plan(mirror, settings.machine, tool or settings.tool, strategy,
+              max_deviation=settings.toolpath.max_deviation,
+              target=program_target(settings, mirror))  # polish.precompensate: the allowance
+    depth = gouge_depth(tp)
+    limit = settings.toolpath.gouge_tolerance
+    if depth > limit:
+        raise InputError(
+            f"the {strategy.value} toolpath would gouge the part by {depth:.4f} mm "
+            f"(toolpath.gouge_tolerance = {limit:g} mm); program refused "
+            "(more points, a finer machine.resolution or another strategy cut closer)")
+    return tp

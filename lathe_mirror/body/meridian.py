@@ -258,6 +258,11 @@ class CadSettings:
 #: of overflowed coordinates.
 MAX_LENGTH = 10_000.0
 
+#: Smallest feature of the body (mm): a mount, a wall, a shoulder. Below it a face is a
+#: sliver that the STEP kernel cannot sew (a 1e-9 mm bore gave FreeCAD two shells, one
+#: open, of volume 2.7e102 mm^3); 0.01 mm is two lattice steps of the paper's lathe.
+MIN_FEATURE = 0.01
+
 
 def design_meridian(mirror: Mirror, spec: BodySpec) -> Meridian:
     """The designed mirror: both lobes exactly (hyperbola arcs), the step wall as
@@ -323,6 +328,13 @@ def close_body(face: list[Segment], spec: BodySpec, *, name: str,
             f"cad.blank_diameter = {spec.blank_diameter:g} mm is smaller than the mirror "
             f"(diameter {2 * r_face:.3f} mm): allowed >= {2 * r_face:.3f} mm"
         )
+    if 1e-9 < R - r_face < MIN_FEATURE - 1e-9:
+        raise InputError(
+            f"cad.blank_diameter = {spec.blank_diameter:.8g} mm leaves a shoulder of {R - r_face:.3g} mm beyond "
+            f"the mirror (diameter {2 * r_face:.4f} mm): allowed the mirror's diameter or at least "
+            f"{2 * MIN_FEATURE:g} mm more (the body's smallest feature is {MIN_FEATURE:g} mm)"
+        )
+    _check_features(spec)
     if -T > z_low - spec.min_wall + 1e-9:
         need = -z_low + spec.min_wall
         raise InputError(
@@ -361,10 +373,11 @@ def close_body(face: list[Segment], spec: BodySpec, *, name: str,
         line_to((rm, z_top))
         line_to((0.0, z_top))
     elif spec.mount is Mount.BOSS:
-        if rm > R:
+        if rm > R - MIN_FEATURE:
             raise InputError(
-                f"cad.mount_diameter = {spec.mount_diameter:g} mm: the boss is wider than "
-                f"the blank; allowed <= {spec.blank_diameter:g} mm"
+                f"cad.mount_diameter = {spec.mount_diameter:g} mm: the boss must be narrower than "
+                f"the blank by a step of {MIN_FEATURE:g} mm at least; allowed <= "
+                f"{spec.blank_diameter - 2 * MIN_FEATURE:g} mm"
             )
         line_to((rm, -T))
         line_to((rm, -T - spec.mount_depth))
@@ -379,6 +392,19 @@ def close_body(face: list[Segment], spec: BodySpec, *, name: str,
 
 # --------------------------------------------------------------------------------------
 # Helpers
+
+
+def _check_features(spec: BodySpec) -> None:
+    """The body's own features (the wall, the mount) at least MIN_FEATURE (InputError
+    naming the [cad] key): a smaller one makes a sliver face no STEP reader sews."""
+    keys = ["min_wall"] + (["mount_diameter", "mount_depth"] if spec.mount is not Mount.NONE else [])
+    for key in keys:
+        value = getattr(spec, key)
+        if value < MIN_FEATURE:
+            raise InputError(
+                f"cad.{key} = {value:.3g} mm: allowed >= {MIN_FEATURE:g} mm (smaller is a sliver face "
+                f"the STEP kernel cannot sew; cad.mount = \"none\" for no mount)"
+            )
 
 
 def arc_chords(sweep: float, radius: float, tolerance: float) -> int:

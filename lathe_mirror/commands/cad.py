@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     from ..body import check_stl_tolerance
     from ..enums import StepSchema
     from ..export.cad import check_target
-    from ..pipeline import cad_model, design
+    from ..pipeline import cad_model, check_program, design
 
     overrides = []
     if args.schema is not None:
@@ -72,10 +72,13 @@ def run(args: argparse.Namespace) -> int:
     settings = load(args, overrides)
     path = args.output or f"mirror_{which.value}.{fmt.value}"
     check_target(path)
-    # The DXF always carries the toolpath layers: it plans the toolpath (and fails, exit
-    # 2, on a toolpath setting it cannot plan with, as `lathe-mirror toolpath` would).
-    model = cad_model(settings, design(settings), programmed=(which is Which.PROGRAMMED or fmt is CadFormat.DXF),
-                      programmed_face_only=(which is Which.DESIGN))
+    mirror = design(settings)
+    # The DXF always carries the toolpath layers: it plans the toolpath and checks the
+    # program as `lathe-mirror toolpath` does (exit 2 on a program it would refuse).
+    programmed = which is Which.PROGRAMMED or fmt is CadFormat.DXF
+    if programmed:
+        check_program(settings, mirror, settings.toolpath.strategy)
+    model = cad_model(settings, mirror, programmed=programmed, programmed_face_only=(which is Which.DESIGN))
     figures = export_cad(model, settings.cad, which, fmt, path)
     if args.json:
         print_json(figures)

@@ -33,14 +33,21 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import dataclasses
     import math
     from pathlib import Path
 
     from ..enums import Surface, parse
     from ..errors import InputError
-    from ..optics.camera_model import DEFAULT_RANGE_MM, design_model_figures, made_figures
-    from ..pipeline import design, named_surface
+    from ..export.calib import FILE_NAMES
+    from ..optics.camera_model import (
+        DEFAULT_RANGE_MM,
+        design_model_figures,
+        made_figures,
+    )
+    from ..pipeline import check_program, design, named_surface
     from ..progress import Stages
+    from .common import check_outputs
 
     settings = load(args)
     mirror = design(settings)
@@ -55,6 +62,10 @@ def run(args: argparse.Namespace) -> int:
     names = [parse(Surface, n, "--surface") for n in ((args.surface,) if args.surface is not None
                                                       else DEFAULT_SURFACES)]
     builtin = (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528)
+    check_outputs(args.output or "calib", list(FILE_NAMES))  # every output name, before any work
+    for name in names:  # each program surface's program, checked as every command checks one
+        check_program(settings, mirror, name,
+                      tool=dataclasses.replace(settings.tool, nose_radius=nose) if nose > 0 else None)
     steps = Stages([n.value for n in names] + ["files"], not args.no_progress)
     try:
         made = {}

@@ -7,16 +7,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
-# Directories this process made for its output, outermost first: a command that fails
-# after making them leaves nothing behind (cli.main calls remove_made_dirs).
-_MADE_DIRS: list[Path] = []
-
 
 def add_common(parser: argparse.ArgumentParser, *, output_help: str | None = None) -> None:
     """--config FILE, -o/--output, --json: the options every stage takes."""
     parser.add_argument("--config", metavar="FILE",
                         help="TOML file merged over the paper default (any part of it)")
-    parser.add_argument("-o", "--output", metavar="PATH",
+    parser.add_argument("-o", "--output", metavar="PATH", type=_path_arg,
                         help=output_help or "where to write the stage's files")
     parser.add_argument("--json", action="store_true",
                         help="print the stage's figures as JSON on stdout")
@@ -43,27 +39,32 @@ def print_json(data: Any) -> None:
 
 
 def output_dir(path: str | Path, what: str = "-o/--output") -> Path:
-    """Create an output directory (and parents) as export.files.prepare_dir does, and
-    remember the ones that did not exist, so remove_made_dirs can take them away again
-    if the command fails later."""
+    """Create an output directory (and parents): export.files.prepare_dir, which removes
+    the ones it made again if the command then fails."""
     from ..export.files import prepare_dir
 
-    path = Path(path)
-    missing = []
-    q = path
-    while not q.exists() and not q.is_symlink() and q != q.parent:
-        missing.append(q)
-        q = q.parent
-    _MADE_DIRS.extend(reversed(missing))
     return prepare_dir(path, what)
 
 
-def remove_made_dirs() -> None:
-    """Remove the directories output_dir made, innermost first, where they are still
-    empty (a file a command did write is never removed)."""
-    while _MADE_DIRS:
-        d = _MADE_DIRS.pop()
-        try:
-            d.rmdir()
-        except OSError:
-            pass
+def check_outputs(directory: str | Path | None, names: list[str], what: str = "-o/--output") -> list[Path]:
+    """Check, before any work, that every file a command will write can be written:
+    `names` inside `directory` (made by the command if missing), or paths of their own
+    with directory None. Returns the paths."""
+    from ..export.files import check_output_dir, check_target
+
+    if directory is None:
+        return [check_target(n, what) for n in names]
+    d = check_output_dir(directory, what)
+    out = []
+    for n in names:
+        check_target(d / n, what, parent_made=True)
+        out.append(d / n)
+    return out
+
+
+def _path_arg(text: str) -> str:
+    """-o's argparse type: a non-empty path (an empty one would fall back to the default
+    name silently)."""
+    if not text:
+        raise argparse.ArgumentTypeError("empty path: name a file or directory")
+    return text

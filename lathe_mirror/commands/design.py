@@ -19,7 +19,12 @@ def run(args: argparse.Namespace) -> int:
     from ..design import TABLE1_SWAP_NOTE, design_figures
     from ..pipeline import design
 
-    mirror = design(load(args))
+    settings = load(args)
+    if args.output:
+        from .common import check_outputs
+
+        check_outputs(None, [args.output])  # before any work, as every command
+    mirror = design(settings)
     figures = design_figures(mirror)
     if args.config is None:
         figures["notes"] = [TABLE1_SWAP_NOTE]

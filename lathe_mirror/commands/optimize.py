@@ -30,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
     from ..optimise import Problem, search
     from ..optimise.evaluate import constraint_table
 
-    settings = load(args)
+    settings = load(args, [("optimize.workers", args.workers, "--workers")])  # the estimate counts them
     out = pareto_path = None
     if args.output:
         from ..export.files import check_writable

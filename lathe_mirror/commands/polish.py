@@ -25,7 +25,8 @@ def run(args: argparse.Namespace) -> int:
     from ..enums import BEST, Program, Strategy, parse
     from ..optics.polishing_curve import polish_summary
     from ..optics.radial import radial_figures
-    from ..pipeline import check_programs, design, made_surface, polish_params_dict, polishing_curve, process_for
+    from ..pipeline import (check_program, check_programs, design, made_surface, polish_params_dict,
+                            polishing_curve, process_for)
     from ..polishing import polish
     from ..toolpath import profile_errors
 
@@ -34,11 +35,14 @@ def run(args: argparse.Namespace) -> int:
     params = settings.polish
     mirror = design(settings)
     check_programs(settings, mirror, tolerance=False)  # bad input stops here, before the output directory is made
+    strategy = BEST if program is Program.BEST else Strategy.PAPER
+    check_program(settings, mirror, strategy)
     if args.output:
-        from .common import output_dir
+        from .common import check_outputs, output_dir
 
+        check_outputs(args.output, ["polish.json"])
         output_dir(args.output)
-    made = made_surface(mirror, settings.machine, settings.tool, BEST if program is Program.BEST else Strategy.PAPER)
+    made = made_surface(mirror, settings.machine, settings.tool, strategy)
     curve = polishing_curve(made.profile, mirror, params, process=process_for(settings),
                             progress=not args.no_progress)
     polished = polish(made.profile, params)

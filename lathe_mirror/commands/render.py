@@ -32,26 +32,32 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import dataclasses
     import math
 
     import numpy as np
 
     from ..enums import Surface, parse
-    from ..errors import InputError
     from ..optics.render import image_difference, render_image
-    from ..pipeline import design, named_surface, scene_for
+    from ..pipeline import check_program, design, named_surface, scene_for
     from ..profile import ExactProfile
 
-    settings = load(args)
+    surface = parse(Surface, args.surface, "--surface") if args.surface is not None else None
+    # The flags are the [render] keys: validated (ranges, the render's memory) with the rest.
+    settings = load(args, [("render.supersample", args.supersample, "--supersample"),
+                           ("render.nose_radius", args.nose_radius, "--nose-radius"),
+                           ("render.surface", surface.value if surface else None, "--surface")])
     rc = settings.render
-    surface = parse(Surface, args.surface, "--surface") if args.surface is not None else rc.surface
-    nose = args.nose_radius if args.nose_radius is not None else rc.nose_radius
-    n = args.supersample if args.supersample is not None else rc.supersample
-    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 8:
-        raise InputError(f"--supersample {n}: allowed 1..8 (N x N rays per pixel)")
+    surface, nose, n = rc.surface, rc.nose_radius, rc.supersample
+    if args.output:  # every output name, before any work
+        from .common import check_outputs
+
+        check_outputs(args.output, output_names(surface.value, nose, image_only=args.image_only))
     mirror = design(settings)
     pose = settings.pose
     exact = ExactProfile(mirror)
+    tool = dataclasses.replace(settings.tool, nose_radius=nose) if nose > 0 else None
+    check_program(settings, mirror, surface, tool=tool)  # a program's surface: its program checked
     made = named_surface(surface, mirror, settings, nose_radius=float(nose))
     z_top = float(max(np.max(made.z(np.linspace(0, made.r_max, 2001))), mirror.outer.h))
     scene = scene_for(settings, mirror, mirror_top=z_top + abs(pose.axial_offset))
@@ -116,6 +122,20 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_figures(figures))
     return 0
+
+
+def output_names(surface: str, nose: float, *, image_only: bool = False) -> list[str]:
+    """The files `render -o DIR` writes for a surface (and nose radius, mm)."""
+    if image_only:
+        return [f"{surface}.png"]
+    same = surface == "exact" and not nose  # the made mirror is the exact one
+    names = ["exact.png"]
+    if not same:
+        names += [f"{surface}.png", f"difference_{surface}.png"]
+    names += [f"displacement_radius_{surface}.png", f"displacement_map_{surface}.png", "exact.pov"]
+    if not same:
+        names.append(f"{surface}.pov")
+    return names + [f"figures_{surface}.json"]
 
 
 def format_figures(fig: dict) -> str:

@@ -18,13 +18,18 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..pipeline import check_programs, design, report_figures
+    from ..enums import BEST, Strategy
+    from ..pipeline import check_program, check_programs, design, report_figures
     from ..report import write_report
-    from .common import output_dir
+    from .common import check_outputs, output_dir
 
     settings = load(args)
-    check_programs(settings, design(settings))
+    mirror = design(settings)
+    check_programs(settings, mirror)
+    for strategy in (Strategy.PAPER, BEST):  # the programs it machines, polishes and tolerances
+        check_program(settings, mirror, strategy)
     out_dir = args.output or "out"
+    check_outputs(out_dir, list(REPORT_FILES))
     output_dir(out_dir)
     data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render)
     paths = write_report(data, out_dir)
@@ -33,6 +38,10 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(summary(data.figures, paths))
     return 0
+
+
+#: The files report/ writes into the report directory (report.write_report).
+REPORT_FILES = ("report.json", "report.html")
 
 
 def summary(fig: dict, paths: dict) -> str:

@@ -35,24 +35,44 @@ def run(args: argparse.Namespace) -> int:
     import sys
     from pathlib import Path
 
+    from ..enums import BEST, Dialect, Strategy
+    from ..export.cad import REFERENCE_FILES
+    from ..export.calib import FILE_NAMES as CALIB_FILES
     from ..export.files import write_text
     from ..export.gcode import program_files
-    from ..pipeline import cad_model, check_cad, check_programs, design, report_figures, shop_programs
+    from ..pipeline import (
+        cad_model,
+        check_cad,
+        check_program,
+        check_programs,
+        design,
+        report_figures,
+        shop_programs,
+    )
     from ..report import write_report
-    from .common import output_dir
-    from .report import summary
+    from .common import check_outputs, output_dir
+    from .report import REPORT_FILES, summary
 
     settings = load(args)
-    mirror = design(settings)
-    check_programs(settings, mirror)  # bad input stops here, before anything is written
-    check_cad(settings, mirror)       # the CAD body, checked up front too
-    shops = shop_programs(settings, mirror)  # plans and simulates both programs: a design no program
-    texts = program_files(shops)             # can cut, a program that touches the stock, stop here
     out_dir = Path(args.output or "out")
     default = args.config is None
     gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")
     cad_dir = Path(args.cad_dir) if args.cad_dir else (Path("cad") if default else out_dir / "cad")
     calib_dir = Path(args.calib_dir) if args.calib_dir else (Path("calib") if default else out_dir / "calib")
+    strategies = (Strategy.PAPER, BEST)
+    exts = [d.extension for d in Dialect] + ["setup.html"]
+    programs = [f"mirror_{s.value}.{ext}" for s in strategies for ext in exts]
+    for d, names, what in ((out_dir, list(REPORT_FILES), "-o/--output"), (gcode_dir, programs, "--gcode-dir"),
+                           (cad_dir, list(REFERENCE_FILES), "--cad-dir"),
+                           (calib_dir, list(CALIB_FILES), "--calib-dir")):
+        check_outputs(d, names, what)  # every output name, before any work
+    mirror = design(settings)
+    check_programs(settings, mirror)  # bad input stops here, before anything is written
+    for strategy in strategies:
+        check_program(settings, mirror, strategy)  # as every command that uses a program
+    check_cad(settings, mirror)       # the CAD body, checked up front too
+    shops = shop_programs(settings, mirror, strategies=strategies)  # plans and simulates both programs: a
+    texts = program_files(shops)      # design no program can cut, a program that touches the stock, stop here
     for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir"),
                     (calib_dir, "--calib-dir")):
         output_dir(d, what)  # one that cannot be made takes the ones before it away
@@ -84,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _sha256(path) -> str:
     import hashlib
-    from pathlib import Path
 
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    from ..export.files import written_bytes
+
+    return hashlib.sha256(written_bytes(path)).hexdigest()  # the files are written when run succeeds

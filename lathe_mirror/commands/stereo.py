@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
                                          range_figures, stereo_range)
     from ..optics.ranging.truth import true_range
     from ..optics.render import render_image
-    from ..pipeline import design, named_surface, scene_for
+    from ..pipeline import check_program, design, named_surface, scene_for
     from ..progress import Stages
 
     settings = load(args)
@@ -43,6 +43,12 @@ def run(args: argparse.Namespace) -> int:
     mirror = design(settings)
     pose = settings.pose
     grid, match = prepare(mirror, st.params)  # an empty or too narrow band stops here
+    if args.output:  # every output name, before any work
+        from .common import check_outputs
+
+        files = (("range", "png"), ("error_range", "png"), ("points", "ply"), ("stereo", "json"))
+        check_outputs(args.output, [f"{stem}_{surface.value}.{ext}" for stem, ext in files])
+    check_program(settings, mirror, surface)  # a surface cut by a program: the program checked
     stages = Stages(["surface", "render", "match", "truth", "write"], enabled=not args.no_progress)
     try:
         stages.start("surface")

@@ -34,7 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..enums import BEST, Program, Strategy
     from ..errors import InputError
-    from ..pipeline import check_programs, design, made_surface, polishing_curve, tolerance_runs
+    from ..pipeline import check_program, check_programs, design, made_surface, polishing_curve, tolerance_runs
 
     if args.target_yield is not None:
         if not args.allocate:
@@ -45,13 +45,16 @@ def run(args: argparse.Namespace) -> int:
                            ("tolerance.target_yield", args.target_yield, "--target-yield")])
     mirror = design(settings)
     check_programs(settings, mirror)  # bad input stops here, before the output directory is made
+    for program in settings.tolerance.programs:
+        check_program(settings, mirror, BEST if program is Program.BEST else Strategy.PAPER)
     if args.csv:
         from ..export.files import check_writable
 
         check_writable(args.csv, "--csv")
     if args.output:
-        from .common import output_dir
+        from .common import check_outputs, output_dir
 
+        check_outputs(args.output, ["tolerance.json"])
         output_dir(args.output)
     times = {}
     for program in settings.tolerance.programs:

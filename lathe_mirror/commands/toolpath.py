@@ -32,6 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import os
     from pathlib import Path
 
     from ..enums import BEST, Dialect, Strategy, parse
@@ -43,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
         gouge_depth,
         junction_fillet,
     )
-    from ..pipeline import design, plan, program_target, shop_program
+    from ..pipeline import check_program, design, shop_program
     from ..shop import options_from_settings
     from ..toolpath import profile_errors, usable_ranges
 
@@ -57,22 +58,30 @@ def run(args: argparse.Namespace) -> int:
         strategy = parse(Strategy, args.strategy, "--strategy", aliases={"best": BEST})
     else:
         strategy = settings.toolpath.strategy
+    out = sheet = None
+    into_dir = False
+    if args.output:  # the program's and its set-up sheet's names, checked before any work
+        from .common import check_outputs
+
+        out = Path(args.output)
+        into_dir = os.path.isdir(out) or args.output.endswith("/")
+        if into_dir:
+            out = out / f"mirror_{strategy.value}.{dialect.extension}"
+        sheet = out.with_name(out.name.split(".")[0] + ".setup.html")  # beside the program
+        check_outputs(out.parent if into_dir else None,
+                      [out.name, sheet.name] if into_dir else [str(out), str(sheet)])
     mirror = design(settings)
     lathe, tool, stock = settings.machine, settings.tool, settings.stock
     opts = options_from_settings(settings.toolpath)
-    tp = plan(mirror, lathe, tool, strategy, max_deviation=settings.toolpath.max_deviation,
-              target=program_target(settings, mirror))  # polish.precompensate: the allowance
+    tp = check_program(settings, mirror, strategy)  # as every command that uses a program
     shop = shop_program(tp, stock, opts)  # simulated against the stock; refused if it touches
     text = format_program(shop.program, dialect)
-    if args.output:
-        from ..export.files import check_writable, write_text
+    if out is not None:
+        from ..export.files import write_text
         from .common import output_dir
 
-        out = Path(args.output)
-        if out.is_dir() or args.output.endswith("/"):
-            out = output_dir(out) / f"{shop.program.name}.{dialect.extension}"
-        sheet = out.with_name(out.name.split(".")[0] + ".setup.html")  # beside the program
-        check_writable(sheet)
+        if into_dir:
+            output_dir(out.parent)
         write_text(out, text)
         write_text(sheet, setup_sheet_html(shop.sheet))
     made = as_machined(tp)

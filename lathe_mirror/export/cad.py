@@ -52,15 +52,21 @@ def export_cad(model: CadModel, settings: CadSettings, which: Which, fmt: CadFor
     programmed face for Which.PROGRAMMED and for a DXF (its toolpath layers)."""
     check_target(path)
     data = cad_bytes(model, which, fmt, settings)
+    # Read the bytes back from a scratch copy before the real file is written: the command's
+    # files are written only when it succeeds (files.staging), and a bad file never is.
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="lathe-mirror-check-") as tmp:
+        scratch = Path(tmp) / f"check.{fmt.value}"
+        scratch.write_bytes(data)
+        check = check_file(scratch, fmt)
+    if not ok_figures(check, fmt):
+        raise RuntimeError(f"{fmt.value} of the {which.value} mirror failed its read-back "
+                           f"check {check}; nothing written")
     try:
         write_bytes(path, data)
     except OSError as exc:  # e.g. /proc, a read-only file system: os.access said yes
         raise InputError(f"-o/--output {path}: cannot write ({exc.strerror})") from None
-    check = check_file(path, fmt)
-    if not ok_figures(check, fmt):
-        Path(path).unlink(missing_ok=True)
-        raise RuntimeError(f"{fmt.value} of the {which.value} mirror failed its read-back "
-                           f"check {check}; nothing written")
     meridian = model.design if which is Which.DESIGN else model.programmed
     out: dict[str, Any] = {
         "which": which.value,
