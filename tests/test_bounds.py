@@ -225,10 +225,13 @@ def test_sigterm_leaves_nothing_behind(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "lathe_mirror", "run", "--config", "small.toml", "-o", "OUT",
                              "--no-render"], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     seen = ""
-    for line in proc.stderr:  # the stage lines come after the directories are made
-        seen += line
-        if "lathe-mirror run: CAD" in line:
+    # the stage lines come after the directories are made; read by character, since the
+    # progress bar's carriage returns hold a line back until the run has finished
+    while "lathe-mirror run: CAD" not in seen:
+        c = proc.stderr.read(1)
+        if not c:
             break
+        seen += c
     time.sleep(1.0)
     proc.send_signal(signal.SIGTERM)
     out, err = proc.communicate(timeout=60)
