@@ -418,6 +418,7 @@ def test_every_key_has_a_range_and_the_readme_documents_it():
     patterns = {re.sub(r"^lobes\.\*\.", "lobes.", k): v for k, v in RANGES.items()}
     for key, _ in _leaves(default_config()):
         generic = re.sub(r"^tolerance\.cost\..*", "tolerance.cost.*", re.sub(r"^lobes\.(inner|outer)\.", "lobes.", key))
+        generic = re.sub(r"^polish\.process\..*", "polish.process.*", generic)
         assert generic in patterns, f"{key} has no range"
         rng = patterns[generic]
         assert f"`{generic}`" in readme and rng.text() in readme, f"README lacks {key}: {rng.text()}"

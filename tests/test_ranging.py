@@ -291,7 +291,7 @@ def test_stereo_command_writes_its_files_the_same_twice(tmp_path):
 
 
 @pytest.mark.parametrize("toml, words", [
-    ("[lobes.outer]\nalpha_deg = 30.0\n", "common band is empty"),
+    ("[lobes.outer]\nalpha_deg = 30.0\n", "no common stereo band"),
     ("[lobes.outer]\nalpha_deg = 20.0\n", "narrower than twice the matcher's window"),
     ("[camera_pose]\ndecentre = [20.0, 0.0]\n", "the camera sees the common band"),
     ("[stereo]\nblock_size = 4\n", "stereo.block_size = 4"),
