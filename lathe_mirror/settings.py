@@ -669,7 +669,8 @@ def check_design(settings: Settings) -> Mirror:
     if not lo < hi:  # a stereo camera whose lobes see no elevation in common
         (_, top), (bottom, _) = mirror.fov_usable(mirror.inner), mirror.fov_usable(mirror.outer)
         raise DesignError(
-            f"lobes: no common stereo band: the inner lobe sees up to {math.degrees(top):.3f} deg elevation "
+            f"lobes: the common band is empty (no stereo): the inner lobe sees up to {math.degrees(top):.3f} deg "
+            "elevation "
             f"(lobes.inner.alpha_deg, less the step wall), the outer lobe from {math.degrees(bottom):.3f} deg "
             f"(up to lobes.outer.alpha_deg): raise lobes.inner.alpha_deg")
     return mirror
@@ -940,15 +941,16 @@ def estimate_costs(settings: Settings, mirror: Mirror) -> list[Cost]:
             "fewer trials, azimuths or depth_points, or wider bin_px"))
         # Each lattice phase cut with the programmed nose, and each distinct nose the trials
         # draw (rounded to nose_step_mm; a normal draw stays within about -/+ 1.5 tolerances).
-        span = 3.0 * tol.get("nose_radius_mm", 0.0)
+        dn = tol.get("nose_radius_mm", 0.0)
+        span = 1.5 * dn + min(1.5 * dn, settings.tool.nose_radius)  # a drawn nose is at least 0
         noses = min(float(ts.trials), span / ts.nose_step_mm + 1.0)
         surfaces = ts.lattice_phases + noses
         node_steps = pp.time_steps(mirror.r_max, pp.curve_max_s + tol.get("polish_time_s", 0.0))
         per_surface = machining_s + node_steps * grid * _POLISH_STEP_S
         costs.append(Cost(
             "the tolerance analysis' machined and polished surfaces",
-            f"(tolerance.lattice_phases = {ts.lattice_phases} + {noses:.3g} noses (params.nose_radius_mm / "
-            f"nose_step_mm)) x {programs} programs",
+            f"(tolerance.lattice_phases = {ts.lattice_phases} + {noses:.3g} noses (tolerance.params.nose_radius_mm "
+            f"/ tolerance.nose_step_mm)) x {programs} programs",
             programs * surfaces * per_surface,
             _BASE_BYTES + surfaces * _TIME_NODES * grid * 16.0,
             "fewer lattice_phases, a coarser nose_step_mm or polish.grid_step_mm"))
