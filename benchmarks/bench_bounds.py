@@ -43,7 +43,7 @@ CASES = [
 #: The slowest inputs each command accepts on the paper default (each found by bisection
 #: on config.load: one step more is refused), near the memory or the time limit.
 EDGE = [
-    ("toolpath: paper, 15996 points at 0.0001 mm", ["toolpath", "--strategy", "paper", "--points", "15996",
+    ("toolpath: paper, 16632 points at 0.0001 mm", ["toolpath", "--strategy", "paper", "--points", "16632",
                                                     "-o", "t.ngc"], "[machine]\nresolution = 0.0001\n",
      "nose envelope"),
     ("cad: STL at 0.001 mm, mirror x10", ["cad", "--format", "stl", "--stl-tolerance", "0.001", "-o", "m.stl"],
@@ -54,15 +54,15 @@ EDGE = [
      "rendering"),
     ("render: 1456 x 1456 px, supersample 8", ["render", "--no-progress", "--supersample", "8", "-o", "R"],
      "[camera]\nsensor_px = [1456, 1456]\n", "rendering"),
-    ("polish: grid 0.0005 mm, curve to 11678 s", ["polish", "--no-progress", "-o", "P"],
-     "[polish]\ngrid_step_mm = 0.0005\ncurve_max_s = 11678.0\n", "polishing"),
-    ("stereo: 0.01 deg x 16322 azimuths", ["stereo", "--no-progress", "-o", "S"],
-     "[stereo]\nelevation_step_deg = 0.01\nazimuth_px = 16322\n", "ranging"),
+    ("polish: grid 0.0005 mm, curve to 151173 s", ["polish", "--no-progress", "-o", "P"],
+     "[polish]\ngrid_step_mm = 0.0005\ncurve_max_s = 151173.0\n", "polishing"),
+    ("stereo: 0.01 deg x 15544 azimuths", ["stereo", "--no-progress", "-o", "S"],
+     "[stereo]\nelevation_step_deg = 0.01\nazimuth_px = 15544\n", "ranging"),
     ("optimize: popsize 100, maxiter 999", ["optimize", "--no-progress", "-o", "best.toml"],
      "[optimize]\npopsize = 100\nmaxiter = 999\n", "optimiser"),
-    ("tolerance: 55276 trials", ["tolerance", "--no-progress", "--trials", "55276", "-o", "T"], "",
+    ("tolerance: 43380 trials", ["tolerance", "--no-progress", "--trials", "43380", "-o", "T"], "",
      "Monte Carlo"),
-    ("report: 55276 trials", ["report", "--no-progress", "-o", "O"], "[tolerance]\ntrials = 55276\n", None),
+    ("report: 43380 trials", ["report", "--no-progress", "-o", "O"], "[tolerance]\ntrials = 43380\n", None),
 ]
 
 

@@ -669,8 +669,7 @@ def check_design(settings: Settings) -> Mirror:
     if not lo < hi:  # a stereo camera whose lobes see no elevation in common
         (_, top), (bottom, _) = mirror.fov_usable(mirror.inner), mirror.fov_usable(mirror.outer)
         raise DesignError(
-            f"lobes: the common band is empty (no stereo): the inner lobe sees up to {math.degrees(top):.3f} deg "
-            "elevation "
+            f"lobes: no common stereo band: the inner lobe sees up to {math.degrees(top):.3f} deg elevation "
             f"(lobes.inner.alpha_deg, less the step wall), the outer lobe from {math.degrees(bottom):.3f} deg "
             f"(up to lobes.outer.alpha_deg): raise lobes.inner.alpha_deg")
     return mirror

@@ -195,10 +195,10 @@ def test_a_design_with_no_common_band_is_refused(tmp_path):
     """The issue's own figures: the outer lobe sees from -25.766 deg, the inner lobe
     (alpha -30 deg, less the step wall) up to -33.759 deg."""
     line = refused(tmp_path, "[lobes.inner]\nalpha_deg = -30.0\n", "design")
-    assert "common band is empty" in line and "lobes.inner.alpha_deg" in line
+    assert "no common stereo band" in line and "lobes.inner.alpha_deg" in line
     assert "up to -33.759 deg" in line and "from -25.766 deg" in line
     line = refused(tmp_path, "[lobes.inner]\nalpha_deg = -30.0\n", "run", "-o", "OUT", "--no-progress")
-    assert "common band is empty" in line
+    assert "no common stereo band" in line
 
 
 # --------------------------------------------------------------------------------------

@@ -30,8 +30,6 @@ def run(args: argparse.Namespace) -> int:
     from ..optimise import Problem, search
     from ..optimise.evaluate import constraint_table
 
-    if args.workers is not None and not 1 <= args.workers <= 64:
-        raise InputError(f"--workers {args.workers}: allowed 1 .. 64")
     settings = load(args, [("optimize.workers", args.workers, "--workers")])  # the estimate counts them
     out = pareto_path = None
     if args.output:
@@ -39,6 +37,8 @@ def run(args: argparse.Namespace) -> int:
 
         out = check_writable(args.output)
         pareto_path = check_writable(out.with_name(out.stem + "_pareto.png"))
+    if args.workers is not None and not 1 <= args.workers <= 64:
+        raise InputError(f"--workers {args.workers}: allowed 1 .. 64")
     problem = Problem(camera=settings.camera, tool=settings.tool, stock=settings.stock, body=settings.body,
                       clearance=settings.toolpath.clearance, settings=settings.optimize,
                       reference=settings.lobes)
