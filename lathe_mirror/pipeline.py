@@ -413,8 +413,11 @@ def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nomi
         return made_surface(mirror, settings.machine, settings.tool, strategy, nose_radius=nose,
                             toolpath=programs[phase])
 
+    from .optics.zones import zones_for
+
     return prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
-                   nose0=settings.tool.nose_radius, machine_at=machine_at, progress=progress)
+                   nose0=settings.tool.nose_radius, machine_at=machine_at, progress=progress,
+                   zones=zones_for(settings, mirror))
 
 
 def verdict(t: dict, spec: dict) -> dict:
@@ -493,11 +496,15 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
 
     steps.start("distortion")
     made["exact"] = ExactProfile(mirror)
-    out["mirrors"] = {name: mirror_figures(made[name], mirror) for name in MIRRORS}
+    from .optics.zones import zones_for
+
+    zn = zones_for(settings, mirror)
+    out["zones"] = {**zn.as_dict(), "text": zn.describe()}
+    out["mirrors"] = {name: mirror_figures(made[name], mirror, zn) for name in MIRRORS}
     out["mirrors"]["polished"]["polish_time_s"] = curve_paper.optimum_time_s
     from .optics.camera_model import calibration_figures  # the camera models and their residuals
 
-    out["calibration"] = calibration_figures(mirror, {n: made[n] for n in ("paper", "best", "polished")})
+    out["calibration"] = calibration_figures(mirror, {n: made[n] for n in ("paper", "best", "polished")}, zones=zn)
     steps.done()
 
     steps.start("stereo")
@@ -747,7 +754,7 @@ def polishing_conclusion(p: dict) -> str:
     )
 
 
-def mirror_figures(profile: Profile, mirror: Mirror) -> dict:
+def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> dict:
     """The five figures per lobe (ARCHITECTURE.md), surface and optics.
 
     Surface figures: toolpath.profile_errors. Optical figures: over the pixels each lobe
@@ -755,13 +762,15 @@ def mirror_figures(profile: Profile, mirror: Mirror) -> dict:
     camera; equal to optics.distortion's per-pixel figures over the usable annulus, which
     the tests check); those per-pixel figures (with the pixels the step wall vignettes
     counted too under "with_vignetted") are kept alongside under "optics_distortion".
+    zones (optics.zones.Zones): the optical figures over each lobe's used zone (the ring
+    the nose cannot reach left out), its image radii under "zone_px".
     """
     from .optics.distortion import distortion_figures
     from .optics.radial import radial_figures
     from .toolpath import profile_errors
 
     surf = profile_errors(profile, mirror)
-    rad = radial_figures(profile, mirror)
+    rad = radial_figures(profile, mirror, zones=zones)
     full = distortion_figures(profile, mirror)
     lobes = []
     for s, o, f in zip(surf["lobes"], rad["lobes"], full["lobes"]):
@@ -771,6 +780,7 @@ def mirror_figures(profile: Profile, mirror: Mirror) -> dict:
                       "image_displacement_px": o["image_displacement_px"],
                       "viewpoint_spread_mm": o["viewpoint_spread_mm"],
                       "pixels": o["pixels"], "pixels_excluded": o["pixels_excluded"],
+                      **({"zone_px": o["zone_px"]} if "zone_px" in o else {}),
                       "optics_distortion": f})
     return {"lobes": lobes}
 
