@@ -27,7 +27,7 @@ RANKS = {
     "polishing": 6,
     "body": 7,
     "optics": 8,
-    "tolerance": 9, "optimise": 9,
+    "tolerance": 9, "optimize": 9,
     "iso10110": 9.5,
     "settings": 10,
     "config": 11,
