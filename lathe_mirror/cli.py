@@ -21,7 +21,7 @@ from .version import __version__
 from .errors import InputError
 
 COMMANDS = ("design", "toolpath", "cad", "render", "polish", "tolerance", "calib", "stereo", "report", "run",
-            "optimize")
+            "optimize", "measure", "compensate")
 
 
 class _Parser(argparse.ArgumentParser):

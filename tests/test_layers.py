@@ -26,7 +26,7 @@ RANKS = {
     "shop": 5.5,
     "polishing": 6,
     "body": 7,
-    "optics": 8,
+    "optics": 8, "machine_errors": 5, "measure": 8.5,
     "tolerance": 9, "optimize": 9,
     "settings": 10,
     "config": 11,
