@@ -199,4 +199,4 @@ def test_file_not_what_it_says(tmp_path, name, content, phrase):
 def test_not_a_regular_file(tmp_path):
     (tmp_path / "d.csv").mkdir()
     p = run_cli("measure", str(tmp_path / "d.csv"))
-    assert p.returncode == 2 and "not a regular file" in p.stderr
+    assert p.returncode == 2 and "is a directory" in p.stderr and len(p.stderr.strip().splitlines()) == 1

@@ -15,7 +15,8 @@ Formats (`MeasuredFormat`, from the file's suffix unless --format says):
   datx      Zygo MX (prysm.io.read_zygo_datx, needs h5py): map, heights nm
   dat       Zygo MetroPro binary (prysm.io.read_zygo_dat): map, heights nm
   surfalize any areal format surfalize reads (.sur, .plu, .vk4, .sdf, ...): heights um
-Every file is read through `read_bytes_checked` (a regular file, at most MAX_BYTES).
+Every file is read through `read_bytes_checked` (inputs.read_input: a regular file, at most
+MAX_BYTES); the libraries are handed the bytes, never the path.
 """
 
 from __future__ import annotations
@@ -23,9 +24,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
 import re
-import stat
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
@@ -101,25 +100,12 @@ def format_of(path: str | Path, fmt: str | None = None) -> MeasuredFormat:
 
 
 def read_bytes_checked(path: str | Path) -> bytes:
-    """The whole content of a measured file: a regular file of at most MAX_BYTES (the one
-    place a measured file is opened). InputError otherwise."""
-    p = Path(path)
-    try:
-        st = os.stat(p)
-    except FileNotFoundError:
-        raise InputError(f"{p}: no such file") from None
-    except OSError as exc:
-        raise InputError(f"{p}: cannot read ({exc.strerror})") from None
-    if not stat.S_ISREG(st.st_mode):
-        raise InputError(f"{p}: not a regular file; a measurement is a file")
-    try:
-        with open(p, "rb") as f:
-            data = f.read(MAX_BYTES + 1)
-    except OSError as exc:
-        raise InputError(f"{p}: cannot read ({exc.strerror})") from None
-    if len(data) > MAX_BYTES:
-        raise InputError(f"{p}: larger than {MAX_BYTES >> 20} MiB; allowed at most that")
-    return data
+    """The whole content of a measured file through inputs.read_input (a regular file or
+    stdin '-', at most MAX_BYTES, limited while reading): the one place a measured file is
+    read. InputError otherwise."""
+    from ..inputs import read_input
+
+    return read_input(path, "measured file", MAX_BYTES)
 
 
 def read_measurement(path: str | Path, fmt: str | None = None) -> Trace | AreaMap:
