@@ -27,7 +27,7 @@ RANKS = {
     "polishing": 6,
     "body": 7,
     "optics": 8,
-    "tolerance": 9, "optimise": 9,
+    "tolerance": 9, "optimize": 9,
     "settings": 10,
     "config": 11,
     "pipeline": 12, "notes": 12,

@@ -27,8 +27,8 @@ def run(args: argparse.Namespace) -> int:
     import dataclasses
 
     from ..errors import InputError
-    from ..optimise import Problem, search
-    from ..optimise.evaluate import constraint_table
+    from ..optimize import Problem, search
+    from ..optimize.evaluate import constraint_table
 
     settings = load(args, [("optimize.workers", args.workers, "--workers")])  # the estimate counts them
     out = pareto_path = None

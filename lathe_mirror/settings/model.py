@@ -16,7 +16,7 @@ from ..lathe import Lathe, MachineErrors, Stock, Tool
 from ..optics.camera import CameraPose
 from ..optics.ranging.stereo import StereoParams
 from ..optics.scene import SceneSpec
-from ..optimise.spec import OptimizeSettings
+from ..optimize.spec import OptimizeSettings
 from ..polishing import PolishParams
 from ..tolerance.spec import ToleranceSettings
 from ..toolpath import ToolpathSettings
