@@ -110,25 +110,6 @@ class Lathe:
 
 
 @dataclass(frozen=True)
-class MachineErrors:
-    """The [machine.errors] section: the lathe's set-up errors a simulated part is cut
-    with (all 0: a perfect machine). Lengths in mm, squareness in microradians.
-
-    centre_height_mm: the tool's cutting point above the spindle axis (signed; below < 0):
-    leaves a cone or stub at the centre. x_offset_mm: the tool's X (radius) zero error
-    (signed): leaves an ogive. nose_radius_error_mm: the insert's true nose radius less the
-    programmed one (signed). squareness_urad: the X slide's error from square to the
-    spindle axis (signed). backlash_mm: lost motion of X at a reversal (>= 0).
-    """
-
-    centre_height_mm: float = 0.0
-    x_offset_mm: float = 0.0
-    nose_radius_error_mm: float = 0.0
-    squareness_urad: float = 0.0
-    backlash_mm: float = 0.0
-
-
-@dataclass(frozen=True)
 class Tool:
     """A turning tool. nose_radius in mm; angles in radians.
 

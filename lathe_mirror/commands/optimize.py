@@ -193,10 +193,9 @@ def _user_sections(path) -> dict:
     written design: every section but [camera] and [lobes], which the design replaces."""
     if path is None:
         return {}
-    import tomllib
-    from pathlib import Path
+    from ..config import read_user
 
-    doc = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    doc = read_user(path)
     return {k: v for k, v in doc.items() if k not in ("camera", "lobes")}
 
 

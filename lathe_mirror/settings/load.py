@@ -30,7 +30,8 @@ from ..enums import (
 )
 from ..errors import ConfigError, InputError
 from ..finish import Process
-from ..lathe import Lathe, MachineErrors, Stock, Tool
+from ..lathe import Lathe, Stock, Tool
+from ..machine_errors import MachineErrors
 from ..optics.camera import CameraPose
 from ..optics.ranging.match import MatchParams
 from ..optics.ranging.stereo import StereoParams
@@ -110,7 +111,10 @@ def _lathe(m: dict) -> Lathe:
 
 
 def _machine_errors(e: dict) -> MachineErrors:
-    return MachineErrors(**{k: float(v) for k, v in e.items()})
+    """[machine.errors] (squareness in urad in the file, rad inside)."""
+    return MachineErrors(centre_height_mm=float(e["centre_height_mm"]), x_offset_mm=float(e["x_offset_mm"]),
+                         nose_radius_error_mm=float(e["nose_radius_error_mm"]),
+                         squareness_rad=float(e["squareness_urad"]) * 1e-6, backlash_mm=float(e["backlash_mm"]))
 
 
 def _tool(t: dict) -> Tool:

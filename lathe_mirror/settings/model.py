@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 from ..body import BodySpec, CadSettings
 from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
 from ..enums import Surface
-from ..lathe import Lathe, MachineErrors, Stock, Tool
+from ..lathe import Lathe, Stock, Tool
+from ..machine_errors import MachineErrors
 from ..optics.camera import CameraPose
 from ..optics.ranging.stereo import StereoParams
 from ..optics.scene import SceneSpec
