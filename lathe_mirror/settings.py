@@ -51,7 +51,7 @@ from .optics.camera import CameraPose
 from .optics.ranging.match import MatchParams
 from .optics.ranging.stereo import StereoParams
 from .optics.scene import BoxSpec, SceneSpec, build_scene
-from .optimise.spec import Objective, OptimizeSettings, SearchSpace
+from .optimize.spec import Objective, OptimizeSettings, SearchSpace
 from .polishing import PolishParams
 from .shop import options_from_settings
 from .tolerance.spec import MAX_SAMPLE_RAYS, Spec, ToleranceSettings

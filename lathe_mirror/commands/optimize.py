@@ -27,8 +27,8 @@ def run(args: argparse.Namespace) -> int:
     import dataclasses
 
     from ..errors import InputError
-    from ..optimise import Problem, search
-    from ..optimise.evaluate import constraint_table
+    from ..optimize import Problem, search
+    from ..optimize.evaluate import constraint_table
 
     settings = load(args, [("optimize.workers", args.workers, "--workers")])  # the estimate counts them
     out = pareto_path = None
@@ -194,10 +194,9 @@ def _user_sections(path) -> dict:
     written design: every section but [camera] and [lobes], which the design replaces."""
     if path is None:
         return {}
-    import tomllib
-    from pathlib import Path
+    from ..config import read_user
 
-    doc = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    doc = read_user(path)
     return {k: v for k, v in doc.items() if k not in ("camera", "lobes")}
 
 

@@ -22,9 +22,9 @@ from lathe_mirror.design import LobeSpec, mirror_from_specs
 from lathe_mirror.export.design_toml import design_toml
 from lathe_mirror.lathe import Stock, Tool
 from lathe_mirror.optics.ranging.resolution import r10
-from lathe_mirror.optimise import OptimizeSettings, Problem, SearchSpace, search
-from lathe_mirror.optimise.focus import defocus, virtual_image_distance
-from lathe_mirror.optimise.pareto import pareto_front
+from lathe_mirror.optimize import OptimizeSettings, Problem, SearchSpace, search
+from lathe_mirror.optimize.focus import defocus, virtual_image_distance
+from lathe_mirror.optimize.pareto import pareto_front
 
 
 # --------------------------------------------------------------------------------------
