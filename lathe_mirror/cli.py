@@ -25,7 +25,7 @@ from .version import __version__
 from .errors import InputError
 
 COMMANDS = ("design", "toolpath", "cad", "render", "polish", "tolerance", "calib", "stereo", "report", "run",
-            "optimize", "spec")
+            "optimize", "spec", "measure", "compensate")
 
 
 class _Parser(argparse.ArgumentParser):

@@ -68,3 +68,12 @@ def _path_arg(text: str) -> str:
     if not text:
         raise argparse.ArgumentTypeError("empty path: name a file or directory")
     return text
+
+
+def program_strategy(value: str | None, settings):
+    """--program paper|best as the Strategy a part was cut with (None: [toolpath] strategy)."""
+    from ..enums import BEST, Program, Strategy, parse
+
+    if value is None:
+        return settings.toolpath.strategy
+    return BEST if parse(Program, value, "--program") is Program.BEST else Strategy.PAPER
