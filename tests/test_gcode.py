@@ -18,7 +18,7 @@ from lathe_mirror.config import load
 from lathe_mirror.errors import InputError
 from lathe_mirror.enums import Dialect, parse
 from lathe_mirror.export.gcode import format_program, program_files
-from lathe_mirror.pipeline import shop_programs
+from lathe_mirror.shop.programs import shop_programs
 from lathe_mirror.lathe import Lathe, Stock, Tool
 from lathe_mirror.path import Arc
 from lathe_mirror.shop import ProgramOptions, plan_program

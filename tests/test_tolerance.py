@@ -24,7 +24,8 @@ from lathe_mirror.errors import InputError
 from lathe_mirror.optics.camera import CameraPose
 from lathe_mirror.optics.distortion import exact_image_point
 from lathe_mirror.optics.trace import Fate, trace_pixels
-from lathe_mirror.pipeline import made_surface, tolerance_context
+from lathe_mirror.job import made_surface
+from lathe_mirror.tolerance.runs import tolerance_context
 from lathe_mirror.polishing import polish
 from lathe_mirror.profile import ExactProfile
 from lathe_mirror.settings import from_config

@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
         design_model_figures,
         made_figures,
     )
-    from ..pipeline import check_program, design, named_surface
+    from ..job import check_program, design, named_surface
     from ..progress import Stages
     from .common import check_outputs
 

@@ -17,7 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..design import TABLE1_SWAP_NOTE, design_figures
-    from ..pipeline import design
+    from ..job import design
 
     settings = load(args)
     if args.output:

@@ -87,7 +87,8 @@ def check_made(settings) -> None:
     gouge, bar, travel, no rapid or insert body in stock). An InputError here names the
     check the winner fails."""
     from ..errors import InputError
-    from ..pipeline import check_cad, check_programs, shop_programs
+    from ..job import check_cad, check_programs
+    from ..shop.programs import shop_programs
 
     mirror = settings.mirror()
     try:

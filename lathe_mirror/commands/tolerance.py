@@ -34,7 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..enums import BEST, Program, Strategy
     from ..errors import InputError
-    from ..pipeline import check_program, check_programs, design, made_surface, polishing_curve, tolerance_runs
+    from ..job import check_program, check_programs, design, made_surface, polishing_curve
+    from ..tolerance.runs import tolerance_runs
 
     if args.target_yield is not None:
         if not args.allocate:

@@ -44,7 +44,8 @@ def run(args: argparse.Namespace) -> int:
         gouge_depth,
         junction_fillet,
     )
-    from ..pipeline import check_program, design, shop_program
+    from ..job import check_program, design
+    from ..shop.programs import shop_program
     from ..shop import options_from_settings
     from ..toolpath import profile_errors, usable_ranges
 
@@ -120,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
 def check(args: argparse.Namespace, settings) -> int:
     """--check PROGRAM: replay a G-code file against the configured stock and tool."""
     from ..errors import InputError
-    from ..pipeline import design
+    from ..job import design
     from ..shop.replay import read_program
     from ..shop.stock import simulate
 
