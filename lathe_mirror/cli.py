@@ -25,7 +25,7 @@ from .version import __version__
 from .errors import InputError
 
 COMMANDS = ("design", "toolpath", "cad", "render", "polish", "tolerance", "calib", "stereo", "report", "run",
-            "optimize", "spec")
+            "optimize", "spec", "measure", "compensate")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -54,6 +54,9 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # a stage not built yet
             raise
         module.register(sub)
+    from .commands import flags
+
+    flags.apply(parser)  # every numeric flag's range, checked at parsing and shown by --help
     return parser
 
 

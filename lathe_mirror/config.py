@@ -1,7 +1,7 @@
 """Configuration: TOML files merged over the embedded defaults, validated key by key.
 
 `load()` is the entry point: it returns the typed, frozen `settings.Settings`. The dict
-functions below (load_config, merge, set_value) check names and types only; settings.py
+functions below (load_config, merge, set_value) check names and types only; settings/
 checks the values and builds the typed sections.
 
 The defaults are every `*.toml` in `lathe_mirror/data/` (`paper.toml` holds the paper's

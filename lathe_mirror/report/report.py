@@ -14,10 +14,10 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..pipeline import DEPTH_REPORT_M
+from .analysis import DEPTH_REPORT_M
 
 if TYPE_CHECKING:
-    from ..pipeline import ReportData
+    from .analysis import ReportData
 
 
 def write_report(data: ReportData, out_dir: str | Path) -> dict[str, Path]:
