@@ -16,16 +16,24 @@ from conftest import require_program
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tools"))
 
-import cli_reference  # noqa: E402
+import reference  # noqa: E402
 import runnable  # noqa: E402
 
 
 def test_command_reference_is_generated_from_the_parser():
     page = (ROOT / "docs" / "reference" / "commands.md").read_text(encoding="utf-8")
-    assert page == cli_reference.render(), "run: python tools/cli_reference.py"
+    assert page == reference.commands(), "run: python tools/reference.py"
     from lathe_mirror.cli import COMMANDS
     for name in COMMANDS:
         assert f"## `lathe-mirror {name}`" in page
+
+
+def test_key_reference_is_generated_from_the_declaration():
+    page = (ROOT / "docs" / "reference" / "keys.md").read_text(encoding="utf-8")
+    assert page == reference.keys(), "run: python tools/reference.py"
+    from lathe_mirror.settings import RANGES
+    for pattern in RANGES:
+        assert f"`{pattern.replace('lobes.*.', 'lobes.')}`" in page
 
 
 def test_runnable_blocks_are_found_and_outputs_replaced(tmp_path):
