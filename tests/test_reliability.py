@@ -148,13 +148,12 @@ def _enospc_on_call(monkeypatch, n: int):
 @pytest.mark.parametrize("n", [1, 2])
 def test_a_full_disk_leaves_no_file_and_replaces_none(tmp_path, monkeypatch, n):
     """Simulated ENOSPC on the program (1) or on its set-up sheet (2): exit 2 naming the
-    file, no t.ngc, and an existing keep.ngc keeps its bytes."""
+    file, no keep.setup.html, and the existing keep.ngc keeps its bytes."""
     (tmp_path / "c.toml").write_text(NOSE04)
     (tmp_path / "keep.ngc").write_text("old program\n")
     _enospc_on_call(monkeypatch, n)
-    for name in ("t.ngc", "keep.ngc"):
-        line = refused(tmp_path, "toolpath", "--config", "c.toml", "-o", name, within=30)
-        assert "No space left on device" in line and "-o/--output" in line
+    line = refused(tmp_path, "toolpath", "--config", "c.toml", "-o", "keep.ngc", within=30)
+    assert "No space left on device" in line and "-o/--output" in line
     assert (tmp_path / "keep.ngc").read_text() == "old program\n"
     assert files_under(tmp_path) == {"c.toml", "keep.ngc"}
 
