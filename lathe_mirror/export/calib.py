@@ -19,8 +19,8 @@ import textwrap
 from pathlib import Path
 
 from ..design import Mirror
-from ..optics.camera_model import (OcamModel, UnifiedModel, design_model, lobe_ocam_model,
-                                   valid_annulus_px)
+from ..optics.camera_model import UnifiedModel, design_model, valid_annulus_px
+from ..optics.ocam import OcamModel, lobe_ocam_model
 from .files import write_text
 from .numbers import LENGTH_M, LENGTH_MM, PIXEL, RATIO, fmt, polynomial_exponent
 

@@ -144,15 +144,27 @@ def unit_exponent(key: str) -> int | None:
     return None
 
 
+#: Keys of a figure's statistics: they take the unit of the key that holds them
+#: (`"normal_deviation_mm": {"rms": x, "max": y}`).
+STATISTICS = frozenset({"rms", "max", "min", "mean", "median", "std", "p5", "p50", "p95", "p99",
+                        "pv", "lo", "hi", "value"})
+
+
 def json_precise(x: Any, exp: int | None = None) -> Any:
-    """A copy of a JSON-ready tree whose floats are rounded at their stated precision:
-    the unit suffix of the nearest key above them (`unit_exponent`), else 12 significant
-    digits. Booleans, integers, strings and None pass unchanged."""
+    """A copy of a JSON-ready tree whose floats are rounded at their stated precision: a
+    number (or list of numbers) under a key with a unit suffix (`unit_exponent`) at that
+    unit's, as are the statistics of such a key (`STATISTICS`); any other float at 12
+    significant digits (`"at_2_m": {"exact": {"rms": ...}}` names a range, not a unit, of
+    what it holds). Booleans, integers, strings and None pass unchanged."""
     if isinstance(x, dict):
         out = {}
         for k, v in x.items():
             own = unit_exponent(k) if isinstance(k, str) else None
-            out[k] = json_precise(v, own if own is not None else exp)
+            if own is None and exp is not None and k in STATISTICS:
+                own = exp
+            if isinstance(v, dict) and not (set(v) <= STATISTICS):
+                own = None  # a unit names the numbers, not a section
+            out[k] = json_precise(v, own)
         return out
     if isinstance(x, list):
         return [json_precise(v, exp) for v in x]
