@@ -92,9 +92,9 @@ def ocam_model(model: UnifiedModel, rho_max_px: float, *, tolerance_px: float = 
                      max_error_px={"pol": pol_err, "invpol": inv_err})
 
 
-def lobe_ocam_model(mirror: Mirror, k: int) -> OcamModel:
+def lobe_ocam_model(mirror: Mirror, k: int, zones=None) -> OcamModel:
     """ocam_model of lobe k's design model over its whole image disc (to the rim, R_pixel)."""
-    return ocam_model(design_model(mirror, k), mirror.lobes[k].r_pixel)
+    return ocam_model(design_model(mirror, k, zones), mirror.lobes[k].r_pixel)
 
 
 #: A Chebyshev coefficient of an OCamCalib fit is rounded to this (px: each T_k is at most 1
