@@ -270,9 +270,14 @@ def test_written_design_reproduces_through_design_and_runs(tmp_path):
     assert r10(s.mirror(), (math.radians(-20), 0.0)) == pytest.approx(best["r10_m"], rel=1e-9)
     # the user's sections are carried over
     assert tomllib.loads(out.read_text())["stock"]["length"] == 50.0
-    # run: programs, CAD, report
-    run = run_cli("run", "--config", str(out), "-o", str(tmp_path / "out"), "--no-render", "--no-progress")
+    # run: programs, CAD, report, on the written file plus a short Monte Carlo and polishing
+    # curve (the sections the optimiser does not write; the design and the shop are the file's).
+    quick = tmp_path / "quick.toml"
+    quick.write_text(out.read_text() + "\n[polish]\ncurve_points = 3\n[tolerance]\ntrials = 20\nlattice_phases = 1\n")
+    run = run_cli("run", "--config", str(quick), "-o", str(tmp_path / "out"), "--no-render", "--no-progress")
     assert run.returncode == 0, run.stderr[-3000:]
+    # --no-progress (as render's): nothing on stderr on success, the summary on stdout.
+    assert run.stderr == "" and run.stdout.strip()
     exe = require_program("rs274")
     (tmp_path / "tools.tbl").write_text("".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4)))
     programs = sorted((tmp_path / "out" / "gcode").glob("*.ngc"))
