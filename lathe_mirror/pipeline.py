@@ -907,7 +907,7 @@ class ZeroShiftedMirror(Mirror):
 
 
 def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surface, *,
-                  tool: Tool | None = None) -> Toolpath | None:
+                  tool: Tool | None = None, target: Mirror | None = None) -> Toolpath | None:
     """The program of `strategy` checked the same way by every command that uses one
     (toolpath, cad, render, polish, tolerance, calib, stereo, report, run), before any work
     or file: planned on the lattice within the point budget for toolpath.max_deviation
@@ -915,7 +915,8 @@ def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surfa
     toolpath.gouge_tolerance (the check shop.plan_program makes before it writes G-code).
     A named Surface stands for the program it is cut with (polished: the paper's; exact,
     reference, uniform528: none, None returned). tool: default [tool]. Returns the
-    toolpath; InputError names the setting to change."""
+    toolpath; InputError names the setting to change. target: the surface the program cuts
+    when it is not program_target's (a compensated re-cut: measure.compensate)."""
     from .nose_envelope import gouge_depth
 
     if isinstance(strategy, Surface):
@@ -925,7 +926,7 @@ def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surfa
                     BEST if strategy is Surface.BEST else Strategy(strategy.value))
     tp = plan(mirror, settings.machine, tool or settings.tool, strategy,
               max_deviation=settings.toolpath.max_deviation,
-              target=program_target(settings, mirror))  # polish.precompensate: the allowance
+              target=target if target is not None else program_target(settings, mirror))  # polish.precompensate
     depth = gouge_depth(tp)
     limit = settings.toolpath.gouge_tolerance
     if depth > limit:

@@ -100,3 +100,71 @@ def test_measure_names_nose_and_centre_height(case):
     assert any("lower the tool 0.05" in c for c in dg["corrections"])
     assert any("nose radius 0.21" in c and "tool table" in c for c in dg["corrections"])
     assert abs(out["fit"]["decentre_mm"] - x0) < 2e-3 and abs(out["fit"]["tilt_rad"] - tilt) < 2e-6
+
+
+def test_compensate_recut_on_the_corrected_machine(case, tmp_path):
+    """The part of the 0.21 mm nose and the tool 0.05 mm above centre, compensated: the
+    re-cut program (read by LinuxCNC's rs274 with the written tool table) cut by the
+    machine after the set-up corrections (the 0.21 mm insert, the tool lowered by what
+    measure found) leaves no more residual than the original program on a perfect
+    machine, within the lattice, in at most two iterations."""
+    from test_outer_step import canonical, sample_moves
+
+    from conftest import require_program
+    from lathe_mirror.machine_errors import displaced_centres, surface_from_centres
+    from lathe_mirror.optics.polishing_curve import clear_aperture
+
+    exe = require_program("rs274")
+    m, s = case["mirror"], case["settings"]
+    true_h, true_nose = 0.05, 0.21
+    errors = MachineErrors(centre_height_mm=true_h, nose_radius_error_mm=true_nose - 0.2)
+    part = machined_with_errors(case["tp"], errors, pip_height_mm=s.toolpath.rough_allowance)
+
+    def rms_vs_design(profile):
+        """RMS (mm) of each lobe's height error over its clear aperture, off the axis by one
+        lattice step (a pip narrower than the lattice is below what setting the tool's
+        height to the lattice can remove)."""
+        out = []
+        for k in (0, 1):
+            lo, hi = clear_aperture(m, k, 0.0)
+            r = np.linspace(max(lo, s.machine.resolution), hi, 4000)
+            if k == 1:
+                r[0] = np.nextafter(r[0], hi)  # r_junction itself is the inner lobe's
+            d = profile.z(r) - m.lobes[k].z(r)
+            out.append(float(np.sqrt(np.mean((d - d.mean()) ** 2))))
+        return np.array(out)
+
+    perfect = rms_vs_design(case["nominal"])
+    set_h, nose_in_table = 0.0, 0.2  # the machine's set-up as the operator has it
+    for iteration in (1, 2):
+        u = np.linspace(-m.r_max, m.r_max, 600001)
+        z = (m.vertex_z - part.z(np.abs(u))) + np.random.default_rng(iteration).normal(0, 5e-5, u.size)
+        np.savetxt(tmp_path / "part.csv", np.c_[u, z][::3], delimiter=",", header="x_mm,z_mm", comments="",
+                   fmt="%.7f")
+        out = tmp_path / f"recut{iteration}"
+        args = ["compensate", str(tmp_path / "part.csv"), "-o", str(out), "--json"]
+        p = run_cli(*(args + (["--config", str(case["cfg"])] if case["cfg"] else [])))
+        assert p.returncode == 0, p.stderr
+        res = json.loads(p.stdout)
+        dg = res["measurement"]["diagnosis"]
+        set_h += dg["centre_height_mm"]  # "lower the tool h": the operator does it
+        nose_in_table = res["program"]["nose_radius_mm"]
+        import subprocess
+
+        run = subprocess.run([exe, "-t", str(out / "tools.tbl"), "-g", str(out / "mirror_recut.ngc")],
+                             capture_output=True, text=True, cwd=out, env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"},
+                             timeout=120)
+        assert run.returncode == 0, run.stdout[-1000:] + run.stderr[-1000:]
+        moves, start = canonical(run.stdout)
+        fin = [mv for mv in moves if mv[4]]
+        pts = np.concatenate([p_[2] for p_ in sample_moves(fin, start, step=0.0005)])
+        # the machine after the corrections: the real insert, the tool where the operator set it
+        left = MachineErrors(centre_height_mm=true_h - set_h, nose_radius_error_mm=true_nose - nose_in_table)
+        xc, zc = displaced_centres(pts[:, 0], pts[:, 1], left)
+        part = surface_from_centres(m, xc, zc, true_nose, left.centre_height_mm,
+                                    pip_height_mm=s.toolpath.rough_allowance)
+        got = rms_vs_design(part)
+        if np.all(got <= perfect + 0.1 * s.machine.resolution):
+            break
+    assert np.all(got <= perfect + 0.1 * s.machine.resolution), (iteration, got, perfect)
+    assert abs(nose_in_table - true_nose) < 0.002 and abs(set_h - true_h) < 0.01
