@@ -21,7 +21,7 @@ import pytest
 from conftest import RECESSED_OUTER, run_cli
 from lathe_mirror.config import load
 from lathe_mirror.machine_errors import MachineErrors, machined_with_errors
-from lathe_mirror.pipeline import check_program, machine
+from lathe_mirror.job import check_program, machine
 
 
 @pytest.fixture(scope="module", params=["paper", "recessed"])

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -85,10 +86,23 @@ def test_a_signal_interrupts_a_read(tmp_path):
                             text=True)
     import time
 
-    time.sleep(1.5)  # the interpreter has started and waits on the read
+    t0 = time.monotonic()
+    while not _catches_sigterm(proc.pid) and time.monotonic() - t0 < 60:  # main() has started
+        time.sleep(0.05)
+    time.sleep(0.3)  # ... and waits on the read
     proc.send_signal(signal.SIGTERM)
     out, err = proc.communicate(timeout=5)
     assert proc.returncode == 143 and err.strip() == "lathe-mirror: terminated", err
+
+
+def _catches_sigterm(pid: int) -> bool:
+    """Whether the process has a handler for SIGTERM (cli.main installs it)."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    caught = int(next(ln.split()[1] for ln in status.splitlines() if ln.startswith("SigCgt:")), 16)
+    return bool(caught & (1 << (signal.SIGTERM - 1)))
 
 
 def test_read_input_unit(tmp_path):
@@ -134,13 +148,12 @@ def _enospc_on_call(monkeypatch, n: int):
 @pytest.mark.parametrize("n", [1, 2])
 def test_a_full_disk_leaves_no_file_and_replaces_none(tmp_path, monkeypatch, n):
     """Simulated ENOSPC on the program (1) or on its set-up sheet (2): exit 2 naming the
-    file, no t.ngc, and an existing keep.ngc keeps its bytes."""
+    file, no keep.setup.html, and the existing keep.ngc keeps its bytes."""
     (tmp_path / "c.toml").write_text(NOSE04)
     (tmp_path / "keep.ngc").write_text("old program\n")
     _enospc_on_call(monkeypatch, n)
-    for name in ("t.ngc", "keep.ngc"):
-        line = refused(tmp_path, "toolpath", "--config", "c.toml", "-o", name, within=30)
-        assert "No space left on device" in line and "-o/--output" in line
+    line = refused(tmp_path, "toolpath", "--config", "c.toml", "-o", "keep.ngc", within=30)
+    assert "No space left on device" in line and "-o/--output" in line
     assert (tmp_path / "keep.ngc").read_text() == "old program\n"
     assert files_under(tmp_path) == {"c.toml", "keep.ngc"}
 
@@ -223,3 +236,176 @@ def test_a_signal_after_the_command_settled_does_not_kill_the_process():
             "sys.exit(rc)\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+
+
+# --------------------------------------------------------------------------------------
+# 5, 7, 8. Flag ranges, output names and suffixes
+
+
+def test_every_numeric_flag_has_a_range_shown_by_help_and_the_readme():
+    from lathe_mirror.cli import build_parser
+    from lathe_mirror.commands.flags import FLAGS, numeric_flags, readme_table
+    from lathe_mirror.settings import RANGES
+
+    parser = build_parser()
+    found = numeric_flags(parser)
+    assert set(found) == set(FLAGS), set(found) ^ set(FLAGS)
+    for name, action in found.items():
+        assert f"[range {FLAGS[name].text()}]" in action.help, name
+        key = FLAGS[name].key
+        if key:  # a flag that sets a key has the key's range
+            assert (RANGES[key].lo, RANGES[key].hi) == (FLAGS[name].lo, FLAGS[name].hi), name
+    assert readme_table() in (Path(__file__).parent.parent / "README.md").read_text()
+
+
+def _just_past(x: float, up: bool) -> str:
+    import math
+
+    if isinstance(x, int):
+        return str(x + 1 if up else x - 1)
+    return repr(math.nextafter(x, math.inf if up else -math.inf) if x else (1e-300 if up else -1e-300))
+
+
+def test_every_flag_at_its_ends_and_just_past_them():
+    """The parser takes each end of each range and refuses one step past it (and NaN) with
+    one line naming the flag, exit 2, before any work."""
+    import io
+    from contextlib import redirect_stderr
+
+    from lathe_mirror.cli import build_parser
+    from lathe_mirror.commands.flags import FLAGS
+
+    parser = build_parser()
+    for name, rng in FLAGS.items():
+        command, flag = name.split()
+        for end, up in ((rng.lo, False), (rng.hi, True)):
+            if end is None:
+                continue
+            args = parser.parse_args([command, flag, str(end)])
+            assert getattr(args, flag.lstrip("-").replace("-", "_")) == end
+            for bad in (_just_past(end, up), "nan") if isinstance(end, float) else (_just_past(end, up),):
+                err = io.StringIO()
+                with redirect_stderr(err), pytest.raises(SystemExit) as exc:
+                    parser.parse_args([command, f"{flag}={bad}"])
+                assert exc.value.code == 2 and err.getvalue().count("\n") == 1, (name, bad)
+                assert f"argument {flag}: {bad}" in err.getvalue() and f"allowed {rng.text()}" in err.getvalue()
+
+
+@pytest.mark.parametrize("value", ["1e-3", "1e-300", "1e200", "1e12", "-inf", "nan", "0"])
+def test_calib_range_m_outside_the_scene(tmp_path, value):
+    """1e-3 .. 1e-300 exited 1 with LinAlgError, 1e200 with OverflowError; 1e12 was taken."""
+    line = refused(tmp_path, "calib", f"--range-m={value}", "--surface", "exact")
+    assert line.startswith(f"lathe-mirror calib: error: argument --range-m: {value} m: allowed 0.05 to 1e+06 m, "
+                           "or inf (directions)")
+
+
+def test_calib_range_m_inf_is_directions():
+    from lathe_mirror.cli import build_parser
+
+    assert build_parser().parse_args(["calib", "--range-m", "inf"]).range_m == float("inf")
+
+
+@pytest.mark.parametrize("args, message", [
+    (("toolpath", "-o", "x.step"), "-o/--output x.step: a '.step' file cannot hold G-code; name it *.ngc"),
+    (("toolpath", "-o", "x.ngc.png"), "a '.png' file cannot hold G-code"),
+    (("optimize", "-o", "d.png"), "-o/--output d.png: a '.png' file cannot hold TOML; name it *.toml"),
+    (("design", "-o", "d.toml"), "-o/--output d.toml: a '.toml' file cannot hold JSON"),
+    (("tolerance", "--csv", "t.json"), "--csv t.json: a '.json' file cannot hold CSV"),
+    (("tolerance", "--csv", ""), "argument --csv: empty path"),
+    (("tolerance", "--csv", "/proc/version"), "--csv /proc/version: cannot write in /proc"),
+])
+def test_an_output_name_that_cannot_hold_what_is_written(tmp_path, args, message):
+    """`toolpath -o x.step` wrote G-code into x.step, `optimize -o d.png` TOML into d.png;
+    `tolerance --csv ''` exited 0 writing nothing; --csv /proc/version named -o/--output."""
+    (tmp_path / "c.toml").write_text(NOSE04)
+    assert message in refused(tmp_path, *args, "--config", "c.toml", within=10)
+
+
+# --------------------------------------------------------------------------------------
+# 6. toolpath --check reads a hand-edited program
+
+
+@pytest.fixture(scope="module")
+def nose04_program(tmp_path_factory) -> tuple[Path, list[str]]:
+    """The program `toolpath` writes for the 0.4 mm nose config (not the paper's), and its
+    lines; `toolpath --check` accepts it as written."""
+    d = tmp_path_factory.mktemp("nose04")
+    (d / "c.toml").write_text(NOSE04)
+    rc, out, err, _ = cli("toolpath", "--config", "c.toml", "-o", "p.ngc", cwd=d)
+    assert rc == 0, err
+    rc, out, err, _ = cli("toolpath", "--config", "c.toml", "--check", "p.ngc", cwd=d)
+    assert rc == 0 and "no contact at rapid" in out, err
+    return d, (d / "p.ngc").read_text().splitlines()
+
+
+def _first(lines: list[str], prefix: str) -> int:
+    return next(i for i, ln in enumerate(lines) if ln.startswith(prefix))
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda w: re.sub(r"X[-\d.]+", "Xnan", w), "'XNAN' is not a word of this program"),
+    (lambda w: re.sub(r"X[-\d.]+", "Xinf", w), "'XINF' is not a word of this program"),
+    (lambda w: re.sub(r"X[-\d.]+", "X1e1", w), "word E1 is not simulated"),
+    (lambda w: w + " Y2.0", "word Y2.0 is not simulated"),
+    (lambda w: w.split(" X")[0] + " X12345678901234567890 Z-1.000",
+     "X12345678901234567890 is outside the machine's travel (radius at most 60 mm"),
+    (lambda w: w.split(" X")[0] + " X10.000 Z-80.001", "Z-80.001 is outside the machine's travel (-80 to 60 mm"),
+    (lambda w: w.split(" X")[0] + " X" + "9" * 5000, "a number of 5000 characters"),
+])
+def test_check_refuses_a_bad_word_naming_its_block(tmp_path, nose04_program, edit, message):
+    """Xnan was accepted (exit 0); a 20-digit coordinate exited 1 (ValueError)."""
+    d, lines = nose04_program
+    k = _first(lines, "N9 G1 ")  # the facing cut
+    bad = list(lines)
+    bad[k] = edit(bad[k])
+    (tmp_path / "c.toml").write_text(NOSE04)
+    (tmp_path / "e.ngc").write_text("\n".join(bad) + "\n")
+    line = refused(tmp_path, "toolpath", "--config", "c.toml", "--check", "e.ngc")
+    assert f"--check e.ngc line {k + 1} (N9): " in line and message in line, line
+
+
+@pytest.mark.parametrize("feed", ["F0", "F-0.1", "F0.0"])
+def test_check_refuses_a_zero_or_negative_feed(tmp_path, nose04_program, feed):
+    """F0 gave "cycle time inf s" and null in the JSON."""
+    d, lines = nose04_program
+    k = _first(lines, "N4 F")
+    bad = list(lines)
+    bad[k] = f"N4 {feed}"
+    (tmp_path / "e.ngc").write_text("\n".join(bad) + "\n")
+    line = refused(tmp_path, "toolpath", "--check", "e.ngc", "--json")
+    assert f"line {k + 1} (N4): {feed.replace('F0.0', 'F0').replace('F-0.1', 'F-0.1')}" in line
+    assert "a feed must be above 0 and at most 500 mm/rev" in line
+
+
+def test_check_refuses_a_feed_move_before_any_feed(tmp_path, nose04_program):
+    d, lines = nose04_program
+    bad = [ln for ln in lines if not ln.startswith("N4 F")]
+    (tmp_path / "e.ngc").write_text("\n".join(bad) + "\n")
+    assert "(N9): a feed move before any F word" in refused(tmp_path, "toolpath", "--check", "e.ngc")
+
+
+def test_check_refuses_a_program_beyond_its_stated_size(tmp_path, nose04_program):
+    """A 5.6 MB program ran past 120 s: beyond 2 MiB it is refused unread; beyond 10 000
+    moves before the simulation starts."""
+    from lathe_mirror.shop.replay import MAX_MOVES, MAX_PROGRAM_BYTES
+
+    d, lines = nose04_program
+    head, tail = lines[:_first(lines, "N9 G1 ")], lines[-3:]
+    big = tmp_path / "big.ngc"
+    big.write_text("\n".join(head + ["G1 X10.000 Z0.350"] * (MAX_PROGRAM_BYTES // 18) + tail) + "\n")
+    assert big.stat().st_size > MAX_PROGRAM_BYTES
+    line = refused(tmp_path, "toolpath", "--check", "big.ngc", within=2)
+    assert f"allowed at most {MAX_PROGRAM_BYTES} bytes" in line
+    many = tmp_path / "many.ngc"
+    many.write_text("\n".join(head + ["G1 X10.000 Z0.350", "G1 X10.000 Z0.300"] * (MAX_MOVES // 2 + 1) + tail) + "\n")
+    assert many.stat().st_size < MAX_PROGRAM_BYTES
+    line = refused(tmp_path, "toolpath", "--check", "many.ngc", within=10)
+    assert f"more than {MAX_MOVES} moves" in line
+
+
+@pytest.mark.parametrize("what", ["FIFO", "/dev/zero", "DIR"])
+def test_check_refuses_a_special_file_at_once(tmp_path, what):
+    os.mkfifo(tmp_path / "FIFO")
+    (tmp_path / "DIR").mkdir()
+    line = refused(tmp_path, "toolpath", "--check", what, within=3)
+    assert line.startswith(f"lathe-mirror toolpath: error: --check {what}: is ")

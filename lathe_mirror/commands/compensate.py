@@ -37,7 +37,8 @@ def run(args: argparse.Namespace) -> int:
     from ..measure.compensate import GAIN, compensation
     from ..measure.fit import FitOptions
     from ..measure.result import measure
-    from ..pipeline import check_program, design, machine, program_target, shop_program
+    from ..job import check_program, design, machine, program_target
+    from ..shop.programs import shop_program
     from ..shop import options_from_settings
     from .common import check_outputs, output_dir, program_strategy
 

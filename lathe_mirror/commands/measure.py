@@ -32,7 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..measure.fit import FitOptions
     from ..measure.result import measure
-    from ..pipeline import check_program, design, machine
+    from ..job import check_program, design, machine
     from .common import program_strategy
 
     settings = load(args)

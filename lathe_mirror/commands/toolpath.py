@@ -44,7 +44,8 @@ def run(args: argparse.Namespace) -> int:
         gouge_depth,
         junction_fillet,
     )
-    from ..pipeline import check_program, design, shop_program
+    from ..job import check_program, design
+    from ..shop.programs import shop_program
     from ..shop import options_from_settings
     from ..toolpath import profile_errors, usable_ranges
 
@@ -62,11 +63,13 @@ def run(args: argparse.Namespace) -> int:
     into_dir = False
     if args.output:  # the program's and its set-up sheet's names, checked before any work
         from .common import check_outputs
+        from .flags import check_suffix
 
         out = Path(args.output)
         into_dir = os.path.isdir(out) or args.output.endswith("/")
         if into_dir:
             out = out / f"mirror_{strategy.value}.{dialect.extension}"
+        check_suffix(out, "G-code")
         sheet = out.with_name(out.name.split(".")[0] + ".setup.html")  # beside the program
         check_outputs(out.parent if into_dir else None,
                       [out.name, sheet.name] if into_dir else [str(out), str(sheet)])
@@ -118,16 +121,15 @@ def run(args: argparse.Namespace) -> int:
 def check(args: argparse.Namespace, settings) -> int:
     """--check PROGRAM: replay a G-code file against the configured stock and tool."""
     from ..errors import InputError
-    from ..pipeline import design
-    from ..shop.replay import read_program
+    from ..inputs import read_text
+    from ..job import design
+    from ..shop.replay import MAX_PROGRAM_BYTES, read_program
     from ..shop.stock import simulate
 
-    try:
-        text = open(args.check, encoding="utf-8").read()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"--check {args.check}: cannot read ({getattr(exc, 'strerror', None) or exc})") from None
+    # a regular file (or - for stdin) of at most MAX_PROGRAM_BYTES, bounded while reading
+    text = read_text(args.check, "--check", MAX_PROGRAM_BYTES)
     lathe, t = settings.machine, settings.toolpath
-    ops = read_program(text, lathe, source=args.check)
+    ops = read_program(text, lathe, source=f"--check {args.check}")
     if not ops:
         raise InputError(f"--check {args.check}: no moves to simulate")
     from ..toolpath.moves import Hand
