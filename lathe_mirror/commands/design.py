@@ -31,11 +31,9 @@ def run(args: argparse.Namespace) -> int:
     if args.config is None:
         figures["notes"] = [TABLE1_SWAP_NOTE]
     if args.output:
-        import json
+        from ..export.files import json_text, write_text
 
-        from ..export.files import write_text
-
-        write_text(args.output, json.dumps(figures, indent=2) + "\n")
+        write_text(args.output, json_text(figures))
     if args.json:
         print_json(figures)
     else:
