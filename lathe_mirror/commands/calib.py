@@ -86,7 +86,12 @@ def run(args: argparse.Namespace) -> int:
                 fig = made_figures(surface, mirror, range_mm=range_m * 1000.0, pose=pose, zones=zn)
             except InputError as exc:
                 raise InputError(f"--surface {name.value}: {exc}") from None
-            made[name.value] = {"surface": name.value, "nose_radius_mm": nose_k, **fig}
+            from ..optics.radial import radial_figures
+
+            # the shared figure (ARCHITECTURE.md) over the same zone the report and tolerance judge
+            disp = [{"name": lb["name"], "image_displacement_px": lb["image_displacement_px"], "zone_px": lb["zone_px"]}
+                    for lb in radial_figures(surface, mirror, zones=zn)["lobes"]]
+            made[name.value] = {"surface": name.value, "nose_radius_mm": nose_k, **fig, "over_zone": disp}
             steps.done()
         steps.start("files")
         from ..export.calib import calibration_texts

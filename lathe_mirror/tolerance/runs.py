@@ -74,7 +74,8 @@ def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Pro
                  "monte_carlo": mc.to_dict(), "sensitivity": sens,
                  "inverse_sensitivity": inverse_sensitivity(resp, ctx.limits),
                  "stereo": stereo_table(ctx, DEPTH_RANGES_M),
-                 "nose_radii_cut": len(ctx.bank.nose_mm)}
+                 "nose_radii_cut": len(ctx.bank.nose_mm),
+                 "nominal_over_zone": nominal_over_zone(mirror, settings, strategy, ctx)}
         if program in allocate:
             entry["allocation"], confirm = allocate_tolerances(ctx, resp, mc, target=target, progress=progress)
             if confirm is not None:
@@ -82,6 +83,21 @@ def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Pro
         entry["verdict"] = verdict(entry, ts.spec_dict())
         out["programs"][program.value] = entry
     return ToleranceRuns(out, results)
+
+
+def nominal_over_zone(mirror: Mirror, settings: Settings, strategy, ctx) -> dict:
+    """The nominal part's shared figure, exactly (optics.radial: every pixel centre of the
+    aligned camera) over the zone the criteria judge: the image displacement per lobe (px),
+    the figure `calib` and the report quote for the same made mirror; the Monte Carlo's
+    sparse 3-D sample estimates it per trial."""
+    from ..optics.radial import radial_figures
+
+    made = made_surface(mirror, settings.machine, settings.tool, strategy, polish_params=settings.polish,
+                        polish_time_s=ctx.nominal_time_s)
+    lobes = radial_figures(made.profile, mirror, zones=ctx.zones)["lobes"]
+    return {"surface": made.source, "zones": ctx.zones.describe(),
+            "lobes": [{"name": lb["name"], "image_displacement_px": lb["image_displacement_px"],
+                       "zone_px": lb["zone_px"]} for lb in lobes]}
 
 
 def monte_carlo(mirror: Mirror, settings: Settings, program: Program, nominal_time_s: float, *,
