@@ -158,7 +158,8 @@ def verdict(t: dict, spec: dict) -> dict:
     return out
 
 
-def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False) -> dict:
+def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
+                 polish_time_s: float | None = None) -> dict:
     """The optimiser's winner through the tolerance analysis of the best program with the
     configured tool and default tolerances: the nominal part (lattice phase 0, every
     parameter nominal) judged against the spec, and the Monte Carlo's yield against
@@ -173,8 +174,11 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False) 
     from .perturb import Trials
 
     ts = settings.tolerance
-    made = made_surface(mirror, settings.machine, settings.tool, BEST)
-    time_s = polishing_curve(made.profile, mirror, settings.polish).optimum_time_s
+    if polish_time_s is None:  # the best program's polishing curve chooses it, as `tolerance` does
+        made = made_surface(mirror, settings.machine, settings.tool, BEST)
+        time_s = polishing_curve(made.profile, mirror, settings.polish).optimum_time_s
+    else:
+        time_s = float(polish_time_s)
     ctx = tolerance_context(mirror, settings, Program.BEST, time_s, progress=progress)
     nom = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s))
     ok = judge(nom, ctx.limits, ts.spec.calibrated)
