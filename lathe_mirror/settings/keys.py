@@ -189,7 +189,7 @@ RANGES: dict[str, Range] = {
     "scene.boxes[].centre": _r(-_KM, _KM, "mm", length=(2, 2)),
     "scene.boxes[].size": _r(0.0, _KM, "mm", lo_open=True, length=(3, 3)),
     "render.supersample": _r(1, 8, "", why="N x N rays a pixel; the render estimate bounds it with the sensor"),
-    "render.surface": _choice("exact, reference, uniform528, paper, lattice, arcs, best, polished"),
+    "render.surface": _choice("exact, reference, uniform528, paper, lattice, arcs, best, polished, made"),
     "render.nose_radius": _r(0.0, 5.0, "mm"),
     "camera_pose.decentre": _r(-1000.0, 1000.0, "mm", length=(2, 2), why="and some pixel must see the mirror"),
     "camera_pose.axial_offset": _r(-1000.0, 1000.0, "mm"),
