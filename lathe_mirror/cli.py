@@ -54,6 +54,9 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # a stage not built yet
             raise
         module.register(sub)
+    from .commands import flags
+
+    flags.apply(parser)  # every numeric flag's range, checked at parsing and shown by --help
     return parser
 
 

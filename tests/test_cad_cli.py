@@ -78,7 +78,7 @@ def test_special_file_is_not_replaced(tmp_path):
     (["--format", "obj"], "m.step", "--format 'obj'"),
     (["--which", "polished"], "m.step", "--which 'polished'"),
     (["--schema", "AP203"], "m.step", "--schema"),
-    (["--stl-tolerance", "0"], "m.stl", "--stl-tolerance = 0.0 mm: allowed 0.001 to 1 mm"),
+    (["--stl-tolerance", "0"], "m.stl", "argument --stl-tolerance: 0 mm: allowed 0.001 to 1 mm"),
     (["--stl-tolerance", "nan"], "m.stl", "--stl-tolerance"),
     (["--format", "stl"], "m.step", "a '.step' file cannot hold --format stl"),
     (["--schema", "AP242"], "m.stl", "--schema applies to --format step only"),

@@ -316,7 +316,7 @@ def nose_depth_into_part(pieces, rho: float, mirror) -> float:
 
 @pytest.mark.parametrize("args, phrase", [
     (["--points", "10"], "machine.max_points = 10: too small"),
-    (["--resolution", "0"], "machine.resolution = 0"),
+    (["--resolution", "0"], "argument --resolution: 0 mm: allowed 0.0001 to 0.1 mm"),
     (["--nose-radius", "1.0"], "too large for the junction"),
     (["--dialect", "heidenhain"], "--dialect 'heidenhain': allowed linuxcnc, fanuc"),
     (["--strategy", "spline"], "--strategy 'spline': allowed paper, lattice, arcs, best"),

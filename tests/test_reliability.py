@@ -85,10 +85,23 @@ def test_a_signal_interrupts_a_read(tmp_path):
                             text=True)
     import time
 
-    time.sleep(1.5)  # the interpreter has started and waits on the read
+    t0 = time.monotonic()
+    while not _catches_sigterm(proc.pid) and time.monotonic() - t0 < 60:  # main() has started
+        time.sleep(0.05)
+    time.sleep(0.3)  # ... and waits on the read
     proc.send_signal(signal.SIGTERM)
     out, err = proc.communicate(timeout=5)
     assert proc.returncode == 143 and err.strip() == "lathe-mirror: terminated", err
+
+
+def _catches_sigterm(pid: int) -> bool:
+    """Whether the process has a handler for SIGTERM (cli.main installs it)."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    caught = int(next(ln.split()[1] for ln in status.splitlines() if ln.startswith("SigCgt:")), 16)
+    return bool(caught & (1 << (signal.SIGTERM - 1)))
 
 
 def test_read_input_unit(tmp_path):
@@ -223,3 +236,86 @@ def test_a_signal_after_the_command_settled_does_not_kill_the_process():
             "sys.exit(rc)\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+
+
+# --------------------------------------------------------------------------------------
+# 5, 7, 8. Flag ranges, output names and suffixes
+
+
+def test_every_numeric_flag_has_a_range_shown_by_help_and_the_readme():
+    from lathe_mirror.cli import build_parser
+    from lathe_mirror.commands.flags import FLAGS, numeric_flags, readme_table
+    from lathe_mirror.settings import RANGES
+
+    parser = build_parser()
+    found = numeric_flags(parser)
+    assert set(found) == set(FLAGS), set(found) ^ set(FLAGS)
+    for name, action in found.items():
+        assert f"[range {FLAGS[name].text()}]" in action.help, name
+        key = FLAGS[name].key
+        if key:  # a flag that sets a key has the key's range
+            assert (RANGES[key].lo, RANGES[key].hi) == (FLAGS[name].lo, FLAGS[name].hi), name
+    assert readme_table() in (Path(__file__).parent.parent / "README.md").read_text()
+
+
+def _just_past(x: float, up: bool) -> str:
+    import math
+
+    if isinstance(x, int):
+        return str(x + 1 if up else x - 1)
+    return repr(math.nextafter(x, math.inf if up else -math.inf) if x else (1e-300 if up else -1e-300))
+
+
+def test_every_flag_at_its_ends_and_just_past_them():
+    """The parser takes each end of each range and refuses one step past it (and NaN) with
+    one line naming the flag, exit 2, before any work."""
+    import io
+    from contextlib import redirect_stderr
+
+    from lathe_mirror.cli import build_parser
+    from lathe_mirror.commands.flags import FLAGS
+
+    parser = build_parser()
+    for name, rng in FLAGS.items():
+        command, flag = name.split()
+        for end, up in ((rng.lo, False), (rng.hi, True)):
+            if end is None:
+                continue
+            args = parser.parse_args([command, flag, str(end)])
+            assert getattr(args, flag.lstrip("-").replace("-", "_")) == end
+            for bad in (_just_past(end, up), "nan") if isinstance(end, float) else (_just_past(end, up),):
+                err = io.StringIO()
+                with redirect_stderr(err), pytest.raises(SystemExit) as exc:
+                    parser.parse_args([command, f"{flag}={bad}"])
+                assert exc.value.code == 2 and err.getvalue().count("\n") == 1, (name, bad)
+                assert f"argument {flag}: {bad}" in err.getvalue() and f"allowed {rng.text()}" in err.getvalue()
+
+
+@pytest.mark.parametrize("value", ["1e-3", "1e-300", "1e200", "1e12", "-inf", "nan", "0"])
+def test_calib_range_m_outside_the_scene(tmp_path, value):
+    """1e-3 .. 1e-300 exited 1 with LinAlgError, 1e200 with OverflowError; 1e12 was taken."""
+    line = refused(tmp_path, "calib", f"--range-m={value}", "--surface", "exact")
+    assert line.startswith(f"lathe-mirror calib: error: argument --range-m: {value} m: allowed 0.05 to 1e+06 m, "
+                           "or inf (directions)")
+
+
+def test_calib_range_m_inf_is_directions():
+    from lathe_mirror.cli import build_parser
+
+    assert build_parser().parse_args(["calib", "--range-m", "inf"]).range_m == float("inf")
+
+
+@pytest.mark.parametrize("args, message", [
+    (("toolpath", "-o", "x.step"), "-o/--output x.step: a '.step' file cannot hold G-code; name it *.ngc"),
+    (("toolpath", "-o", "x.ngc.png"), "a '.png' file cannot hold G-code"),
+    (("optimize", "-o", "d.png"), "-o/--output d.png: a '.png' file cannot hold TOML; name it *.toml"),
+    (("design", "-o", "d.toml"), "-o/--output d.toml: a '.toml' file cannot hold JSON"),
+    (("tolerance", "--csv", "t.json"), "--csv t.json: a '.json' file cannot hold CSV"),
+    (("tolerance", "--csv", ""), "argument --csv: empty path"),
+    (("tolerance", "--csv", "/proc/version"), "--csv /proc/version: cannot write in /proc"),
+])
+def test_an_output_name_that_cannot_hold_what_is_written(tmp_path, args, message):
+    """`toolpath -o x.step` wrote G-code into x.step, `optimize -o d.png` TOML into d.png;
+    `tolerance --csv ''` exited 0 writing nothing; --csv /proc/version named -o/--output."""
+    (tmp_path / "c.toml").write_text(NOSE04)
+    assert message in refused(tmp_path, *args, "--config", "c.toml", within=10)

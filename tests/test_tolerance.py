@@ -392,7 +392,7 @@ def test_tolerance_cli_allocate_writes_one_csv_row_per_trial(tmp_path):
 
 @pytest.mark.parametrize("args, msg", [
     (["--target-yield", "0.9"], "--target-yield applies to --allocate"),
-    (["--allocate", "--target-yield", "1.5"], "--target-yield 1.5: allowed 0.5 .. 0.999"),
+    (["--allocate", "--target-yield", "1.5"], "argument --target-yield: 1.5: allowed 0.5 to 0.999"),
     (["--csv", "nowhere/trials.csv"], "--csv nowhere/trials.csv: directory nowhere does not exist"),
 ])
 def test_tolerance_cli_bad_flags_exit_2_writing_nothing(tmp_path, args, msg):

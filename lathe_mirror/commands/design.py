@@ -22,7 +22,9 @@ def run(args: argparse.Namespace) -> int:
     settings = load(args)
     if args.output:
         from .common import check_outputs
+        from .flags import check_suffix
 
+        check_suffix(args.output, "JSON")
         check_outputs(None, [args.output])  # before any work, as every command
     mirror = design(settings)
     figures = design_figures(mirror)

@@ -34,11 +34,11 @@ def run(args: argparse.Namespace) -> int:
     out = pareto_path = None
     if args.output:
         from ..export.files import check_writable
+        from .flags import check_suffix
 
+        check_suffix(args.output, "TOML")
         out = check_writable(args.output)
         pareto_path = check_writable(out.with_name(out.stem + "_pareto.png"))
-    if args.workers is not None and not 1 <= args.workers <= 64:
-        raise InputError(f"--workers {args.workers}: allowed 1 .. 64")
     problem = Problem(camera=settings.camera, tool=settings.tool, stock=settings.stock, body=settings.body,
                       clearance=settings.toolpath.clearance, settings=settings.optimize,
                       reference=settings.lobes)

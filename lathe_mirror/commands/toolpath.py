@@ -63,11 +63,13 @@ def run(args: argparse.Namespace) -> int:
     into_dir = False
     if args.output:  # the program's and its set-up sheet's names, checked before any work
         from .common import check_outputs
+        from .flags import check_suffix
 
         out = Path(args.output)
         into_dir = os.path.isdir(out) or args.output.endswith("/")
         if into_dir:
             out = out / f"mirror_{strategy.value}.{dialect.extension}"
+        check_suffix(out, "G-code")
         sheet = out.with_name(out.name.split(".")[0] + ".setup.html")  # beside the program
         check_outputs(out.parent if into_dir else None,
                       [out.name, sheet.name] if into_dir else [str(out), str(sheet)])

@@ -172,7 +172,20 @@ def check_target(path: str | Path, what: str = "-o/--output", *, parent_made: bo
         raise InputError(f"{what} {path}: directory {parent} does not exist")
     elif not os.access(parent, os.W_OK):
         raise InputError(f"{what} {path}: directory {parent} is not writable")
+    else:
+        _probe(parent, path, what)
     return target
+
+
+def _probe(parent: Path, path: Path, what: str) -> None:
+    """InputError unless a file can be made in parent (a directory that access() calls
+    writable may refuse files: /proc, a read-only or full file system)."""
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".lathe-mirror.", suffix=".probe", dir=parent)
+    except OSError as exc:
+        raise InputError(f"{what} {path}: cannot write in {parent} ({exc.strerror})") from None
+    os.close(fd)
+    _unlink(Path(tmp))
 
 
 def check_writable(path: str | Path, what: str = "-o/--output") -> Path:

@@ -107,8 +107,11 @@ def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nomi
             phases[phase] = job.but(phase=phase)
         return phases[phase].but(nose_radius=nose).made()
 
+    from ..optics.zones import zones_for
+
     return prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
-                   nose0=job.tool.nose_radius, machine_at=machine_at, progress=progress)
+                   nose0=job.tool.nose_radius, machine_at=machine_at, progress=progress,
+                   zones=zones_for(settings, mirror))
 
 
 def verdict(t: dict, spec: dict) -> dict:
