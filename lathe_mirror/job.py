@@ -133,7 +133,7 @@ def program_target(settings: Settings, mirror: Mirror) -> Mirror:
 
 
 def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_radius: float = 0.0,
-                  job: MachiningJob | None = None) -> Profile:
+                  measured: str | None = None, job: MachiningJob | None = None) -> Profile:
     """The surface called `name` (enums.Surface), for the commands that take --surface.
 
       exact       the designed hyperbolic lobes (closed form)
@@ -145,6 +145,8 @@ def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_rad
                   along its own program
       polished    the paper program's as-machined surface (the [tool] nose, or
                   nose_radius) polished for its polishing curve's optimum (~2 s)
+      measured    the part measured in the file `measured` (--surface measured:FILE), fitted
+                  against the design (measure.surface)
       made        the configured machining job's made mirror (MachiningJob.from_settings:
                   the [toolpath] strategy cut by the [tool] nose, or nose_radius)
 
@@ -152,13 +154,19 @@ def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_rad
     """
     if not (nose_radius >= 0 and np.isfinite(nose_radius)):
         raise InputError(f"--nose-radius {nose_radius!r}: must be a finite number >= 0 mm")
-    builtin = (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528)
+    builtin = (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528, Surface.MEASURED)
     if nose_radius > 0 and name in builtin:
         strategies = [s.value for s in Surface if s not in builtin]
         raise InputError(f"--nose-radius {nose_radius:g}: the as-machined surface needs a toolpath; use "
                          f"--surface with one of {', '.join(strategies)}")
     if name is Surface.EXACT:
         return ExactProfile(mirror)
+    if name is Surface.MEASURED:
+        if not measured:
+            raise InputError("--surface measured: name the measured file, measured:FILE")
+        from .measure.surface import measured_profile
+
+        return measured_profile(measured, mirror, nose_radius_mm=settings.tool.nose_radius)
     if name in builtin:
         return reference_surface(name.value, mirror)
     job = job if job is not None else MachiningJob.from_settings(settings, mirror)
@@ -249,13 +257,15 @@ def check_cad(settings: Settings, mirror: Mirror) -> None:
 
 
 def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surface | Program, *,
-                  tool: Tool | None = None) -> Toolpath | None:
+                  tool: Tool | None = None, target: Mirror | None = None) -> Toolpath | None:
     """The program of `strategy` checked the same way by every command that uses one
     (toolpath, cad, render, polish, tolerance, calib, stereo, report, run), before any work
     or file: MachiningJob.check on the configured job with that program (and tool: default
     [tool]). A named Surface or Program stands for the program it is cut with (polished: the
-    paper's; made: the configured [toolpath] strategy; exact, reference, uniform528: none,
-    None returned). Returns the toolpath; InputError names the setting to change."""
+    paper's; made: the configured [toolpath] strategy; exact, reference, uniform528,
+    measured: none, None returned). target: the surface the program cuts when it is not
+    program_target's (a compensated re-cut: measure.compensate). Returns the toolpath;
+    InputError names the setting to change."""
     job = MachiningJob.from_settings(settings, mirror)
     if isinstance(strategy, Surface) and strategy is not Surface.MADE:
         if strategy.strategy is None:
@@ -267,6 +277,8 @@ def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surfa
         job = job.but(strategy=strategy)
     if tool is not None:
         job = job.but(tool=tool)
+    if target is not None:
+        job = dataclasses.replace(job, target=target)
     return job.check()
 
 
@@ -396,6 +408,8 @@ def surface_label(name: Surface, job: MachiningJob, *, nose_radius: float = 0.0)
     what they are. nose_radius (mm): as named_surface's."""
     if name is Surface.EXACT:
         return "the exact design"
+    if name is Surface.MEASURED:
+        return "the measured part (design + the fitted residual)"
     if name in (Surface.REFERENCE, Surface.UNIFORM528):
         return f"the paper's {name.value} model"
     if nose_radius > 0:

@@ -20,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_common(p, output_help="output directory for range_<surface>.png, error_range_<surface>.png, "
                "points_<surface>.ply and stereo_<surface>.json")
     p.add_argument("--surface", metavar="NAME", default=None,
-                   help="the mirror: exact, reference, uniform528, a toolpath strategy (paper, best, "
+                   help="the mirror: exact, reference, uniform528, measured:FILE (a measured part), a toolpath strategy (paper, best, "
                    "...) or polished; default [stereo] surface")
     add_no_progress(p)
     p.set_defaults(func=run)
@@ -29,7 +29,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ..enums import Surface, parse
     from ..optics.ranging.stereo import (band_visibility, error_curve, image_mask, prepare,
                                          range_figures, stereo_range)
     from ..optics.ranging.truth import true_range
@@ -39,7 +38,10 @@ def run(args: argparse.Namespace) -> int:
 
     settings = load(args)
     st = settings.stereo
-    surface = parse(Surface, args.surface, "--surface") if args.surface is not None else st.surface
+    from .common import surface_arg
+
+    surface, measured = surface_arg(args.surface)  # a name, or measured:FILE
+    surface = surface if surface is not None else st.surface
     mirror = design(settings)
     pose = settings.pose
     grid, match = prepare(mirror, st.params)  # an empty or too narrow band stops here
@@ -53,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         stages.start("surface")
         job = MachiningJob.from_settings(settings, mirror)  # the made mirror every command describes
-        made = named_surface(surface, mirror, settings, job=job)
+        made = named_surface(surface, mirror, settings, measured=measured, job=job)
         seen = band_visibility(made, mirror, grid, pose)
         for name, frac in zip(("inner", "outer"), seen):
             if frac < 0.5:
