@@ -131,7 +131,8 @@ def program_target(settings: Settings, mirror: Mirror) -> Mirror:
     return compensated_mirror(mirror, params, params.time_s)
 
 
-def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_radius: float = 0.0) -> Profile:
+def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_radius: float = 0.0,
+                  measured: str | None = None) -> Profile:
     """The surface called `name` (enums.Surface), for the commands that take --surface.
 
       exact       the designed hyperbolic lobes (closed form)
@@ -143,16 +144,24 @@ def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_rad
                   along its own program
       polished    the paper program's as-machined surface (the [tool] nose, or
                   nose_radius) polished for its polishing curve's optimum (~2 s)
+      measured    the part measured in the file `measured` (--surface measured:FILE), fitted
+                  against the design (measure.surface)
     """
     if not (nose_radius >= 0 and np.isfinite(nose_radius)):
         raise InputError(f"--nose-radius {nose_radius!r}: must be a finite number >= 0 mm")
-    builtin = (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528)
+    builtin = (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528, Surface.MEASURED)
     if nose_radius > 0 and name in builtin:
         strategies = [s.value for s in Surface if s not in builtin]
         raise InputError(f"--nose-radius {nose_radius:g}: the as-machined surface needs a toolpath; use "
                          f"--surface with one of {', '.join(strategies)}")
     if name is Surface.EXACT:
         return ExactProfile(mirror)
+    if name is Surface.MEASURED:
+        if not measured:
+            raise InputError("--surface measured: name the measured file, measured:FILE")
+        from .measure.surface import measured_profile
+
+        return measured_profile(measured, mirror, nose_radius_mm=settings.tool.nose_radius)
     if name in builtin:
         return reference_surface(name.value, mirror)
     lathe, tool = settings.machine, settings.tool
@@ -255,7 +264,7 @@ def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surfa
     the program cuts when it is not program_target's (a compensated re-cut:
     measure.compensate). Returns the toolpath; InputError names the setting to change."""
     if isinstance(strategy, Surface):
-        if strategy in (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528):
+        if strategy in (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528, Surface.MEASURED):
             return None
         strategy = (Strategy.PAPER if strategy is Surface.POLISHED else
                     BEST if strategy is Surface.BEST else Strategy(strategy.value))
