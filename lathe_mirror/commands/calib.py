@@ -58,11 +58,9 @@ def run(args: argparse.Namespace) -> int:
     range_m = DEFAULT_RANGE_MM / 1000.0 if args.range_m is None else args.range_m
     nose = settings.tool.nose_radius if args.nose_radius is None else args.nose_radius
     pose = settings.pose
-    from ..optics.zones import zones as zones_of
+    from ..optics.zones import zones_for
 
-    tol = settings.tolerance
-    zn = zones_of(mirror, nose, float(tol.tolerances.get("nose_radius_mm", 0.0)) if tol is not None and nose > 0 else 0.0,
-                  settings.machine.resolution)
+    zn = zones_for(settings, mirror, nose)  # the zones every command uses, for this nose
     # Before any progress display: a bad name is one line.
     from .common import surface_arg
 
