@@ -25,6 +25,7 @@ from .enums import BEST, Mount, Strategy, Surface
 from .errors import InputError
 from .finish import Process
 from .lathe import Lathe, Tool
+from .machine_errors import MachineErrors, machined_with_errors
 from .nose_envelope import as_machined, contour_profile, gouge_depth
 from .optics.polishing_curve import PolishCurve, polish_curve
 from .optics.reference import reference_surface
@@ -83,7 +84,7 @@ def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = 
                  nose_radius: float | None = None, phase: float = 0.0,
                  polish_params: PolishParams | None = None, polish_time_s: float = 0.0,
                  max_deviation: float = 0.01, toolpath: Toolpath | None = None,
-                 target: Mirror | None = None) -> MadeSurface:
+                 target: Mirror | None = None, errors: MachineErrors | None = None) -> MadeSurface:
     """The one made-surface builder: plan -> machine -> (polish).
 
     The program is planned for `tool` (its nose offset) at lattice `phase` (steps), on
@@ -91,14 +92,21 @@ def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = 
     part is cut by a nose of `nose_radius` mm (default the tool's: a worn or mis-measured
     insert differs from the programmed one); with polish_params and polish_time_s > 0 it
     is then polished for that time (s). toolpath: the program already planned with these
-    arguments (a caller cutting one program with many noses plans it once).
+    arguments (a caller cutting one program with many noses plans it once). errors: the
+    lathe's set-up errors ([machine.errors], machine_errors.MachineErrors; None or all zero:
+    a perfect machine), cut by machine_errors.machined_with_errors.
     """
     tp = toolpath if toolpath is not None else plan(mirror, lathe, tool, strategy, max_deviation=max_deviation,
                                                     phase=phase, target=target)
     rho = tool.nose_radius if nose_radius is None else nose_radius
-    profile = machine(tp, rho)
     source = f"{strategy.value} program{' (pre-compensated)' if target is not None else ''}, " \
              f"as-machined with a {rho:g} mm nose"
+    if errors is not None and not errors.is_zero:
+        profile = machined_with_errors(tp, errors, nose_radius=rho, pip_height_mm=0.15)
+        source += ", on a lathe with set-up errors " + ", ".join(
+            f"{k} {v:g}" for k, v in errors.to_dict().items() if v)
+    else:
+        profile = machine(tp, rho)
     if polish_params is not None and polish_time_s > 0:
         profile = polish(profile, polish_params, polish_time_s)
         source += f", polished {polish_time_s / 60:g} min"
@@ -167,12 +175,15 @@ def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_rad
     lathe, tool = settings.machine, settings.tool
     if nose_radius > 0:
         tool = dataclasses.replace(tool, nose_radius=nose_radius)
+    errors = settings.machine_errors
     if name is Surface.POLISHED:
-        machined = made_surface(mirror, lathe, tool, Strategy.PAPER).profile
+        machined = made_surface(mirror, lathe, tool, Strategy.PAPER, errors=errors).profile
         curve = polishing_curve(machined, mirror, settings.polish)
         return curve.profiles[curve.optimum_index]
     strategy = BEST if name is Surface.BEST else Strategy(name.value)
     tp = plan(mirror, lathe, tool, strategy)
+    if not errors.is_zero:  # the part as the configured lathe cuts it ([machine.errors])
+        return made_surface(mirror, lathe, tool, strategy, toolpath=tp, errors=errors).profile
     return machine(tp) if nose_radius > 0 else contour_profile(tp)
 
 

@@ -107,13 +107,15 @@ def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nomi
         if phase not in programs:
             programs[phase] = plan(mirror, settings.machine, settings.tool, strategy, phase=phase)
         return made_surface(mirror, settings.machine, settings.tool, strategy, nose_radius=nose,
-                            toolpath=programs[phase])
+                            toolpath=programs[phase], errors=settings.machine_errors)
 
     from ..optics.zones import zones_for
 
-    return prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
-                   nose0=settings.tool.nose_radius, machine_at=machine_at, progress=progress,
-                   zones=zones_for(settings, mirror))
+    ctx = prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
+                  nose0=settings.tool.nose_radius, machine_at=machine_at, progress=progress,
+                  zones=zones_for(settings, mirror))
+    ctx.cut_plus_x = mirror.step > 0  # the finishing pass runs axis -> rim (+X): backlash shows
+    return ctx
 
 
 def verdict(t: dict, spec: dict) -> dict:
