@@ -11,8 +11,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("polish", help="polish the as-machined mirror (Preston's law, compliant pad)",
                        description="Polish a program's as-machined mirror ([polish] settings): the "
                        "polishing curve (slope error, normal deviation, form change, image displacement "
-                       "against time), the time that minimises image displacement and the form it costs, "
-                       "and the figures after polish.time_s.")
+                       "and the stereo figures against time), the time polish.objective chooses (default "
+                       "'stereo': the calibrated stereo residual at polish.objective_range_m; "
+                       "'image_displacement' and 'slope_error' assume an uncalibrated camera) with its "
+                       "assumption and the figure it trades, and the figures after polish.time_s.")
     add_common(p, output_help="directory for polish.json (the curve and the figures)")
     p.add_argument("--program", default="paper", metavar="paper|best",
                    help="which program's as-machined surface to polish (default: paper, the paper's "

@@ -215,6 +215,18 @@ def polishing_conclusion(p: dict) -> str:
         f"{chosen['image_displacement'] / 60:.0f} min (calibrated stereo residual "
         f"{s['stereo_residual_pct']['before']:.1f} -> {s['stereo_residual_pct']['at_optimum']:.2f} %). "
         f"The lap's even removal is predictable: programmed on the design lowered by it, the polished paper part "
-        f"lands within {form_with:.2f} um RMS of the design's form (without: {form_without:.1f} um)."
+        f"lands within {form_with:.2f} um RMS of the design's form (without: {form_without:.1f} um). "
+        + _trade(s)
     )
+
+
+def _trade(s: dict) -> str:
+    """The recommendation's assumption and the figure it trades (as `polish` says it)."""
+    if s.get("assumption") == "calibrated":
+        d = s["depth_error_pct"]
+        return (f"The recommended time assumes a calibrated camera; uncalibrated, its depth error at "
+                f"{s.get('range_m', 2.0):g} m goes {d['before']:.3g} -> {d['at_optimum']:.3g} %.")
+    d = s["stereo_residual_pct"]
+    return (f"The recommended time assumes an uncalibrated camera; calibrated, its stereo residual goes "
+            f"{d['before']:.3g} -> {d['at_optimum']:.3g} %.")
 

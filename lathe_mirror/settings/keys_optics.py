@@ -113,5 +113,5 @@ KEYS: tuple[Key, ...] = (
     Key('stereo.equalise', True,
         choices='true or false',
         help="blur the outer panorama to the inner lobe's footprint before matching"),
-    Key('stereo.ply_format', 'binary', choices='binary, ascii', help='binary | ascii'),
+    Key('stereo.ply_format', 'binary', choices=('binary', 'ascii'), help='binary | ascii'),
 )
