@@ -250,3 +250,23 @@ def _get(cfg: dict, dotted: str):
         m = re.fullmatch(r"(\w+)\[(\d+)\]", p)
         node = node[m.group(1)][int(m.group(2))] if m else node[p]
     return node
+
+
+def test_help_shows_the_declared_default_and_range():
+    """A flag that sets a key shows the key's declared default and range in --help."""
+    import argparse
+
+    from lathe_mirror.cli import build_parser
+    from lathe_mirror.settings.keys import key
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    for command, flag, name in (("toolpath", "--points", "machine.max_points"),
+                                ("render", "--supersample", "render.supersample"),
+                                ("tolerance", "--target-yield", "tolerance.target_yield"),
+                                ("cad", "--stl-tolerance", "cad.stl_tolerance")):
+        action = next(a for a in sub.choices[command]._actions if flag in a.option_strings)
+        k = key(name)
+        assert f"{name}, default {k.help_default().split('default ')[1]}" in action.help
+        assert f"[range {k.text()}]" in action.help, action.help
+    assert "machine.max_points, default 528" in next(
+        a for a in sub.choices["toolpath"]._actions if "--points" in a.option_strings).help

@@ -108,8 +108,7 @@ def reference_table_markdown() -> str:
 
 
 def help_default(name: str) -> str:
-    """A flag's `--help` text for the key it sets: "machine.max_points, default 528;
-    allowed 4 to 1000000"."""
+    """A flag's `--help` text for the key it sets: "machine.max_points, default 528"."""
     return key(name).help_default()
 
 
