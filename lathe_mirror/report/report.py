@@ -160,7 +160,8 @@ def _mirrors_table(m: dict) -> str:
     body = ""
     for name, fig in m.items():
         for lb in fig["lobes"]:
-            body += f"<tr><td>{name}</td><td>{lb['name']}</td>" + "".join(
+            label = f"{name}<br><small>{html.escape(fig['made_mirror'])}</small>" if "made_mirror" in fig else name
+            body += f"<tr><td>{label}</td><td>{lb['name']}</td>" + "".join(
                 f"<td>{_fmt(lb[k])}</td>" for k in keys) + "</tr>"
     return f"<table>{head}{body}</table>"
 
