@@ -120,6 +120,25 @@ def test_every_documented_end_is_accepted_and_beyond_it_refused(k):
         assert k.name.replace("[]", "[0]").split("[")[0] in str(exc.value), (k.name, beyond, str(exc.value))
 
 
+def test_the_data_files_are_generated_from_the_declaration():
+    """lathe_mirror/data/*.toml (what a user reads and copies) are the declaration's text,
+    and read back they are the declared defaults."""
+    import tomllib
+
+    from lathe_mirror.settings.defaults_toml import default_files
+
+    data = Path(__file__).resolve().parents[1] / "lathe_mirror" / "data"
+    files = default_files()
+    assert {p.name for p in data.glob("*.toml")} == set(files), "a data file not generated: run scripts/gen-keys"
+    merged: dict = {}
+    for name, text in files.items():
+        assert (data / name).read_text(encoding="utf-8") == text, f"data/{name} differs: run scripts/gen-keys"
+        for section, value in tomllib.loads(text).items():
+            assert section not in merged
+            merged[section] = value
+    assert merged == declared_defaults()
+
+
 def test_every_key_of_the_defaults_is_declared_and_the_defaults_are_the_declared_ones():
     assert declared_defaults() == BASE
     declared = {k.name for k in KEYS}
@@ -146,7 +165,7 @@ def test_the_readme_table_is_the_generated_one():
     text = README.read_text(encoding="utf-8")
     begin = text.index("<!-- key table:")
     table = text[text.index("\n", begin) + 1:text.index("<!-- end of the key table -->")]
-    assert table == key_table_markdown(), "README's key table differs: run scripts/readme-keys"
+    assert table == key_table_markdown(), "README's key table differs: run scripts/gen-keys"
 
 
 def test_a_dependent_limit_is_stated_in_the_table():
