@@ -289,3 +289,27 @@ def test_help_shows_the_declared_default_and_range():
         assert f"[range {k.text()}]" in action.help, action.help
     assert "machine.max_points, default 528" in next(
         a for a in sub.choices["toolpath"]._actions if "--points" in a.option_strings).help
+
+
+def test_a_design_from_specs_gets_the_configs_checks():
+    """lm.checked_mirror(camera, specs), the API's design from a camera and lobe specs: the
+    same DesignError as load() on another camera (a 6 mm lens, 3 um pixels)."""
+    import dataclasses
+
+    import lathe_mirror as lm
+    from lathe_mirror.design import Camera
+
+    settings = lm.load()
+    camera = Camera(f=6.0, t_pixel=0.003, sensor_px=(1008, 1018), f_number=8.0)
+    good = lm.checked_mirror(camera, settings.lobes)  # same lobes behind another lens: h = 6 R_top / (0.003 R_pixel)
+    assert good.inner.r_top == 20.0
+    bad = (dataclasses.replace(settings.lobes[0], alpha_deg=None, e=1e-6), settings.lobes[1])
+    with pytest.raises(lm.DesignError) as exc:
+        lm.checked_mirror(camera, bad)
+    cfg = copy.deepcopy(BASE)
+    cfg["camera"].update(f=6.0, t_pixel=0.003)
+    cfg["lobes"]["inner"].pop("alpha_deg")
+    cfg["lobes"]["inner"]["e"] = 1e-6
+    with pytest.raises(InputError) as from_file:
+        from_config(cfg)
+    assert str(exc.value) == str(from_file.value) and "lobes.inner.e = 1e-06 mm: allowed" in str(exc.value)
