@@ -14,7 +14,7 @@ from ..design import Mirror
 from ..enums import BEST, Strategy
 from ..job import MachiningJob, scene_for
 from ..nose_envelope import contour_profile
-from ..optics.distortion import distortion_figures, usable_annulus
+from ..optics.distortion import image_displacement, usable_annulus
 from ..optics.radial import lobe_pixel_radii, radial_displacement, radial_figures, used_extent
 from ..optics.ranging.resolution import resolution_table
 from ..optics.ranging.stereo import error_curve, image_mask, prepare, range_figures, stereo_range
@@ -61,7 +61,7 @@ def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> dict:
     """
     surf = profile_errors(profile, mirror)
     rad = radial_figures(profile, mirror, zones=zones)
-    full = distortion_figures(profile, mirror)
+    full = image_displacement(profile, mirror).figures(zones)  # over the same zones as the radial figures
     lobes = []
     for s, o, f in zip(surf["lobes"], rad["lobes"], full["lobes"]):
         lobes.append({"name": s["name"], "slope_error_rad": s["slope_error_rad"],
