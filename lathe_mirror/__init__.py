@@ -10,7 +10,8 @@ The Python API (names load on first use, so `import lathe_mirror` stays light):
     lm.distortion_figures(made.profile, mirror)          # five figures per lobe
 
 Settings and the design: `load`, `Settings` (`.mirror()` designs it), `Camera`,
-`LobeSpec` and `mirror_from_specs` (a design from a camera and two lobe specs),
+`LobeSpec` and `mirror_from_specs` (a design from a camera and two lobe specs;
+`checked_mirror` the same with every check `load()` gives),
 `design_mirror`, `Mirror`, `Lobe`, `design_figures`.
 The lathe: `Lathe`, `Tool`, `Stock`, `Strategy` (`BEST` is `ARCS`), `MachiningJob` (the
 one machining job every command uses), `plan` (the toolpath), `machine` (the nose
@@ -54,6 +55,7 @@ _API = {
     "monte_carlo": "api", "ProgramName": "enums:Program",
     "spec_of": "iso10110", "PartSpec": "iso10110",
     "measure": "measure.result", "Measurement": "measure.result", "measured_profile": "measure.surface",
+    "checked_mirror": "settings",
     "Error": "errors", "InputError": "errors", "DesignError": "errors", "InternalError": "errors",
 }
 
