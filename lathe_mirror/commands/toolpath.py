@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
         gouge_depth,
         junction_fillet,
     )
-    from ..pipeline import check_program, design, shop_program
+    from ..pipeline import check_program, design, inspection_table, shop_program
     from ..shop import options_from_settings
     from ..toolpath import profile_errors, usable_ranges
 
@@ -74,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
     lathe, tool, stock = settings.machine, settings.tool, settings.stock
     opts = options_from_settings(settings.toolpath)
     tp = check_program(settings, mirror, strategy)  # as every command that uses a program
-    shop = shop_program(tp, stock, opts)  # simulated against the stock; refused if it touches
+    # simulated against the stock; refused if it touches
+    shop = shop_program(tp, stock, opts, inspection=inspection_table(settings))
     text = format_program(shop.program, dialect)
     if out is not None:
         from ..export.files import write_text
