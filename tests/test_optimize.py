@@ -305,7 +305,7 @@ def test_infeasible_constraints_one_line_exit_2_nothing_written(tmp_path, text, 
 
 def test_bad_workers_and_bad_keys(tmp_path):
     proc = run_cli("optimize", "--workers", "0", "--no-progress")
-    assert proc.returncode == 2 and "optimize.workers = 0" in proc.stderr
+    assert proc.returncode == 2 and "argument --workers: 0: allowed 1 to 64" in proc.stderr
     cfg = tmp_path / "c.toml"
     cfg.write_text("[optimize]\nobjective = \"speed\"\n")
     proc = run_cli("optimize", "--config", str(cfg), "--no-progress")

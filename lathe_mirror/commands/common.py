@@ -12,7 +12,7 @@ def add_common(parser: argparse.ArgumentParser, *, output_help: str | None = Non
     """--config FILE, -o/--output, --json: the options every stage takes."""
     parser.add_argument("--config", metavar="FILE",
                         help="TOML file merged over the paper default (any part of it)")
-    parser.add_argument("-o", "--output", metavar="PATH", type=_path_arg,
+    parser.add_argument("-o", "--output", metavar="PATH", type=path_arg,
                         help=output_help or "where to write the stage's files")
     parser.add_argument("--json", action="store_true",
                         help="print the stage's figures as JSON on stdout")
@@ -62,9 +62,18 @@ def check_outputs(directory: str | Path | None, names: list[str], what: str = "-
     return out
 
 
-def _path_arg(text: str) -> str:
-    """-o's argparse type: a non-empty path (an empty one would fall back to the default
+def path_arg(text: str) -> str:
+    """-o's (and every output flag's) argparse type: a non-empty path (an empty one would fall back to the default
     name silently)."""
     if not text:
         raise argparse.ArgumentTypeError("empty path: name a file or directory")
     return text
+
+
+def program_strategy(value: str | None, settings):
+    """--program paper|best as the Strategy a part was cut with (None: [toolpath] strategy)."""
+    from ..enums import BEST, Program, Strategy, parse
+
+    if value is None:
+        return settings.toolpath.strategy
+    return BEST if parse(Program, value, "--program") is Program.BEST else Strategy.PAPER

@@ -17,12 +17,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..design import TABLE1_SWAP_NOTE, design_figures
-    from ..pipeline import design
+    from ..job import design
 
     settings = load(args)
     if args.output:
         from .common import check_outputs
+        from .flags import check_suffix
 
+        check_suffix(args.output, "JSON")
         check_outputs(None, [args.output])  # before any work, as every command
     mirror = design(settings)
     figures = design_figures(mirror)

@@ -34,11 +34,11 @@ def run(args: argparse.Namespace) -> int:
     out = pareto_path = None
     if args.output:
         from ..export.files import check_writable
+        from .flags import check_suffix
 
+        check_suffix(args.output, "TOML")
         out = check_writable(args.output)
         pareto_path = check_writable(out.with_name(out.stem + "_pareto.png"))
-    if args.workers is not None and not 1 <= args.workers <= 64:
-        raise InputError(f"--workers {args.workers}: allowed 1 .. 64")
     problem = Problem(camera=settings.camera, tool=settings.tool, stock=settings.stock, body=settings.body,
                       clearance=settings.toolpath.clearance, settings=settings.optimize,
                       reference=settings.lobes)
@@ -87,7 +87,8 @@ def check_made(settings) -> None:
     gouge, bar, travel, no rapid or insert body in stock). An InputError here names the
     check the winner fails."""
     from ..errors import InputError
-    from ..pipeline import check_cad, check_programs, shop_programs
+    from ..job import check_cad, check_programs
+    from ..shop.programs import shop_programs
 
     mirror = settings.mirror()
     try:
@@ -193,10 +194,9 @@ def _user_sections(path) -> dict:
     written design: every section but [camera] and [lobes], which the design replaces."""
     if path is None:
         return {}
-    import tomllib
-    from pathlib import Path
+    from ..config import read_user
 
-    doc = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    doc = read_user(path)
     return {k: v for k, v in doc.items() if k not in ("camera", "lobes")}
 
 

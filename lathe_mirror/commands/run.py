@@ -40,15 +40,9 @@ def run(args: argparse.Namespace) -> int:
     from ..export.calib import FILE_NAMES as CALIB_FILES
     from ..export.files import write_text
     from ..export.gcode import program_files
-    from ..pipeline import (
-        cad_model,
-        check_cad,
-        check_program,
-        check_programs,
-        design,
-        report_figures,
-        shop_programs,
-    )
+    from ..job import cad_model, check_cad, check_program, check_programs, design
+    from ..pipeline import report_figures
+    from ..shop.programs import shop_programs
     from ..report import write_report
     from .common import check_outputs, output_dir
     from .report import REPORT_FILES, summary
@@ -85,7 +79,9 @@ def run(args: argparse.Namespace) -> int:
     cad = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
     from ..export.calib import write_calibration
 
-    calib = write_calibration(calib_dir, mirror)
+    from ..optics.zones import zones_for
+
+    calib = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
     data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render)
     data.figures["shop"] = [{"name": shop.program.name, "setup_sheet": f"{shop.program.name}.setup.html",
                              **shop.simulation.figures()} for shop in shops]

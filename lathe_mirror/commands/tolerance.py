@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_no_progress, load, path_arg, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -24,7 +24,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "confirmed by a fresh Monte Carlo of as many trials (about the Monte Carlo's time again)")
     p.add_argument("--target-yield", type=float, default=None, metavar="P",
                    help="the allocation's target yield, 0.5 .. 0.999 (default tolerance.target_yield, 0.95)")
-    p.add_argument("--csv", metavar="FILE", default=None,
+    p.add_argument("--csv", metavar="FILE", default=None, type=path_arg,
                    help="write one row per trial (drawn parameters, every figure, pass flags) of every "
                    "Monte Carlo run, the allocation's confirming runs included; its directory must exist")
     add_no_progress(p)
@@ -34,13 +34,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..enums import BEST, Program, Strategy
     from ..errors import InputError
-    from ..pipeline import check_program, check_programs, design, made_surface, polishing_curve, tolerance_runs
+    from ..job import check_program, check_programs, design, made_surface, polishing_curve
+    from ..tolerance.runs import tolerance_runs
 
     if args.target_yield is not None:
         if not args.allocate:
             raise InputError("--target-yield applies to --allocate (the allocation's target)")
-        if not 0.5 <= args.target_yield <= 0.999:
-            raise InputError(f"--target-yield {args.target_yield:g}: allowed 0.5 .. 0.999 (a fraction: 0.95 for 95 %)")
     settings = load(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed"),
                            ("tolerance.target_yield", args.target_yield, "--target-yield")])
     mirror = design(settings)
@@ -49,7 +48,9 @@ def run(args: argparse.Namespace) -> int:
         check_program(settings, mirror, BEST if program is Program.BEST else Strategy.PAPER)
     if args.csv:
         from ..export.files import check_writable
+        from .flags import check_suffix
 
+        check_suffix(args.csv, "CSV", "--csv")
         check_writable(args.csv, "--csv")
     if args.output:
         from .common import check_outputs, output_dir
@@ -93,6 +94,11 @@ def format_tolerance(out: dict) -> str:
              f"{spec['image_displacement_px']:g} px per lobe, depth error <= {spec['depth_error_pct']:g} % at "
              f"{spec['depth_range_m']:g} m (as disparity, 90 % of the band), RMS slope error <= "
              f"{spec['slope_error_rad']:g} rad; {out['trials']} trials, seed {out['seed']}"]
+    zn = next((t["monte_carlo"].get("zones") for t in out["programs"].values()), None)
+    if zn is not None:
+        from ..optics.zones import describe_dict
+
+        lines.append(describe_dict(zn))
     for name, t in out["programs"].items():
         v, mc = t["verdict"], t["monte_carlo"]
         lines.append(f"{name} program ({t['surfaces']}; polished {t['nominal_polish_time_s']:g} s nominal): "
@@ -120,8 +126,7 @@ def format_tolerance(out: dict) -> str:
                          f"{m['calibrated']['disparity_px_p90']:.3g} / {p['calibrated']['disparity_px_p90']:.3g}")
         for r in t["inverse_sensitivity"]:
             if r["no_margin"]:
-                lines.append(f"  {r['parameter']:>20s} alone: no margin left (the nominal part fails "
-                             f"{', '.join(r['no_margin'])})")
+                lines.append(f"  {r['parameter']:>20s} alone: no margin left ({r['no_margin_why']})")
                 continue
             why = f"set by {r['limited_by']}" if r["limited_by"] else "no criterion reaches its share in the scan"
             more = "" if r["limited_by"] else " or more"
