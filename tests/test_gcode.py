@@ -522,7 +522,7 @@ def test_another_step_design_passes_rs274(tmp_path, strategy):
     assert res.returncode == 0, res.stderr
     out = rs274(tmp_path, (tmp_path / f"mirror_{strategy}.ngc").read_text())
     text = (tmp_path / f"mirror_{strategy}.ngc").read_text()
-    finishing = len(re.findall(r"^\(finish", text, re.M))  # the finishing passes, each restartable
+    finishing = len(re.findall(r"^\((?:finish pass \d|finish:)", text, re.M))  # the finishing passes, each restartable
     assert "PROGRAM_END" in out and out.count("CHANGE_TOOL(1)") == 3 and out.count("CHANGE_TOOL(2)") == finishing >= 1
 
 
@@ -538,6 +538,6 @@ def test_outer_recessed_step_is_cut_by_the_opposite_hand(tmp_path):
     assert res.returncode == 0, res.stderr
     tools = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4))
     out = rs274(tmp_path, (tmp_path / "p.ngc").read_text(), tools)
-    finishing = len(re.findall(r"^\(finish", (tmp_path / "p.ngc").read_text(), re.M))
+    finishing = len(re.findall(r"^\((?:finish pass \d|finish:)", (tmp_path / "p.ngc").read_text(), re.M))
     assert out.count("CHANGE_TOOL(3)") == 3 and out.count("CHANGE_TOOL(4)") == finishing >= 1
     assert "CHANGE_TOOL(1)" not in out and "PROGRAM_END" in out

@@ -128,7 +128,9 @@ def test_committed_programs_touch_nothing(tmp_path, paper_mirror, name):
                    gouge_tolerance=OPTIONS.gouge_tolerance)
     assert sim.contacts == ()
     ops = sim.operations
-    assert [op.station for op in ops] == [1, 1, 1, 2]  # face, rough, semi-finish; finish
+    # face, rough, semi-finish; the finishing passes (at most max_finish_depth each) and the contour
+    assert [op.station for op in ops][:3] == [1, 1, 1] and len(ops) >= 5 and {op.station for op in ops[3:]} == {2}
+    assert all(op.max_depth_of_cut_mm <= OPTIONS.max_finish_depth + 1e-6 for op in ops[3:])
     assert all(op.plunge_mm == 0.0 for op in ops)
     assert all(op.max_part_cut_mm <= OPTIONS.gouge_tolerance for op in ops)
     # everything from the bar's face down to the part is gone: pi R^2 (face - Z) - the part's
@@ -436,5 +438,5 @@ def test_sheet_is_written_beside_the_program(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["part.nc", "part.setup.html"]
     page = (tmp_path / "part.setup.html").read_text()
     assert "Z1.200" in page and "X19.600" in page  # face + 0.2; a 20 mm bore - 0.4
-    n_ops = 3 + len(re.findall(r"^\(FINISH", (tmp_path / "part.nc").read_text(), re.M))  # one picture each
+    n_ops = 3 + len(re.findall(r"^\((?:FINISH PASS \d|FINISH:)", (tmp_path / "part.nc").read_text(), re.M))  # one picture each
     assert page.count("data:image/png;base64,") == n_ops and "https://" not in page

@@ -112,9 +112,7 @@ def options_from_settings(t: ToolpathSettings) -> ProgramOptions:
                           gouge_tolerance=t.gouge_tolerance, ramp_angle=t.ramp_angle,
                           spring_pass=t.spring_pass, coolant=t.coolant, home_r=t.home_r, home_z=t.home_z,
                           rapid_rate=t.rapid_rate,
-                          # the [toolpath] keys of the settings package (issue 21); their defaults until it lands
-                          path_tolerance=getattr(t, "path_tolerance_mm", 0.001),
-                          max_finish_depth=getattr(t, "max_finish_depth_mm", 0.1))
+                          path_tolerance=t.path_tolerance_mm, max_finish_depth=t.max_finish_depth_mm)
 
 
 # --------------------------------------------------------------------------------------

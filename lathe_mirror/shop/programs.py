@@ -92,7 +92,7 @@ PROBE_STEP_MM = 2.0
 
 def inspection_table(settings: Settings) -> tuple:
     """The set-up sheet's inspection rows (shop.setup.InspectionRow): each lobe's sag at
-    every PROBE_STEP_MM of its clear aperture and at its ends, with the band its form
+    every PROBE_STEP_MM of its clear aperture and at its ends (inside it, to 0.01 mm), with the band its form
     tolerance allows (iso10110.spec_of)."""
     import numpy as np
 
@@ -106,6 +106,7 @@ def inspection_table(settings: Settings) -> tuple:
     for lb in spec.lobes:
         c = lb.conic
         lo, hi = c.clear_aperture
+        lo, hi = np.ceil(lo * 100 - 1e-9) / 100, np.floor(hi * 100 + 1e-9) / 100  # probe radii in 0.01 mm
         r = np.arange(np.ceil(lo / PROBE_STEP_MM - 1e-9), np.floor(hi / PROBE_STEP_MM + 1e-9) + 1) * PROBE_STEP_MM
         r = np.unique(np.concatenate([[lo], r[(r > lo + 0.25) & (r < hi - 0.25)], [hi]]))
         for rv, s, t in zip(r, c.sag(r), c.slope(r)):
