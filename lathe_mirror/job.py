@@ -244,15 +244,16 @@ def check_cad(settings: Settings, mirror: Mirror) -> None:
 
 
 def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surface, *,
-                  tool: Tool | None = None) -> Toolpath | None:
+                  tool: Tool | None = None, target: Mirror | None = None) -> Toolpath | None:
     """The program of `strategy` checked the same way by every command that uses one
     (toolpath, cad, render, polish, tolerance, calib, stereo, report, run), before any work
     or file: planned on the lattice within the point budget for toolpath.max_deviation
     (plan), and its as-machined surface no deeper inside the part than
     toolpath.gouge_tolerance (the check shop.plan_program makes before it writes G-code).
     A named Surface stands for the program it is cut with (polished: the paper's; exact,
-    reference, uniform528: none, None returned). tool: default [tool]. Returns the
-    toolpath; InputError names the setting to change."""
+    reference, uniform528: none, None returned). tool: default [tool]. target: the surface
+    the program cuts when it is not program_target's (a compensated re-cut:
+    measure.compensate). Returns the toolpath; InputError names the setting to change."""
     if isinstance(strategy, Surface):
         if strategy in (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528):
             return None
@@ -260,7 +261,7 @@ def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surfa
                     BEST if strategy is Surface.BEST else Strategy(strategy.value))
     tp = plan(mirror, settings.machine, tool or settings.tool, strategy,
               max_deviation=settings.toolpath.max_deviation,
-              target=program_target(settings, mirror))  # polish.precompensate: the allowance
+              target=target if target is not None else program_target(settings, mirror))  # precompensate
     depth = gouge_depth(tp)
     limit = settings.toolpath.gouge_tolerance
     if depth > limit:

@@ -71,7 +71,7 @@ def test_output_file_is_written(tmp_path):
 BAD = [
     ("[lobes.inner]\nr_top = 0.0\n", "lobes.inner.r_top = 0 mm: allowed 0.1 to 1000 mm"),
     ("[lobes.inner]\nr_top = -5.0\n", "lobes.inner.r_top = -5 mm: allowed 0.1 to 1000 mm"),
-    ("[camera]\nf = -16.0\n", "camera.f = -16 mm must be > 0"),
+    ("[camera]\nf = -16.0\n", "camera.f = -16 mm: allowed 0.1 to 1000 mm"),
     ("[lobes.outer]\nr_top = 20.0\n", "must exceed lobes.inner.r_top"),
     ("[lobes.outer]\nr_top = 15.0\n", "must exceed lobes.inner.r_top"),
     ("[lobes.inner]\nalpha_deg = 85.0\n", "no hyperbola"),

@@ -208,7 +208,7 @@ def test_optimize_beats_the_paper_in_its_own_envelope(tmp_path):
     """A short search (the full one is benchmarks/bench_optimize.py): the winner is at
     least the paper's R10 and meets every constraint."""
     cfg = tmp_path / "c.toml"
-    cfg.write_text("[optimize]\nmaxiter = 15\n")
+    cfg.write_text("[optimize]\nmaxiter = 15\n[tolerance]\ntrials = 40\nlattice_phases = 4\n")
     proc = run_cli("optimize", "--config", str(cfg), "--json", "--no-progress", "--workers", "2")
     assert proc.returncode == 0, proc.stderr
     assert proc.stderr == ""
@@ -217,6 +217,10 @@ def test_optimize_beats_the_paper_in_its_own_envelope(tmp_path):
     assert data["gain"] >= 1.0
     assert all(c["slack"] >= 0 for c in data["constraints"])
     assert data["reference"]["r10_m"] == pytest.approx(0.2344, abs=0.0005)
+    # the winner through the tolerance analysis: the nominal part passes every criterion
+    check = data["check"]
+    assert check["nominal_pass"] and all(c["pass"] for c in check["nominal"].values())
+    assert "why" not in check or not check["why"].startswith("the nominal part fails")
 
 
 #: The 35 mm envelope (vertex >= 103.6 mm, farthest point <= 138.6 mm) with a bar and body
@@ -237,6 +241,9 @@ thickness = 45.0
 [optimize]
 rim_max_mm = 138.6
 maxiter = 25
+[tolerance]
+trials = 40
+lattice_phases = 4
 """
 
 
@@ -252,6 +259,9 @@ def test_written_design_reproduces_through_design_and_runs(tmp_path):
     assert out.exists() and (tmp_path / "best_pareto.png").read_bytes()[:4] == b"\x89PNG"
     best = data["best"]
     assert best["recessed"] == "outer" and best["hand"] == "opposite hand"
+    # the outer-recessed winner passes its own tolerance verdict nominally (issue 20: the
+    # slope criterion judged the fillet the inner rim hides)
+    assert data["check"]["nominal_pass"], data["check"]
     design = run_cli("design", "--config", str(out), "--json")
     assert design.returncode == 0, design.stderr
     fig = json.loads(design.stdout)
@@ -288,7 +298,8 @@ def test_written_design_reproduces_through_design_and_runs(tmp_path):
 
 
 @pytest.mark.parametrize("text, key", [
-    ("[optimize]\nblur_max_px = 0.5\nmaxiter = 10\n", "optimize.blur_max_px"),
+    ("[optimize]\nblur_limit_um = 4.5\nmaxiter = 10\n", "optimize.blur_limit_um"),
+    ("[optimize]\nblur_limit_um = 0.0\nblur_max_px = 0.5\nmaxiter = 10\n", "optimize.blur_max_px"),
     ("[optimize]\nband_deg = [-80.0, 30.0]\nmaxiter = 10\n", "optimize.band_deg"),
 ])
 def test_infeasible_constraints_one_line_exit_2_nothing_written(tmp_path, text, key):

@@ -82,7 +82,7 @@ def format_design(fig: dict) -> str:
         f"stereo baseline (F1 to F1): {fig['baseline_mm']:.3f} mm; "
         f"common band: {band['min']:.3f} to {band['max']:.3f} deg elevation",
         "image radii: " + _radii_text(radii),
-        f"mirror depth (vertex to outer rim): {fig['depth_mm']:.3f} mm",
+        f"mirror depth (vertex to the farthest point, the higher rim): {fig['depth_mm']:.3f} mm",
     ]
     for note in fig.get("notes", []):
         lines.append(f"note: {note}")
