@@ -66,6 +66,9 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     facts = {"r_used": r_used, "rho_used": corner_limit_px(mirror, mirror.r_junction - r_used),
              "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
     out["notes"] += [TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)]
+    from .iso10110 import spec_of
+
+    out["spec"] = spec_of(settings).to_dict()  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
     steps.done()
 
     steps.start("toolpaths")
