@@ -31,8 +31,8 @@ import math
 from typing import TYPE_CHECKING, Any
 
 from .design import TABLE1_SWAP_NOTE, design_figures
-from .enums import Program
-from .job import design
+from .enums import BEST, Program, Strategy
+from .job import MachiningJob, design
 from .notes import NOTES
 from .optics.camera_model import calibration_figures
 from .optics.radial import corner_limit_px, used_extent
@@ -72,11 +72,12 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     steps.done()
 
     steps.start("toolpaths")
-    made, out["machine"], out["toolpaths"] = strategy_table(mirror, settings)
+    job = MachiningJob.from_settings(settings, mirror)  # the one machining job every stage takes
+    made, out["machine"], out["toolpaths"] = strategy_table(job)
     steps.done()
 
     steps.start("polishing")
-    out["polishing"], polish_curves = polishing_study(settings, mirror, made, progress=progress)
+    out["polishing"], polish_curves = polishing_study(settings, job, made, progress=progress)
     curve_paper, curve_best = polish_curves["paper"], polish_curves["best"]
     made["polished"] = curve_paper.profiles[curve_paper.optimum_index]
     steps.done()
@@ -89,6 +90,12 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     out["zones"] = {**zn.as_dict(), "text": zn.describe()}
     out["mirrors"] = {name: mirror_figures(made[name], mirror, zn) for name in MIRRORS}
     out["mirrors"]["polished"]["polish_time_s"] = curve_paper.optimum_time_s
+    parts = {"paper": job.but(strategy=Strategy.PAPER), "best": job.but(strategy=BEST),
+             "polished": job.but(strategy=Strategy.PAPER, polish_time_s=curve_paper.optimum_time_s)}
+    out["made_mirror"] = job.to_dict()  # the made mirror every command describes by default
+    out["mirrors"]["exact"]["made_mirror"] = "the exact design"
+    for name, part in parts.items():  # which part each mirror is
+        out["mirrors"][name]["made_mirror"] = part.label
     out["calibration"] = calibration_figures(mirror, {n: made[n] for n in ("paper", "best", "polished")}, zones=zn)
     steps.done()
 
@@ -119,7 +126,7 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     steps.start("tolerance")
     if tolerance:
         times = {Program.PAPER: curve_paper.optimum_time_s, Program.BEST: curve_best.optimum_time_s}
-        out["tolerance"] = tolerance_analysis(mirror, settings, times, progress=progress,
+        out["tolerance"] = tolerance_analysis(mirror, settings, times, progress=progress, job=job,
                                               allocate=(Program.BEST,) if Program.BEST in settings.tolerance.programs
                                               else ())
         out["verdict"] = {name: t["verdict"] for name, t in out["tolerance"]["programs"].items()}

@@ -194,7 +194,9 @@ def test_design_toml_round_trips():
     lobes = (LobeSpec("inner", 20.123456789012345, 307.1, alpha_deg=13.000000000000002),
              LobeSpec("outer", 35.0, 504.0, alpha_deg=-1e-7))
     doc = tomllib.loads(design_toml(s.camera, lobes, comments=["a", "b"], extra=extra))
-    assert doc["lobes"]["inner"] == {"r_top": 20.123456789012345, "r_pixel": 307.1, "alpha_deg": 13.000000000000002}
+    # Written at 12 significant digits (export.numbers): 20.123456789012345 -> 20.1234567890,
+    # 13.000000000000002 -> 13.0; short numbers exactly.
+    assert doc["lobes"]["inner"] == {"r_top": 20.123456789, "r_pixel": 307.1, "alpha_deg": 13.0}
     assert doc["lobes"]["outer"]["alpha_deg"] == -1e-7
     assert doc["scene"] == extra["scene"] and doc["cad"] == extra["cad"] and doc["optimize"] == extra["optimize"]
     assert doc["camera"]["sensor_px"] == [1008, 1018]
@@ -265,20 +267,27 @@ def test_written_design_reproduces_through_design_and_runs(tmp_path):
     design = run_cli("design", "--config", str(out), "--json")
     assert design.returncode == 0, design.stderr
     fig = json.loads(design.stdout)
+    # The TOML holds the design at 12 significant digits (export.numbers): the figures
+    # come back to ~1e-11 relative; 1e-9 leaves room for the conditioning of the rim angle.
     for k, lobe in enumerate(fig["lobes"]):
         for key in ("r_top", "r_pixel", "alpha_deg"):
-            assert lobe[key] == pytest.approx(best["lobes"][k][key], rel=1e-12, abs=1e-12)
-    assert fig["baseline_mm"] == pytest.approx(best["baseline_mm"], rel=1e-12)
-    assert fig["common_band_deg"]["min"] == pytest.approx(best["band_deg"]["min"], rel=1e-12)
-    assert fig["junction"]["step_mm"] == pytest.approx(best["step_mm"], rel=1e-12)
+            assert lobe[key] == pytest.approx(best["lobes"][k][key], rel=1e-9, abs=1e-9)
+    assert fig["baseline_mm"] == pytest.approx(best["baseline_mm"], rel=1e-9)
+    assert fig["common_band_deg"]["min"] == pytest.approx(best["band_deg"]["min"], rel=1e-9)
+    assert fig["junction"]["step_mm"] == pytest.approx(best["step_mm"], rel=1e-9)
     # the same R10 from the design the file describes
     s = load(out)
-    assert r10(s.mirror(), (math.radians(-20), 0.0)) == pytest.approx(best["r10_m"], rel=1e-12)
+    assert r10(s.mirror(), (math.radians(-20), 0.0)) == pytest.approx(best["r10_m"], rel=1e-9)
     # the user's sections are carried over
     assert tomllib.loads(out.read_text())["stock"]["length"] == 50.0
-    # run: programs, CAD, report
-    run = run_cli("run", "--config", str(out), "-o", str(tmp_path / "out"), "--no-render", "--no-progress")
+    # run: programs, CAD, report, on the written file plus a short Monte Carlo and polishing
+    # curve (the sections the optimiser does not write; the design and the shop are the file's).
+    quick = tmp_path / "quick.toml"
+    quick.write_text(out.read_text() + "\n[polish]\ncurve_points = 3\n[tolerance]\ntrials = 20\nlattice_phases = 1\n")
+    run = run_cli("run", "--config", str(quick), "-o", str(tmp_path / "out"), "--no-render", "--no-progress")
     assert run.returncode == 0, run.stderr[-3000:]
+    # --no-progress (as render's): nothing on stderr on success, the summary on stdout.
+    assert run.stderr == "" and run.stdout.strip()
     exe = require_program("rs274")
     (tmp_path / "tools.tbl").write_text("".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4)))
     programs = sorted((tmp_path / "out" / "gcode").glob("*.ngc"))

@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--program", default=None, metavar="paper|best",
                    help="the program the part was cut with (default: [toolpath] strategy)")
     p.add_argument("--gain", type=float, default=None,
-                   help="share of the remaining residual the re-cut takes off (0 < gain <= 1; default 0.8)")
+                   help="share of the remaining residual the re-cut takes off (default 0.8)")
     p.add_argument("--dialect", default="linuxcnc", metavar="linuxcnc|fanuc", help="G-code dialect")
     p.set_defaults(func=run)
 
@@ -45,8 +45,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.output:
         raise InputError("-o/--output: compensate writes a program; name a directory")
     gain = GAIN if args.gain is None else args.gain
-    if not (0.0 < gain <= 1.0):
-        raise InputError(f"--gain {args.gain!r}: allowed 0 < gain <= 1")
+    # --gain is within its range (commands/flags.py, at parsing)
     dialect = parse(Dialect, args.dialect, "--dialect")
     settings = load(args)
     mirror = design(settings)

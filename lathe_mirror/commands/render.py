@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_common, load, print_json
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -17,14 +18,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         "image_displacement_px, viewpoint_spread_mm), plots, and the POV-Ray 3.7 scene.")
     add_common(p, output_help="output directory for the PNGs, plots, figures.json and .pov")
     p.add_argument("--surface", metavar="NAME", default=None,
-                   help="made surface: exact, reference, uniform528, a toolpath strategy "
+                   help="made surface: exact, reference, uniform528, measured:FILE (a measured part), a toolpath strategy "
                    "(paper, best, ...), or polished (the paper program as machined, polished at "
-                   "the polishing optimum); default [render] surface")
+                   "the polishing optimum); " + help_default("render.surface"))
     p.add_argument("--nose-radius", metavar="MM", type=float, default=None,
                    help="trace the as-machined surface of a tool with this nose radius (mm) "
-                   "instead of the programmed contour; default [render] nose_radius")
+                   "instead of the programmed contour; " + help_default("render.nose_radius"))
     p.add_argument("--supersample", metavar="N", type=int, default=None,
-                   help="N x N rays per pixel for the images (N^2 the cost); default [render] supersample")
+                   help="N x N rays per pixel for the images (N^2 the cost); " + help_default("render.supersample"))
     p.add_argument("--image-only", action="store_true",
                    help="render only the made surface's image (no exact image, figures or plots)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
@@ -37,18 +38,20 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from ..enums import Surface, parse
+    from ..enums import Surface
     from ..optics.render import image_difference, render_image
-    from ..job import check_program, design, named_surface, scene_for
+    from ..job import MachiningJob, check_program, design, named_surface, scene_for, surface_label
     from ..profile import ExactProfile
 
-    surface = parse(Surface, args.surface, "--surface") if args.surface is not None else None
+    from .common import surface_arg
+
+    surface, measured = surface_arg(args.surface)  # a name, or measured:FILE
     # The flags are the [render] keys: validated (ranges, the render's memory) with the rest.
     settings = load(args, [("render.supersample", args.supersample, "--supersample"),
                            ("render.nose_radius", args.nose_radius, "--nose-radius"),
-                           ("render.surface", surface.value if surface else None, "--surface")])
+                           ("render.surface", surface.value if surface and not measured else None, "--surface")])
     rc = settings.render
-    surface, nose, n = rc.surface, rc.nose_radius, rc.supersample
+    surface, nose, n = (rc.surface if measured is None else Surface.MEASURED), rc.nose_radius, rc.supersample
     if args.output:  # every output name, before any work
         from .common import check_outputs
 
@@ -58,7 +61,10 @@ def run(args: argparse.Namespace) -> int:
     exact = ExactProfile(mirror)
     tool = dataclasses.replace(settings.tool, nose_radius=nose) if nose > 0 else None
     check_program(settings, mirror, surface, tool=tool)  # a program's surface: its program checked
-    made = named_surface(surface, mirror, settings, nose_radius=float(nose))
+    job = MachiningJob.from_settings(settings, mirror)  # the made mirror every command describes by default
+    made = named_surface(surface, mirror, settings, nose_radius=float(nose), measured=measured,
+                         job=job)
+    label = surface_label(surface, job, nose_radius=float(nose))
     z_top = float(max(np.max(made.z(np.linspace(0, made.r_max, 2001))), mirror.outer.h))
     scene = scene_for(settings, mirror, mirror_top=z_top + abs(pose.axial_offset))
     _check_sees_mirror(made, mirror, pose)
@@ -75,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         if out is not None:
             files.append(_write_png(out / f"{surface}.png", made_img))
         if args.json:
-            print_json({"surface": surface, "files": files})
+            print_json({"surface": surface, "made_mirror": label, "files": files})
         return 0
 
     from ..optics.distortion import image_displacement
@@ -88,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
     diff = image_difference(exact_img, made_img, mask=(maps.lobe >= 0) & ~maps.blocked)
     figures = {
         "surface": surface,
+        "made_mirror": label,
         "nose_radius_mm": float(nose),
         "supersample": n,
         "pose": {"decentre_mm": list(pose.decentre), "axial_offset_mm": pose.axial_offset,
@@ -107,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
         if not same:
             files.append(_write_png(out / f"{surface}.png", made_img))
             files.append(_write_png(out / f"difference_{surface}.png", difference_image(exact_img, made_img)))
-        title = f"{surface}" + (f", as machined (nose {nose:g} mm)" if nose else "")
+        title = label
         files.append(str(write_bytes(out / f"displacement_radius_{surface}.png",
                                      displacement_vs_radius_png(maps, title=title))))
         files.append(str(write_bytes(out / f"displacement_map_{surface}.png",
@@ -140,15 +147,7 @@ def output_names(surface: str, nose: float, *, image_only: bool = False) -> list
 
 def format_figures(fig: dict) -> str:
     """The figures as a short table."""
-    if fig["surface"] == "polished":
-        what = ", the paper program as machined, polished at the polishing curve's optimum"
-    elif fig["surface"] in ("exact", "reference", "uniform528"):
-        what = ""
-    elif fig["nose_radius_mm"]:
-        what = f", as machined with nose radius {fig['nose_radius_mm']:g} mm"
-    else:
-        what = ", programmed contour"
-    lines = [f"surface {fig['surface']}{what}"]
+    lines = [f"surface {fig['surface']}: {fig['made_mirror']}"]
     lines.append(f"{'lobe':8s}{'pixels':>9s}{'ray dev. deg rms/max':>24s}{'image disp. px rms/max':>26s}"
                  f"{'viewpoint mm rms/max':>24s}")
     for lobe in fig["lobes"]:
