@@ -28,8 +28,9 @@ from lathe_mirror.toolpath import Strategy, plan_toolpath
 REPO = Path(__file__).resolve().parents[1]
 LATHE = Lathe()
 STOCK = Stock()
-#: The tool table: both tools' offsets zero (the nose centre is the controlled point).
-TOOLS = "T1 P1 X0 Z0 D0.4 Q9 ;roughing\nT2 P2 X0 Z0 D0.4 Q9 ;finishing\n"
+#: The tool table: the tools' offsets zero (the nose centre, the blade's corner, is the controlled point).
+TOOLS = ("T1 P1 X0 Z0 D0.4 Q9 ;roughing\nT2 P2 X0 Z0 D0.4 Q9 ;finishing\nT3 P3 X0 Z0 D0.4 Q9\nT4 P4 X0 Z0 D0.4 Q9\n"
+         "T5 P5 X0 Z0 D0 ;parting\n")
 
 
 def program(tp, stock=STOCK, dialect=Dialect.LINUXCNC, *, options=None) -> str:
@@ -393,9 +394,11 @@ def test_cli_json_and_directory_output(tmp_path):
     assert data["n_points"] <= 528
     assert (tmp_path / "mirror_arcs.ngc").exists()
     assert (tmp_path / "mirror_arcs.setup.html").exists()  # beside the program
+    assert (tmp_path / "mirror_arcs_op2.ngc").exists()  # the second set-up's program too
     names = [op["name"] for op in data["shop"]["operations"]]
-    assert names[:3] == ["face", "rough", "semi-finish"] and names[-1] == "finish"
-    assert data["shop"]["contacts"] == []
+    assert names[:3] == ["face", "rough", "semi-finish"] and names[-2:] == ["finish", "part-off"]
+    assert data["shop"]["contacts"] == [] and data["second_setup"]["contacts"] == []
+    assert [op["name"] for op in data["second_setup"]["operations"]] == ["face back", "bore"]
     # "best" names the default strategy, as in `lathe-mirror render --surface best`
     res = run_cli("toolpath", "--strategy", "best", "--nose-radius", "0", "--json")
     assert res.returncode == 0 and json.loads(res.stdout)["strategy"] == "arcs"

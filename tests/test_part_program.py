@@ -19,7 +19,7 @@ from lathe_mirror.config import load
 from lathe_mirror.shop.replay import read_program
 
 REPO = Path(__file__).resolve().parents[1]
-TOOLS = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4))
+TOOLS = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4)) + "T5 P5 X0 Z0 D0\n"
 
 
 def rs274(tmp_path: Path, program: Path) -> str:

@@ -24,7 +24,8 @@ def test_run_writes_programs_cad_and_report(tmp_path):
     proc = run_cli("run", "--config", str(cfg), "-o", str(out))
     assert proc.returncode == 0, proc.stderr[-2000:]
     # With --config the programs and CAD go under the output directory, not the repository's.
-    assert sorted(p.suffix for p in (out / "gcode").iterdir()) == [".html", ".html", ".nc", ".nc", ".ngc", ".ngc"]
+    # each strategy's two set-ups in both dialects, one set-up sheet for both
+    assert sorted(p.suffix for p in (out / "gcode").iterdir()) == [".html"] * 2 + [".nc"] * 4 + [".ngc"] * 4
     assert {p.suffix for p in (out / "cad").iterdir()} == {".step", ".dxf"}
     assert {p.name for p in (out / "calib").iterdir()} == set(FILE_NAMES)  # calibration files
     report = json.loads((out / "report.json").read_text())

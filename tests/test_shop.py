@@ -23,12 +23,14 @@ from lathe_mirror.shop.programs import shop_program
 from lathe_mirror.shop import ProgramOptions
 from lathe_mirror.shop.program import Rapid
 from lathe_mirror.shop.stock import SimMove, SimOperation, simulate, simulate_program
+from lathe_mirror.shop.tool_shapes import blade_shape
 from lathe_mirror.toolpath import Strategy, plan_toolpath
 
 REPO = Path(__file__).resolve().parents[1]
 LATHE, STOCK, TOOL = Lathe(), Stock(), Tool()
 OPTIONS = ProgramOptions()
-TOOLS = "T1 P1 X0 Z0 D0.4 Q9\nT2 P2 X0 Z0 D0.4 Q9\n"
+#: Every station's row (rs274 reports a tool change by its row in the table), T5 the blade.
+TOOLS = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4)) + "T5 P5 X0 Z0 D0\n"
 
 
 def rs274(tmp_path: Path, text: str, tools: str = TOOLS) -> str:
@@ -124,10 +126,17 @@ def test_committed_programs_touch_nothing(tmp_path, paper_mirror, name):
     rapid), none with the body, never plunge, never cut the part beyond the gouge
     tolerance; each operation removes what a hand count says."""
     events = canonical(rs274(tmp_path, (REPO / "gcode" / name).read_text()))
+    # the part-off: the [cad] body's 30 mm, the 0.5 mm back allowance, the 3 mm blade (T5)
+    z_cut = -(30.0 + OPTIONS.back_allowance + OPTIONS.parting_width)
     sim = simulate(replay(events), paper_mirror, TOOL, LATHE, STOCK, rapid_rate=OPTIONS.rapid_rate,
-                   gouge_tolerance=OPTIONS.gouge_tolerance)
+                   gouge_tolerance=OPTIONS.gouge_tolerance, shapes={5: blade_shape(OPTIONS.parting_width)},
+                   parting=(z_cut, OPTIONS.parting_width))
     assert sim.contacts == ()
-    ops = sim.operations
+    # the part-off cuts the blade's slot through the bar: pi R^2 w; the part is off above it
+    *ops, parting = sim.operations
+    assert parting.station == 5
+    assert parting.removed_volume_mm3 == pytest.approx(math.pi * STOCK.radius**2 * OPTIONS.parting_width, rel=1e-4)
+    assert sim.parted.bounds[1] == pytest.approx(z_cut + OPTIONS.parting_width, abs=1e-9)
     # face, rough, semi-finish; the finishing passes (at most max_finish_depth each) and the contour
     assert [op.station for op in ops][:3] == [1, 1, 1] and len(ops) >= 5 and {op.station for op in ops[3:]} == {2}
     assert all(op.max_depth_of_cut_mm <= OPTIONS.max_finish_depth + 1e-6 for op in ops[3:])
@@ -154,8 +163,11 @@ def test_committed_programs_touch_nothing(tmp_path, paper_mirror, name):
 
 
 def paper_shoulder(tmp_path, events) -> float:
-    """The shoulder's height: the last feed move's Z (the finishing exit) less the nose."""
-    feeds = [ev for ev in events if ev["kind"] == "STRAIGHT_FEED"]
+    """The shoulder's height: the last feed move's Z before the part-off (the finishing
+    exit) less the nose."""
+    end = next((i for i, ev in enumerate(events) if ev["kind"] == "CHANGE_TOOL" and int(ev["value"]) == 5),
+               len(events))
+    feeds = [ev for ev in events[:end] if ev["kind"] == "STRAIGHT_FEED"]
     return feeds[-1]["end"][1] - TOOL.nose_radius
 
 

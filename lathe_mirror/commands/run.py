@@ -56,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
     calib_dir = Path(args.calib_dir) if args.calib_dir else (Path("calib") if default else out_dir / "calib")
     strategies = (Strategy.PAPER, BEST)
     exts = [d.extension for d in Dialect] + ["setup.html"]
-    programs = [f"mirror_{s.value}.{ext}" for s in strategies for ext in exts]
+    programs = [f"mirror_{s.value}{op}.{ext}" for s in strategies for op in ("", "_op2") for ext in exts
+                if not (op and ext == "setup.html")]  # the second set-up's program is on the first's sheet
     from .spec import FILES as SPEC_FILES, write_spec
 
     for d, names, what in ((out_dir, list(REPORT_FILES) + list(SPEC_FILES), "-o/--output"), (gcode_dir, programs, "--gcode-dir"),
@@ -87,7 +88,9 @@ def run(args: argparse.Namespace) -> int:
     calib = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
     data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render)
     data.figures["shop"] = [{"name": shop.program.name, "setup_sheet": f"{shop.program.name}.setup.html",
-                             **shop.simulation.figures()} for shop in shops]
+                             **shop.simulation.figures(),
+                             **({"second_setup": {"name": shop.second.name, **shop.second_simulation.figures()}}
+                                if shop.second is not None else {})} for shop in shops]
     data.figures["outputs"] = {kind: [{"path": str(p), "sha256": _sha256(p)} for p in paths]
                                for kind, paths in (("gcode", programs), ("cad", cad), ("calib", calib))}
     paths = write_report(data, out_dir)

@@ -72,15 +72,18 @@ def run(args: argparse.Namespace) -> int:
             out = out / f"mirror_{strategy.value}.{dialect.extension}"
         check_suffix(out, "G-code")
         sheet = out.with_name(out.name.split(".")[0] + ".setup.html")  # beside the program
+        # the second set-up's program (the back and the mount) beside it too
+        out2 = out.with_name(out.name.split(".")[0] + "_op2" + out.name[len(out.name.split(".")[0]):])
         check_outputs(out.parent if into_dir else None,
-                      [out.name, sheet.name] if into_dir else [str(out), str(sheet)])
+                      [out.name, out2.name, sheet.name] if into_dir else [str(out), str(out2), str(sheet)])
     mirror = design(settings)
     lathe, tool, stock = settings.machine, settings.tool, settings.stock
     opts = options_from_settings(settings.toolpath)
     tp = check_program(settings, mirror, strategy)  # as every command that uses a program
     # simulated against the stock; refused if it touches
-    shop = shop_program(tp, stock, opts, inspection=inspection_table(settings))
+    shop = shop_program(tp, stock, opts, inspection=inspection_table(settings), body=settings.body)
     text = format_program(shop.program, dialect)
+    text2 = format_program(shop.second, dialect)
     if out is not None:
         from ..export.files import write_text
         from .common import output_dir
@@ -88,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
         if into_dir:
             output_dir(out.parent)
         write_text(out, text)
+        write_text(out2, text2)
         write_text(sheet, setup_sheet_html(shop.sheet))
     made = as_machined(tp)
     figures = profile_errors(made, mirror)
@@ -110,6 +114,7 @@ def run(args: argparse.Namespace) -> int:
         # the junction fillet): what the image sees of the as-machined surface
         "usable_lobes": used["lobes"],
         "shop": shop.simulation.figures(),
+        "second_setup": {"name": shop.second.name, **shop.second_simulation.figures()},
     }
     if args.json:
         print_json(result)
@@ -136,10 +141,21 @@ def check(args: argparse.Namespace, settings) -> int:
         raise InputError(f"--check {args.check}: no moves to simulate")
     from ..toolpath.moves import Hand
 
+    from ..shop import ProgramOptions
+    from ..shop.partoff import parting_z
+    from ..shop.program import PARTING_STATION
+    from ..shop.tool_shapes import blade_shape
+
     mirror = design(settings)
+    # a part-off (T5) is the parting blade, at the [cad] body's length (shop.partoff)
+    parting = None
+    if any(op.station == PARTING_STATION for op in ops):
+        opts = ProgramOptions(parting_width=t.parting_width_mm, back_allowance=t.back_allowance_mm)
+        parting = (parting_z(settings.body, settings.stock, opts, lathe), t.parting_width_mm)
     # the tool as the design's hand holds it (the opposite hand when the outer lobe is recessed)
     sim = simulate(ops, mirror, Hand.for_mirror(mirror).held(settings.tool), lathe, settings.stock,
-                   rapid_rate=t.rapid_rate, gouge_tolerance=t.gouge_tolerance)
+                   rapid_rate=t.rapid_rate, gouge_tolerance=t.gouge_tolerance,
+                   shapes={PARTING_STATION: blade_shape(t.parting_width_mm)}, parting=parting)
     sim.check()
     if args.json:
         print_json(sim.figures())

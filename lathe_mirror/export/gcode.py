@@ -66,13 +66,18 @@ def write_program(path: str | Path, program: Program, dialect: Dialect = Dialect
 
 def program_files(shops) -> dict[str, str]:
     """{file name: content} of checked programs (pipeline.ShopProgram): each in both
-    dialects, mirror_<strategy>.ngc / .nc, and its set-up sheet, .setup.html."""
+    dialects, mirror_<strategy>.ngc / .nc, its second set-up's program (the back and the
+    mount), mirror_<strategy>_op2.ngc / .nc, when it parts off, and the set-up sheet of
+    both, .setup.html."""
     from .setup_sheet import setup_sheet_html
 
     out: dict[str, str] = {}
     for shop in shops:
-        for dialect in Dialect:
-            out[f"{shop.program.name}.{dialect.extension}"] = format_program(shop.program, dialect)
+        for prog in (shop.program, shop.second):
+            if prog is None:
+                continue
+            for dialect in Dialect:
+                out[f"{prog.name}.{dialect.extension}"] = format_program(prog, dialect)
         out[f"{shop.program.name}.setup.html"] = setup_sheet_html(shop.sheet)
     return out
 
@@ -146,7 +151,11 @@ class _Writer:
         tool, m, stock, opts = tp.tool, tp.mirror, p.stock, p.options
         self.emit("%")
         if self.fanuc:
-            self.emit("O1000 (" + _FANUC_COMMENT.sub("", p.name.upper()) + ")")
+            number = 1001 if p.setup is not None else 1000
+            self.emit(f"O{number} (" + _FANUC_COMMENT.sub("", p.name.upper()) + ")")
+        if p.setup is not None:
+            self.second_header()
+            return
         c = self.comment
         c(f"lathe-mirror {p.name}: double-lobed hyperbolic mirror, {self.dialect.value} dialect")
         c("work zero: Z0 at the mirror's vertex, part in -Z; X0 on the spindle axis; X = "
@@ -158,7 +167,7 @@ class _Writer:
         c(f"machine: resolution {lathe.resolution:g} mm, budget {lathe.max_points} points, "
           f"spindle cap {lathe.spindle_max_rpm} rpm, {_plain(lathe.surface_speed)} m/min, "
           f"feeds {_plain(lathe.feed_rough)}/{_plain(lathe.feed_finish)} mm/rev")
-        from ..shop.program import stations
+        from ..shop.program import PARTING_STATION, stations
 
         t_r, t_f = (self.tool_word(st) for st in stations(tp))
         c(f"tools {t_r} roughing, {t_f} finishing: nose radius {tool.nose_radius:g} mm, included "
@@ -196,9 +205,29 @@ class _Writer:
             nd, se, rr = lobe["normal_deviation_mm"], lobe["slope_error_rad"], lobe["r_range_mm"]
             c(f"as machined {lobe['name']}, used r {rr['min']:.3f}..{rr['max']:.3f} mm: normal deviation "
               f"rms {nd['rms']:.2e} max {nd['max']:.2e} mm, slope error rms {se['rms']:.2e} max {se['max']:.2e} rad")
+        if p.parting is not None:
+            z, w = p.parting
+            c(f"tool T{PARTING_STATION}: parting blade {w:g} mm wide, controlled point its tip's corner on the "
+              f"chuck side (-Z); it parts the mirror off at Z{z + w:.3f} (the slot Z{z:.3f}..{z + w:.3f}); "
+              f"the second set-up ({p.name}_op2) faces the back and cuts the mount")
         c("operations, restart at their first block: "
           + ", ".join(f"{op.name} N{op.number}" for op in p.operations))
         c(f"end position: home {self.xz(p.home)}, Z first, before the finishing tool and M30")
+
+    def second_header(self) -> None:
+        """The second set-up's header: what it is, its work zero, the holding, the tool."""
+        p, lathe, su, c = self.p, self.lathe, self.p.setup, self.comment
+        tool = p.toolpath.tool
+        c(f"lathe-mirror {p.name}: second set-up of the double-lobed hyperbolic mirror (the back and the "
+          f"mount, cad.mount {su.mount.value}), {self.dialect.value} dialect")
+        c("work zero: " + su.work_zero + " X = " + ("diameter" if lathe.diameter_mode else "radius") + "; mm")
+        c("holding: " + su.holding)
+        c(f"tool {self.tool_word(su.station)}: the roughing insert, nose radius {tool.nose_radius:g} mm"
+          + (", in the opposite-hand holder (it cuts from the outside in)" if su.station != 1 else
+             " (it cuts from the axis out)") + f"; offsets set to the NOSE CENTRE, see {p.name.removesuffix('_op2')}.setup.html")
+        c("operations, restart at their first block: "
+          + ", ".join(f"{op.name} N{op.number}" for op in p.operations))
+        c(f"end position: home {self.xz(p.home)}, Z first, before M30")
 
     def preamble(self) -> None:
         lathe, tol = self.lathe, self.p.options.path_tolerance

@@ -30,7 +30,9 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
         f"<h1>Set-up sheet: {e(sheet.name)}</h1>",
         f"<p>Programs: {', '.join(f'<code>{e(f)}</code>' for f in sheet.files)} (LinuxCNC, Fanuc; the "
         f"same block numbers N). Strategy <b>{e(sheet.strategy)}</b>. Estimated cycle time "
-        f"<b>{_time(sheet.cycle_time_s)}</b>.</p>",
+        f"<b>{_time(sheet.cycle_time_s)}</b>"
+        + (f"; the second set-up (below) {_time(sheet.second.cycle_time_s)}" if sheet.second is not None else "")
+        + ".</p>",
         "<h2>Work zero</h2>", f"<p>{e(sheet.work_zero)}</p>",
         "<h2>Stock and chucking</h2>", "<table>",
         _row("bar diameter", f"{sheet.stock['diameter_mm']:g} mm"),
@@ -117,9 +119,11 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
                f"Z{sheet.home[1]:.3f}, reached Z first.</p>")
     out.append("<h2>The stock after each operation</h2>")
     for op in sheet.operations:
-        png = _stock_picture(sheet, op)
+        png = _stock_picture(sheet, op, sheet.stock_start, sheet.part, sheet.stock["deepest_z_mm"])
         out.append(f"<h3>{e(op.name)}</h3><img alt='stock after {e(op.name)}' "
                    f"src='data:image/png;base64,{base64.b64encode(png).decode('ascii')}'>")
+    if sheet.second is not None:
+        out += _second_html(sheet)
     out.append("</body></html>")
     return "\n".join(out) + "\n"
 
@@ -164,7 +168,34 @@ def _polygons(geom):
     return [g for part in getattr(geom, "geoms", []) for g in _polygons(part)]
 
 
-def _stock_picture(sheet: SetupSheet, op) -> bytes:
+def _second_html(sheet: SetupSheet) -> list[str]:
+    """The second set-up: programs, work zero, holding, touch-off, tool, operations, pictures."""
+    e, sec = html.escape, sheet.second
+    t = sec.tool
+    out = ["<h2>Second set-up: the back and the mount</h2>",
+           f"<p>Programs: {', '.join(f'<code>{e(f)}</code>' for f in sec.files)} (LinuxCNC, Fanuc), run after "
+           f"the part-off. Estimated cycle time <b>{_time(sec.cycle_time_s)}</b>; both set-ups "
+           f"<b>{_time(sheet.total_time_s)}</b>.</p>", "<table>",
+           _row("work zero", e(sec.work_zero)), _row("holding", e(sec.holding))]
+    out += [_row("touch-off", e(line)) for line in sec.touch_off]
+    out += [_row("tool", f"T{t.station} / T{t.station:02d}{t.station:02d}: {e(t.insert)}, {e(t.holder)}; "
+                         f"<code>{e(t.linuxcnc_table)}</code>; {e(t.fanuc_offset)}"), "</table>",
+            "<table><tr><th>operation</th><th>tool</th><th>restart at</th><th>feed mm/rev</th>"
+            "<th>removed mm&sup3;</th><th>max depth of cut mm</th><th>time</th></tr>"]
+    for op in sec.operations:
+        f = op.figures
+        out.append(f"<tr><td>{e(op.name)}</td><td>T{op.station}</td><td>N{op.restart_block}</td>"
+                   f"<td class='n'>{f['feed_mm_rev']:g}</td><td class='n'>{f['removed_volume_mm3']:.0f}</td>"
+                   f"<td class='n'>{f['max_depth_of_cut_mm']:.3f}</td><td class='n'>{_time(f['cycle_time_s'])}</td></tr>")
+    out.append("</table>")
+    for op in sec.operations:
+        png = _stock_picture(sheet, op, sec.stock_start, sec.part, sec.deepest_z_mm)
+        out.append(f"<h3>second set-up, {e(op.name)}</h3><img alt='stock after {e(op.name)}' "
+                   f"src='data:image/png;base64,{base64.b64encode(png).decode('ascii')}'>")
+    return out
+
+
+def _stock_picture(sheet: SetupSheet, op, stock_start, part, deepest: float) -> bytes:
     """PNG: the bar's section after the operation (grey), what it removed (orange), the
     designed part's outline (blue); machine (r, Z), mm."""
     import matplotlib
@@ -178,10 +209,9 @@ def _stock_picture(sheet: SetupSheet, op) -> bytes:
         ax.fill(*poly.exterior.xy, color=colour, linewidth=0)
         for hole in poly.interiors:
             ax.fill(*hole.xy, color="white", linewidth=0)
-    for poly in _polygons(sheet.part):
+    for poly in _polygons(part):
         ax.plot(*poly.exterior.xy, color="#1f5fbf", linewidth=0.6)
-    x0, z0, x1, z1 = sheet.stock_start.bounds
-    deepest = sheet.stock["deepest_z_mm"]
+    x0, z0, x1, z1 = stock_start.bounds
     ax.set_xlim(-1.0, x1 + 2.0)
     ax.set_ylim(max(z0, deepest - 4.0), z1 + 1.0)
     ax.set_aspect("equal")

@@ -127,7 +127,9 @@ def _toolpath(t: dict) -> ToolpathSettings:
                           ramp_angle=math.radians(float(t["ramp_angle"])), spring_pass=bool(t["spring_pass"]),
                           coolant=bool(t["coolant"]), home_r=float(t["home_r"]), home_z=float(t["home_z"]),
                           rapid_rate=float(t["rapid_rate"]), path_tolerance_mm=float(t["path_tolerance_mm"]),
-                          max_finish_depth_mm=float(t["max_finish_depth_mm"]))
+                          max_finish_depth_mm=float(t["max_finish_depth_mm"]),
+                          parting_width_mm=float(t["parting_width_mm"]), parting_feed=float(t["parting_feed"]),
+                          back_allowance_mm=float(t["back_allowance_mm"]))
     return ts
 
 

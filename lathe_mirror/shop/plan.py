@@ -13,11 +13,12 @@ from .program import MAX_BLOCK_NUMBER, Comment, Operation, Program, ProgramOptio
 from .roughing import plan_operations
 
 if TYPE_CHECKING:
+    from ..body import BodySpec
     from ..toolpath import Toolpath
 
 
 def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | None = None, *,
-                 name: str = "mirror") -> Program:
+                 name: str = "mirror", body: BodySpec | None = None) -> Program:
     """The whole program around the finishing contour of `toolpath`.
 
     Facing through X0, roughing levels (pockets ramped), a semi-finish along the profile
@@ -26,7 +27,9 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
     pass, and the safe end position. Raises InputError when the stock cannot hold the
     mirror, the contour would gouge the part beyond the tolerance, the home position is
     not above the stock, or a move leaves the lathe's travel. The stock simulation
-    (shop.stock) checks the moves themselves.
+    (shop.stock) checks the moves themselves. body: the CAD body (body.BodySpec); given,
+    the program ends with the part-off at its length (shop.partoff) and the second
+    set-up (shop.second) faces the back and cuts the mount.
     """
     from ..nose_envelope import as_machined, gouge_depth, junction_fillet
     from ..toolpath import check_travel, profile_errors, usable_ranges
@@ -53,16 +56,23 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
         )
     made = as_machined(toolpath)
     plan = plan_operations(toolpath, stock, options)
-    ops = _numbered(plan.operations)
+    ops_list, parting = list(plan.operations), None
+    if body is not None:
+        from .partoff import parting_z, with_partoff
+
+        z = parting_z(body, stock, options, lathe)
+        ops_list = with_partoff(ops_list, plan.home, z, stock, options, lathe)
+        parting = (z, options.parting_width)
+    ops = numbered(ops_list)
     prog = Program(name=name, toolpath=toolpath, stock=stock, options=options, operations=ops,
                    home=plan.home, safe_z=plan.safe_z, r_out=plan.r_out, gouge_depth=depth,
                    figures=profile_errors(made, m), used=profile_errors(made, m, r_ranges=usable_ranges(m)),
-                   fillet=junction_fillet(toolpath))
+                   fillet=junction_fillet(toolpath), parting=parting)
     check_travel(prog.points(), lathe, what="the program")
     return prog
 
 
-def _numbered(ops: list[Operation]) -> tuple[Operation, ...]:
+def numbered(ops: list[Operation]) -> tuple[Operation, ...]:
     """Number every block but the comments, 1, 2, ... through the whole program."""
     n = 0
     out = []

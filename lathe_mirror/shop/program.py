@@ -35,6 +35,8 @@ FINISHING_STATION = 2
 #: never runs the other's program.
 OPPOSITE_ROUGHING_STATION = 3
 OPPOSITE_FINISHING_STATION = 4
+#: The parting blade (shop.partoff), on a station of its own.
+PARTING_STATION = 5
 
 
 def stations(toolpath: Toolpath) -> tuple[int, int]:
@@ -72,6 +74,9 @@ class ProgramOptions:
     finish_passes: n (0: the fewest that keep each pass within max_finish_depth on the
       profile; pipeline.shop_program raises it when the simulation finds a deeper cut,
       as in an inside corner).
+    parting_width: the parting blade's width, mm (shop.partoff). parting_feed: its feed,
+      mm/rev. back_allowance: stock the part-off leaves on the back for the second
+      set-up to face off, mm.
     """
 
     rough_depth: float = 1.0
@@ -87,6 +92,9 @@ class ProgramOptions:
     path_tolerance: float = 0.001
     max_finish_depth: float = 0.1
     finish_passes: int = 0
+    parting_width: float = 3.0
+    parting_feed: float = 0.05
+    back_allowance: float = 0.5
 
     def __post_init__(self) -> None:
         # Bounds keep the planning finite (a level per rough_depth, a ramp leg per
@@ -101,6 +109,9 @@ class ProgramOptions:
         _bounded("toolpath.rapid_rate", self.rapid_rate, 100.0, 100000.0, "mm/min")
         _bounded("toolpath.path_tolerance_mm", self.path_tolerance, 1e-4, 0.1, "mm")
         _bounded("toolpath.max_finish_depth_mm", self.max_finish_depth, 0.005, 2.0, "mm")
+        _bounded("toolpath.parting_width_mm", self.parting_width, 0.5, 10.0, "mm")
+        _bounded("toolpath.parting_feed", self.parting_feed, 0.005, 0.5, "mm/rev")
+        _bounded("toolpath.back_allowance_mm", self.back_allowance, 0.1, 5.0, "mm")
         for key in ("spring_pass", "coolant"):
             if not isinstance(getattr(self, key), bool):
                 raise InputError(f"toolpath.{key} = {getattr(self, key)!r}: must be true or false")
@@ -112,7 +123,9 @@ def options_from_settings(t: ToolpathSettings) -> ProgramOptions:
                           gouge_tolerance=t.gouge_tolerance, ramp_angle=t.ramp_angle,
                           spring_pass=t.spring_pass, coolant=t.coolant, home_r=t.home_r, home_z=t.home_z,
                           rapid_rate=t.rapid_rate,
-                          path_tolerance=t.path_tolerance_mm, max_finish_depth=t.max_finish_depth_mm)
+                          path_tolerance=t.path_tolerance_mm, max_finish_depth=t.max_finish_depth_mm,
+                          parting_width=t.parting_width_mm, parting_feed=t.parting_feed,
+                          back_allowance=t.back_allowance_mm)
 
 
 # --------------------------------------------------------------------------------------
@@ -247,6 +260,17 @@ class Program:
     figures: dict
     used: dict
     fillet: dict | None
+    parting: tuple[float, float] | None = None
+    setup: object = None
+
+    def shapes(self) -> dict:
+        """{station: tool_shapes.ToolShape} of the tools that are not the turning insert:
+        the parting blade when the program parts off (the second set-up: its own)."""
+        from .tool_shapes import blade_shape
+
+        if self.setup is not None:
+            return self.setup.shapes
+        return {PARTING_STATION: blade_shape(self.parting[1])} if self.parting is not None else {}
 
     def motions(self) -> Iterator[tuple[Operation, Motion]]:
         """Every rapid and feed block with its operation, in order."""

@@ -43,14 +43,18 @@ class ShopProgram:
     program: ShopProgramModel
     simulation: Simulation
     sheet: SetupSheet
+    second: ShopProgramModel | None = None
+    second_simulation: Simulation | None = None
 
 
 def shop_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | None = None, *,
                  name: str | None = None, setting_costs: dict | None = None,
-                 inspection: tuple = ()) -> ShopProgram:
+                 inspection: tuple = (), body=None) -> ShopProgram:
     """The whole program around `toolpath` (shop.plan_program), simulated against the stock
     and refused (InputError, one line naming the block) if a rapid or the insert's body
-    touches stock or the part, with its set-up sheet. setting_costs: what a setting error
+    touches stock or the part, with its set-up sheet. body: the CAD body (body.BodySpec):
+    given, the program parts the mirror off (shop.partoff) and a second program (shop.second,
+    simulated from the parted part) faces its back and cuts its mount; the sheet has both. setting_costs: what a setting error
     costs (tolerance.setting; computed if None).
 
     The finishing passes: as many as keep the deepest cut of each (the simulation's depth
@@ -64,7 +68,8 @@ def shop_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
 
     options = ProgramOptions() if options is None else options
     while True:
-        program = plan_program(toolpath, stock, options, name=name or f"mirror_{toolpath.strategy.value}")
+        program = plan_program(toolpath, stock, options, name=name or f"mirror_{toolpath.strategy.value}",
+                               body=body)
         sim = simulate_program(program)
         sim.check()
         deepest = max((op.max_depth_of_cut_mm for op in sim.operations if op.name.startswith("finish")),
@@ -80,10 +85,19 @@ def shop_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
                              f"allowed a depth that {MAX_FINISH_PASSES} passes hold (a larger "
                              "max_finish_depth_mm or a smaller toolpath.rough_allowance)")
         options = replace(options, finish_passes=need)
+    second = sim2 = None
+    if body is not None:
+        from .second import plan_second
+
+        second = plan_second(program, sim.parted, body, name=f"{program.name}_op2")
+        sim2 = simulate_program(second)
+        sim2.check()
     if setting_costs is None:
         setting_costs = setting_error_costs(toolpath.mirror, SETTING_ERROR_MM)
     return ShopProgram(program=program, simulation=sim,
-                       sheet=setup_sheet(program, sim, setting_costs, inspection=inspection))
+                       sheet=setup_sheet(program, sim, setting_costs, inspection=inspection,
+                                         second=second, second_simulation=sim2),
+                       second=second, second_simulation=sim2)
 
 
 #: Radii the inspection table probes: every this many mm of each clear aperture, and its ends.
@@ -118,11 +132,12 @@ def inspection_table(settings: Settings) -> tuple:
 def shop_programs(settings: Settings, mirror: Mirror, *,
                   strategies: tuple[Strategy, ...] = (Strategy.PAPER, BEST)) -> list[ShopProgram]:
     """The checked programs of `mirror` for each strategy (default: the paper's method and
-    the best), named mirror_<strategy>, with the settings' lathe, tool, stock and knobs."""
+    the best), named mirror_<strategy>, with the settings' lathe, tool, stock and knobs,
+    each parting off at the [cad] body's length with its second set-up."""
     costs = setting_error_costs(mirror, SETTING_ERROR_MM)
     options = options_from_settings(settings.toolpath)
     job = MachiningJob.from_settings(settings, mirror)  # polish.precompensate: the polish's allowance
     inspection = inspection_table(settings)
     return [shop_program(job.but(strategy=strategy).toolpath, settings.stock, options, setting_costs=costs,
-                         inspection=inspection)
+                         inspection=inspection, body=settings.body)
             for strategy in strategies]

@@ -22,8 +22,8 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from .program import stations
-from .stock import INSERT_IC, edge_length
+from .program import OPPOSITE_ROUGHING_STATION, PARTING_STATION, stations
+from .tool_shapes import INSERT_IC, edge_length
 
 if TYPE_CHECKING:
     from ..lathe import Tool
@@ -106,6 +106,30 @@ class SetupSheet:
     part: object = field(repr=False)
     notes: tuple[str, ...] = ()
     inspection: tuple[InspectionRow, ...] = ()
+    second: SecondSheet | None = None
+
+    @property
+    def total_time_s(self) -> float:
+        """Both set-ups' cycle times, s."""
+        return self.cycle_time_s + (self.second.cycle_time_s if self.second is not None else 0.0)
+
+
+@dataclass(frozen=True)
+class SecondSheet:
+    """The second set-up on the sheet (shop.second): its programs, work zero, holding,
+    the Z and X touch-off, its tool, its operations and time, its stock and part
+    pictures' geometry (this set-up's frame)."""
+
+    files: tuple[str, ...]
+    work_zero: str
+    holding: str
+    touch_off: tuple[str, ...]
+    tool: ToolSheet
+    operations: tuple[OperationSheet, ...]
+    cycle_time_s: float
+    stock_start: object = field(repr=False)
+    part: object = field(repr=False)
+    deepest_z_mm: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -151,8 +175,10 @@ def insert_designation(tool: Tool) -> str:
 
 
 def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict,
-                inspection: tuple[InspectionRow, ...] = ()) -> SetupSheet:
-    """The sheet of a planned, simulated program (see the module doc)."""
+                inspection: tuple[InspectionRow, ...] = (), *, second: Program | None = None,
+                second_simulation: Simulation | None = None) -> SetupSheet:
+    """The sheet of a planned, simulated program (see the module doc), with its part-off's
+    blade and its second set-up (second_sheet) when it has them."""
     tp, stock, lathe = program.toolpath, program.stock, program.toolpath.lathe
     tool, m = tp.held_tool, tp.mirror  # as the program's hand holds it (toolpath.Hand)
     opposite = tp.held_tool is not tp.tool
@@ -180,6 +206,8 @@ def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict,
             linuxcnc_table=(f"T{station} P{station} X<touched> Z<touched> D{2 * rho:.3f} Q{offs.linuxcnc_orientation} "
                             f";{insert_designation(tool)} {role.split(',')[0]}, nose centre"),
             fanuc_offset=f"offset {station:02d}: X, Z measured, R {rho:.3f}, T {offs.fanuc_tip} (nose centre)"))
+    if program.parting is not None:
+        tools.append(blade_sheet(program.parting[1], lathe.diameter_mode))
     ops = []
     for op, fig in zip(program.operations, simulation.operations):
         ops.append(OperationSheet(name=op.name, station=op.station, restart_block=op.number,
@@ -210,4 +238,59 @@ def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict,
         tools=tuple(tools), face_z=face_z, centre_height_mm=centre_height,
         setting_costs=setting_costs, operations=tuple(ops), cycle_time_s=simulation.cycle_time_s,
         home=program.home, stock_start=simulation.stock_start, part=simulation.part, notes=notes,
-        inspection=tuple(inspection))
+        inspection=tuple(inspection),
+        second=second_sheet(second, second_simulation, tools) if second is not None else None)
+
+
+def blade_sheet(width: float, diameter_mode: bool) -> ToolSheet:
+    """The parting blade's line: its controlled point is the tip's corner on the chuck
+    side, so Z is touched with the blade's chuck-side face on the bar's face (enter that
+    face's Z) and X with its tip on the bar's outside diameter (enter the diameter)."""
+    offs = Offsets(nose_radius=0.0, diameter_mode=diameter_mode, x_side="outside", linuxcnc_orientation=0)
+    return ToolSheet(
+        station=PARTING_STATION, role="parting off", insert=f"parting blade and insert, {width:g} mm wide",
+        holder="blade holder square to the axis, the blade's tip at centre height, toward -X",
+        offsets=offs,
+        linuxcnc_table=(f"T{PARTING_STATION} P{PARTING_STATION} X<touched> Z<touched> D0 Q0 ;parting blade "
+                        f"{width:g} mm, tip corner on the chuck side"),
+        fanuc_offset=f"offset {PARTING_STATION:02d}: X, Z measured, R 0, T 0 (tip corner on the chuck side)")
+
+
+def second_sheet(program: Program, simulation: Simulation, first_tools: list[ToolSheet]) -> SecondSheet:
+    """The second set-up's part of the sheet (see shop.second)."""
+    su, lathe = program.setup, program.toolpath.lathe
+    rho = program.toolpath.tool.nose_radius
+    known = next((t for t in first_tools if t.station == su.station), None)
+    if known is not None:
+        tool = known
+        x_touch = (f"X: unchanged from the first set-up (T{su.station}, X0 is the spindle axis in both)")
+    elif su.station == OPPOSITE_ROUGHING_STATION:  # not used by the first program: it touches an OD
+        offs = Offsets(nose_radius=rho, diameter_mode=lathe.diameter_mode, x_side="outside")
+        tool = ToolSheet(
+            station=su.station, role="roughing (second set-up)", insert=insert_designation(program.toolpath.tool),
+            holder="the same insert in an OPPOSITE-HAND holder (its body toward the rim): it cuts from the outside in",
+            offsets=offs,
+            linuxcnc_table=(f"T{su.station} P{su.station} X<touched> Z<touched> D{2 * rho:.3f} Q9 ;opposite hand, "
+                            "nose centre"),
+            fanuc_offset=f"offset {su.station:02d}: X, Z measured, R {rho:.3f}, T 0 (nose centre)")
+        x_touch = (f"X: touch the part's outside diameter D (measured) with the nose's inner side and enter "
+                   f"X = D + {2 * rho:g} mm" + (" (X is the diameter)" if lathe.diameter_mode else " (X is the radius: D / 2 + rho)"))
+    else:  # the insert as configured, not used by the first program: it touches a bore
+        offs = Offsets(nose_radius=rho, diameter_mode=lathe.diameter_mode, x_side="bore")
+        tool = ToolSheet(
+            station=su.station, role="roughing (second set-up)", insert=insert_designation(program.toolpath.tool),
+            holder="the insert in a holder of the configured hand: it cuts from the axis out", offsets=offs,
+            linuxcnc_table=(f"T{su.station} P{su.station} X<touched> Z<touched> D{2 * rho:.3f} Q9 ;nose centre"),
+            fanuc_offset=f"offset {su.station:02d}: X, Z measured, R {rho:.3f}, T 0 (nose centre)")
+        x_touch = (f"X: in MDI cut a test recess into the parted face from the axis out to about D = 20 mm, 0.2 mm "
+                   f"deep (the facing removes it), measure D and enter X = D - {2 * rho:g} mm")
+    z_touch = (f"Z: measure the part's length L from the mirror's vertex to the parted face; the parted face is at "
+               f"Z = L - {su.thickness:g} (nominally Z{su.top:.3f}); touch it with the nose's bottom and enter "
+               f"Z = L - {su.thickness:g} + {rho:g} mm")
+    ops = tuple(OperationSheet(name=op.name, station=op.station, restart_block=op.number, figures=fig.figures(),
+                               stock_after=fig.stock_after, removed=fig.removed)
+                for op, fig in zip(program.operations, simulation.operations))
+    return SecondSheet(files=(f"{program.name}.ngc", f"{program.name}.nc"), work_zero=su.work_zero,
+                       holding=su.holding, touch_off=(z_touch, x_touch), tool=tool, operations=ops,
+                       cycle_time_s=simulation.cycle_time_s, stock_start=su.start, part=su.part,
+                       deepest_z_mm=float(program.points()[:, 1].min()))

@@ -24,24 +24,20 @@ a cut into the designed part deeper than the gouge tolerance, the chuck touched.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import InputError
 from ..path import Arc, Move
+from .sim_results import Contact, OperationFigures, SimMove, SimOperation, Simulation
+from .tool_shapes import (CUTTING_EDGE_FRACTION, INSERT_IC, cutting_zone, edge_length, insert_outline,  # noqa: F401
+                          insert_shape, reach_toward_axis)
 
 if TYPE_CHECKING:
     from ..design import Mirror
     from ..lathe import Lathe, Stock, Tool
     from .program import Program
 
-#: Inscribed circle of the insert, mm (a 16 mm V insert, VCGT 1604..: 9.525 mm = 3/8").
-INSERT_IC = 9.525
-#: The part of each flank that cuts, as a fraction of the edge length (a V insert's
-#: usable edge, ~4 mm on a 16.6 mm edge); beyond it the insert is body.
-CUTTING_EDGE_FRACTION = 0.25
 #: Tile size of the bar's grid, mm.
 TILE = 2.0
 #: Longest straight piece a move is cut into for the statistics, mm; arcs' chords, mm.
@@ -63,145 +59,25 @@ PLUNGE_ANGLE = math.radians(15.0)
 JAW_HEIGHT = 10.0
 
 
-@dataclass(frozen=True)
-class SimMove:
-    """One programmed move as the simulation replays it. feed: mm/rev (rapids: unused).
-    label: how the operator finds the block ("N130 G0 X0.000 Z3.000", "line 130: ...")."""
-
-    rapid: bool
-    move: Move
-    feed: float
-    label: str
-
-
-@dataclass(frozen=True)
-class SimOperation:
-    """An operation's moves, in order."""
-
-    name: str
-    station: int
-    moves: tuple[SimMove, ...]
-
-
-@dataclass(frozen=True)
-class Contact:
-    """Something the tool must not touch: kind "rapid" (stock at rapid; "dogleg" when
-    only a rapid that moves one axis first touches it), "body" (stock
-    touched by the insert's body), "part" (a cut into the designed part beyond the gouge
-    tolerance) or "chuck". area mm^2; depth mm; at: (r, Z) of the deepest point."""
-
-    kind: str
-    operation: str
-    label: str
-    area: float
-    depth: float
-    at: tuple[float, float]
-
-    def message(self, diameter_mode: bool = True) -> str:
-        x = self.at[0] * (2 if diameter_mode else 1)
-        where = f"{self.depth:.3f} mm deep near X{x:.3f} Z{self.at[1]:.3f}"
-        what = {
-            "rapid": "drives the tool through stock at rapid",
-            "dogleg": "drives the tool through stock at rapid if the controller moves one axis first",
-            "body": "touches stock with the insert's body, beyond its cutting edge",
-            "part": "cuts into the finished part beyond the gouge tolerance",
-            "chuck": "runs the tool into the chuck",
-        }[self.kind]
-        fix = {
-            "rapid": "a rapid must retract from the stock first, then traverse",
-            "dogleg": "a rapid must retract from the stock first, then traverse",
-            "body": "less depth per pass, toolpath.rough_depth, or another tool",
-            "part": "toolpath.rough_allowance, or a finer toolpath",
-            "chuck": "stock.length, or a shorter part",
-        }[self.kind]
-        return f"program refused: block {self.label} ({self.operation}) {what}: {where} ({fix})"
-
-
-@dataclass(frozen=True)
-class OperationFigures:
-    """What one operation does to the stock.
-
-    removed_area_mm2: material removed in the (r, Z) plane; removed_volume_mm3: turned
-    (2 pi r dA). max_depth_of_cut_mm: largest removed area per unit path (windows of
-    STAT_WINDOW mm). max_chip_section_mm2: largest depth x feed. max_removal_rate_cm3_min.
-    cut_time_s, air_time_s (feed moves that remove nothing), rapid_time_s, cycle_time_s.
-    max_part_cut_mm: deepest point of the designed part its cutting zone reached (the
-    finishing contour's own gouge, a few microns, shows here). plunge_mm: path length
-    fed into stock straight down the axis (within PLUNGE_ANGLE of -Z). stock_after: shapely
-    geometry of the bar after it; removed: what it removed.
-    """
-
-    name: str
-    station: int
-    feed_mm_rev: float
-    removed_area_mm2: float
-    removed_volume_mm3: float
-    max_depth_of_cut_mm: float
-    max_chip_section_mm2: float
-    max_removal_rate_cm3_min: float
-    cut_time_s: float
-    air_time_s: float
-    rapid_time_s: float
-    max_part_cut_mm: float
-    plunge_mm: float
-    stock_after: object = field(repr=False)
-    removed: object = field(repr=False)
-
-    @property
-    def cycle_time_s(self) -> float:
-        """Cutting + air + rapid time, s (no tool change, no optional stop)."""
-        return self.cut_time_s + self.air_time_s + self.rapid_time_s
-
-    def figures(self) -> dict:
-        """The numbers, for JSON."""
-        return {"name": self.name, "tool": self.station, "feed_mm_rev": self.feed_mm_rev,
-                "removed_area_mm2": self.removed_area_mm2, "removed_volume_mm3": self.removed_volume_mm3,
-                "max_depth_of_cut_mm": self.max_depth_of_cut_mm,
-                "max_chip_section_mm2": self.max_chip_section_mm2,
-                "max_removal_rate_cm3_min": self.max_removal_rate_cm3_min,
-                "cut_time_s": self.cut_time_s, "air_time_s": self.air_time_s,
-                "rapid_time_s": self.rapid_time_s, "cycle_time_s": self.cycle_time_s,
-                "max_part_cut_mm": self.max_part_cut_mm, "plunge_mm": self.plunge_mm}
-
-
-@dataclass(frozen=True)
-class Simulation:
-    """The whole program against the stock: per operation figures, every contact."""
-
-    operations: tuple[OperationFigures, ...]
-    contacts: tuple[Contact, ...]
-    stock_start: object = field(repr=False)
-    part: object = field(repr=False)
-    diameter_mode: bool = True
-
-    @property
-    def cycle_time_s(self) -> float:
-        return sum(op.cycle_time_s for op in self.operations)
-
-    def check(self) -> None:
-        """Raise InputError naming the first block that touches what it must not."""
-        if self.contacts:
-            raise InputError(self.contacts[0].message(self.diameter_mode))
-
-    def figures(self) -> dict:
-        return {"operations": [op.figures() for op in self.operations],
-                "cycle_time_s": self.cycle_time_s,
-                "contacts": [{"kind": c.kind, "operation": c.operation, "block": c.label,
-                              "area_mm2": c.area, "depth_mm": c.depth} for c in self.contacts]}
-
 
 # --------------------------------------------------------------------------------------
 # Public entry points
 
 
 def simulate_program(program: Program) -> Simulation:
-    """Simulate a planned program (shop.program.Program) against its stock."""
+    """Simulate a planned program (shop.program.Program) against its stock: the first
+    set-up's bar, or (program.setup, a second set-up) the part it parted off, reversed."""
     tp = program.toolpath
+    if program.setup is not None:
+        return simulate_setup(operations_of(program), program.setup.shapes, tp.lathe, program.setup.start,
+                              program.setup.part, program.setup.chuck, rapid_rate=program.options.rapid_rate,
+                              gouge_tolerance=program.options.gouge_tolerance)
     # the shoulder is where the finishing pass leaves it: its last point's nose bottom
     planned = tp.segments[-1].end[1] - tp.nose_radius
     return simulate(operations_of(program), tp.mirror, tp.held_tool, tp.lathe, program.stock,
                     rapid_rate=program.options.rapid_rate, gouge_tolerance=program.options.gouge_tolerance,
-                    shoulder_z=min(planned, shoulder_height(tp.mirror, tp.tool)) - 1e-3)
+                    shoulder_z=min(planned, shoulder_height(tp.mirror, tp.tool)) - 1e-3,
+                    shapes=program.shapes(), parting=program.parting)
 
 
 def operations_of(program: Program) -> list[SimOperation]:
@@ -223,66 +99,45 @@ def operations_of(program: Program) -> list[SimOperation]:
 
 
 def simulate(operations: list[SimOperation], mirror: Mirror, tool: Tool, lathe: Lathe, stock: Stock, *,
-             rapid_rate: float, gouge_tolerance: float, shoulder_z: float | None = None) -> Simulation:
+             rapid_rate: float, gouge_tolerance: float, shoulder_z: float | None = None,
+             shapes: dict | None = None, parting: tuple[float, float] | None = None) -> Simulation:
     """Replay the operations against the bar (see the module doc). rapid_rate mm/min;
     gouge_tolerance mm; shoulder_z: machine Z (mm) of the finished shoulder beyond the rim
-    (default: shoulder_height(mirror, tool) - SHOULDER_ALLOWANCE)."""
+    (default: shoulder_height(mirror, tool) - SHOULDER_ALLOWANCE). shapes: {station:
+    ToolShape} (default and any other station: the insert of `tool`). parting: (Z, width)
+    of a part-off (mm, the blade's chuck-side Z): the designed part ends above its slot,
+    and the run ends with the part separated there (Simulation.parted) or a contact."""
     import shapely
 
     if shoulder_z is None:
         shoulder_z = shoulder_height(mirror, tool) - SHOULDER_ALLOWANCE
-    sim = _Sim(mirror, tool, lathe, stock, gouge_tolerance, shoulder_z)
+    shapes = {None: insert_shape(tool), **(shapes or {})}
+    bottom = -stock.length if parting is None else parting[0] + parting[1]
+    part = part_outline(mirror, stock, shoulder_z, bottom=bottom)
+    r_hi = max(stock.radius, mirror.r_max) + JAW_HEIGHT
+    chuck = shapely.box(0.0, -stock.length - 1000.0, r_hi, -stock.length)
+    start = shapely.box(0.0, -stock.length, stock.radius, stock.face_allowance)
+    return simulate_setup(operations, shapes, lathe, start, part, chuck, rapid_rate=rapid_rate,
+                          gouge_tolerance=gouge_tolerance, parting=parting)
+
+
+def simulate_setup(operations: list[SimOperation], shapes: dict, lathe: Lathe, start, part, chuck, *,
+                   rapid_rate: float, gouge_tolerance: float,
+                   parting: tuple[float, float] | None = None) -> Simulation:
+    """Replay the operations of one set-up: `start` the stock, `part` the designed part
+    and `chuck` what holds it (shapely, machine (r, Z) of this set-up, mm); shapes
+    {station: ToolShape}, None the default. parting: see simulate."""
+    import shapely
+
+    sim = _Sim(shapes, lathe, start, part, chuck, gouge_tolerance)
     figs = []
     for op in operations:
         figs.append(sim.operation(op, rapid_rate))
-    return Simulation(operations=tuple(figs), contacts=tuple(sim.contacts),
-                      stock_start=shapely.box(0.0, -stock.length, stock.radius, stock.face_allowance),
-                      part=sim.part, diameter_mode=lathe.diameter_mode)
-
-
-def insert_outline(tool: Tool):
-    """The insert in the (r, Z) plane, nose centre at the origin (shapely Polygon, mm)."""
-    import shapely
-
-    rho, theta = tool.nose_radius, tool.included_angle
-    a1, a2 = tool.flank_directions()
-    u1 = np.array([math.cos(a1), math.sin(a1)])
-    u2 = np.array([math.cos(a2), math.sin(a2)])
-    bis = (u1 + u2) / np.linalg.norm(u1 + u2)
-    tip = -(rho / math.sin(theta / 2)) * bis  # the sharp corner the flanks meet at
-    edge = edge_length(tool)
-    rhombus = shapely.Polygon([tip, tip + edge * u1, tip + edge * (u1 + u2), tip + edge * u2])
-    if rho == 0.0:
-        return rhombus
-    return rhombus.buffer(-rho, join_style="mitre").buffer(rho, quad_segs=16)
-
-
-def reach_toward_axis(tool: Tool, height: float) -> float:
-    """How far (mm) the insert reaches toward the axis (-r) from its nose centre at
-    heights of at most `height` mm above the nose centre (the band a level's stock
-    occupies beside the tool)."""
-    import shapely
-
-    ins = insert_outline(tool)
-    x0, y0, x1, _ = ins.bounds
-    if height <= y0:
-        return 0.0
-    part = ins.intersection(shapely.box(x0 - 1.0, y0 - 1.0, x1 + 1.0, height))
-    return max(0.0, -part.bounds[0]) if not part.is_empty else 0.0
-
-
-def edge_length(tool: Tool) -> float:
-    """Edge length (mm) of a rhombic insert of inscribed circle INSERT_IC."""
-    return INSERT_IC / math.sin(tool.included_angle)
-
-
-def cutting_zone(tool: Tool):
-    """The cutting part of the insert: within nose radius + a quarter edge of the nose
-    centre (shapely Polygon, mm, nose centre at the origin)."""
-    import shapely
-
-    reach = tool.nose_radius + CUTTING_EDGE_FRACTION * edge_length(tool)
-    return insert_outline(tool).intersection(shapely.Point(0.0, 0.0).buffer(reach, quad_segs=32))
+    parted = None
+    if parting is not None:
+        parted = sim.separate(*parting)
+    return Simulation(operations=tuple(figs), contacts=tuple(sim.contacts), stock_start=start,
+                      part=part, diameter_mode=lathe.diameter_mode, parted=parted)
 
 
 def shoulder_height(mirror: Mirror, tool: Tool) -> float:
@@ -292,10 +147,11 @@ def shoulder_height(mirror: Mirror, tool: Tool) -> float:
     return float(mirror.vertex_z - mirror.outer.z(mirror.r_max)) - tool.nose_radius * (1 - 1 / math.hypot(1.0, s))
 
 
-def part_outline(mirror: Mirror, stock: Stock, shoulder_z: float, *, spacing: float = 0.05):
+def part_outline(mirror: Mirror, stock: Stock, shoulder_z: float, *, spacing: float = 0.05,
+                 bottom: float | None = None):
     """The designed part in (r, Z), mm: under the inner lobe, up the step wall, under
     the outer lobe to the rim, the shoulder at shoulder_z out to the bar, down to
-    -stock.length. Chords every `spacing` mm lie inside the lobes (sag < 2e-5 mm on the
+    `bottom` (default -stock.length; a part-off's slot top). Chords every `spacing` mm lie inside the lobes (sag < 2e-5 mm on the
     paper mirror)."""
     import shapely
 
@@ -304,7 +160,7 @@ def part_outline(mirror: Mirror, stock: Stock, shoulder_z: float, *, spacing: fl
     ro = np.linspace(rj, rm, max(2, int(math.ceil((rm - rj) / spacing)) + 1))
     zi = z0 - mirror.inner.z(ri)
     zo = z0 - mirror.outer.z(ro)
-    bottom = -stock.length
+    bottom = -stock.length if bottom is None else bottom
     z_sh = min(float(shoulder_z), float(zo[-1]))
     pts = ([(0.0, bottom)] + list(zip(ri, zi)) + list(zip(ro, zo))
            + [(rm, z_sh), (max(stock.radius, rm), z_sh), (max(stock.radius, rm), bottom)])
@@ -335,33 +191,47 @@ def feed_time(starts: np.ndarray, ends: np.ndarray, feed: np.ndarray, lathe: Lat
 
 
 class _Sim:
-    def __init__(self, mirror, tool, lathe, stock, gouge_tolerance: float, shoulder_z: float) -> None:
+    def __init__(self, shapes: dict, lathe, start, part, chuck, gouge_tolerance: float) -> None:
         import shapely
 
-        self.lathe, self.stock, self.gouge = lathe, stock, gouge_tolerance
-        self.insert = insert_outline(tool)
-        self.cut = cutting_zone(tool)
-        self.ins_xy = np.asarray(self.insert.exterior.coords)[:-1]
-        self.cut_xy = np.asarray(self.cut.exterior.coords)[:-1]
-        self.part = part_outline(mirror, stock, shoulder_z)
+        self.lathe, self.gouge, self.shapes = lathe, gouge_tolerance, shapes
+        self.use(None)
+        self.part = part
         self.part_boundary = self.part.boundary
         shapely.prepare(self.part)
-        r_hi = max(stock.radius, mirror.r_max) + JAW_HEIGHT
-        self.chuck = shapely.box(0.0, -stock.length - 1000.0, r_hi, -stock.length)
+        self.chuck = chuck
         shapely.prepare(self.chuck)
-        # the bar, as tiles
-        self.z_lo, self.z_hi = -stock.length, stock.face_allowance
-        self.nr = max(1, int(math.ceil(stock.radius / TILE)))
+        # the stock, as tiles of its bounding box
+        r0, self.z_lo, r1, self.z_hi = start.bounds
+        self.nr = max(1, int(math.ceil(r1 / TILE)))
         self.nz = max(1, int(math.ceil((self.z_hi - self.z_lo) / TILE)))
         tiles = []
         for i in range(self.nr):
             for j in range(self.nz):
-                tiles.append(shapely.box(i * TILE, self.z_lo + j * TILE, min((i + 1) * TILE, stock.radius),
+                tiles.append(shapely.box(i * TILE, self.z_lo + j * TILE, min((i + 1) * TILE, r1),
                                          min(self.z_lo + (j + 1) * TILE, self.z_hi)))
-        self.tiles = np.array(tiles, dtype=object)
-        self.alive = np.ones(self.tiles.size, dtype=bool)
+        self.tiles = shapely.intersection(np.array(tiles, dtype=object), start)
+        self.alive = shapely.area(self.tiles) > 0
         self.contacts: list[Contact] = []
         self.pos: tuple[float, float] | None = None
+
+    def use(self, station) -> None:
+        """Take the tool of `station` (the default shape when it has none of its own)."""
+        shape = self.shapes.get(station, self.shapes[None])
+        self.ins_xy, self.cut_xy = shape.outline_xy, shape.cutting_xy
+
+    def separate(self, z: float, width: float):
+        """The part above a part-off's slot [z, z + width] (shapely), a contact if stock
+        still joins it to the bar across the slot."""
+        import shapely
+
+        left = self.stock_geometry()
+        r_hi = self.nr * TILE
+        bridge = shapely.intersection(left, shapely.box(0.0, z, r_hi, z + width))
+        if bridge.area > AREA_TOL:
+            mv = SimMove(rapid=False, move=None, feed=0.0, label="part-off")
+            self.add("attached", "part-off", mv, bridge, None, depth=float(bridge.bounds[2]))
+        return shapely.intersection(left, shapely.box(0.0, z + width, r_hi, self.z_hi + 1.0))
 
     # -- geometry ---------------------------------------------------------------------
 
@@ -405,6 +275,7 @@ class _Sim:
         import shapely
 
         before = self.stock_geometry()
+        self.use(op.station)
         lathe = self.lathe
         rapid_time = 0.0
         area = volume = 0.0

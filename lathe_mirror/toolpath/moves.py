@@ -71,7 +71,9 @@ class ToolpathSettings:
     M8 / M9. home_r, home_z: the end and tool-change position of the nose centre.
     rapid_rate: traverse speed for the cycle-time estimate, mm/min. path_tolerance_mm:
     the controller's path blending tolerance (LinuxCNC `G64 P`). max_finish_depth_mm: the
-    deepest cut one finishing pass may take. (The program's planner,
+    deepest cut one finishing pass may take. parting_width_mm, parting_feed (mm/rev):
+    the parting blade's; back_allowance_mm: stock the part-off leaves on the back for the
+    second set-up. (The program's planner,
     shop.program.ProgramOptions, bounds them.)
     """
 
@@ -89,6 +91,9 @@ class ToolpathSettings:
     rapid_rate: float = 5000.0
     path_tolerance_mm: float = 0.001
     max_finish_depth_mm: float = 0.1
+    parting_width_mm: float = 3.0
+    parting_feed: float = 0.05
+    back_allowance_mm: float = 0.5
 
 
 @dataclass

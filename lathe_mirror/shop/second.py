@@ -1,0 +1,242 @@
+"""The second set-up: the parted mirror reversed in soft jaws on its outside diameter, its
+back faced to the body's thickness and the mount cut as the CAD body has it.
+
+Its own frame (r, Z), mm: Z0 on the finished back face, the part in -Z (the mirror's
+vertex at Z = -thickness), X0 on the spindle axis; a point Z of the first set-up is at
+-Z - thickness here (reversed). The stock is the part the first program parted off (the
+stock simulation's Simulation.parted), reversed; the designed part is the CAD body's
+meridian (body.design_meridian), reversed; the chuck is the soft jaws: on the outside
+diameter from the mirror's shoulder up to JAW_GAP below the back face, and the step
+under the shoulder the part seats on.
+
+What it cuts, by the CAD body's mount (cad.mount):
+- "bore" or "none": the insert as configured (station 1, it cuts from the axis out)
+  faces the back in levels of at most toolpath.rough_depth through the axis; "bore"
+  then bores the pocket of mount_diameter x mount_depth in levels, each out to the wall
+  (its nose centre a nose radius inside it) and up it.
+- "boss": the insert in the opposite-hand holder (station 3, it cuts from the outside
+  in) faces the boss's end in levels, then turns the ring around the boss down to the
+  back face in levels, each in to the boss's wall and up it.
+The nose leaves its radius as a fillet in the inside corners (the bore's floor, the
+boss's root); every other dimension is on the lattice, rounded away from the part.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from ..enums import Mount
+from ..errors import InputError
+from ..path import Line
+from .program import (OPPOSITE_ROUGHING_STATION, ROUGHING_STATION, Comment, Coolant, Feed, FeedRate, Operation,
+                      Program, ProgramEnd, Rapid, SpindleOn, SpindleStop, ToolCall)
+
+if TYPE_CHECKING:
+    from ..body import BodySpec
+
+#: The soft jaws stop this far below the back face (mm): the facing tool passes over them.
+JAW_GAP = 3.0
+#: The jaws reach out this far beyond the part (mm) and grip at least this long (mm).
+JAW_WIDTH = 10.0
+MIN_GRIP = 3.0
+
+
+@dataclass(frozen=True)
+class SecondSetup:
+    """The second set-up as the simulation and the set-up sheet need it.
+
+    shapes: {station: ToolShape}; start, part, chuck: shapely (r, Z) of this set-up;
+    thickness: the body's (mm); top: the parted face's Z (mm) before facing; grip: (Z low,
+    Z high) of the jaws on the outside diameter (mm); station: the tool; mount: its kind.
+    """
+
+    shapes: dict = field(repr=False)
+    start: object = field(repr=False)
+    part: object = field(repr=False)
+    chuck: object = field(repr=False)
+    thickness: float
+    top: float
+    grip: tuple[float, float]
+    station: int
+    mount: Mount
+    diameter: float
+
+    @property
+    def work_zero(self) -> str:
+        return ("Z0 on the finished back face (the part reversed: the mirror's vertex at "
+                f"Z-{self.thickness:g}, the parted face at Z{self.top:.3f} before facing), part in -Z; "
+                "X0 on the spindle axis, as in the first set-up.")
+
+    @property
+    def holding(self) -> str:
+        lo, hi = self.grip
+        return (f"the part reversed, its mirror face toward the chuck, in soft jaws bored to its outside "
+                f"diameter ({self.diameter:g} mm) gripping it from Z{lo:.3f} to Z{hi:.3f} "
+                f"({hi - lo:.1f} mm), the shoulder beyond the rim seated on the jaws' step; the optical "
+                "surface touches nothing (protect it with paper or film)")
+
+
+def reverse(geom, thickness: float):
+    """A shapely geometry of the first set-up's frame in this one's: Z -> -Z - thickness."""
+    import shapely
+
+    return shapely.transform(geom, lambda c: c * [1.0, -1.0] + [0.0, -thickness]).normalize()
+
+
+def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program:
+    """The second set-up's program for the part `parted` (shapely, the first set-up's
+    frame, shop.stock's Simulation.parted) of the first program `first` (see the module
+    doc). InputError naming the key when the part cannot be held or the home is low."""
+    import shapely
+
+    from ..body import design_meridian
+    from ..toolpath.moves import Hand
+    from .plan import numbered
+    from .tool_shapes import insert_shape
+
+    tp, opts, lathe, stock = first.toolpath, first.options, first.toolpath.lathe, first.stock
+    m, T, res = tp.mirror, body.thickness, lathe.resolution
+    boss = body.mount is Mount.BOSS
+    tool = Hand.OPPOSITE.held(tp.tool) if boss else tp.tool
+    station = OPPOSITE_ROUGHING_STATION if boss else ROUGHING_STATION
+    rho = tool.nose_radius
+    start = reverse(parted, T)
+    top = float(start.bounds[3])
+    R = float(start.bounds[2])
+    part = reverse(shapely.Polygon(design_meridian(m, body).polyline(1e-3)).buffer(0), T)
+    shoulder = -float(m.vertex_z - m.outer.z(m.r_max)) - T  # the shoulder beyond the rim, reversed
+    grip = (round(shoulder, 6), -JAW_GAP)
+    if grip[1] - grip[0] < MIN_GRIP:
+        raise InputError(f"cad.thickness = {T:g} mm: the second set-up's soft jaws grip the outside diameter from "
+                         f"the shoulder to {JAW_GAP:g} mm below the back, {grip[1] - grip[0]:.2f} mm; allowed a "
+                         f"thickness that leaves at least {MIN_GRIP:g} mm")
+    step_in = min(1.5, max(0.0, (R - m.r_max) / 2))
+    chuck = shapely.union(shapely.box(R, grip[0] - 1000.0, R + JAW_WIDTH, grip[1]),
+                          shapely.box(R - step_in, grip[0] - 1000.0, R + JAW_WIDTH, grip[0]))
+    home = first.home
+    if home[1] < top + opts.clearance + rho:
+        raise InputError(f"toolpath.home_z = {opts.home_z:g} mm: the second set-up's end position must be above "
+                         f"the parted face (Z{top:.3f}) by the clearance; allowed >= {top + opts.clearance + rho:g} mm")
+    b = _Builder(home, station, lathe, opts)
+
+    def up(v: float) -> float:
+        return math.ceil(v / res - 1e-9) * res
+
+    def down(v: float) -> float:
+        return math.floor(v / res + 1e-9) * res
+
+    def levels(hi: float, lo: float) -> list[float]:
+        """Nose-centre Z of levels from the surface `hi` down to `lo`, at most rough_depth each."""
+        n = max(1, math.ceil((hi - lo) / opts.rough_depth - 1e-9))
+        return [round(up(hi - (hi - lo) * k / n + rho), 6) for k in range(1, n + 1)]
+
+    r_out = up(R + opts.clearance)
+    face_to = body.mount_depth if boss else 0.0
+    face = levels(top, face_to)
+    b.start("face back", f"face the back: {len(face)} level{'s' if len(face) != 1 else ''} of at most "
+            f"{opts.rough_depth:g} mm from the parted face Z{top:.3f} to Z{face_to:g}"
+            + (", the boss's end" if boss else ", the back face"))
+    surface = top
+    for nc in face:
+        safe = up(surface + opts.clearance + rho)
+        if boss:  # from outside in, through the axis
+            b.rapid((b.pos[0], max(safe, b.pos[1])))
+            b.rapid((r_out, b.pos[1]))
+            b.rapid((r_out, nc))
+            b.feed((0.0, nc))
+            b.rapid((0.0, up(nc + opts.clearance)))
+        else:  # down at the axis, out past the rim
+            b.rapid((b.pos[0], max(safe, b.pos[1])))
+            b.rapid((0.0, b.pos[1]))
+            b.rapid((0.0, safe))
+            b.feed((0.0, nc))
+            b.feed((r_out, nc))
+        surface = nc - rho
+    rm = body.mount_diameter / 2.0
+    if body.mount is Mount.BORE:
+        wall = down(rm - rho)
+        bore = levels(0.0, -body.mount_depth)
+        b.start("bore", f"bore the mount: diameter {body.mount_diameter:g} mm, {body.mount_depth:g} mm deep, "
+                f"{len(bore)} levels, each out to the wall and up it")
+        prev = up(rho)
+        for nc in bore:
+            b.rapid((b.pos[0], up(opts.clearance + rho)))
+            b.rapid((0.0, b.pos[1]))
+            b.feed((0.0, nc))
+            b.feed((wall, nc))
+            b.feed((wall, prev))
+            prev = nc
+    elif boss:
+        wall = up(rm + rho)
+        ring = levels(body.mount_depth, 0.0)
+        b.start("boss", f"turn the boss: diameter {body.mount_diameter:g} mm, {body.mount_depth:g} mm long, "
+                f"{len(ring)} levels from outside in to its wall, and up it")
+        safe = up(body.mount_depth + opts.clearance + rho)
+        prev = up(body.mount_depth + rho)
+        for nc in ring:
+            b.rapid((b.pos[0], max(safe, b.pos[1])))
+            b.rapid((r_out, b.pos[1]))
+            b.rapid((r_out, nc))
+            b.feed((wall, nc))
+            b.feed((wall, prev))
+            prev = nc
+    b.finish()
+    setup = SecondSetup(shapes={None: insert_shape(tool)}, start=start, part=part, chuck=chuck, thickness=T,
+                        top=top, grip=grip, station=station, mount=body.mount, diameter=2 * R)
+    return Program(name=name, toolpath=tp, stock=stock, options=opts, operations=numbered(b.ops), home=home,
+                   safe_z=up(top + opts.clearance + rho), r_out=r_out, gouge_depth=first.gouge_depth,
+                   figures=first.figures, used=first.used, fillet=first.fillet, setup=setup)
+
+
+class _Builder:
+    """One tool's operations of the second set-up (each restarts at its tool call, from
+    home, Z first) and the way home at the end."""
+
+    def __init__(self, home, station: int, lathe, opts) -> None:
+        self.home, self.station, self.lathe, self.opts = home, station, lathe, opts
+        self.pos = home
+        self.ops: list[Operation] = []
+        self.name: str | None = None
+        self.blocks: list = []
+
+    def start(self, name: str, note: str) -> None:
+        self.close()
+        self.name = name
+        self.blocks = [Comment(note), ToolCall(station=self.station, role="roughing"),
+                       SpindleOn(surface_speed=self.lathe.surface_speed, max_rpm=self.lathe.spindle_max_rpm)]
+        if self.opts.coolant:
+            self.blocks.append(Coolant(on=True))
+        self.blocks.append(FeedRate(feed=self.lathe.feed_rough))
+        h = self.home
+        self.blocks += [Rapid(Line(self.pos, (self.pos[0], h[1])), only="Z"),
+                        Rapid(Line((self.pos[0], h[1]), h), only="X")]
+        self.pos = h
+
+    def close(self) -> None:
+        if self.name is not None:
+            self.ops.append(Operation(name=self.name, station=self.station, feed=self.lathe.feed_rough,
+                                      blocks=tuple(self.blocks)))
+        self.name, self.blocks = None, []
+
+    def rapid(self, p) -> None:
+        p = (float(p[0]), float(p[1]))
+        if p != self.pos:
+            self.blocks.append(Rapid(Line(self.pos, p)))
+            self.pos = p
+
+    def feed(self, p) -> None:
+        p = (float(p[0]), float(p[1]))
+        if p != self.pos:
+            self.blocks.append(Feed(Line(self.pos, p)))
+            self.pos = p
+
+    def finish(self) -> None:
+        """Coolant off, up to the home Z, across, spindle off, M30."""
+        if self.opts.coolant:
+            self.blocks.append(Coolant(on=False))
+        self.rapid((self.pos[0], self.home[1]))
+        self.rapid(self.home)
+        self.blocks += [SpindleStop(), ProgramEnd()]
+        self.close()
