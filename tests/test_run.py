@@ -39,7 +39,8 @@ def test_run_writes_programs_cad_and_report(tmp_path):
     assert [p["name"] for p in report["shop"]] == ["mirror_paper", "mirror_arcs"]
     assert all(p["contacts"] == [] for p in report["shop"])
     names = [op["name"] for op in report["shop"][0]["operations"]]
-    assert names[:3] == ["face", "rough", "semi-finish"] and names[-1] == "finish"
+    assert names[:3] == ["face", "rough", "semi-finish"] and names[-2:] == ["finish", "part-off"]
+    assert all(p["second_setup"]["contacts"] == [] for p in report["shop"])
     assert set(report["stereo"]["at_2_m"]) == {"exact", "paper", "best", "polished"}
     assert report["polishing"]["summary"]["optimum_inside_range"] is True
     html = (out / "report.html").read_text()

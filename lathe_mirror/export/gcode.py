@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 import re
+import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -41,6 +42,9 @@ if TYPE_CHECKING:
 
 #: Most digits of a coordinate word (sign and point aside): Fanuc's 8.
 MAX_DIGITS = 8
+#: Longest comment text of a header line the second set-up wraps to (rs274 reads lines of
+#: at most 255 characters).
+COMMENT_WIDTH = 160
 #: Decimals of an F word (mm/rev).
 FEED_DECIMALS = 4
 
@@ -208,8 +212,8 @@ class _Writer:
         if p.parting is not None:
             z, w = p.parting
             c(f"tool T{PARTING_STATION}: parting blade {w:g} mm wide, controlled point its tip's corner on the "
-              f"chuck side (-Z); it parts the mirror off at Z{z + w:.3f} (the slot Z{z:.3f}..{z + w:.3f}); "
-              f"the second set-up ({p.name}_op2) faces the back and cuts the mount")
+              f"chuck side (-Z); it parts the mirror off at Z{z + w:.3f} (the slot Z{z:.3f}..{z + w:.3f})")
+            c(f"the second set-up ({p.name}_op2) faces the back and cuts the mount")
         c("operations, restart at their first block: "
           + ", ".join(f"{op.name} N{op.number}" for op in p.operations))
         c(f"end position: home {self.xz(p.home)}, Z first, before the finishing tool and M30")
@@ -220,8 +224,10 @@ class _Writer:
         tool = p.toolpath.tool
         c(f"lathe-mirror {p.name}: second set-up of the double-lobed hyperbolic mirror (the back and the "
           f"mount, cad.mount {su.mount.value}), {self.dialect.value} dialect")
-        c("work zero: " + su.work_zero + " X = " + ("diameter" if lathe.diameter_mode else "radius") + "; mm")
-        c("holding: " + su.holding)
+        for text in ("work zero: " + su.work_zero + " X = " + ("diameter" if lathe.diameter_mode else "radius")
+                     + "; mm", "holding: " + su.holding):
+            for line in textwrap.wrap(text, COMMENT_WIDTH):  # a controller's line is short (rs274: 255)
+                c(line)
         c(f"tool {self.tool_word(su.station)}: the roughing insert, nose radius {tool.nose_radius:g} mm"
           + (", in the opposite-hand holder (it cuts from the outside in)" if su.station != 1 else
              " (it cuts from the axis out)") + f"; offsets set to the NOSE CENTRE, see {p.name.removesuffix('_op2')}.setup.html")

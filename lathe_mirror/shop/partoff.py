@@ -55,9 +55,8 @@ def partoff_operation(pos: tuple[float, float], home: tuple[float, float], z: fl
     res = lathe.resolution
     r_out = math.ceil((stock.radius + options.clearance) / res - 1e-9) * res
     w = options.parting_width
-    blocks: list = [Comment(f"part-off: the {w:g} mm blade from the bar's outside through the axis at Z{z:.4f} "
-                            f"(its chuck-side corner; the part's side {z + w:.4f}), "
-                            f"{options.back_allowance:g} mm left on the back for the second set-up"),
+    blocks: list = [Comment(f"part-off: the {w:g} mm blade through the axis at Z{z:.4f} (its chuck-side "
+                            f"corner), {options.back_allowance:g} mm left on the back for the second set-up"),
                     ToolCall(station=PARTING_STATION, role="parting"),
                     SpindleOn(surface_speed=lathe.surface_speed, max_rpm=lathe.spindle_max_rpm)]
     if options.coolant:
