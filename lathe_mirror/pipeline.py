@@ -37,7 +37,7 @@ from .notes import NOTES
 from .optics.camera_model import calibration_figures
 from .optics.radial import corner_limit_px, used_extent
 from .optics.stereo import depth_error_curve
-from .profile import ExactProfile
+from .profile import ExactProfile, Profile
 from .progress import Stages
 from .report.analysis import (DEPTH_REPORT_M, MIRRORS, ReportData, mirror_figures, ranging_figures, render_mirrors,
                               report_curves, strategy_table)
@@ -53,10 +53,12 @@ STAGES = ["design", "toolpaths", "polishing", "distortion", "stereo", "renders",
 
 
 def report_figures(settings: Settings, *, progress: bool = False, renders: bool = True,
-                   tolerance: bool = True) -> ReportData:
+                   tolerance: bool = True, measured: Profile | None = None) -> ReportData:
     """Run every analysis stage on the settings: design, the toolpath of each strategy and
     its as-machined surface, polishing, the distortion of each made mirror, stereo depth
-    error against range, renders, the tolerance analysis and the verdict. No files."""
+    error against range, renders, the tolerance analysis and the verdict. No files.
+    measured: a measured part (measure.surface.MeasuredProfile) added to the mirrors'
+    figures as "measured"."""
     steps = Stages(STAGES, progress)
     out: dict[str, Any] = {"schema": "lathe-mirror report 1", "notes": []}
     steps.start("design")
@@ -66,6 +68,9 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     facts = {"r_used": r_used, "rho_used": corner_limit_px(mirror, mirror.r_junction - r_used),
              "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
     out["notes"] += [TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)]
+    from .iso10110 import spec_of
+
+    out["spec"] = spec_of(settings).to_dict()  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
     steps.done()
 
     steps.start("toolpaths")
@@ -89,6 +94,9 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     out["mirrors"]["polished"]["polish_time_s"] = curve_paper.optimum_time_s
     parts = {"paper": job.but(strategy=Strategy.PAPER), "best": job.but(strategy=BEST),
              "polished": job.but(strategy=Strategy.PAPER, polish_time_s=curve_paper.optimum_time_s)}
+    if measured is not None:  # report --surface measured:FILE: the part that came back
+        out["mirrors"]["measured"] = mirror_figures(measured, mirror, zn)
+        out["mirrors"]["measured"]["made_mirror"] = f"the measured part: {measured!r}"
     out["made_mirror"] = job.to_dict()  # the made mirror every command describes by default
     out["mirrors"]["exact"]["made_mirror"] = "the exact design"
     for name, part in parts.items():  # which part each mirror is

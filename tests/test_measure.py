@@ -270,3 +270,9 @@ def test_commands_take_measured_surface(case, tmp_path):
     assert (tmp_path / "calib" / "opencv_inner.yaml").is_file()
     p = run_cli("render", "--surface", "measured:", *cfg)
     assert p.returncode == 2 and "measured:FILE" in p.stderr
+
+
+def test_report_surface_takes_only_a_measured_part(tmp_path):
+    p = run_cli("report", "--surface", "paper", "-o", str(tmp_path / "r"))
+    assert p.returncode == 2 and "report takes measured:FILE" in p.stderr
+    assert not (tmp_path / "r").exists()
