@@ -23,6 +23,54 @@ def add_no_progress(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress display on stderr")
 
 
+def add_compute(parser: argparse.ArgumentParser, what: str = "the Monte Carlo trials") -> None:
+    """--workers N and --scheduler ADDRESS: where the heavy trials run (lathe_mirror.compute)."""
+    parser.add_argument("--workers", type=int, default=None, metavar="N",
+                        help=f"processes for {what} (default [compute] workers: all cores; 1 runs them "
+                        "in this process); the same seed gives the same result with any number")
+    parser.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                        help=f"run {what} on the Dask cluster at this scheduler address (tcp://HOST:PORT; "
+                        "default [compute] scheduler)")
+
+
+def compute_options(args: argparse.Namespace, settings=None) -> tuple[int | None, str | None]:
+    """(workers, scheduler) from the flags, else the settings' [compute] (when given),
+    checked: call it with the flags alone before any work, and again with the settings."""
+    from .. import compute
+
+    cfg = getattr(settings, "compute", None)
+    workers = getattr(args, "workers", None)
+    scheduler = getattr(args, "scheduler", None)
+    if workers is None:
+        workers = getattr(cfg, "workers", None) or None  # 0 / None: all cores
+    else:
+        compute.check_workers(workers)
+    if scheduler is None:
+        scheduler = getattr(cfg, "scheduler", None) or None
+    else:
+        compute.check_scheduler(scheduler)
+    if workers is not None:
+        compute.check_workers(workers, "compute.workers" if args.workers is None else "--workers")
+    if scheduler:
+        compute.check_scheduler(scheduler, "compute.scheduler" if getattr(args, "scheduler", None) is None
+                                else "--scheduler")
+    return workers, scheduler
+
+
+def compute_session(args: argparse.Namespace, settings=None):
+    """The command's executor, active for the block (lathe_mirror.compute.session)."""
+    from .. import compute
+
+    return compute.session(*compute_options(args, settings))
+
+
+def use_compute(args: argparse.Namespace, settings=None):
+    """The command's executor, active until the command ends (cli.main shuts it down)."""
+    from .. import compute
+
+    return compute.activate(*compute_options(args, settings))
+
+
 def load(args: argparse.Namespace, overrides: list[tuple[str, Any, str]] | None = None):
     """The command's Settings (defaults + --config + flag overrides (key, value, flag)),
     validated once before any work."""

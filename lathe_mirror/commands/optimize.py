@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_no_progress, compute_options, load, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -18,7 +18,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_common(p, output_help="write the best design as a TOML configuration (and <stem>_pareto.png "
                               "beside it)")
     p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="processes evaluating each generation (default optimize.workers, 1)")
+                   help="processes evaluating each generation (default [compute] workers, else "
+                   "optimize.workers when set above 1, else all cores; 1 runs them in this process); "
+                   "the same seed gives the same winner with any number")
+    p.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="evaluate the generations on the Dask cluster at this scheduler address "
+                   "(tcp://HOST:PORT; default [compute] scheduler)")
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -42,7 +47,16 @@ def run(args: argparse.Namespace) -> int:
     problem = Problem(camera=settings.camera, tool=settings.tool, stock=settings.stock, body=settings.body,
                       clearance=settings.toolpath.clearance, settings=settings.optimize,
                       reference=settings.lobes)
-    result = search(problem, workers=args.workers, progress=not args.no_progress)
+    from .. import compute
+
+    workers, scheduler = compute_options(args, settings)
+    if workers is None and not scheduler:
+        workers = settings.optimize.workers if settings.optimize.workers > 1 else compute.default_workers()
+    with compute.session(workers, scheduler) as ex:
+        if ex.kind == "dask":
+            ex.client()  # connect: its worker threads set the chunks
+        result = search(problem, workers=min(max(ex.workers, 1), compute.MAX_WORKERS),
+                        progress=not args.no_progress)
     best = dataclasses.replace(settings, lobes=result.best)
     check_made(best)
     ref_name = "paper" if _is_paper(settings) else "configured"

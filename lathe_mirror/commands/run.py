@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_compute, add_no_progress, compute_options, load, print_json, use_compute
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -27,6 +27,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--calib-dir", metavar="DIR", help="where the calibration files (OpenCV, Kalibr, "
                    "OCamCalib) go (default: calib/ on the paper default, OUTPUT/calib with --config)")
     p.add_argument("--no-render", action="store_true", help="skip the renders side by side")
+    add_compute(p, "the tolerance trials and the allocation's confirmations")
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -53,7 +54,9 @@ def run(args: argparse.Namespace) -> int:
     from .common import check_outputs, output_dir
     from .report import REPORT_FILES, summary
 
+    compute_options(args)  # the flags, before any work
     settings = load(args)
+    use_compute(args, settings)
     out_dir = Path(args.output or "out")
     default = args.config is None
     gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_compute, add_no_progress, compute_options, load, print_json, use_compute
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -27,6 +27,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--csv", metavar="FILE", default=None,
                    help="write one row per trial (drawn parameters, every figure, pass flags) of every "
                    "Monte Carlo run, the allocation's confirming runs included; its directory must exist")
+    add_compute(p, "the Monte Carlo trials, the sensitivity runs and the allocation's confirmations")
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -41,8 +42,10 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("--target-yield applies to --allocate (the allocation's target)")
         if not 0.5 <= args.target_yield <= 0.999:
             raise InputError(f"--target-yield {args.target_yield:g}: allowed 0.5 .. 0.999 (a fraction: 0.95 for 95 %)")
+    compute_options(args)  # the flags, before any work
     settings = load(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed"),
                            ("tolerance.target_yield", args.target_yield, "--target-yield")])
+    use_compute(args, settings)
     mirror = design(settings)
     check_programs(settings, mirror)  # bad input stops here, before the output directory is made
     for program in settings.tolerance.programs:
