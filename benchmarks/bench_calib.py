@@ -24,7 +24,7 @@ def main() -> None:
     from lathe_mirror.export.calib import calibration_texts
     from lathe_mirror.optics.camera import CameraPose
     from lathe_mirror.optics.camera_model import made_figures
-    from lathe_mirror.pipeline import named_surface
+    from lathe_mirror.job import named_surface
 
     settings = load()
     mirror = settings.mirror()

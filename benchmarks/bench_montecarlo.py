@@ -14,7 +14,8 @@ import time
 def main() -> None:
     from lathe_mirror.config import load
     from lathe_mirror.enums import BEST, Program, Strategy
-    from lathe_mirror.pipeline import made_surface, polishing_curve, tolerance_context
+    from lathe_mirror.job import made_surface, polishing_curve
+    from lathe_mirror.tolerance.runs import tolerance_context
     from lathe_mirror.tolerance.montecarlo import run_monte_carlo
     from lathe_mirror.tolerance.sensitivity import sensitivity_table
 

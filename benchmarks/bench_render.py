@@ -50,7 +50,7 @@ def main() -> int:
     from lathe_mirror.export.povray import povray_command, povray_scene
     from lathe_mirror.optics.scene import build_scene
     from lathe_mirror.optics.trace import polyline_vertices
-    from lathe_mirror.pipeline import named_surface
+    from lathe_mirror.job import named_surface
 
     work = Path(tempfile.mkdtemp(prefix="bench_render_"))
     cfg_path = work / "sharp.toml"

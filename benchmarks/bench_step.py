@@ -29,7 +29,7 @@ t_cq = time.perf_counter() - t0
 from lathe_mirror.body import design_meridian, programmed_parts
 from lathe_mirror.config import load
 from lathe_mirror.export.step import step_bytes
-from lathe_mirror.pipeline import design, plan
+from lathe_mirror.job import design, plan
 settings = load()
 mirror = design(settings)
 spec = settings.body

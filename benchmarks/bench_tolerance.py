@@ -27,7 +27,8 @@ import numpy as np
 def allocation() -> None:
     from lathe_mirror.config import load
     from lathe_mirror.enums import BEST, Program
-    from lathe_mirror.pipeline import made_surface, polishing_curve, tolerance_context
+    from lathe_mirror.job import made_surface, polishing_curve
+    from lathe_mirror.tolerance.runs import tolerance_context
     from lathe_mirror.tolerance.allocation import allocate
     from lathe_mirror.tolerance.montecarlo import run_monte_carlo
     from lathe_mirror.tolerance.sensitivity import responses
@@ -58,7 +59,8 @@ def allocation() -> None:
 def bias(n: int, nose_step: float | None = None) -> None:
     from lathe_mirror.config import load
     from lathe_mirror.enums import BEST, Program, Strategy
-    from lathe_mirror.pipeline import made_surface, plan, machine, MadeSurface, polishing_curve, tolerance_context
+    from lathe_mirror.job import made_surface, plan, machine, MadeSurface, polishing_curve
+    from lathe_mirror.tolerance.runs import tolerance_context
     from lathe_mirror.tolerance.montecarlo import CRITERIA, Context, draw_trials, evaluate_trials, judge
     from lathe_mirror.tolerance.sensitivity import judged_values
     from lathe_mirror.tolerance.surfaces import SurfaceBank

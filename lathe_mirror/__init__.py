@@ -26,8 +26,8 @@ from .version import __version__
 #: Public name -> the module that defines it.
 _API = {
     "load": "config", "Settings": "settings",
-    "plan": "pipeline", "machine": "pipeline", "made_surface": "pipeline",
-    "MadeSurface": "pipeline", "polishing_curve": "pipeline", "monte_carlo": "pipeline",
+    "plan": "job", "machine": "job", "made_surface": "job",
+    "MadeSurface": "job", "polishing_curve": "job", "monte_carlo": "tolerance.runs",
     "Mirror": "design", "Camera": "design", "design_figures": "design",
     "Lathe": "lathe", "Tool": "lathe", "Stock": "lathe", "Strategy": "enums",
     "PolishParams": "polishing", "polish": "polishing",

@@ -4,7 +4,11 @@ Each subcommand lives in `lathe_mirror.commands.<name>` with `register(subparser
 those modules import nothing heavy at import time, so `--help` and `design` start fast.
 Exit status: 0 success, 2 bad input (one line on stderr), 1 internal failure, 130 / 143
 interrupted by SIGINT / SIGTERM. A command writes its files only when it succeeds
-(export.files.staging): on any failure or signal it leaves nothing behind.
+(export.files.staging), all of them or none: on any failure or signal before the last
+rename it leaves nothing behind; a signal after it leaves the files and the status says
+success. Run as a program (`main()` without arguments), the process ignores SIGINT and
+SIGTERM once the command's outcome is settled, so a signal during the interpreter's exit
+cannot kill it with a status that contradicts the files.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ from .version import __version__
 from .errors import InputError
 
 COMMANDS = ("design", "toolpath", "cad", "render", "polish", "tolerance", "calib", "stereo", "report", "run",
-            "optimize")
+            "optimize", "spec", "measure", "compensate")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -50,6 +54,9 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # a stage not built yet
             raise
         module.register(sub)
+    from .commands import flags
+
+    flags.apply(parser)  # every numeric flag's range, checked at parsing and shown by --help
     return parser
 
 
@@ -65,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     debug = bool(os.environ.get("LATHE_MIRROR_DEBUG"))
     received: list[int] = []  # signals caught: one may surface as another exception
-    with warnings.catch_warnings(), _signals_raise(received):
+    with warnings.catch_warnings(), _signals_raise(received, files.committed, settle=argv is None):
         if not debug:
             # numpy's RuntimeWarnings (overflow, 0/0) are expected where a stage probes a
             # surface's edge; they never reach the user's stderr (LATHE_MIRROR_DEBUG shows them).
@@ -121,11 +128,15 @@ def _one_line(exc: BaseException) -> str:
 
 
 @contextlib.contextmanager
-def _signals_raise(received: list[int]):
+def _signals_raise(received: list[int], done=lambda: False, *, settle: bool = False):
     """Within the block SIGINT raises KeyboardInterrupt and SIGTERM Terminated in the main
-    thread, each noted in `received` (the handlers are restored after)."""
+    thread, each noted in `received`, until done() says the command's files are in place
+    (then a signal is only noted). The handlers are restored after; with settle, both
+    signals are ignored after instead (the process is about to exit with its status)."""
     import signal
     import threading
+
+    from .export import files
 
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -133,6 +144,10 @@ def _signals_raise(received: list[int]):
 
     def handler(signum, frame):
         received.append(signum)
+        if done():  # after the last rename: the command has succeeded
+            return
+        if files.defer_signal(signum):  # renaming the outputs: raised again when done
+            return
         raise KeyboardInterrupt() if signum == signal.SIGINT else Terminated()
 
     previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
@@ -140,7 +155,7 @@ def _signals_raise(received: list[int]):
         yield
     finally:
         for sig, old in previous.items():
-            signal.signal(sig, old)
+            signal.signal(sig, signal.SIG_IGN if settle else old)
 
 
 if __name__ == "__main__":

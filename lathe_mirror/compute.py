@@ -31,8 +31,8 @@ from typing import Any
 
 from .errors import InputError
 
-#: The largest --workers accepted.
-MAX_WORKERS = 64
+#: The largest --workers accepted (compute.workers' range; 0: all cores).
+MAX_WORKERS = 1024
 #: Seconds to reach a Dask scheduler before giving up.
 CONNECT_TIMEOUT_S = 10.0
 _ADDRESS = re.compile(r"(tcp|tls|ucx|ws|wss)://[^\s/]+:\d{1,5}|inproc://\S+")
@@ -47,8 +47,9 @@ def default_workers() -> int:
 
 
 def check_workers(workers: int, flag: str = "--workers") -> int:
-    if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= MAX_WORKERS:
-        raise InputError(f"{flag} {workers}: allowed 1 .. {MAX_WORKERS} (processes; 1 runs in this process)")
+    if isinstance(workers, bool) or not isinstance(workers, int) or not 0 <= workers <= MAX_WORKERS:
+        raise InputError(f"{flag} {workers}: allowed 0 .. {MAX_WORKERS} (processes; 0: all cores, "
+                         "1 runs in this process)")
     return workers
 
 
@@ -338,7 +339,7 @@ def make(workers: int | None = None, scheduler: str | None = None) -> Executor:
         ex = DaskExecutor(check_scheduler(scheduler))
         ex.client()  # connect now: an unreachable scheduler is bad input, before any work
         return ex
-    n = default_workers() if workers is None else check_workers(workers)
+    n = check_workers(workers) if workers else default_workers()
     return Executor(1) if n == 1 else ProcessExecutor(n)
 
 

@@ -1,7 +1,7 @@
 """Configuration: TOML files merged over the embedded defaults, validated key by key.
 
 `load()` is the entry point: it returns the typed, frozen `settings.Settings`. The dict
-functions below (load_config, merge, set_value) check names and types only; settings.py
+functions below (load_config, merge, set_value) check names and types only; settings/
 checks the values and builds the typed sections.
 
 The defaults are every `*.toml` in `lathe_mirror/data/` (`paper.toml` holds the paper's
@@ -78,19 +78,7 @@ def load_config(path: str | Path | None = None) -> dict[str, Any]:
     cfg = default_config()
     if path is None:
         return cfg
-    path = Path(path)
-    try:
-        size = path.stat().st_size
-        if size > MAX_CONFIG_BYTES and path.is_file():
-            raise ConfigError(f"--config {path}: {size} bytes; allowed at most {MAX_CONFIG_BYTES} "
-                              "(a configuration is a few kilobytes)")
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"--config {path}: no such file") from None
-    except IsADirectoryError:
-        raise ConfigError(f"--config {path}: is a directory, expected a TOML file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"--config {path}: cannot read ({exc})") from None
+    text = read_user_text(path)
     try:
         user = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -99,6 +87,27 @@ def load_config(path: str | Path | None = None) -> dict[str, Any]:
         raise ConfigError(f"--config {path}: arrays or tables nested too deeply (the "
                           "configuration nests at most 3 levels)") from None
     return merge(cfg, user, source=str(path))
+
+
+def read_user_text(path: str | Path) -> str:
+    """The text of the user's configuration file (stdin for "-", read once and kept):
+    inputs.read_text, a regular file of at most MAX_CONFIG_BYTES."""
+    from .inputs import STDIN, read_text
+
+    if str(path) == STDIN:
+        if STDIN not in _stdin_text:
+            _stdin_text[STDIN] = read_text(path, "--config", MAX_CONFIG_BYTES)
+        return _stdin_text[STDIN]
+    return read_text(path, "--config", MAX_CONFIG_BYTES)
+
+
+def read_user(path: str | Path) -> dict[str, Any]:
+    """The user's configuration file as TOML (not merged, not validated)."""
+    return tomllib.loads(read_user_text(path))
+
+
+# Standard input read as a configuration (it can be read once a process).
+_stdin_text: dict[str, str] = {}
 
 
 def merge(base: dict[str, Any], user: dict[str, Any], *, source: str = "config") -> dict[str, Any]:

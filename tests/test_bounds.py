@@ -316,7 +316,7 @@ def test_a_tilt_that_blinds_a_lobe_is_refused_where_figures_stop_meaning_anythin
 
     from lathe_mirror.config import load
     from lathe_mirror.enums import Program
-    from lathe_mirror.pipeline import tolerance_context
+    from lathe_mirror.tolerance.runs import tolerance_context
     from lathe_mirror.tolerance.montecarlo import evaluate_trials
     from lathe_mirror.tolerance.perturb import Trials
 

@@ -185,7 +185,7 @@ def test_programmed_mirror_honours_the_toolpath_max_deviation(paper_config, pape
     mirror is refused too, naming the budget."""
     import copy
 
-    from lathe_mirror.pipeline import cad_model
+    from lathe_mirror.job import cad_model
 
     cfg = copy.deepcopy(paper_config)
     cfg["toolpath"]["max_deviation"] = 1e-5

@@ -11,7 +11,7 @@ import pytest
 
 from conftest import run_cli
 from lathe_mirror.export.cad import REFERENCE_FILES, write_reference_cad
-from lathe_mirror.pipeline import cad_model
+from lathe_mirror.job import cad_model
 from lathe_mirror.settings import from_config
 
 REPO = Path(__file__).resolve().parents[1]
@@ -78,7 +78,7 @@ def test_special_file_is_not_replaced(tmp_path):
     (["--format", "obj"], "m.step", "--format 'obj'"),
     (["--which", "polished"], "m.step", "--which 'polished'"),
     (["--schema", "AP203"], "m.step", "--schema"),
-    (["--stl-tolerance", "0"], "m.stl", "--stl-tolerance = 0.0 mm: allowed 0.001 to 1 mm"),
+    (["--stl-tolerance", "0"], "m.stl", "argument --stl-tolerance: 0 mm: allowed 0.001 to 1 mm"),
     (["--stl-tolerance", "nan"], "m.stl", "--stl-tolerance"),
     (["--format", "stl"], "m.step", "a '.step' file cannot hold --format stl"),
     (["--schema", "AP242"], "m.stl", "--schema applies to --format step only"),
@@ -121,7 +121,7 @@ def test_reference_cad_is_current(tmp_path):
     """cad/ holds what write_reference_cad writes today (regenerate with
     `lathe-mirror run` from the repository root)."""
     from lathe_mirror.config import load
-    from lathe_mirror.pipeline import cad_model
+    from lathe_mirror.job import cad_model
 
     settings = load()
     write_reference_cad(tmp_path, cad_model(settings, settings.mirror(), programmed=True), settings.cad)
@@ -136,7 +136,7 @@ def test_check_cad_config_refuses_before_anything_is_planned(paper_config):
     import copy
 
     from lathe_mirror.errors import InputError
-    from lathe_mirror.pipeline import check_cad
+    from lathe_mirror.job import check_cad
     from lathe_mirror.settings import from_config
 
     def check(cfg):

@@ -330,7 +330,7 @@ def test_design_error_at_infinity_is_the_image_displacement(paper_mirror):
     from lathe_mirror.config import load
     from lathe_mirror.enums import Surface
     from lathe_mirror.optics.radial import radial_figures
-    from lathe_mirror.pipeline import named_surface
+    from lathe_mirror.job import named_surface
 
     made = named_surface(Surface.BEST, paper_mirror, load(), nose_radius=0.2)  # as machined
     disp = radial_figures(made, paper_mirror)["lobes"]
@@ -383,7 +383,7 @@ def test_refit_model_through_opencv_gives_the_reported_residual(tmp_path, paper_
     reproduces the residual the library reports: its distortion is OpenCV's."""
     from lathe_mirror.config import load
     from lathe_mirror.enums import Surface
-    from lathe_mirror.pipeline import named_surface
+    from lathe_mirror.job import named_surface
 
     made = named_surface(Surface.POLISHED, paper_mirror, load())
     corr = trace_correspondences(made, paper_mirror, 1)

@@ -97,8 +97,8 @@ def test_tolerance_cli_on_a_dask_scheduler_gives_the_local_yield(tmp_path):
 
 
 @pytest.mark.parametrize("args, msg", [
-    (["--workers", "0"], "--workers 0: allowed 1 .. 64"),
-    (["--workers", "65"], "--workers 65: allowed 1 .. 64"),
+    (["--workers", "-1"], "--workers"),
+    (["--workers", "1025"], "--workers"),
     (["--scheduler", "localhost"], "--scheduler 'localhost': a Dask scheduler address"),
     (["--scheduler", "tcp://127.0.0.1:9"], "--scheduler tcp://127.0.0.1:9: cannot reach the Dask scheduler"),
 ])

@@ -123,7 +123,7 @@ def _on_ccw_arc(a: float, start: float, end: float) -> bool:
 
 def _best_toolpath(cfg, mirror):
     """The configuration's finishing toolpath (its [toolpath] strategy), as the CAD plans it."""
-    from lathe_mirror.pipeline import plan
+    from lathe_mirror.job import plan
 
     s = from_config(cfg)
     return plan(mirror, s.machine, s.tool, s.toolpath.strategy, max_deviation=s.toolpath.max_deviation)

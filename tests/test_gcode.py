@@ -18,7 +18,7 @@ from lathe_mirror.config import load
 from lathe_mirror.errors import InputError
 from lathe_mirror.enums import Dialect, parse
 from lathe_mirror.export.gcode import format_program, program_files
-from lathe_mirror.pipeline import shop_programs
+from lathe_mirror.shop.programs import shop_programs
 from lathe_mirror.lathe import Lathe, Stock, Tool
 from lathe_mirror.path import Arc
 from lathe_mirror.shop import ProgramOptions, plan_program
@@ -316,7 +316,7 @@ def nose_depth_into_part(pieces, rho: float, mirror) -> float:
 
 @pytest.mark.parametrize("args, phrase", [
     (["--points", "10"], "machine.max_points = 10: too small"),
-    (["--resolution", "0"], "machine.resolution = 0"),
+    (["--resolution", "0"], "argument --resolution: 0 mm: allowed 0.0001 to 0.1 mm"),
     (["--nose-radius", "1.0"], "too large for the junction"),
     (["--dialect", "heidenhain"], "--dialect 'heidenhain': allowed linuxcnc, fanuc"),
     (["--strategy", "spline"], "--strategy 'spline': allowed paper, lattice, arcs, best"),

@@ -17,22 +17,23 @@ PACKAGE = Path(__file__).resolve().parents[1] / "lathe_mirror"
 
 #: Rank of each top-level module or package of lathe_mirror, in the order of the data flow.
 RANKS = {
-    "errors": 0, "enums": 0, "progress": 0, "version": 0,
+    "errors": 0, "inputs": 0, "enums": 0, "progress": 0, "version": 0,
     "design": 1,
     "path": 2, "profile": 2, "sheet": 2,
     "lathe": 3,
     "toolpath": 4,
     "nose_envelope": 5, "finish": 5,
-    "shop": 5.5,
     "polishing": 6,
     "body": 7,
-    "optics": 8,
-    "tolerance": 9, "optimise": 9,
+    "optics": 8, "machine_errors": 5, "measure": 8.5, "job": 8.5,
+    "tolerance": 9, "optimize": 9,
+    "iso10110": 9.5, "shop": 9.5,
     "settings": 10,
     "config": 11,
-    "pipeline": 12, "notes": 12,
+    "notes": 12,
     "export": 13,
     "report": 14,
+    "pipeline": 14.5,
     "commands": 15, "cli": 15, "__main__": 15, "__init__": 16,
 }
 

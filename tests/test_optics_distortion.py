@@ -140,7 +140,7 @@ def test_issue_targets_paper_program_against_best(paper_mirror, paper_config):
     displacement per lobe, over the pixels that see the scene (the recessed inner lobe's
     outer band is vignetted by the step). The paper's method is far off (its Fig. 15)."""
     from lathe_mirror.enums import Surface
-    from lathe_mirror.pipeline import named_surface
+    from lathe_mirror.job import named_surface
 
     best = distortion_figures(named_surface(Surface("best"), paper_mirror, from_config(paper_config)), paper_mirror)
     paper = distortion_figures(named_surface(Surface("paper"), paper_mirror, from_config(paper_config)), paper_mirror)
@@ -156,7 +156,7 @@ def test_as_machined_fillet_band_starts_at_the_hand_computed_tangent_point(paper
     the corner, phi the angle between the lobe and the wall there. Pixels inside that
     fillet's image are badly displaced; those outside it are not."""
     from lathe_mirror.enums import Surface
-    from lathe_mirror.pipeline import named_surface
+    from lathe_mirror.job import named_surface
 
     rho = 0.2
     lobe = paper_mirror.inner
@@ -179,7 +179,7 @@ def test_paper_reference_model_is_within_its_hand_bound(paper_mirror, paper_conf
     on a curve of curvature <= kappa tilt the normal by <= h kappa / 2, and rounding both
     ends to q = 1e-6 mm by <= 2 q / h more; the ray turns by twice that."""
     from lathe_mirror.enums import Surface
-    from lathe_mirror.pipeline import named_surface
+    from lathe_mirror.job import named_surface
 
     fig = distortion_figures(named_surface(Surface("reference"), paper_mirror, from_config(paper_config)), paper_mirror)
     for lobe_fig, lobe, span in zip(fig["lobes"], paper_mirror.lobes, (20.0, 15.0)):
@@ -197,7 +197,7 @@ def test_polished_surface_is_the_polishing_curves_optimum(paper_mirror, paper_co
     from lathe_mirror.optics.radial import radial_figures
     from lathe_mirror.nose_envelope import as_machined
     from lathe_mirror.enums import Surface
-    from lathe_mirror.pipeline import named_surface
+    from lathe_mirror.job import named_surface
     from lathe_mirror.optics.polishing_curve import polish_curve
     from lathe_mirror.toolpath import Strategy, plan_toolpath
 

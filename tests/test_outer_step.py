@@ -21,7 +21,7 @@ from lathe_mirror.enums import Dialect
 from lathe_mirror.export.gcode import format_program
 from lathe_mirror.lathe import Stock, Tool
 from lathe_mirror.path import Arc
-from lathe_mirror.pipeline import shop_program
+from lathe_mirror.shop.programs import shop_program
 from lathe_mirror.shop import ProgramOptions
 from lathe_mirror.toolpath import Strategy, check_junction, plan_toolpath
 from lathe_mirror.toolpath.checks import junction_margin

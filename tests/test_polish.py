@@ -14,7 +14,7 @@ from conftest import UNCUTTABLE, UNCUTTABLE_PHRASE, run_cli
 from lathe_mirror.enums import Dwell, Lap, Strategy
 from lathe_mirror.errors import InputError
 from lathe_mirror.optics.polishing_curve import form_change
-from lathe_mirror.pipeline import made_surface, plan
+from lathe_mirror.job import made_surface, plan
 from lathe_mirror.polishing import (
     FIRST_MODEL,
     PadFit,

@@ -13,7 +13,7 @@ from lathe_mirror.optics.calibrated_stereo import calibrated_depth_error
 from lathe_mirror.optics.polishing_curve import form_facet_decomposition, polish_curve
 from lathe_mirror.optics.radial import used_extent
 from lathe_mirror.optics.stereo import depth_error_curve
-from lathe_mirror.pipeline import made_surface, process_for
+from lathe_mirror.job import made_surface, process_for
 from lathe_mirror.polishing import FIRST_MODEL, polish
 from lathe_mirror.profile import ExactProfile, LobeSamples, SampledProfile
 from lathe_mirror.settings import from_config

@@ -20,7 +20,7 @@ from lathe_mirror.optics.camera import CameraPose, pixel_centres, ray_directions
 from lathe_mirror.optics.render import render_image
 from lathe_mirror.optics.scene import build_scene
 from lathe_mirror.enums import Surface
-from lathe_mirror.pipeline import named_surface
+from lathe_mirror.job import named_surface
 
 # A quarter-resolution sensor with the same field of view (4x the pitch): fast to render.
 SMALL = Camera(16.0, 0.036, (252, 254))
@@ -135,7 +135,7 @@ def test_povray_export_is_the_same_text_in_another_process(paper_mirror, paper_c
         "from lathe_mirror.enums import Surface\n"
         "from lathe_mirror.export.povray import povray_scene\n"
         "from lathe_mirror.optics.scene import build_scene\n"
-        "from lathe_mirror.pipeline import named_surface\n"
+        "from lathe_mirror.job import named_surface\n"
         "s = load(); m = s.mirror()\n"
         "sc = build_scene(s.scene, mirror_top=m.outer.h, mirror_radius=35.0)\n"
         "sys.stdout.write(''.join(povray_scene(named_surface(Surface(n), m, s), m, sc) for n in ('exact', 'paper')))\n"

@@ -201,7 +201,7 @@ def test_render_command_writes_images_figures_and_is_reproducible(tmp_path):
 
     from lathe_mirror.config import default_config
     from lathe_mirror.enums import Surface
-    from lathe_mirror.pipeline import named_surface
+    from lathe_mirror.job import named_surface
 
     cfg = default_config()
     mirror = from_config(cfg).mirror()
@@ -234,7 +234,7 @@ def test_thread_count_does_not_change_the_image(scene, paper_mirror, paper_confi
     """Chunks shade in a thread pool, each into its own slice: 1 or 3 threads, same pixels."""
     from lathe_mirror.optics import render
     from lathe_mirror.enums import Surface
-    from lathe_mirror.pipeline import named_surface
+    from lathe_mirror.job import named_surface
 
     made = named_surface(Surface("uniform528"), paper_mirror, from_config(paper_config))
     cam = Camera(16.0, 0.018, (504, 508))

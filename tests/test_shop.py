@@ -19,7 +19,7 @@ from lathe_mirror.errors import InputError
 from lathe_mirror.export.gcode import format_program
 from lathe_mirror.lathe import Lathe, Stock, Tool
 from lathe_mirror.path import Arc, Line
-from lathe_mirror.pipeline import shop_program
+from lathe_mirror.shop.programs import shop_program
 from lathe_mirror.shop import ProgramOptions
 from lathe_mirror.shop.program import Rapid
 from lathe_mirror.shop.stock import SimMove, SimOperation, simulate, simulate_program

@@ -330,7 +330,7 @@ def test_other_bodies_give_one_valid_solid_of_the_integrated_volume(tmp_path, pa
 
 def _best_toolpath(cfg, mirror):
     """The configuration's finishing toolpath (its [toolpath] strategy), as the CAD plans it."""
-    from lathe_mirror.pipeline import plan
+    from lathe_mirror.job import plan
 
     s = from_config(cfg)
     return plan(mirror, s.machine, s.tool, s.toolpath.strategy, max_deviation=s.toolpath.max_deviation)

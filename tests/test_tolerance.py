@@ -24,7 +24,8 @@ from lathe_mirror.errors import InputError
 from lathe_mirror.optics.camera import CameraPose
 from lathe_mirror.optics.distortion import exact_image_point
 from lathe_mirror.optics.trace import Fate, trace_pixels
-from lathe_mirror.pipeline import made_surface, tolerance_context
+from lathe_mirror.job import made_surface
+from lathe_mirror.tolerance.runs import tolerance_context
 from lathe_mirror.polishing import polish
 from lathe_mirror.profile import ExactProfile
 from lathe_mirror.settings import from_config
@@ -391,7 +392,7 @@ def test_tolerance_cli_allocate_writes_one_csv_row_per_trial(tmp_path):
 
 @pytest.mark.parametrize("args, msg", [
     (["--target-yield", "0.9"], "--target-yield applies to --allocate"),
-    (["--allocate", "--target-yield", "1.5"], "--target-yield 1.5: allowed 0.5 .. 0.999"),
+    (["--allocate", "--target-yield", "1.5"], "argument --target-yield: 1.5: allowed 0.5 to 0.999"),
     (["--csv", "nowhere/trials.csv"], "--csv nowhere/trials.csv: directory nowhere does not exist"),
 ])
 def test_tolerance_cli_bad_flags_exit_2_writing_nothing(tmp_path, args, msg):

@@ -12,7 +12,7 @@ from lathe_mirror.settings import from_config
 from lathe_mirror.optics.camera import CameraPose, pixel_centres
 from lathe_mirror.optics.distortion import viewpoint_distance
 from lathe_mirror.enums import Surface
-from lathe_mirror.pipeline import named_surface
+from lathe_mirror.job import named_surface
 from lathe_mirror.optics.trace import Fate, meridian_hits, trace_pixels, trace_rays
 from lathe_mirror.profile import ExactProfile, Profile
 

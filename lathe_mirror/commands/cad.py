@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     from ..body import check_stl_tolerance
     from ..enums import StepSchema
     from ..export.cad import check_target
-    from ..pipeline import cad_model, check_program, design
+    from ..job import cad_model, check_program, design
 
     overrides = []
     if args.schema is not None:

@@ -45,18 +45,15 @@ def run(args: argparse.Namespace) -> int:
         design_model_figures,
         made_figures,
     )
-    from ..pipeline import check_program, design, named_surface
+    from ..job import check_program, design, named_surface
     from ..progress import Stages
     from .common import check_outputs
 
     settings = load(args)
     mirror = design(settings)
+    # --range-m and --nose-radius are within their ranges (commands/flags.py, at parsing)
     range_m = DEFAULT_RANGE_MM / 1000.0 if args.range_m is None else args.range_m
-    if not range_m > 0:  # NaN too
-        raise InputError(f"--range-m {args.range_m!r}: must be a number > 0 m (inf: directions)")
     nose = settings.tool.nose_radius if args.nose_radius is None else args.nose_radius
-    if not (math.isfinite(nose) and nose >= 0):
-        raise InputError(f"--nose-radius {args.nose_radius!r}: must be a finite number >= 0 mm")
     pose = settings.pose
     # Before any progress display: a bad name is one line.
     names = [parse(Surface, n, "--surface") for n in ((args.surface,) if args.surface is not None

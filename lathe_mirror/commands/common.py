@@ -12,7 +12,7 @@ def add_common(parser: argparse.ArgumentParser, *, output_help: str | None = Non
     """--config FILE, -o/--output, --json: the options every stage takes."""
     parser.add_argument("--config", metavar="FILE",
                         help="TOML file merged over the paper default (any part of it)")
-    parser.add_argument("-o", "--output", metavar="PATH", type=_path_arg,
+    parser.add_argument("-o", "--output", metavar="PATH", type=path_arg,
                         help=output_help or "where to write the stage's files")
     parser.add_argument("--json", action="store_true",
                         help="print the stage's figures as JSON on stdout")
@@ -34,27 +34,23 @@ def add_compute(parser: argparse.ArgumentParser, what: str = "the Monte Carlo tr
 
 
 def compute_options(args: argparse.Namespace, settings=None) -> tuple[int | None, str | None]:
-    """(workers, scheduler) from the flags, else the settings' [compute] (when given),
-    checked: call it with the flags alone before any work, and again with the settings."""
+    """(workers, scheduler) from the flags, else the settings' [compute] (workers 0 or
+    None: all cores; scheduler "" or None: local processes), checked: call it with the
+    flags alone before any work, and again with the settings."""
     from .. import compute
 
     cfg = getattr(settings, "compute", None)
     workers = getattr(args, "workers", None)
     scheduler = getattr(args, "scheduler", None)
-    if workers is None:
-        workers = getattr(cfg, "workers", None) or None  # 0 / None: all cores
-    else:
-        compute.check_workers(workers)
-    if scheduler is None:
-        scheduler = getattr(cfg, "scheduler", None) or None
-    else:
-        compute.check_scheduler(scheduler)
     if workers is not None:
-        compute.check_workers(workers, "compute.workers" if args.workers is None else "--workers")
-    if scheduler:
-        compute.check_scheduler(scheduler, "compute.scheduler" if getattr(args, "scheduler", None) is None
-                                else "--scheduler")
-    return workers, scheduler
+        compute.check_workers(workers)
+    if scheduler is not None:
+        compute.check_scheduler(scheduler)
+    if workers is None:
+        workers = getattr(cfg, "workers", None)
+    if scheduler is None:
+        scheduler = getattr(cfg, "scheduler", None)
+    return workers or None, scheduler or None
 
 
 def compute_session(args: argparse.Namespace, settings=None):
@@ -110,9 +106,18 @@ def check_outputs(directory: str | Path | None, names: list[str], what: str = "-
     return out
 
 
-def _path_arg(text: str) -> str:
-    """-o's argparse type: a non-empty path (an empty one would fall back to the default
+def path_arg(text: str) -> str:
+    """-o's (and every output flag's) argparse type: a non-empty path (an empty one would fall back to the default
     name silently)."""
     if not text:
         raise argparse.ArgumentTypeError("empty path: name a file or directory")
     return text
+
+
+def program_strategy(value: str | None, settings):
+    """--program paper|best as the Strategy a part was cut with (None: [toolpath] strategy)."""
+    from ..enums import BEST, Program, Strategy, parse
+
+    if value is None:
+        return settings.toolpath.strategy
+    return BEST if parse(Program, value, "--program") is Program.BEST else Strategy.PAPER

@@ -17,12 +17,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..design import TABLE1_SWAP_NOTE, design_figures
-    from ..pipeline import design
+    from ..job import design
 
     settings = load(args)
     if args.output:
         from .common import check_outputs
+        from .flags import check_suffix
 
+        check_suffix(args.output, "JSON")
         check_outputs(None, [args.output])  # before any work, as every command
     mirror = design(settings)
     figures = design_figures(mirror)
@@ -48,7 +50,9 @@ def format_design(fig: dict) -> str:
         ("R_pixel", "px", "r_pixel", "{:.3f}"),
         ("f", "mm", "f", "{:.3f}"),
         ("T_pixel", "mm", "t_pixel", "{:.4f}"),
-        ("c = 2e (F1 height)", "mm", "c", "{:.3f}"),
+        ("c = 2e (focal dist.)", "mm", "c", "{:.3f}"),
+        ("R = b^2/a (ISO)", "mm", "R_mm", "{:.4f}"),
+        ("k (ISO conic)", "", "k", "{:.5f}"),
         ("h (rim height)", "mm", "h", "{:.3f}"),
         ("a", "mm", "a", "{:.3f}"),
         ("b", "mm", "b", "{:.3f}"),

@@ -32,18 +32,18 @@ def run(args: argparse.Namespace) -> int:
     import dataclasses
 
     from ..errors import InputError
-    from ..optimise import Problem, search
-    from ..optimise.evaluate import constraint_table
+    from ..optimize import Problem, search
+    from ..optimize.evaluate import constraint_table
 
     settings = load(args, [("optimize.workers", args.workers, "--workers")])  # the estimate counts them
     out = pareto_path = None
     if args.output:
         from ..export.files import check_writable
+        from .flags import check_suffix
 
+        check_suffix(args.output, "TOML")
         out = check_writable(args.output)
         pareto_path = check_writable(out.with_name(out.stem + "_pareto.png"))
-    if args.workers is not None and not 1 <= args.workers <= 64:
-        raise InputError(f"--workers {args.workers}: allowed 1 .. 64")
     problem = Problem(camera=settings.camera, tool=settings.tool, stock=settings.stock, body=settings.body,
                       clearance=settings.toolpath.clearance, settings=settings.optimize,
                       reference=settings.lobes)
@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     with compute.session(workers, scheduler) as ex:
         if ex.kind == "dask":
             ex.client()  # connect: its worker threads set the chunks
-        result = search(problem, workers=min(max(ex.workers, 1), compute.MAX_WORKERS),
+        result = search(problem, workers=min(max(ex.workers, 1), 64),  # optimize.workers' range
                         progress=not args.no_progress)
     best = dataclasses.replace(settings, lobes=result.best)
     check_made(best)
@@ -101,7 +101,8 @@ def check_made(settings) -> None:
     gouge, bar, travel, no rapid or insert body in stock). An InputError here names the
     check the winner fails."""
     from ..errors import InputError
-    from ..pipeline import check_cad, check_programs, shop_programs
+    from ..job import check_cad, check_programs
+    from ..shop.programs import shop_programs
 
     mirror = settings.mirror()
     try:
@@ -207,10 +208,9 @@ def _user_sections(path) -> dict:
     written design: every section but [camera] and [lobes], which the design replaces."""
     if path is None:
         return {}
-    import tomllib
-    from pathlib import Path
+    from ..config import read_user
 
-    doc = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    doc = read_user(path)
     return {k: v for k, v in doc.items() if k not in ("camera", "lobes")}
 
 

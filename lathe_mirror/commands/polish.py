@@ -25,8 +25,8 @@ def run(args: argparse.Namespace) -> int:
     from ..enums import BEST, Program, Strategy, parse
     from ..optics.polishing_curve import polish_summary
     from ..optics.radial import radial_figures
-    from ..pipeline import (check_program, check_programs, design, made_surface, polish_params_dict,
-                            polishing_curve, process_for)
+    from ..job import check_program, check_programs, design, made_surface, polishing_curve, process_for
+    from ..report.polishing_study import polish_params_dict
     from ..polishing import polish
     from ..toolpath import profile_errors
 

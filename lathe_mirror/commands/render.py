@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..enums import Surface, parse
     from ..optics.render import image_difference, render_image
-    from ..pipeline import check_program, design, named_surface, scene_for
+    from ..job import check_program, design, named_surface, scene_for
     from ..profile import ExactProfile
 
     surface = parse(Surface, args.surface, "--surface") if args.surface is not None else None

@@ -20,7 +20,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..enums import BEST, Strategy
-    from ..pipeline import check_program, check_programs, design, report_figures
+    from ..job import check_program, check_programs, design
+    from ..pipeline import report_figures
     from ..report import write_report
     from .common import check_outputs, output_dir
 

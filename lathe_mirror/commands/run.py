@@ -41,15 +41,9 @@ def run(args: argparse.Namespace) -> int:
     from ..export.calib import FILE_NAMES as CALIB_FILES
     from ..export.files import write_text
     from ..export.gcode import program_files
-    from ..pipeline import (
-        cad_model,
-        check_cad,
-        check_program,
-        check_programs,
-        design,
-        report_figures,
-        shop_programs,
-    )
+    from ..job import cad_model, check_cad, check_program, check_programs, design
+    from ..pipeline import report_figures
+    from ..shop.programs import shop_programs
     from ..report import write_report
     from .common import check_outputs, output_dir
     from .report import REPORT_FILES, summary

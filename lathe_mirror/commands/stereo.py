@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
                                          range_figures, stereo_range)
     from ..optics.ranging.truth import true_range
     from ..optics.render import render_image
-    from ..pipeline import check_program, design, named_surface, scene_for
+    from ..job import check_program, design, named_surface, scene_for
     from ..progress import Stages
 
     settings = load(args)

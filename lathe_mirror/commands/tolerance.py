@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_compute, add_no_progress, compute_options, load, print_json, use_compute
+from .common import add_common, add_compute, add_no_progress, compute_options, load, path_arg, print_json, use_compute
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -24,7 +24,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "confirmed by a fresh Monte Carlo of as many trials (about the Monte Carlo's time again)")
     p.add_argument("--target-yield", type=float, default=None, metavar="P",
                    help="the allocation's target yield, 0.5 .. 0.999 (default tolerance.target_yield, 0.95)")
-    p.add_argument("--csv", metavar="FILE", default=None,
+    p.add_argument("--csv", metavar="FILE", default=None, type=path_arg,
                    help="write one row per trial (drawn parameters, every figure, pass flags) of every "
                    "Monte Carlo run, the allocation's confirming runs included; its directory must exist")
     add_compute(p, "the Monte Carlo trials, the sensitivity runs and the allocation's confirmations")
@@ -35,13 +35,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..enums import BEST, Program, Strategy
     from ..errors import InputError
-    from ..pipeline import check_program, check_programs, design, made_surface, polishing_curve, tolerance_runs
+    from ..job import check_program, check_programs, design, made_surface, polishing_curve
+    from ..tolerance.runs import tolerance_runs
 
     if args.target_yield is not None:
         if not args.allocate:
             raise InputError("--target-yield applies to --allocate (the allocation's target)")
-        if not 0.5 <= args.target_yield <= 0.999:
-            raise InputError(f"--target-yield {args.target_yield:g}: allowed 0.5 .. 0.999 (a fraction: 0.95 for 95 %)")
     compute_options(args)  # the flags, before any work
     settings = load(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed"),
                            ("tolerance.target_yield", args.target_yield, "--target-yield")])
@@ -52,7 +51,9 @@ def run(args: argparse.Namespace) -> int:
         check_program(settings, mirror, BEST if program is Program.BEST else Strategy.PAPER)
     if args.csv:
         from ..export.files import check_writable
+        from .flags import check_suffix
 
+        check_suffix(args.csv, "CSV", "--csv")
         check_writable(args.csv, "--csv")
     if args.output:
         from .common import check_outputs, output_dir

@@ -44,7 +44,8 @@ def run(args: argparse.Namespace) -> int:
         gouge_depth,
         junction_fillet,
     )
-    from ..pipeline import check_program, design, shop_program
+    from ..job import check_program, design
+    from ..shop.programs import shop_program
     from ..shop import options_from_settings
     from ..toolpath import profile_errors, usable_ranges
 
@@ -62,11 +63,13 @@ def run(args: argparse.Namespace) -> int:
     into_dir = False
     if args.output:  # the program's and its set-up sheet's names, checked before any work
         from .common import check_outputs
+        from .flags import check_suffix
 
         out = Path(args.output)
         into_dir = os.path.isdir(out) or args.output.endswith("/")
         if into_dir:
             out = out / f"mirror_{strategy.value}.{dialect.extension}"
+        check_suffix(out, "G-code")
         sheet = out.with_name(out.name.split(".")[0] + ".setup.html")  # beside the program
         check_outputs(out.parent if into_dir else None,
                       [out.name, sheet.name] if into_dir else [str(out), str(sheet)])
@@ -118,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
 def check(args: argparse.Namespace, settings) -> int:
     """--check PROGRAM: replay a G-code file against the configured stock and tool."""
     from ..errors import InputError
-    from ..pipeline import design
+    from ..job import design
     from ..shop.replay import read_program
     from ..shop.stock import simulate
 

@@ -1,11 +1,15 @@
-"""Atomic file writing: a file appears whole under its name, or not at all.
+"""Atomic file writing: a command's files appear whole under their names, all of them, or none.
 
-Each file is written through a temporary name in its own directory and renamed over the
-target. A command (cli.main) writes inside a `staging()` block: every file of the
-command is kept in memory until the command has succeeded, then all of them are written
-(`commit`); a failure at any point, SIGINT or SIGTERM drops them (`abort`), so a failed
-command leaves no file behind and the files it would have replaced keep their old bytes,
-and the directories it made are removed again where they are still empty.
+A command (cli.main) writes inside a `staging()` block: every file of the command is kept
+in memory until the command has succeeded, then committed as a set (`commit`): each is
+written to a temporary name in its target's directory (and synced), and only when all of
+them are written are they renamed over their targets, with SIGINT and SIGTERM held off
+during the renames. A failure at any point (a full disk, an error, SIGINT or SIGTERM)
+before the last rename removes the temporaries and puts back any file already replaced
+(`abort` drops the staged files), so a failed command leaves no new file and the files it
+would have replaced keep their old bytes; the directories it made are removed again where
+they are still empty. A signal held off during the renames is delivered after the last one:
+then the files stay, and `committed()` tells the command line to exit with success.
 
 Output names are checked before any work (`check_target`, `check_output_dir`): the name
 length (NAME_MAX bytes a component), a directory or a device in the file's place, a
@@ -31,10 +35,15 @@ NAME_MAX = 255
 #: plus mkstemp's 8 characters and ".part" stay within NAME_MAX).
 _TMP_STEM = 200
 
-# The current command's staged files {target: bytes} (None: write at once), and the
-# directories prepare_dir made for it, outermost first.
-_staged: dict[Path, bytes] | None = None
+# The current command's staged files {target: (bytes, the flag that named it)} (None: write
+# at once), the directories prepare_dir made for it (outermost first), and whether its
+# files have all been renamed into place.
+_staged: dict[Path, tuple[bytes, str]] | None = None
 _made_dirs: list[Path] = []
+_committed = False
+# Blocks within which a signal is noted, not acted on (see defer_signal), and the signals noted.
+_held = 0
+_deferred: list[int] = []
 
 
 @contextlib.contextmanager
@@ -52,36 +61,50 @@ def staging() -> Iterator[None]:
 
 def begin() -> None:
     """Start staging (see the module doc)."""
-    global _staged
+    global _staged, _committed
     _staged = {}
+    _committed = False
     _made_dirs.clear()
 
 
 def commit() -> list[Path]:
-    """Write the staged files (each atomically, in the order written); returns them."""
-    global _staged
+    """Write the staged files as a set (see the module doc); returns their targets."""
+    global _staged, _committed
     staged, _staged = _staged or {}, None
+    temps: list[tuple[Path, Path, str]] = []  # (temporary, target, flag)
     try:
-        out = [_write_now(path, data, "-o/--output") for path, data in staged.items()]
+        for target, (data, what) in staged.items():
+            temps.append((_write_temp(target, data, what), target, what))
+        _rename_all(temps)
     except BaseException:
-        _remove_made_dirs()
+        with _signals_held():
+            for tmp, _, _ in temps:
+                _unlink(tmp)
+            _remove_made_dirs()
         raise
     _made_dirs.clear()
-    return out
+    return [target for _, target, _ in temps]
+
+
+def committed() -> bool:
+    """Whether the current command's files have all been renamed into place (a signal
+    after that leaves them, and the command has succeeded)."""
+    return _committed
 
 
 def abort() -> None:
     """Drop the staged files and remove the directories made for them (if empty)."""
     global _staged
     _staged = None
-    _remove_made_dirs()
+    with _signals_held():
+        _remove_made_dirs()
 
 
 def written_bytes(path: str | Path) -> bytes:
     """The bytes written to path by this command (staged or already on disk)."""
     target = _target(Path(path))
     if _staged is not None and target in _staged:
-        return _staged[target]
+        return _staged[target][0]
     return target.read_bytes()
 
 
@@ -149,7 +172,20 @@ def check_target(path: str | Path, what: str = "-o/--output", *, parent_made: bo
         raise InputError(f"{what} {path}: directory {parent} does not exist")
     elif not os.access(parent, os.W_OK):
         raise InputError(f"{what} {path}: directory {parent} is not writable")
+    else:
+        _probe(parent, path, what)
     return target
+
+
+def _probe(parent: Path, path: Path, what: str) -> None:
+    """InputError unless a file can be made in parent (a directory that access() calls
+    writable may refuse files: /proc, a read-only or full file system)."""
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".lathe-mirror.", suffix=".probe", dir=parent)
+    except OSError as exc:
+        raise InputError(f"{what} {path}: cannot write in {parent} ({exc.strerror})") from None
+    os.close(fd)
+    _unlink(Path(tmp))
 
 
 def check_writable(path: str | Path, what: str = "-o/--output") -> Path:
@@ -163,7 +199,7 @@ def write_bytes(path: str | Path, data: bytes, what: str = "-o/--output") -> Pat
     path = Path(path)
     target = check_target(path, what)
     if _staged is not None:
-        _staged[target] = bytes(data)
+        _staged[target] = (bytes(data), what)
         return path
     _write_now(target, data, what)
     return path
@@ -200,6 +236,22 @@ def json_text(data: Any, *, indent: int = 2) -> str:
 
 
 def _write_now(target: Path, data: bytes, what: str) -> Path:
+    """Write one file at once (outside staging): temporary name, then rename."""
+    tmp = _write_temp(target, data, what)
+    try:
+        with _signals_held():
+            os.replace(tmp, target)
+    except BaseException as exc:
+        _unlink(tmp)
+        if isinstance(exc, OSError):
+            raise InputError(f"{what} {target}: cannot write ({exc.strerror})") from None
+        raise
+    return target
+
+
+def _write_temp(target: Path, data: bytes, what: str) -> Path:
+    """data written and synced to a new temporary name beside target (removed again if
+    that fails: a full disk is an InputError naming the flag)."""
     parent = target.parent if str(target.parent) else Path(".")
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name[:_TMP_STEM]}.", suffix=".part", dir=parent)
@@ -208,17 +260,101 @@ def _write_now(target: Path, data: bytes, what: str) -> Path:
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())  # a full disk shows here at the latest, not after the rename
         os.chmod(tmp, 0o644)
-        os.replace(tmp, target)
     except BaseException as exc:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
+        _unlink(Path(tmp))
         if isinstance(exc, OSError):
             raise InputError(f"{what} {target}: cannot write ({exc.strerror})") from None
         raise
-    return target
+    return Path(tmp)
+
+
+def _rename_all(temps: list[tuple[Path, Path, str]]) -> None:
+    """Rename every temporary over its target with SIGINT / SIGTERM held off; if a rename
+    fails, the targets already replaced get their old files back (kept as hard links until
+    the last rename) and the new ones are removed. Sets _committed before the signals are
+    let through again."""
+    global _committed
+    done: list[tuple[Path, Path | None]] = []  # (target, its old file's link or None if new)
+    with _signals_held():
+        try:
+            for tmp, target, what in temps:
+                old = _keep_old(target)
+                try:
+                    os.replace(tmp, target)
+                except OSError as exc:
+                    if old is not None:
+                        _unlink(old)
+                    raise InputError(f"{what} {target}: cannot write ({exc.strerror})") from None
+                done.append((target, old))
+        except BaseException:
+            for target, old in reversed(done):
+                if old is not None:
+                    try:
+                        os.replace(old, target)
+                    except OSError:
+                        pass
+                else:
+                    _unlink(target)
+            raise
+        for _, old in done:
+            if old is not None:
+                _unlink(old)
+        _committed = True
+
+
+def _keep_old(target: Path) -> Path | None:
+    """A hard link to the file target names now (None if there is none or the file system
+    cannot link), so that a failed set of renames can put it back."""
+    if not target.is_file():
+        return None
+    for k in range(100):
+        link = target.with_name(f".{target.name[:_TMP_STEM]}.{os.getpid()}.{k}.old")
+        try:
+            os.link(target, link)
+            return link
+        except FileExistsError:
+            continue
+        except OSError:
+            return None
+    return None
+
+
+def defer_signal(signum: int) -> bool:
+    """For a signal handler: True (and the signal noted, to be raised again when the block
+    ends) while a block of renames or clean-up must not be cut short."""
+    if _held:
+        _deferred.append(signum)
+        return True
+    return False
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM held off within the block, as far as the command line's handlers
+    go (they ask defer_signal): each one noted is raised again when the block ends."""
+    global _held
+    _held += 1
+    try:
+        yield
+    finally:
+        _held -= 1
+        if not _held and _deferred:
+            import signal
+
+            pending = list(dict.fromkeys(_deferred))
+            _deferred.clear()
+            for signum in pending:
+                signal.raise_signal(signum)
+
+
+def _unlink(path: Path) -> None:
+    try:
+        os.unlink(path)
+    except OSError:
+        pass
 
 
 def _target(path: Path) -> Path:

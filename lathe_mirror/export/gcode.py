@@ -151,7 +151,7 @@ class _Writer:
           + ("diameter" if lathe.diameter_mode else "radius") + "; mm")
         for lobe in m.lobes:
             c(f"design {lobe.name}: r_top {lobe.r_top:g} a {lobe.a:.4f} b {lobe.b:.4f} e {lobe.e:.4f} "
-              f"c {lobe.c:.4f} h {lobe.h:.4f} mm alpha {math.degrees(lobe.alpha):.3f} deg")
+              f"2e (Table 1 c) {lobe.focus_z:.4f} h {lobe.h:.4f} mm alpha {math.degrees(lobe.alpha):.3f} deg")
         c(f"junction r {m.r_junction:g} mm, step {abs(m.step):.4f} mm, {m.recessed} lobe recessed")
         c(f"machine: resolution {lathe.resolution:g} mm, budget {lathe.max_points} points, "
           f"spindle cap {lathe.spindle_max_rpm} rpm, {_plain(lathe.surface_speed)} m/min, "

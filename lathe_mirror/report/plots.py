@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from ..pipeline import ReportData
+    from .analysis import ReportData
 
 LOBE_COLOURS = {"inner": "tab:blue", "outer": "tab:orange"}
 MIRROR_COLOURS = {"exact": "black", "paper": "tab:red", "best": "tab:green", "polished": "tab:purple"}

@@ -14,10 +14,10 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..pipeline import DEPTH_REPORT_M
+from .analysis import DEPTH_REPORT_M
 
 if TYPE_CHECKING:
-    from ..pipeline import ReportData
+    from .analysis import ReportData
 
 
 def write_report(data: ReportData, out_dir: str | Path) -> dict[str, Path]:
@@ -104,8 +104,9 @@ def _kv_table(d: dict) -> str:
 def _design_table(d: dict) -> str:
     keys = ("r_top", "r_pixel", "f", "t_pixel", "c", "h", "a", "b", "e", "alpha_deg", "vertex_z")
     head = "<tr><th></th>" + "".join(f"<th>{lb['name']}</th>" for lb in d["lobes"]) + "</tr>"
-    rows = "".join(f"<tr><th>{k}</th>" + "".join(f"<td>{_fmt(lb[k])}</td>" for lb in d["lobes"]) + "</tr>"
-                   for k in keys)
+    label = {"c": "c = 2e (Table 1: focal distance, not a curvature)"}
+    rows = "".join(f"<tr><th>{html.escape(label.get(k, k))}</th>"
+                   + "".join(f"<td>{_fmt(lb[k])}</td>" for lb in d["lobes"]) + "</tr>" for k in keys)
     j = d["junction"]
     extra = (f"<p>Junction at r = {_fmt(j['r'])} mm: step {_fmt(j['step_mm'])} mm, {j['recessed']} lobe recessed. "
              f"Stereo baseline {_fmt(d['baseline_mm'])} mm; common band {_fmt(d['common_band_deg']['min'])} to "

@@ -70,7 +70,9 @@ class ToleranceSettings:
     part re-machined with it (mm). matching_noise_px: the stereo matcher's sub-pixel noise
     (px), the floor of the depth error. target_yield: the allocation's target (0..1).
     cost: relative cost of holding each drawn parameter at its configured tolerance
-    (tightening it by a factor k costs k times as much).
+    (tightening it by a factor k costs k times as much). machine_errors: tolerance of
+    each [machine.errors] set-up error about its configured value ([tolerance.machine_errors],
+    the same meaning as `tolerances` under `distribution`; edge units mm and urad).
     """
 
     seed: int
@@ -88,6 +90,7 @@ class ToleranceSettings:
     matching_noise_px: float = 0.1
     target_yield: float = 0.95
     cost: dict[str, float] = field(default_factory=dict)
+    machine_errors: dict[str, float] = field(default_factory=dict)
 
     def spec_dict(self) -> dict:
         """The spec as JSON-ready key -> value."""

@@ -69,8 +69,10 @@ class ToolpathSettings:
     finishing pass. clearance: safe distance above the work for rapid moves. ramp_angle:
     slope of ramped entries, rad. spring_pass: the finishing contour once more. coolant:
     M8 / M9. home_r, home_z: the end and tool-change position of the nose centre.
-    rapid_rate: traverse speed for the cycle-time estimate, mm/min. (The program's
-    planner, shop.program.ProgramOptions, bounds them.)
+    rapid_rate: traverse speed for the cycle-time estimate, mm/min. path_tolerance_mm:
+    the controller's path blending tolerance (LinuxCNC `G64 P`). max_finish_depth_mm: the
+    deepest cut one finishing pass may take. (The program's planner,
+    shop.program.ProgramOptions, bounds them.)
     """
 
     strategy: Strategy = BEST
@@ -85,6 +87,8 @@ class ToolpathSettings:
     home_r: float = 50.0
     home_z: float = 50.0
     rapid_rate: float = 5000.0
+    path_tolerance_mm: float = 0.001
+    max_finish_depth_mm: float = 0.1
 
 
 @dataclass

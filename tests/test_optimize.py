@@ -22,9 +22,9 @@ from lathe_mirror.design import LobeSpec, mirror_from_specs
 from lathe_mirror.export.design_toml import design_toml
 from lathe_mirror.lathe import Stock, Tool
 from lathe_mirror.optics.ranging.resolution import r10
-from lathe_mirror.optimise import OptimizeSettings, Problem, SearchSpace, search
-from lathe_mirror.optimise.focus import defocus, virtual_image_distance
-from lathe_mirror.optimise.pareto import pareto_front
+from lathe_mirror.optimize import OptimizeSettings, Problem, SearchSpace, search
+from lathe_mirror.optimize.focus import defocus, virtual_image_distance
+from lathe_mirror.optimize.pareto import pareto_front
 
 
 # --------------------------------------------------------------------------------------
@@ -305,7 +305,7 @@ def test_infeasible_constraints_one_line_exit_2_nothing_written(tmp_path, text, 
 
 def test_bad_workers_and_bad_keys(tmp_path):
     proc = run_cli("optimize", "--workers", "0", "--no-progress")
-    assert proc.returncode == 2 and "optimize.workers = 0" in proc.stderr
+    assert proc.returncode == 2 and "argument --workers: 0: allowed 1 to 64" in proc.stderr
     cfg = tmp_path / "c.toml"
     cfg.write_text("[optimize]\nobjective = \"speed\"\n")
     proc = run_cli("optimize", "--config", str(cfg), "--no-progress")

@@ -95,6 +95,10 @@ class OptimizeSettings:
     usable_min (share of the inscribed circle's pixels that see the scene), blur_max_px
     (largest defocus blur over both usable annuli, thin-lens model, [camera] f_number),
     focus_range_m (range of the scene points whose virtual images the focus serves).
+    The envelope in the user's terms: max_diameter_mm, max_depth_mm (the mirror's largest
+    diameter and depth; 0: r_max_mm, vertex_min_mm and rim_max_mm hold), blur_limit_um
+    (the blur limit on the sensor, um; 0: blur_max_px holds). bound_margin: fraction of
+    each searched parameter's span the winner keeps clear of its bounds.
     The lathe's constraints come from [tool], [stock], [toolpath] and [cad].
     """
 
@@ -113,6 +117,10 @@ class OptimizeSettings:
     usable_min: float = 0.8
     blur_max_px: float = 7.0
     focus_range_m: float = 2.0
+    max_diameter_mm: float = 0.0
+    max_depth_mm: float = 0.0
+    blur_limit_um: float = 0.0
+    bound_margin: float = 0.02
     search: SearchSpace = field(default_factory=SearchSpace)
 
     def __post_init__(self) -> None:

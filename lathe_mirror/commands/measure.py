@@ -1,0 +1,76 @@
+"""`lathe-mirror measure FILE`: a measured profile of the made part, fitted against the
+design; figures per lobe and the machine's set-up errors."""
+
+from __future__ import annotations
+
+import argparse
+
+from .common import add_common, load, print_json
+
+#: The files `measure -o DIR` writes.
+OUTPUTS = ("measure.json", "measured_minus_design.png")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "measure", help="fit a measured profile of the made part; diagnose the machine",
+        description="Read a measured profile (CSV/text x,z; Taylor Hobson .prf; .x3p profile or map; Zygo "
+        ".dat/.datx; the areal formats surfalize reads), fit it against the design (decentre, tilt, "
+        "piston; R and k with --fit-conic), report per lobe over its clear aperture the residual's PV, RMS "
+        "and slope RMS, and the lathe's set-up errors (tool centre height, X offset, nose radius, "
+        "squareness) as corrections. The trace is in the machine frame, the part face up.")
+    p.add_argument("file", metavar="FILE", help="the measured profile or map")
+    add_common(p, output_help="directory for measure.json and measured_minus_design.png")
+    p.add_argument("--format", metavar="FMT", default=None,
+                   help="the file's format when its suffix does not say: csv, prf, x3p, datx, dat, surfalize")
+    p.add_argument("--fit-conic", action="store_true", help="also fit each lobe's radius R and conic constant k")
+    p.add_argument("--program", default=None, metavar="paper|best",
+                   help="the program the part was cut with (default: [toolpath] strategy)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..measure.fit import FitOptions
+    from ..measure.result import measure
+    from ..job import check_program, design, machine
+    from .common import program_strategy
+
+    settings = load(args)
+    mirror = design(settings)
+    strategy = program_strategy(args.program, settings)
+    if args.output:
+        from .common import check_outputs
+
+        check_outputs(args.output, list(OUTPUTS))
+    tp = check_program(settings, mirror, strategy)
+    result = measure(args.file, mirror, machine(tp), settings.tool.nose_radius, fmt=args.format,
+                     options=FitOptions(conic=args.fit_conic), resolution_mm=settings.machine.resolution)
+    out = result.to_dict()
+    if args.output:
+        from pathlib import Path
+
+        from ..export.files import json_text, write_bytes, write_text
+        from ..report.measure_plots import residual_plot
+        from .common import output_dir
+
+        d = output_dir(args.output)
+        write_text(Path(d) / OUTPUTS[0], json_text(out, indent=1))
+        write_bytes(Path(d) / OUTPUTS[1], residual_plot(result.fit))
+    if args.json:
+        print_json(out)
+    else:
+        _print(out)
+    return 0
+
+
+def _print(out: dict) -> None:
+    f = out["fit"]
+    print(f"{out['source']}: decentre {f['decentre_mm'] * 1e3:+.2f} um, tilt {f['tilt_rad'] * 1e6:+.2f} urad, "
+          f"piston {f['piston_mm']:+.4f} mm")
+    for lf in out["lobes"]:
+        print(f"  {lf['name']:5s} r {lf['aperture_mm'][0]:.2f}..{lf['aperture_mm'][1]:.2f} mm: PV {lf['pv_um']:.3f} um, "
+              f"RMS {lf['rms_um']:.3f} um, slope RMS {lf['slope_rms_urad']:.1f} urad")
+    if out.get("form_tolerance") is None:
+        print("  form tolerance: no per-lobe tolerance to judge against (figures only)")
+    for c in out["diagnosis"]["corrections"]:
+        print(f"  - {c}")

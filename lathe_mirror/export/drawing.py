@@ -1,0 +1,265 @@
+"""The optics shop's drawing of the mirror: one A3 page, PDF and SVG (matplotlib, Agg).
+
+The half-section of the part (the body's meridian, body.Meridian, mirrored about the
+axis, the material hatched) with its dimensions, the asphere data of each lobe (ISO
+10110-12 conic: R, c = 1/R, k, vertex, the Zemax Even Asphere mapping), the sag tables,
+the ISO 10110-5 form and ISO 10110-8 texture indications, the clear apertures, the
+material and the notes. Plain data in (iso10110.PartSpec, the meridian), bytes out; no
+date or software metadata, so the same part gives the same bytes. matplotlib is imported
+only here.
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ..body import Meridian
+    from ..iso10110 import PartSpec
+
+#: A3 landscape, inches.
+PAGE = (16.54, 11.69)
+
+
+def drawing_bytes(spec: PartSpec, meridian: Meridian, *, title: str = "lathe-mirror") -> dict[str, bytes]:
+    """{"pdf": ..., "svg": ...}: the drawing in both formats."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with plt.rc_context({"font.size": 7, "font.family": "DejaVu Sans", "svg.hashsalt": "lathe-mirror",
+                         "hatch.linewidth": 0.4, "pdf.fonttype": 42}):
+        fig = _figure(plt, spec, meridian, title)
+        out = {}
+        for fmt, meta in (("pdf", {"CreationDate": None, "Producer": None, "Creator": None}),
+                          ("svg", {"Date": None, "Creator": None})):
+            buf = io.BytesIO()
+            fig.savefig(buf, format=fmt, metadata=meta)
+            out[fmt] = buf.getvalue()
+        plt.close(fig)
+    return out
+
+
+def write_drawing(directory: str | Path, spec: PartSpec, meridian: Meridian, *, stem: str = "mirror_drawing",
+                  title: str = "lathe-mirror") -> list[Path]:
+    """Write <stem>.pdf and <stem>.svg into `directory` (atomically, export.files)."""
+    from .files import write_bytes
+
+    data = drawing_bytes(spec, meridian, title=title)
+    return [write_bytes(Path(directory) / f"{stem}.{fmt}", data[fmt]) for fmt in ("pdf", "svg")]
+
+
+# --------------------------------------------------------------------------------------
+
+
+def _figure(plt, spec: PartSpec, meridian: Meridian, title: str):
+    import numpy as np
+
+    fig = plt.figure(figsize=PAGE)
+    # frame and title block
+    frame = fig.add_axes([0.0, 0.0, 1.0, 1.0])
+    frame.set_xlim(0, 420)
+    frame.set_ylim(0, 297)
+    frame.axis("off")
+    frame.add_patch(plt.Rectangle((10, 10), 400, 277, fill=False, lw=1.0))
+    _title_block(frame, spec, title)
+
+    # the section: a full section of the part about the axis (Z up the page)
+    ax = fig.add_axes([0.035, 0.36, 0.44, 0.60])
+    ax.set_aspect("equal")
+    ax.axis("off")
+    pts = meridian.polyline(0.002)
+    R = meridian.features["blank_radius"]
+    zb = meridian.features["z_back"]
+    for side in (1.0, -1.0):
+        ax.fill(side * pts[:, 0], pts[:, 1], facecolor="none", edgecolor="black", hatch="////", lw=0.9)
+    face = np.concatenate([s.points(0.002) for s in meridian.face])
+    for side in (1.0, -1.0):
+        ax.plot(side * face[:, 0], face[:, 1], color="tab:blue", lw=1.6)
+    zmin, zmax = float(pts[:, 1].min()), float(pts[:, 1].max())
+    ax.plot([0, 0], [zmin - 6, zmax + 10], color="black", lw=0.5, ls=(0, (12, 3, 2, 3)))
+    ax.text(0.8, zmin - 5.5, "axis of rotation (machine Z)", fontsize=6)
+    ax.set_xlim(-R - 16, R + 20)
+    ax.set_ylim(zmin - 22, zmax + 28)
+    _dimensions(ax, spec, meridian, R, zb, zmax)
+    ax.set_title("SECTION A-A (through the axis), scale 2:1 at A3; dimensions in mm", fontsize=8, loc="left")
+
+    # asphere data and indications
+    tab = fig.add_axes([0.50, 0.36, 0.48, 0.60])
+    tab.axis("off")
+    tab.set_xlim(0, 1)
+    tab.set_ylim(0, 1)
+    _asphere_table(tab, spec)
+
+    # sag tables
+    sag = fig.add_axes([0.035, 0.045, 0.61, 0.30])
+    sag.axis("off")
+    sag.set_xlim(0, 1)
+    sag.set_ylim(0, 1)
+    _sag_tables(sag, spec)
+    return fig
+
+
+def _dim(ax, p0, p1, text, offset, *, vertical=False, fontsize=6.5):
+    """A dimension line between p0 and p1, offset perpendicular, with extension lines."""
+    (x0, y0), (x1, y1) = p0, p1
+    if vertical:
+        xd = max(x0, x1) + offset if offset > 0 else min(x0, x1) + offset
+        ax.plot([x0, xd], [y0, y0], color="0.3", lw=0.4)
+        ax.plot([x1, xd], [y1, y1], color="0.3", lw=0.4)
+        ax.annotate("", (xd, y0), (xd, y1), arrowprops=dict(arrowstyle="<->", lw=0.5, shrinkA=0, shrinkB=0))
+        ax.text(xd + (0.8 if offset > 0 else -0.8), 0.5 * (y0 + y1), text, rotation=90, va="center",
+                ha="left" if offset > 0 else "right", fontsize=fontsize)
+    else:
+        yd = max(y0, y1) + offset if offset > 0 else min(y0, y1) + offset
+        ax.plot([x0, x0], [y0, yd], color="0.3", lw=0.4)
+        ax.plot([x1, x1], [y1, yd], color="0.3", lw=0.4)
+        ax.annotate("", (x0, yd), (x1, yd), arrowprops=dict(arrowstyle="<->", lw=0.5, shrinkA=0, shrinkB=0))
+        ax.text(0.5 * (x0 + x1), yd + (0.6 if offset > 0 else -0.6), text, ha="center",
+                va="bottom" if offset > 0 else "top", fontsize=fontsize)
+
+
+def _dimensions(ax, spec: PartSpec, meridian: Meridian, R: float, zb: float, zmax: float) -> None:
+    f = meridian.features
+    inner, outer = spec.lobes
+    rj = spec.junction["r_mm"]
+    z_rim_outer = f.get("z_rim_outer", f.get("z_rim", 0.0))
+    _dim(ax, (-R, zb), (R, zb), f"\u00d8{2 * R:.2f}", -7)
+    _dim(ax, (R, 0.0), (R, zb), f"{-zb:.2f}", 6, vertical=True)
+    _dim(ax, (R, z_rim_outer), (R, 0.0), f"{-z_rim_outer:.3f}", 13, vertical=True)
+    ca_i, ca_o = inner.conic.clear_aperture, outer.conic.clear_aperture
+    _dim(ax, (-ca_o[1], z_rim_outer), (ca_o[1], z_rim_outer), f"CA outer \u00d8{2 * ca_o[1]:.2f}", zmax - z_rim_outer + 17)
+    _dim(ax, (-rj, 0.0), (rj, 0.0), f"\u00d8{2 * rj:.3f} (junction)", 10)
+    _dim(ax, (-ca_i[1], 0.0), (ca_i[1], 0.0), f"CA inner \u00d8{2 * ca_i[1]:.3f}", 4)
+    if ca_o[0] > rj + 1e-6:
+        ax.text(-R - 14, zmax + 2, f"CA outer from \u00d8{2 * ca_o[0]:.3f}", fontsize=6)
+    spec_body = meridian.spec
+    if spec_body.mount.value == "bore":
+        rm = spec_body.mount_diameter / 2
+        _dim(ax, (-rm, zb + spec_body.mount_depth), (rm, zb + spec_body.mount_depth),
+             f"bore \u00d8{spec_body.mount_diameter:g}", 2.5)
+        _dim(ax, (-rm, zb), (-rm, zb + spec_body.mount_depth), f"{spec_body.mount_depth:g}", -4, vertical=True)
+    # the outer lobe's vertex: virtual, on the axis
+    vz = outer.conic.vertex_z
+    ax.plot([-2, 2], [vz, vz], color="tab:red", lw=0.7)
+    ax.plot([0], [vz], marker="+", color="tab:red")
+    ax.annotate(f"V2: outer lobe's vertex (virtual)\nZ = {vz:.4f}", (0, vz), (-R - 14, zb + 14), fontsize=6,
+                arrowprops=dict(arrowstyle="-", lw=0.4))
+    ax.annotate("V1: inner vertex, Z = 0 (datum)", (0, 0), (R * 0.55, 1.5), fontsize=6,
+                arrowprops=dict(arrowstyle="-", lw=0.4))
+    # indications on the surfaces
+    sag_i = float(inner.conic.sag(0.6 * ca_i[1]))
+    ax.annotate("lobe 1 (inner)", (0.6 * ca_i[1], -sag_i), (R * 0.45, zmax + 20), fontsize=6.5,
+                arrowprops=dict(arrowstyle="->", lw=0.4))
+    ro = 0.5 * (ca_o[0] + ca_o[1])
+    z_o = float(outer.conic.vertex_z - outer.conic.sag(ro))
+    ax.annotate("lobe 2 (outer)", (-ro, z_o), (-R - 8, zmax + 20), fontsize=6.5, arrowprops=dict(arrowstyle="->", lw=0.4))
+
+
+def _asphere_table(ax, spec: PartSpec) -> None:
+    inner, outer = spec.lobes
+    y = 0.985
+    ax.text(0.0, y, "OPTICAL SURFACES (ISO 10110)", fontsize=9, weight="bold", va="top")
+    y -= 0.045
+    rows = [("", "lobe 1 (inner)", "lobe 2 (outer)")]
+    ci, co = inner.conic, outer.conic
+    fi, fo = inner.form, outer.form
+    rows += [
+        ("surface", "convex conic, ISO 10110-12", "convex conic, ISO 10110-12"),
+        ("vertex radius R [mm]", f"{ci.R:.6f}", f"{co.R:.6f}"),
+        ("curvature c = 1/R [1/mm]", f"{ci.curvature:.8f}", f"{co.curvature:.8f}"),
+        ("conic constant k", f"{ci.k:.8f}", f"{co.k:.8f}"),
+        ("aspheric coefficients A2n", "0 (none)", "0 (none)"),
+        ("vertex Z [mm] (datum V1)", f"{ci.vertex_z:.4f}", f"{co.vertex_z:.4f} (virtual)"),
+        ("clear aperture r [mm]", f"{ci.clear_aperture[0]:.3f} .. {ci.clear_aperture[1]:.3f}",
+         f"{co.clear_aperture[0]:.3f} .. {co.clear_aperture[1]:.3f}"),
+        ("hyperbola a, b [mm]", f"{ci.a:.5f}, {ci.b:.5f}", f"{co.a:.5f}, {co.b:.5f}"),
+        ("focal distance 2e [mm]", f"{ci.focal_distance_2e:.4f}", f"{co.focal_distance_2e:.4f}"),
+        ("3/ form (nm)", fi.iso10110_5.split(";")[0], fo.iso10110_5.split(";")[0]),
+        ("   RMSt / RMSi (nm)", f"< {fi.rms_um * 1e3:.0f} / < {fi.irregularity_rms_um * 1e3:.0f}",
+         f"< {fo.rms_um * 1e3:.0f} / < {fo.irregularity_rms_um * 1e3:.0f}"),
+        ("   slope error RMS", f"< {fi.slope_urad:g} urad / {fi.evaluation_length_mm:g} mm",
+         f"< {fo.slope_urad:g} urad / {fo.evaluation_length_mm:g} mm"),
+        ("   set by", fi.governed_by + " limit", fo.governed_by + " limit"),
+        ("texture (ISO 10110-8)", spec.finish.iso10110_8, spec.finish.iso10110_8),
+    ]
+    x = (0.0, 0.36, 0.68)
+    for i, row in enumerate(rows):
+        for j, cell in enumerate(row):
+            ax.text(x[j], y, cell, fontsize=7, va="top", weight="bold" if i == 0 else "normal",
+                    family="DejaVu Sans Mono" if (j and i) else "DejaVu Sans")
+        y -= 0.033
+        ax.plot([0, 1], [y + 0.008, y + 0.008], color="0.8", lw=0.3)
+    y -= 0.01
+    fin = spec.finish
+    lines = [
+        "Sag: z(r) = c r\u00b2 / (1 + \u221a(1 - (1 + k) c\u00b2 r\u00b2)), c = 1/R, from each lobe's vertex along the axis,",
+        "positive into the part (away from the camera). Zemax Even Asphere: radius R, conic k, all alpha_n = 0.",
+        f"3/ form: A = power PV, B = irregularity PV, C = rotationally symmetric irregularity PV, in nm at",
+        f"lambda = {fi.wavelength_nm:g} nm; over the clear aperture of each lobe. Form per lobe, piston and tilt removed.",
+        f"Texture: Rq <= {fin.rq_nm:g} nm RMS in the band {fin.band_mm[0]:g} to {fin.band_mm[1]:g} mm "
+        f"(TIS {fin.tis * 100:.2f} % at {fin.wavelength_nm:g} nm).",
+        f"Turned: feed {fin.feed_mm:g} mm/rev, nose r {fin.nose_radius_mm:g} mm: kinematic Rz {fin.kinematic_rz_um:.3f} um, "
+        f"Ra {fin.kinematic_ra_um:.3f} um;",
+        f"the feed marks are a GRATING of period {fin.grating_period_mm:g} mm (1st order at "
+        f"{fin.grating_order_angle_mrad:.1f} mrad): "
+        + ("polish until no feed mark is visible." if fin.polished else "they remain on the part."),
+        f"Junction at r = {spec.junction['r_mm']:.3f} mm: step {spec.junction['step_mm']:.4f} mm, "
+        f"{spec.junction['recessed']} lobe recessed; the ring outside the clear apertures is not optical.",
+    ]
+    for ln in lines:
+        ax.text(0.0, y, ln, fontsize=6.6, va="top")
+        y -= 0.028
+
+
+def _sag_tables(ax, spec: PartSpec) -> None:
+    ax.text(0.0, 1.0, f"SAG TABLES (every {spec.step_mm:g} mm of radius across each clear aperture; "
+            "sag from the lobe's own vertex; slope = atan(dz/dr))", fontsize=8, weight="bold", va="top")
+    x0 = 0.0
+    for lb in spec.lobes:
+        rows = lb.sag_table
+        cols = max(1, -(-len(rows) // 13))
+        width = 0.155
+        ax.text(x0, 0.91, f"lobe {1 if lb.conic.name == 'inner' else 2} ({lb.conic.name})", fontsize=7,
+                weight="bold", va="top")
+        for c in range(cols):
+            xc = x0 + c * width
+            ax.text(xc, 0.85, "r [mm]   sag [mm]   slope [rad]", fontsize=5.6, va="top", family="DejaVu Sans Mono")
+            for i, (r, z, s) in enumerate(rows[c * 13:(c + 1) * 13]):
+                ax.text(xc, 0.80 - i * 0.058, f"{r:6.3f} {z:9.6f} {s:8.5f}", fontsize=5.6, va="top",
+                        family="DejaVu Sans Mono")
+        x0 += cols * width + 0.02
+
+
+def _title_block(ax, spec: PartSpec, title: str) -> None:
+    import matplotlib.pyplot as plt
+
+    x, y, w, h = 272, 10, 138, 95
+    ax.add_patch(plt.Rectangle((x, y), w, h, fill=False, lw=0.8))
+    rows = [
+        ("part", f"{title}: double-lobed hyperbolic mirror"),
+        ("material", spec.material),
+        ("process", spec.process),
+        ("units", "mm; angles rad; general tolerances ISO 2768-m"),
+        ("datum", "V1 (inner vertex, Z = 0) and the axis A"),
+        ("standard", "ISO 10110-5 (form), -8 (texture), -12 (aspheres)"),
+        ("optical surfaces", "lobes 1 and 2, protected; no burr at the step"),
+    ]
+    yy = y + h - 5
+    for k, v in rows:
+        ax.text(x + 2, yy, k, fontsize=6.5, weight="bold", va="center")
+        ax.text(x + 30, yy, v, fontsize=6.2, va="center", wrap=True)
+        yy -= 7
+        ax.plot([x, x + w], [yy + 3.5, yy + 3.5], color="0.6", lw=0.3)
+    ax.text(x + 2, y + 32, "NOTES", fontsize=7, weight="bold", va="top")
+    notes = [
+        "1. Inspect each lobe's sag against the sag table (probe radii on the set-up sheet).",
+        "2. Form and slope tolerances from the tool's tolerance spec (lathe-mirror spec --json).",
+        "3. No sharp edges except at the step; break body edges 0.2 x 45 deg.",
+        "4. The paper's Table 1 'c' is the focal distance 2e, not a curvature.",
+    ]
+    for i, n in enumerate(notes):
+        ax.text(x + 2, y + 26 - i * 5.5, n, fontsize=5.6, va="top")

@@ -1,0 +1,133 @@
+"""What the optics shop and the inspection room work from: each lobe as an ISO 10110-12
+conic with its sag table and clear aperture, its form tolerance (ISO 10110-5) from what
+the tolerance spec allows, the surface texture (ISO 10110-8) from the finish model, the
+material and the process.
+
+- conic.py    Conic (R, k, vertex, clear aperture), sag(r), slope(r), sag_table
+- form.py     FormTolerance from the image / stereo / slope limits (the allocation's rule,
+              closed-form responses)
+- texture.py  Texture: kinematic Ra / Rz, RMS roughness with its spatial band, TIS, the
+              feed-mark grating
+
+`part_spec(...)` builds the whole PartSpec from typed objects; `spec_of(settings)` from a
+Settings (what `lathe-mirror spec`, `run` and the measured-profile check call). Lengths in
+mm unless a name says otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from .conic import CONVENTION, SAG_STEP_MM, Conic, lobe_conic, mirror_conics
+from .form import FormTolerance, angular_scale, form_tolerances
+from .texture import Texture, texture
+
+if TYPE_CHECKING:
+    from ..design import Mirror
+    from ..finish import Process
+    from ..lathe import Stock
+    from ..tolerance.spec import ToleranceSettings
+
+__all__ = ["CONVENTION", "Conic", "FormTolerance", "LobeSpecSheet", "PartSpec", "Texture",
+           "lobe_conic", "mirror_conics", "part_spec", "spec_of"]
+
+#: The blank's material (the lathe's feeds and the polishing model assume aluminium).
+MATERIAL = "aluminium alloy, turnable and polishable (e.g. 6061-T6 or RSA-6061 for diamond turning)"
+
+
+@dataclass(frozen=True)
+class LobeSpecSheet:
+    """One lobe: its conic, sag table (rows r_mm, sag_mm, slope_rad) and form tolerance."""
+
+    conic: Conic
+    sag_table: tuple[tuple[float, float, float], ...]
+    form: FormTolerance
+
+    def to_dict(self) -> dict:
+        c = self.conic
+        return {"name": c.name, "R_mm": c.R, "curvature_c_per_mm": c.curvature, "k": c.k,
+                "vertex_z_mm": c.vertex_z, "vertex_above_pinhole_mm": c.above_pinhole, "clear_aperture_mm": list(c.clear_aperture),
+                "focal_distance_2e_mm": c.focal_distance_2e, "a_mm": c.a, "b_mm": c.b,
+                "zemax_even_asphere": {"radius_mm": c.R, "curvature_per_mm": c.curvature, "conic": c.k,
+                                       "alpha": [0.0] * 8},
+                "sag_table": [list(row) for row in self.sag_table],
+                "form_tolerance": self.form.to_dict()}
+
+
+@dataclass(frozen=True)
+class PartSpec:
+    """The part as the shop is asked to make it (see the module doc)."""
+
+    lobes: tuple[LobeSpecSheet, LobeSpecSheet]
+    finish: Texture
+    material: str
+    process: str
+    step_mm: float
+    junction: dict
+    notes: tuple[str, ...]
+
+    def lobe(self, name: str) -> LobeSpecSheet:
+        return next(lb for lb in self.lobes if lb.conic.name == name)
+
+    def to_dict(self) -> dict:
+        return {"convention": CONVENTION,
+                "frame": "machine frame: Z = 0 at the mirror's vertex (the inner lobe's), part in -Z; r the radius",
+                "sag_step_mm": self.step_mm,
+                "lobes": [lb.to_dict() for lb in self.lobes], "junction": dict(self.junction),
+                "finish": self.finish.to_dict(), "material": self.material, "process": self.process,
+                "notes": list(self.notes)}
+
+
+def part_spec(mirror: Mirror, tolerance: ToleranceSettings, process: Process, *, wavelength_nm: float,
+              step: float = SAG_STEP_MM, material: str = MATERIAL) -> PartSpec:
+    """The PartSpec of `mirror`: conics over the radii the camera uses, sag tables every
+    `step` mm, form tolerances from `tolerance`'s spec and drawn tolerances, the texture of
+    the resolved `process` (finish.Process.resolved) at wavelength_nm (nm)."""
+    if not (isinstance(step, (int, float)) and math.isfinite(step) and 0.001 <= step <= 5.0):
+        from ..errors import InputError
+
+        raise InputError(f"--step = {step!r} mm: allowed 0.001 to 5 mm")
+    conics = mirror_conics(mirror)
+    cas = [c.clear_aperture for c in conics]
+    forms = form_tolerances(mirror, cas, tolerance.spec, tolerance.tolerances, wavelength_nm=wavelength_nm,
+                            depth_points=tolerance.depth_points)
+    pixel = min(float(angular_scale(mirror, lobe, [0.5 * (lo + hi)])[0][0])
+                for lobe, (lo, hi) in zip(mirror.lobes, cas))
+    tex = texture(process, wavelength_nm=wavelength_nm, pixel_angle_rad=pixel)
+    lobes = tuple(LobeSpecSheet(conic=c, sag_table=tuple(tuple(float(v) for v in row) for row in c.sag_table(step)),
+                                form=f) for c, f in zip(conics, forms))
+    zi, zo = mirror.junction_z
+    junction = {"r_mm": mirror.r_junction, "step_mm": abs(mirror.step), "recessed": mirror.recessed,
+                "z_inner_rim_mm": mirror.vertex_z - zi, "z_outer_edge_mm": mirror.vertex_z - zo}
+    notes = (
+        "Form tolerances: the allocation's rule (tolerance.allocation.inverse_sensitivity: each "
+        "criterion's margin in squares split evenly among the drawn tolerances) with closed-form "
+        "responses (a slope error d turns the image 2 d / g px, g the lobe's rad per pixel), not the "
+        "traced Monte Carlo; the surface takes the shares of nose, polish time, tool X and Z; raw "
+        "figures (conservative when the spec is judged after calibration).",
+        "The paper's Table 1 'c' is the focal distance 2e (focal_distance_2e_mm); c here is 1/R.",
+    )
+    return PartSpec(lobes=lobes, finish=tex, material=material, process=process.label, step_mm=float(step),
+                    junction=junction, notes=notes)
+
+
+def spec_of(settings, *, step: float = SAG_STEP_MM, process: str | None = None) -> PartSpec:
+    """The PartSpec of a Settings (typed; the [tolerance], [polish], [tool], [machine]
+    sections): the process named (default the first of [polish.process], the configured
+    lathe and tool), resolved with the configured nose, finishing feed and resolution."""
+    from ..errors import InputError
+
+    procs = settings.polish.processes
+    if process is None:
+        proc = procs[0]
+    else:
+        found = [p for p in procs if p.name == process]
+        if not found:
+            raise InputError(f"--process = {process!r}: allowed {', '.join(p.name for p in procs)}")
+        proc = found[0]
+    proc = proc.resolved(nose_radius_mm=settings.tool.nose_radius, feed_mm=settings.machine.feed_finish,
+                         resolution_mm=settings.machine.resolution)
+    return part_spec(settings.mirror(), settings.tolerance, proc, wavelength_nm=settings.polish.wavelength_nm,
+                     step=step)

@@ -1,0 +1,271 @@
+"""The machining job and the made mirror: plan -> machine (nose envelope) -> polish.
+
+This is the only place that plans a finishing program and cuts it (`plan`, `machine`,
+`made_surface`); the commands, the report and the tolerance analysis build their parts
+through it. A part is planned on the lathe's lattice (at a lattice phase, on the design or
+on a pre-compensated target), cut by a nose, and maybe polished.
+
+    made = made_surface(mirror, settings.machine, settings.tool, Strategy.ARCS)
+    made.profile                                   # the as-machined surface (camera frame)
+
+Millimetres and radians inside (ARCHITECTURE.md).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .body import MAX_LENGTH, CadModel, design_meridian, programmed_parts
+from .design import Mirror
+from .enums import BEST, Mount, Strategy, Surface
+from .errors import InputError
+from .finish import Process
+from .lathe import Lathe, Tool
+from .nose_envelope import as_machined, contour_profile, gouge_depth
+from .optics.polishing_curve import PolishCurve, polish_curve
+from .optics.reference import reference_surface
+from .optics.scene import build_scene
+from .polishing import PolishParams, compensated_mirror, polish
+from .profile import ExactProfile, Profile
+from .toolpath import Toolpath, check_junction, plan_toolpath
+
+if TYPE_CHECKING:
+    from .settings import Settings
+
+
+def design(settings: Settings) -> Mirror:
+    """Settings -> Mirror: both lobes from the camera's constants (Eqs. 3-6, Table 1)."""
+    return settings.mirror()
+
+
+def plan(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
+         max_deviation: float = 0.01, phase: float = 0.0, target: Mirror | None = None) -> Toolpath:
+    """Mirror -> Toolpath on the lathe's lattice (toolpath.plan_toolpath).
+
+    phase: where the part's Z work zero falls on the lattice, in lattice steps (0 <= phase
+    < 1): the same surface cut with the zero that far off the lattice, so each phase is a
+    different, equally likely realisation of the rounding (the tolerance analysis draws
+    it). X stays on a lattice through the axis (its error is the tool_x tolerance).
+    target: the surface the program cuts, when it is not the design: the design lowered by
+    a polishing allowance (polishing.compensated_mirror; see program_target).
+    """
+    base = mirror if target is None else target
+    planned = base if phase == 0.0 else ZeroShiftedMirror(base.camera, base.inner, base.outer,
+                                                          zero_shift=phase * lathe.resolution)
+    return plan_toolpath(planned, lathe, tool, strategy, max_deviation=max_deviation)
+
+
+def machine(toolpath: Toolpath, nose_radius: float | None = None) -> Profile:
+    """Toolpath -> the as-machined surface: the envelope of a nose of nose_radius (mm;
+    default the nose the path was planned for) along the programmed moves."""
+    return as_machined(toolpath, nose_radius)
+
+
+@dataclass(frozen=True)
+class MadeSurface:
+    """A made surface (camera frame) and where it came from.
+
+    profile: the surface. toolpath: the program it was cut with. source: one line saying
+    what it is (for the report). polish_time_s: how long it was polished (0: as machined).
+    """
+
+    profile: Profile
+    toolpath: Toolpath
+    source: str
+    polish_time_s: float = 0.0
+
+
+def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
+                 nose_radius: float | None = None, phase: float = 0.0,
+                 polish_params: PolishParams | None = None, polish_time_s: float = 0.0,
+                 max_deviation: float = 0.01, toolpath: Toolpath | None = None,
+                 target: Mirror | None = None) -> MadeSurface:
+    """The one made-surface builder: plan -> machine -> (polish).
+
+    The program is planned for `tool` (its nose offset) at lattice `phase` (steps), on
+    `target` if given (a pre-compensated surface: program_target) else on the design; the
+    part is cut by a nose of `nose_radius` mm (default the tool's: a worn or mis-measured
+    insert differs from the programmed one); with polish_params and polish_time_s > 0 it
+    is then polished for that time (s). toolpath: the program already planned with these
+    arguments (a caller cutting one program with many noses plans it once).
+    """
+    tp = toolpath if toolpath is not None else plan(mirror, lathe, tool, strategy, max_deviation=max_deviation,
+                                                    phase=phase, target=target)
+    rho = tool.nose_radius if nose_radius is None else nose_radius
+    profile = machine(tp, rho)
+    source = f"{strategy.value} program{' (pre-compensated)' if target is not None else ''}, " \
+             f"as-machined with a {rho:g} mm nose"
+    if polish_params is not None and polish_time_s > 0:
+        profile = polish(profile, polish_params, polish_time_s)
+        source += f", polished {polish_time_s / 60:g} min"
+    return MadeSurface(profile, tp, source, polish_time_s if polish_params is not None else 0.0)
+
+
+def polishing_curve(profile: Profile, mirror: Mirror, params: PolishParams, *,
+                    process: Process | None = None, progress: bool = False) -> PolishCurve:
+    """The made surface's figures against polishing time, and the time params.objective
+    chooses (optics.polishing_curve); with a resolved process (process_for) its surface
+    finish too."""
+    return polish_curve(profile, mirror, params, process=process, progress=progress)
+
+
+def process_for(settings: Settings, name: str = "conventional") -> Process:
+    """The process preset `name` of [polish.process], its inherited values (0) resolved
+    from [tool] nose_radius, [machine] feed_finish and resolution."""
+    return settings.polish.process(name).resolved(nose_radius_mm=settings.tool.nose_radius,
+                                                  feed_mm=settings.machine.feed_finish,
+                                                  resolution_mm=settings.machine.resolution)
+
+
+def program_target(settings: Settings, mirror: Mirror) -> Mirror:
+    """The surface the finishing programs cut: the design, or with polish.precompensate the
+    design lowered by the removal a polish of polish.time_s takes (polishing.
+    compensated_mirror), so that the polished part lands on the design."""
+    params = settings.polish
+    if not params.precompensate or params.time_s <= 0:
+        return mirror
+    return compensated_mirror(mirror, params, params.time_s)
+
+
+def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_radius: float = 0.0) -> Profile:
+    """The surface called `name` (enums.Surface), for the commands that take --surface.
+
+      exact       the designed hyperbolic lobes (closed form)
+      reference   the paper's high-resolution model: 4001 points per lobe, 1e-6 mm
+      uniform528  528 points uniform in r on the 0.005 mm lattice, straight segments
+      paper, lattice, arcs, best
+                  the programmed contour of that strategy for the configured [tool], or with
+                  nose_radius > 0 (mm) the as-machined surface of a tool of that nose radius
+                  along its own program
+      polished    the paper program's as-machined surface (the [tool] nose, or
+                  nose_radius) polished for its polishing curve's optimum (~2 s)
+    """
+    if not (nose_radius >= 0 and np.isfinite(nose_radius)):
+        raise InputError(f"--nose-radius {nose_radius!r}: must be a finite number >= 0 mm")
+    builtin = (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528)
+    if nose_radius > 0 and name in builtin:
+        strategies = [s.value for s in Surface if s not in builtin]
+        raise InputError(f"--nose-radius {nose_radius:g}: the as-machined surface needs a toolpath; use "
+                         f"--surface with one of {', '.join(strategies)}")
+    if name is Surface.EXACT:
+        return ExactProfile(mirror)
+    if name in builtin:
+        return reference_surface(name.value, mirror)
+    lathe, tool = settings.machine, settings.tool
+    if nose_radius > 0:
+        tool = dataclasses.replace(tool, nose_radius=nose_radius)
+    if name is Surface.POLISHED:
+        machined = made_surface(mirror, lathe, tool, Strategy.PAPER).profile
+        curve = polishing_curve(machined, mirror, settings.polish)
+        return curve.profiles[curve.optimum_index]
+    strategy = BEST if name is Surface.BEST else Strategy(name.value)
+    tp = plan(mirror, lathe, tool, strategy)
+    return machine(tp) if nose_radius > 0 else contour_profile(tp)
+
+
+def scene_for(settings: Settings, mirror: Mirror, *, mirror_top: float | None = None):
+    """The [scene] room as a Scene, checked against the mirror (its top, mm above the
+    camera: default the outer rim)."""
+    top = float(mirror.outer.z(mirror.r_max)) if mirror_top is None else mirror_top
+    return build_scene(settings.scene, mirror_top=top, mirror_radius=mirror.r_max)
+
+
+def cad_model(settings: Settings, mirror: Mirror, *, programmed: bool,
+              programmed_face_only: bool = False) -> CadModel:
+    """The meridians behind every CAD file: the design's and, when asked, the programmed
+    contour's on the [cad] body, with the tool-centre path (plans the [toolpath]).
+
+    programmed_face_only: only the programmed contour is wanted (the design DXF's
+    TOOLPATH layer), so it is closed on a body large enough for any program: the finishing
+    pass runs a few lattice steps past the rim, and a blank exactly the mirror's diameter
+    (a legitimate body for the design) must not stop the design's drawing.
+    """
+    spec = settings.body
+    design_face = design_meridian(mirror, spec)
+    if not programmed:
+        return CadModel(mirror, design_face, None, None, None)
+    prog_spec = (dataclasses.replace(spec, blank_diameter=MAX_LENGTH, thickness=MAX_LENGTH, mount=Mount.NONE)
+                 if programmed_face_only else spec)
+    # The same planning as `lathe-mirror toolpath`: the config's max_deviation decides
+    # whether the point budget can hold the profile, so both commands accept the same configs.
+    tp = plan(mirror, settings.machine, settings.tool, settings.toolpath.strategy,
+              max_deviation=settings.toolpath.max_deviation, target=program_target(settings, mirror))
+    prog, centre, figures = programmed_parts(tp, mirror, prog_spec)
+    return CadModel(mirror, design_face, prog, centre, figures)
+
+
+
+@dataclasses.dataclass(frozen=True)
+class ZeroShiftedMirror(Mirror):
+    """The design with its machine zero moved zero_shift (mm) along the axis: the planner
+    puts machine Z = 0 at mirror.vertex_z, so this is the same surface cut with the work
+    zero that far off the lattice."""
+
+    zero_shift: float = 0.0
+
+    @property
+    def vertex_z(self) -> float:  # type: ignore[override]
+        return self.inner.vertex_z + self.zero_shift
+
+
+def check_programs(settings: Settings, mirror: Mirror, *, tolerance: bool = True) -> None:
+    """What the stages from the programs on need, checked before any file or progress
+    display: a junction the toolpath can cut (an inner lobe recessed, a nose that reaches
+    the wall) and polishing times the evolution can afford (tolerance=False: up to
+    polishing, for `lathe-mirror polish`; True: also the Monte Carlo's longest polish, the
+    curve's end plus the time tolerance)."""
+    check_junction(mirror, settings.tool)
+    params = settings.polish
+    params.check_time(mirror.r_max, max(params.time_s, params.curve_max_s))
+    if not tolerance:
+        return
+    tol = settings.tolerance.tolerances
+    params.check_time(mirror.r_max, params.curve_max_s + tol.get("polish_time_s", 0.0))
+    # The nodes span the nominal -/+ each tolerance: a nose or a controller step cannot go
+    # to zero or below.
+    nose0 = settings.tool.nose_radius
+    if tol.get("nose_radius_mm", 0.0) > nose0:
+        raise InputError(f"tolerance.params.nose_radius_mm = {tol['nose_radius_mm']:g} mm exceeds the nominal "
+                         f"nose radius tool.nose_radius = {nose0:g} mm: the nose cannot be negative")
+    res0 = settings.machine.resolution
+    if tol.get("resolution_mm", 0.0) >= res0:
+        raise InputError(f"tolerance.params.resolution_mm = {tol['resolution_mm']:g} mm must be smaller than "
+                         f"machine.resolution = {res0:g} mm")
+
+
+def check_cad(settings: Settings, mirror: Mirror) -> None:
+    """That the [cad] body holds the designed mirror (InputError naming the key), before any
+    file is written. Takes ~0.3 ms; plans no toolpath, imports no CAD kernel."""
+    design_meridian(mirror, settings.body)
+
+
+def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surface, *,
+                  tool: Tool | None = None) -> Toolpath | None:
+    """The program of `strategy` checked the same way by every command that uses one
+    (toolpath, cad, render, polish, tolerance, calib, stereo, report, run), before any work
+    or file: planned on the lattice within the point budget for toolpath.max_deviation
+    (plan), and its as-machined surface no deeper inside the part than
+    toolpath.gouge_tolerance (the check shop.plan_program makes before it writes G-code).
+    A named Surface stands for the program it is cut with (polished: the paper's; exact,
+    reference, uniform528: none, None returned). tool: default [tool]. Returns the
+    toolpath; InputError names the setting to change."""
+    if isinstance(strategy, Surface):
+        if strategy in (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528):
+            return None
+        strategy = (Strategy.PAPER if strategy is Surface.POLISHED else
+                    BEST if strategy is Surface.BEST else Strategy(strategy.value))
+    tp = plan(mirror, settings.machine, tool or settings.tool, strategy,
+              max_deviation=settings.toolpath.max_deviation,
+              target=program_target(settings, mirror))  # polish.precompensate: the allowance
+    depth = gouge_depth(tp)
+    limit = settings.toolpath.gouge_tolerance
+    if depth > limit:
+        raise InputError(
+            f"the {strategy.value} toolpath would gouge the part by {depth:.4f} mm "
+            f"(toolpath.gouge_tolerance = {limit:g} mm); program refused "
+            "(more points, a finer machine.resolution or another strategy cut closer)")
+    return tp

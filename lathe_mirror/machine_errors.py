@@ -1,0 +1,165 @@
+"""A lathe that is not perfect: the set-up errors a turned part shows, and the surface
+such a machine cuts along a program.
+
+The programmed path is the nose centre's (toolpath.Toolpath.segments, machine frame: r
+the radius, Z along the spindle, part in -Z, tool above it). The errors, each as the shop
+sees it (`MachineErrors`, lengths mm, angles rad):
+
+  centre_height_mm      the cutting edge above (+) or below (-) the spindle centre line:
+                        a nose point at slide position x cuts radius sqrt(x^2 + h^2), so
+                        radii under |h| are never cut and a pip stays at the centre (the
+                        flank rubs it into a cone when the tool is above centre; a
+                        cylindrical stub stands when it is below), as high as the stock the
+                        finishing pass was to take (pip_height_mm)
+  x_offset_mm           the tool's X zero off by this much (+: the nose stops short of the
+                        axis): the part is the program's surface moved out in r, with an
+                        ogive (a point) at the centre; (-): past the axis, a dimple
+  nose_radius_error_mm  the insert's nose radius minus the programmed one, with the tool
+                        set on its tip (touched off in X on a diameter and in Z on the face):
+                        the nose centre sits dr farther out in X and up in Z than the
+                        controller believes, and the edge is dr farther from it; the surface
+                        moves by dr (1 - cos t, 1 - sin t) (X, Z) where t is the surface
+                        normal's angle from the r axis, a normal offset dr (cos t + sin t - 1)
+  squareness_rad        the X slide out of square with the spindle: Z drifts by eps x
+  backlash_mm           lost motion of the X screw, the zero set approaching in -X: every
+                        move that runs in +X lands backlash_mm short
+
+`machined_with_errors` cuts the program's nose-centre path with these errors: a round
+nose swept along the (displaced) centre path, sampled every SAMPLE_MM and evaluated on a
+radial grid of GRID_MM (the lower envelope of the nose discs; with no error it is the
+envelope nose_envelope.as_machined computes in closed form, to ~1e-6 mm).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .profile import TabulatedProfile
+
+if TYPE_CHECKING:
+    from .toolpath import Toolpath
+
+#: Spacing (mm) of the nose-centre samples along the path.
+SAMPLE_MM = 0.0005
+#: Radial spacing (mm) of the made surface's samples.
+GRID_MM = 0.0005
+
+
+@dataclass(frozen=True)
+class MachineErrors:
+    """Set-up errors of a lathe (module doc). Lengths mm, angles rad; all zero: a perfect
+    machine."""
+
+    centre_height_mm: float = 0.0
+    x_offset_mm: float = 0.0
+    nose_radius_error_mm: float = 0.0
+    squareness_rad: float = 0.0
+    backlash_mm: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not math.isfinite(v):
+                raise ValueError(f"machine error {f.name} = {v!r} must be finite")
+        if self.backlash_mm < 0:
+            raise ValueError(f"backlash_mm = {self.backlash_mm!r} must be >= 0")
+
+    @property
+    def is_zero(self) -> bool:
+        return all(getattr(self, f.name) == 0.0 for f in fields(self))
+
+    def to_dict(self) -> dict[str, float]:
+        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
+
+
+def centre_path(toolpath: Toolpath, errors: MachineErrors) -> tuple[np.ndarray, np.ndarray]:
+    """Where the nose centre really goes (x, Z), mm, sampled every SAMPLE_MM: the
+    programmed centres moved by the X offset, the nose-setting error (dr, dr), backlash on
+    the moves cut in +X, and squareness (Z + eps x). x may be negative (past the axis)."""
+    from .toolpath.moves import Hand
+
+    xs, zs, shift = [], [], []
+    forward = toolpath.hand is Hand.AS_CONFIGURED  # segments run axis -> rim; cut that way?
+    for seg in toolpath.segments:
+        p0, p1 = np.asarray(seg.start, float), np.asarray(seg.end, float)
+        length = float(np.hypot(*(p1 - p0)))
+        if hasattr(seg, "sweep"):
+            length = max(length, abs(seg.sweep) * max(seg.radius, seg.end_radius))
+        n = max(int(math.ceil(length / SAMPLE_MM)) + 1, 2)
+        pts = seg.sample(n)
+        xs.append(pts[:, 0])
+        zs.append(pts[:, 1])
+        d_r = (p1[0] - p0[0]) * (1 if forward else -1)  # +: the cut runs in +X
+        shift.append(np.full(n, -errors.backlash_mm if d_r > 1e-12 else 0.0))
+    x = np.concatenate(xs)
+    z = np.concatenate(zs)
+    dr = errors.nose_radius_error_mm
+    xp = x + errors.x_offset_mm + dr + np.concatenate(shift)
+    zp = z + dr + errors.squareness_rad * xp
+    return xp, zp
+
+
+def disc_envelope(xc: np.ndarray, zc: np.ndarray, rho: float, x: np.ndarray) -> np.ndarray:
+    """Lowest point (mm) at each x of discs of radius rho (mm) centred at (xc, zc): the
+    surface a round nose leaves. +inf where no disc reaches. x sorted ascending."""
+    order = np.argsort(xc, kind="stable")
+    xc, zc = xc[order], zc[order]
+    out = np.full(x.shape, np.inf)
+    chunk = 256
+    for i0 in range(0, x.size, chunk):
+        xx = x[i0:i0 + chunk]
+        lo = np.searchsorted(xc, xx[0] - rho, "left")
+        hi = np.searchsorted(xc, xx[-1] + rho, "right")
+        if hi <= lo:
+            continue
+        d = xx[:, None] - xc[None, lo:hi]
+        h2 = rho * rho - d * d
+        zz = np.where(h2 >= 0, zc[None, lo:hi] - np.sqrt(np.maximum(h2, 0.0)), np.inf)
+        out[i0:i0 + chunk] = zz.min(axis=1)
+    return out
+
+
+def machined_with_errors(toolpath: Toolpath, errors: MachineErrors, *,
+                         pip_height_mm: float = 0.15) -> TabulatedProfile:
+    """The surface (camera frame) the program's nose-centre path cuts on a lathe with
+    `errors`: a nose of toolpath.nose_radius + nose_radius_error_mm (mm). pip_height_mm:
+    the stock the finishing pass was to take (toolpath.rough_allowance), what stands at
+    radii the edge never reaches."""
+    m = toolpath.mirror
+    rho = toolpath.nose_radius + errors.nose_radius_error_mm
+    if not rho > 0:
+        raise ValueError(f"nose radius {rho:g} mm (programmed {toolpath.nose_radius:g} + error "
+                         f"{errors.nose_radius_error_mm:g}) must be > 0")
+    xc, zc = centre_path(toolpath, errors)
+    r = np.arange(0.0, m.r_max + GRID_MM / 2, GRID_MM)
+    r[-1] = min(r[-1], m.r_max)
+    h = abs(errors.centre_height_mm)
+    # the slide positions that reach radius r: +/- sqrt(r^2 - h^2)
+    xr = np.sqrt(np.maximum(r * r - h * h, 0.0))
+    grid = np.union1d(-xr, xr)
+    env = disc_envelope(xc, zc, rho, grid)
+    zpos = np.interp(xr, grid, env)
+    zneg = np.interp(-xr, grid, env)
+    zm = np.minimum(zpos, zneg)
+    reached = (r >= h) & np.isfinite(zm)
+    edge = zm[reached][0] if np.any(reached) else 0.0
+    top = edge + pip_height_mm
+    zm = np.where(np.isfinite(zm), zm, top)
+    inside = r < h
+    if np.any(inside):
+        if errors.centre_height_mm > 0:  # above centre: a cone, the flank rubbing it
+            zm = np.where(inside, top - (top - edge) * r / h, zm)
+        else:  # below centre: a cylindrical stub
+            zm = np.where(inside, top, zm)
+    z = m.vertex_z - zm  # camera frame
+    lobes = []
+    for k in (0, 1):
+        sel = (r <= m.r_junction) if k == 0 else (r > m.r_junction)
+        rr, zz = r[sel], z[sel]
+        s = np.gradient(zz, rr) if rr.size > 1 else np.zeros_like(zz)
+        lobes.append((rr, zz, s))
+    return TabulatedProfile(lobes[0], lobes[1], r_junction=m.r_junction, r_max=m.r_max, vertex_z=m.vertex_z)

@@ -1,0 +1,166 @@
+"""The report's analysis: each made mirror's figures, the curves the plots draw, the
+toolpath table, the renders and the range from the image."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..design import Mirror
+from ..enums import BEST, Strategy
+from ..job import made_surface, scene_for
+from ..nose_envelope import contour_profile
+from ..optics.distortion import distortion_figures
+from ..optics.radial import lobe_pixel_radii, radial_displacement, radial_figures, used_extent
+from ..optics.ranging.resolution import resolution_table
+from ..optics.ranging.stereo import error_curve, image_mask, prepare, range_figures, stereo_range
+from ..optics.ranging.truth import true_range
+from ..optics.render import image_difference, render_image
+from ..path import Arc, Line
+from ..profile import ExactProfile, Profile
+from ..toolpath import profile_errors
+
+if TYPE_CHECKING:
+    from ..settings import Settings
+
+#: The range (m) at which the report states the depth error of every mirror.
+DEPTH_REPORT_M = 2.0
+#: The mirrors compared throughout the report, in order.
+MIRRORS = ("exact", "paper", "best", "polished")
+#: Ranges (m) and elevations (deg) of the report's resolution table.
+RESOLUTION_RANGES_M = (0.5, 1.0, 1.5, 2.0, 3.0)
+RESOLUTION_ELEVATIONS_DEG = (-20.0, -10.0, 0.0)
+
+
+@dataclass
+class ReportData:
+    """What the report shows: JSON-ready figures, the profiles compared (camera frame),
+    renders (arrays) and plots (PNG bytes, filled by report.plots)."""
+
+    figures: dict[str, Any]
+    made: dict[str, Profile] = dataclasses.field(default_factory=dict)
+    images: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    curves: dict[str, Any] = dataclasses.field(default_factory=dict)
+    plots: dict[str, bytes] = dataclasses.field(default_factory=dict)
+
+
+def mirror_figures(profile: Profile, mirror: Mirror) -> dict:
+    """The five figures per lobe (ARCHITECTURE.md), surface and optics.
+
+    Surface figures: toolpath.profile_errors. Optical figures: over the pixels each lobe
+    images unobstructed on the exact design (optics.radial: every pixel centre, aligned
+    camera; equal to optics.distortion's per-pixel figures over the usable annulus, which
+    the tests check); those per-pixel figures (with the pixels the step wall vignettes
+    counted too under "with_vignetted") are kept alongside under "optics_distortion".
+    """
+    surf = profile_errors(profile, mirror)
+    rad = radial_figures(profile, mirror)
+    full = distortion_figures(profile, mirror)
+    lobes = []
+    for s, o, f in zip(surf["lobes"], rad["lobes"], full["lobes"]):
+        lobes.append({"name": s["name"], "slope_error_rad": s["slope_error_rad"],
+                      "normal_deviation_mm": s["normal_deviation_mm"],
+                      "ray_deviation_deg": o["ray_deviation_deg"],
+                      "image_displacement_px": o["image_displacement_px"],
+                      "viewpoint_spread_mm": o["viewpoint_spread_mm"],
+                      "pixels": o["pixels"], "pixels_excluded": o["pixels_excluded"],
+                      "optics_distortion": f})
+    return {"lobes": lobes}
+
+
+def report_curves(made: dict[str, Profile], mirror: Mirror) -> dict[str, Any]:
+    """The report's curves as arrays: each made mirror's height error along the meridian
+    (mm; r mm; `used` marks the radii the image uses) and its radial image displacement
+    against image radius (px; NaN breaks the line where a lobe has no usable pixel)."""
+    names = ("paper", "best", "polished")
+    r = np.concatenate([np.linspace(0.0, mirror.r_junction, 4001),
+                        np.linspace(np.nextafter(mirror.r_junction, 99.0), mirror.r_max, 3001)])
+    exact_z = ExactProfile(mirror).z(r)
+    used = (r <= used_extent(mirror, 0)[1]) | (r > mirror.r_junction)
+    profile_error = {n: (r, made[n].z(r) - exact_z) for n in names}
+    displacement = {}
+    for name in names:
+        rho, d = [], []
+        for k in (0, 1):
+            px = lobe_pixel_radii(mirror, k, bin_px=0.25)
+            # NaN where radii are missing (vignetted, the lost ring): the line breaks there.
+            gap = np.concatenate([[False], np.diff(px.radius_px) > 1.0])
+            r_k = np.insert(px.radius_px, np.flatnonzero(gap), np.nan)
+            d_k = np.insert(radial_displacement(made[name], mirror, k, px.radius_px), np.flatnonzero(gap), np.nan)
+            rho += [r_k, [np.nan]]
+            d += [d_k, [np.nan]]
+        displacement[name] = (np.concatenate(rho), np.concatenate(d))
+    return {"profile_error": profile_error, "used": used, "r_junction": mirror.r_junction,
+            "displacement": displacement, "lost_ring_px": tuple(mirror.image_radii_px["lost_ring"])}
+
+
+def strategy_table(mirror: Mirror, settings: Settings):
+    """As-machined profile per strategy; machine/tool table; toolpath figures per strategy."""
+    lathe, tool = settings.machine, settings.tool
+    machine_table = {"lathe": dict(lathe.__dict__),
+                     "tool": {"nose_radius": tool.nose_radius,
+                              "included_angle_deg": math.degrees(tool.included_angle),
+                              "approach_angle_deg": math.degrees(tool.approach_angle)}}
+    made, table = {}, []
+    for strategy in Strategy:
+        m = made_surface(mirror, lathe, tool, strategy)
+        tp = m.toolpath
+        table.append({"strategy": strategy.value, "best": strategy is BEST, "n_points": int(tp.n_points),
+                      "moves": {"G1": sum(1 for s in tp.segments if isinstance(s, Line)),
+                                "G2/G3": sum(1 for s in tp.segments if isinstance(s, Arc))},
+                      "programmed": profile_errors(contour_profile(tp), mirror),
+                      "as_machined": profile_errors(m.profile, mirror)})
+        if strategy is Strategy.PAPER:
+            made["paper"] = m.profile
+        if strategy is BEST:
+            made["best"] = m.profile
+    return made, machine_table, table
+
+
+def render_mirrors(made: dict, mirror: Mirror, settings: Settings):
+    """Each mirror's image of the paper's room, and each made image's difference to the exact."""
+    scene = scene_for(settings, mirror)
+    images = {name: render_image(made[name], mirror, scene) for name in MIRRORS}
+    stats = {name: image_difference(images[name], images["exact"]) for name in MIRRORS if name != "exact"}
+    return images, {"against_exact": stats}
+
+
+def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings) -> tuple[dict, dict]:
+    """Range from the image for each of MIRRORS (optics.ranging, the [stereo] settings,
+    aligned camera): figures per mirror against the room's true range, the resolution
+    table at the exact mirror's achieved disparity precision, and the range maps (m,
+    arrays for the plots)."""
+    st = settings.stereo
+    grid, match = prepare(mirror, st.params)
+    scene = scene_for(settings, mirror)
+    truth = true_range(mirror, scene, grid)
+    mask = image_mask(mirror, grid, match.num_disparities)
+    mirrors, maps = {}, {}
+    precision = math.nan
+    for name in MIRRORS:  # exact first: its disparity error is the matcher's precision
+        image = render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask)
+        result = stereo_range(image, mirror, st.params)
+        fig = range_figures(result, truth, mirror, precision_px=None if name == "exact" else precision)
+        if name == "exact":
+            precision = fig["disparity_error_px"]["precision"]
+        fig["error_curve"] = {**error_curve(result, truth, mirror, precision), "precision_px": precision}
+        mirrors[name] = fig
+        maps[name] = result.range_map.range_mm / 1e3
+    table = resolution_table(mirror, RESOLUTION_RANGES_M, RESOLUTION_ELEVATIONS_DEG, precision * grid.step)
+    figures = {
+        "definition": "range error = 100 (R - R_true) / R_true, R from the stereo centre triangulated from "
+                      "StereoSGBM disparities of the two lobes' panoramas (rendered at supersample "
+                      f"{st.supersample}), R_true the room along the outer lobe's pixel ray; over the common "
+                      "band's pixels with a range (valid_fraction of them)",
+        "supersample": st.supersample,
+        "matcher_precision_px": precision,
+        "resolution": table,
+        "mirrors": mirrors,
+    }
+    maps["band_deg"] = tuple(math.degrees(x) for x in grid.band)
+    return figures, maps
+

@@ -1,0 +1,139 @@
+"""The tolerance analysis of the configured programs: each program's part cut at each
+lattice phase and nose (job.made_surface), its Monte Carlo, sensitivity, inverse
+sensitivity, allocation and the verdict against the spec.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from ..design import Mirror
+from ..enums import BEST, Program, Strategy
+from ..job import MadeSurface, made_surface, plan
+from ..toolpath import Toolpath
+from .allocation import allocate as allocate_tolerances
+from .allocation import inverse_sensitivity
+from .montecarlo import prepare, run_monte_carlo, stereo_table
+from .sensitivity import resolution_row, responses, sensitivity_table
+
+if TYPE_CHECKING:
+    from ..settings import Settings
+
+#: Ranges (m) of the depth-error curve (0.5 m to 5 m).
+DEPTH_RANGES_M = (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0)
+
+
+@dataclass
+class ToleranceRuns:
+    """The tolerance analysis: `figures` (JSON-ready, tolerance_analysis's dict) and every
+    Monte Carlo run behind it as (run name, tolerance.montecarlo.MonteCarloResult), for the
+    per-trial CSV."""
+
+    figures: dict
+    results: list
+
+
+def tolerance_analysis(mirror: Mirror, settings: Settings, nominal_times_s: dict[Program, float], *,
+                       progress: bool = False, allocate: tuple[Program, ...] = (),
+                       target_yield: float | None = None) -> dict:
+    """Monte Carlo, sensitivity and inverse sensitivity for each toleranced program
+    ([tolerance] programs), each polished for its nominal time (s); the verdict of each
+    against the spec; for the programs in `allocate`, the least-cost tolerances that reach
+    target_yield (default tolerance.target_yield), confirmed by a fresh Monte Carlo."""
+    return tolerance_runs(mirror, settings, nominal_times_s, progress=progress, allocate=allocate,
+                          target_yield=target_yield).figures
+
+
+def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Program, float], *,
+                   progress: bool = False, allocate: tuple[Program, ...] = (),
+                   target_yield: float | None = None) -> ToleranceRuns:
+    """tolerance_analysis, keeping the Monte Carlo results (ToleranceRuns)."""
+    ts = settings.tolerance
+    target = ts.target_yield if target_yield is None else target_yield
+    out = {"spec": ts.spec_dict(), "distribution": ts.distribution.value, "tolerances": ts.tolerances,
+           "cost": ts.cost, "seed": ts.seed, "trials": ts.trials, "target_yield": target,
+           "seat_pivot_mm": ts.seat_pivot_mm, "lattice_phases": ts.lattice_phases,
+           "nose_step_mm": ts.nose_step_mm, "programs": {}}
+    results = []
+    for program in ts.programs:
+        ctx = tolerance_context(mirror, settings, program, nominal_times_s[program], progress=progress)
+        mc = run_monte_carlo(ctx, progress=progress)
+        results.append((f"{program.value}: monte carlo", mc))
+        resp = responses(ctx, progress=progress)
+        sens = sensitivity_table(ctx, resp)
+        strategy = BEST if program is Program.BEST else Strategy.PAPER
+        row = resolution_row(ctx, settings.polish, res0=settings.machine.resolution,
+                             machine_at=lambda res: made_surface(
+                                 mirror, dataclasses.replace(settings.machine, resolution=res), settings.tool,
+                                 strategy, nose_radius=ctx.nominal_nose_mm))
+        if row is not None:
+            sens["rows"].insert(0, row)
+        entry = {"surfaces": ctx.source, "nominal_polish_time_s": ctx.nominal_time_s, "limits": ctx.limits,
+                 "monte_carlo": mc.to_dict(), "sensitivity": sens,
+                 "inverse_sensitivity": inverse_sensitivity(resp, ctx.limits),
+                 "stereo": stereo_table(ctx, DEPTH_RANGES_M),
+                 "nose_radii_cut": len(ctx.bank.nose_mm)}
+        if program in allocate:
+            entry["allocation"], confirm = allocate_tolerances(ctx, resp, mc, target=target, progress=progress)
+            if confirm is not None:
+                results.append((f"{program.value}: allocation confirmed", confirm))
+        entry["verdict"] = verdict(entry, ts.spec_dict())
+        out["programs"][program.value] = entry
+    return ToleranceRuns(out, results)
+
+
+def monte_carlo(mirror: Mirror, settings: Settings, program: Program, nominal_time_s: float, *,
+                progress: bool = False):
+    """The seeded Monte Carlo of one program's part polished nominal_time_s (s): settings.
+    tolerance.trials draws from its seed (tolerance.montecarlo.MonteCarloResult: the
+    trials, their figures, pass flags per criterion, `.yield_fraction`)."""
+    return run_monte_carlo(tolerance_context(mirror, settings, program, nominal_time_s, progress=progress),
+                           progress=progress)
+
+
+def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nominal_time_s: float, *,
+                      progress: bool = False):
+    """The Monte Carlo's shared context: the program's part cut at each lattice phase (and,
+    as trials draw them, with each nose radius) by this module's made_surface, polished
+    at the time nodes."""
+    strategy = BEST if program is Program.BEST else Strategy.PAPER
+    programs: dict[float, Toolpath] = {}
+
+    def machine_at(phase: float, nose: float) -> MadeSurface:
+        # each phase's program planned once: the noses the trials draw are all cut along
+        # the program planned for the [tool] nose.
+        if phase not in programs:
+            programs[phase] = plan(mirror, settings.machine, settings.tool, strategy, phase=phase)
+        return made_surface(mirror, settings.machine, settings.tool, strategy, nose_radius=nose,
+                            toolpath=programs[phase])
+
+    return prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
+                   nose0=settings.tool.nose_radius, machine_at=machine_at, progress=progress)
+
+
+def verdict(t: dict, spec: dict) -> dict:
+    """Pass / fail of a program's nominal part against each judged limit (calibrated or raw
+    figures as the spec says), its yield with the Wilson 95 % interval, and what to
+    tighten when an allocation was made."""
+    nominal = t["sensitivity"]["nominal"]
+    fig = nominal["calibrated" if spec.get("calibrated", True) else "raw"]
+    lim = t["limits"]
+    checks = {
+        "image_displacement_px": {"limit": lim["image_displacement_px"],
+                                  "nominal": max(fig["image_displacement_px_rms"])},
+        "outlier_pct": {"limit": lim["outlier_pct"], "nominal": max(fig["outlier_pct"])},
+        "disparity_px": {"limit": lim["disparity_px"], "nominal": fig["disparity_px_p90"],
+                         "range_m": spec["depth_range_m"], "depth_error_pct": spec["depth_error_pct"]},
+        "slope_error_rad": {"limit": lim["slope_error_rad"], "nominal": max(nominal["slope_error_rad_rms"])},
+    }
+    for c in checks.values():
+        c["pass"] = bool(c["nominal"] <= c["limit"])
+    mc = t["monte_carlo"]
+    out = {"checks": checks, "nominal_pass": all(c["pass"] for c in checks.values()),
+           "calibrated": bool(spec.get("calibrated", True)), "yield": mc["yield"],
+           "yield_wilson95": mc["yield_wilson95"], "trials": mc["trials"]}
+    if "allocation" in t:
+        out["allocation"] = t["allocation"]["statement"]
+    return out
