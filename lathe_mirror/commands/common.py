@@ -37,15 +37,15 @@ def compute_options(args: argparse.Namespace, settings=None) -> tuple[int | None
     """(workers, scheduler) from the flags, else the settings' [compute] (workers 0 or
     None: all cores; scheduler "" or None: local processes), checked: call it with the
     flags alone before any work, and again with the settings."""
-    from .. import compute
+    from ..compute import check_scheduler, check_workers
 
     cfg = getattr(settings, "compute", None)
     workers = getattr(args, "workers", None)
     scheduler = getattr(args, "scheduler", None)
     if workers is not None:
-        compute.check_workers(workers)
+        check_workers(workers)
     if scheduler is not None:
-        compute.check_scheduler(scheduler)
+        check_scheduler(scheduler)
     if workers is None:
         workers = getattr(cfg, "workers", None)
     if scheduler is None:
@@ -55,16 +55,16 @@ def compute_options(args: argparse.Namespace, settings=None) -> tuple[int | None
 
 def compute_session(args: argparse.Namespace, settings=None):
     """The command's executor, active for the block (lathe_mirror.compute.session)."""
-    from .. import compute
+    from ..compute import session
 
-    return compute.session(*compute_options(args, settings))
+    return session(*compute_options(args, settings))
 
 
 def use_compute(args: argparse.Namespace, settings=None):
     """The command's executor, active until the command ends (cli.main shuts it down)."""
-    from .. import compute
+    from ..compute import activate
 
-    return compute.activate(*compute_options(args, settings))
+    return activate(*compute_options(args, settings))
 
 
 def load(args: argparse.Namespace, overrides: list[tuple[str, Any, str]] | None = None):

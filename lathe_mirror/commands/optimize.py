@@ -47,12 +47,12 @@ def run(args: argparse.Namespace) -> int:
     problem = Problem(camera=settings.camera, tool=settings.tool, stock=settings.stock, body=settings.body,
                       clearance=settings.toolpath.clearance, settings=settings.optimize,
                       reference=settings.lobes)
-    from .. import compute
+    from ..compute import default_workers, session
 
     workers, scheduler = compute_options(args, settings)
     if workers is None and not scheduler:
-        workers = settings.optimize.workers if settings.optimize.workers > 1 else compute.default_workers()
-    with compute.session(workers, scheduler) as ex:
+        workers = settings.optimize.workers if settings.optimize.workers > 1 else default_workers()
+    with session(workers, scheduler) as ex:
         if ex.kind == "dask":
             ex.client()  # connect: its worker threads set the chunks
         result = search(problem, workers=min(max(ex.workers, 1), 64),  # optimize.workers' range

@@ -187,11 +187,11 @@ class _Batch:
         self._r: list[np.ndarray] = []
         self._bound = self.run = None
         if workers > 1:  # compute's executor: the command's session, or local processes of our own
-            from .. import compute
+            from ..compute import active, make
 
-            ex = compute.active()
+            ex = active()
             if ex.kind != "dask" and ex.workers != workers:
-                ex = compute.make(workers)
+                ex = make(workers)
             self._bound = ex.bound(problem)
             self.run = self._bound.__enter__()
 

@@ -263,14 +263,14 @@ def evaluate_trials(ctx: Context, trials: Trials, *, progress: bool = False, des
                     ranges_m=None, **kw) -> TrialFigures:
     """Figures of each trial (tolerance.perturb.evaluate) at ranges_m (m; default the
     spec's range), the noses they drew cut first, with a progress bar when asked."""
-    from .. import compute
+    from ..compute import active
 
     ctx.ensure(trials, progress)
     bar = _bar(len(trials), desc, progress)
     ranges = (ctx.settings.spec.depth_range_m,) if ranges_m is None else tuple(ranges_m)
     args = dict(ranges_m=ranges, depth_points=ctx.settings.depth_points, seat_pivot_mm=ctx.settings.seat_pivot_mm,
                 outlier_px=OUTLIER_FACTOR * ctx.limits["image_displacement_px"], **kw)
-    ex = compute.active()
+    ex = active()
     batch = batch_trials(ctx.samples, kw.get("chunk", 100))
     n = len(trials)
     if ex.workers == 1 or n <= batch or kw.get("keep_displacements"):
