@@ -16,6 +16,7 @@ from __future__ import annotations
 import copy
 import difflib
 import math
+import os
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -73,32 +74,44 @@ def load(path: str | Path | None = None, *,
         raise
 
 
+#: Environment variable naming a site configuration (e.g. the shop's machine and tools),
+#: merged over the defaults and under the user's --config, with the same checks.
+SITE_CONFIG_VAR = "LATHE_MIRROR_CONFIG"
+
+
 def load_config(path: str | Path | None = None) -> dict[str, Any]:
-    """Defaults, with the user's TOML file (if any) merged over them and validated."""
+    """Defaults, with the site file ($LATHE_MIRROR_CONFIG, if set) and the user's TOML file
+    (if any) merged over them in that order and validated."""
     cfg = default_config()
+    site = os.environ.get(SITE_CONFIG_VAR, "")
+    if site:
+        cfg = merge(cfg, _parse(site, f"{SITE_CONFIG_VAR}={site}"), source=site)
     if path is None:
         return cfg
-    text = read_user_text(path)
+    return merge(cfg, _parse(path, f"--config {path}"), source=str(path))
+
+
+def _parse(path: str | Path, name: str) -> dict[str, Any]:
+    text = read_user_text(path, name.split(" ")[0].split("=")[0])
     try:
-        user = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"--config {path}: not valid TOML ({exc})") from None
+        raise ConfigError(f"{name}: not valid TOML ({exc})") from None
     except RecursionError:  # tomllib parses nested arrays and tables recursively
-        raise ConfigError(f"--config {path}: arrays or tables nested too deeply (the "
+        raise ConfigError(f"{name}: arrays or tables nested too deeply (the "
                           "configuration nests at most 3 levels)") from None
-    return merge(cfg, user, source=str(path))
 
 
-def read_user_text(path: str | Path) -> str:
+def read_user_text(path: str | Path, what: str = "--config") -> str:
     """The text of the user's configuration file (stdin for "-", read once and kept):
     inputs.read_text, a regular file of at most MAX_CONFIG_BYTES."""
     from .inputs import STDIN, read_text
 
     if str(path) == STDIN:
         if STDIN not in _stdin_text:
-            _stdin_text[STDIN] = read_text(path, "--config", MAX_CONFIG_BYTES)
+            _stdin_text[STDIN] = read_text(path, what, MAX_CONFIG_BYTES)
         return _stdin_text[STDIN]
-    return read_text(path, "--config", MAX_CONFIG_BYTES)
+    return read_text(path, what, MAX_CONFIG_BYTES)
 
 
 def read_user(path: str | Path) -> dict[str, Any]:

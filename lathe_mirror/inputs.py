@@ -156,7 +156,10 @@ def _read_stdin(what: str, limit: int) -> bytes:
     except (OSError, ValueError, AttributeError):
         fd = None
     if fd is None:
-        data = stream.read(limit + 1)
+        try:
+            data = stream.read(limit + 1)
+        except OSError as exc:  # e.g. no standard input to read (a test runner's)
+            raise InputError(f"{where}: cannot read standard input ({exc})") from None
         if len(data) > limit:
             raise InputError(f"{where}: more than {limit} bytes; allowed at most {limit} bytes")
         return data

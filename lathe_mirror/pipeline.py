@@ -80,9 +80,13 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
 
     steps.start("distortion")
     made["exact"] = ExactProfile(mirror)
-    out["mirrors"] = {name: mirror_figures(made[name], mirror) for name in MIRRORS}
+    from .optics.zones import zones_for
+
+    zn = zones_for(settings, mirror)
+    out["zones"] = {**zn.as_dict(), "text": zn.describe()}
+    out["mirrors"] = {name: mirror_figures(made[name], mirror, zn) for name in MIRRORS}
     out["mirrors"]["polished"]["polish_time_s"] = curve_paper.optimum_time_s
-    out["calibration"] = calibration_figures(mirror, {n: made[n] for n in ("paper", "best", "polished")})
+    out["calibration"] = calibration_figures(mirror, {n: made[n] for n in ("paper", "best", "polished")}, zones=zn)
     steps.done()
 
     steps.start("stereo")

@@ -71,7 +71,7 @@ def test_output_file_is_written(tmp_path):
 BAD = [
     ("[lobes.inner]\nr_top = 0.0\n", "lobes.inner.r_top = 0 mm: allowed 0.1 to 1000 mm"),
     ("[lobes.inner]\nr_top = -5.0\n", "lobes.inner.r_top = -5 mm: allowed 0.1 to 1000 mm"),
-    ("[camera]\nf = -16.0\n", "camera.f = -16 mm must be > 0"),
+    ("[camera]\nf = -16.0\n", "camera.f = -16 mm: allowed 0.1 to 1000 mm"),
     ("[lobes.outer]\nr_top = 20.0\n", "must exceed lobes.inner.r_top"),
     ("[lobes.outer]\nr_top = 15.0\n", "must exceed lobes.inner.r_top"),
     ("[lobes.inner]\nalpha_deg = 85.0\n", "no hyperbola"),
@@ -131,3 +131,23 @@ def test_bad_flag_gives_one_line_and_exit_2(args, message):
     proc = run_cli(*args)
     assert proc.returncode == 2
     assert message in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_site_config_sits_between_the_defaults_and_the_users_file(tmp_path):
+    """$LATHE_MIRROR_CONFIG (a shop's machine and tools) merges over the defaults; the
+    user's --config merges over it; a bad site file is one line naming the variable."""
+    import json
+    import os
+
+    site = tmp_path / "site.toml"
+    site.write_text("[tool]\nnose_radius = 0.4\n[machine]\nresolution = 0.002\n")
+    user = tmp_path / "user.toml"
+    user.write_text("[tool]\nnose_radius = 0.3\n")
+    env = {**os.environ, "LATHE_MIRROR_CONFIG": str(site)}
+    alone = json.loads(run_cli("toolpath", "--json", env=env).stdout)
+    assert alone["nose_radius_mm"] == 0.4 and alone["resolution_mm"] == 0.002
+    both = json.loads(run_cli("toolpath", "--json", "--config", str(user), env=env).stdout)
+    assert both["nose_radius_mm"] == 0.3 and both["resolution_mm"] == 0.002
+    missing = run_cli("design", env={**env, "LATHE_MIRROR_CONFIG": str(tmp_path / "none.toml")})
+    assert missing.returncode == 2 and "LATHE_MIRROR_CONFIG" in missing.stderr
+    assert len(missing.stderr.strip().splitlines()) == 1

@@ -8,6 +8,7 @@ run; the budget is about a minute on the reference machine (2 cores).
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import math
@@ -18,7 +19,7 @@ import time
 from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from pathlib import Path
 
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
 from lathe_mirror.cli import main
@@ -328,3 +329,81 @@ def test_the_slow_commands_refuse_before_any_work(command, cfg):
         assert rc == 2 and err.split("error: ", 1)[-1] == first.split("error: ", 1)[-1], (err, first)
         assert {p.name for p in d.iterdir()} == {"c.toml"}
         assert time.perf_counter() - t0 < 5.0
+
+
+# --------------------------------------------------------------------------------------
+# Issue 24: special files as inputs, output names, a full disk
+
+
+#: Inputs a hostile user names with --config or --check: special files, a directory, a
+#: /proc file that stats as empty, a missing one, binary and oversized ones, a link to
+#: /dev/zero, stdin (empty or unreadable under the test runner), and one good config (a
+#: 0.4 mm nose: not the paper's).
+INPUTS = ["/dev/zero", "/dev/null", "/dev/urandom", "FIFO", "DIR", "/proc/self/status", "missing.toml", "EMPTY",
+          "BINARY", "HUGE", "LINK", "-", "GOOD"]
+#: Output names: plain, a suffix that names another format, empty, into /proc, none.
+OUTPUTS = ["ok", "wrong-suffix", "", "/proc", None]
+
+
+def _hostile_dir(d: Path) -> None:
+    os.mkfifo(d / "FIFO")
+    (d / "DIR").mkdir()
+    (d / "EMPTY").write_text("")
+    (d / "BINARY").write_bytes(bytes(range(256)) * 4)
+    (d / "HUGE").write_bytes(b"# " + b"x" * (2 << 20))
+    (d / "LINK").symlink_to("/dev/zero")
+    (d / "GOOD").write_text("[tool]\nnose_radius = 0.4\n")
+    (d / "keep").write_text("old bytes\n")
+
+
+@settings(FUZZ, max_examples=int(os.environ.get("LATHE_MIRROR_FUZZ_FILES", "30")))
+@example(command="design", flag="--config", source="GOOD", output="ok", full=False)
+@example(command="design", flag="--config", source="GOOD", output="ok", full=True)
+@example(command="toolpath", flag="--check", source="FIFO", output=None, full=False)
+@given(command=st.sampled_from(["design", "toolpath"]), flag=st.sampled_from(["--config", "--check"]),
+       source=st.sampled_from(INPUTS), output=st.sampled_from(OUTPUTS), full=st.booleans())
+def test_special_inputs_output_names_and_a_full_disk(command, flag, source, output, full):
+    """Each run: exit 0 with the file written (a good config, a good name, room on the
+    disk), or exit 2 with one line naming the input or output, nothing new and `keep`
+    (the file a failed run would replace) unchanged; never a hang (FIFO, /dev/zero) and
+    never unbounded memory. A full disk is a simulated ENOSPC on every write."""
+    import errno
+    from unittest import mock
+
+    from lathe_mirror.export import files
+
+    if flag == "--check" and command != "toolpath":
+        flag = "--config"
+    if flag == "--check" and source == "GOOD":
+        source = "EMPTY"  # a TOML is no program: refused below as one
+    suffix = {"design": ".json", "toolpath": ".ngc"}[command]
+    args = [command, flag, source, "--json"]
+    if output is not None:
+        args += ["-o", {"ok": "keep" + suffix, "wrong-suffix": "keep.step", "": "", "/proc": "/proc/x" + suffix}[output]]
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        _hostile_dir(d)
+        if output == "ok":
+            (d / ("keep" + suffix)).write_text("old bytes\n")
+
+        def enospc(fd):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+        good = source == "GOOD" and output in ("ok", None) and not (full and output == "ok")
+        with mock.patch.object(files.os, "fsync", enospc) if full else contextlib.nullcontext():
+            before = {p.name: (p.read_bytes() if p.is_file() and not p.is_symlink() else None)
+                      for p in d.iterdir()}
+            t0 = time.perf_counter()
+            rc, out, err = run(args, d)
+        assert time.perf_counter() - t0 < TIME_BOUND
+        assert "Traceback" not in err and rc in (0, 2), (args, rc, err)
+        event(f"{command} {flag} {source}: exit {rc}")
+        if good:
+            assert rc == 0, (args, err)
+            if output == "ok":
+                assert (d / ("keep" + suffix)).read_bytes() != b"old bytes\n"
+            return
+        assert rc == 2, (args, out)
+        assert len(err.strip().splitlines()) == 1, err
+        after = {p.name: (p.read_bytes() if p.is_file() and not p.is_symlink() else None) for p in d.iterdir()}
+        assert after == before, (args, err)

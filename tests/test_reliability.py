@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -147,13 +148,12 @@ def _enospc_on_call(monkeypatch, n: int):
 @pytest.mark.parametrize("n", [1, 2])
 def test_a_full_disk_leaves_no_file_and_replaces_none(tmp_path, monkeypatch, n):
     """Simulated ENOSPC on the program (1) or on its set-up sheet (2): exit 2 naming the
-    file, no t.ngc, and an existing keep.ngc keeps its bytes."""
+    file, no keep.setup.html, and the existing keep.ngc keeps its bytes."""
     (tmp_path / "c.toml").write_text(NOSE04)
     (tmp_path / "keep.ngc").write_text("old program\n")
     _enospc_on_call(monkeypatch, n)
-    for name in ("t.ngc", "keep.ngc"):
-        line = refused(tmp_path, "toolpath", "--config", "c.toml", "-o", name, within=30)
-        assert "No space left on device" in line and "-o/--output" in line
+    line = refused(tmp_path, "toolpath", "--config", "c.toml", "-o", "keep.ngc", within=30)
+    assert "No space left on device" in line and "-o/--output" in line
     assert (tmp_path / "keep.ngc").read_text() == "old program\n"
     assert files_under(tmp_path) == {"c.toml", "keep.ngc"}
 
@@ -319,3 +319,93 @@ def test_an_output_name_that_cannot_hold_what_is_written(tmp_path, args, message
     `tolerance --csv ''` exited 0 writing nothing; --csv /proc/version named -o/--output."""
     (tmp_path / "c.toml").write_text(NOSE04)
     assert message in refused(tmp_path, *args, "--config", "c.toml", within=10)
+
+
+# --------------------------------------------------------------------------------------
+# 6. toolpath --check reads a hand-edited program
+
+
+@pytest.fixture(scope="module")
+def nose04_program(tmp_path_factory) -> tuple[Path, list[str]]:
+    """The program `toolpath` writes for the 0.4 mm nose config (not the paper's), and its
+    lines; `toolpath --check` accepts it as written."""
+    d = tmp_path_factory.mktemp("nose04")
+    (d / "c.toml").write_text(NOSE04)
+    rc, out, err, _ = cli("toolpath", "--config", "c.toml", "-o", "p.ngc", cwd=d)
+    assert rc == 0, err
+    rc, out, err, _ = cli("toolpath", "--config", "c.toml", "--check", "p.ngc", cwd=d)
+    assert rc == 0 and "no contact at rapid" in out, err
+    return d, (d / "p.ngc").read_text().splitlines()
+
+
+def _first(lines: list[str], prefix: str) -> int:
+    return next(i for i, ln in enumerate(lines) if ln.startswith(prefix))
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda w: re.sub(r"X[-\d.]+", "Xnan", w), "'XNAN' is not a word of this program"),
+    (lambda w: re.sub(r"X[-\d.]+", "Xinf", w), "'XINF' is not a word of this program"),
+    (lambda w: re.sub(r"X[-\d.]+", "X1e1", w), "word E1 is not simulated"),
+    (lambda w: w + " Y2.0", "word Y2.0 is not simulated"),
+    (lambda w: w.split(" X")[0] + " X12345678901234567890 Z-1.000",
+     "X12345678901234567890 is outside the machine's travel (radius at most 60 mm"),
+    (lambda w: w.split(" X")[0] + " X10.000 Z-80.001", "Z-80.001 is outside the machine's travel (-80 to 60 mm"),
+    (lambda w: w.split(" X")[0] + " X" + "9" * 5000, "a number of 5000 characters"),
+])
+def test_check_refuses_a_bad_word_naming_its_block(tmp_path, nose04_program, edit, message):
+    """Xnan was accepted (exit 0); a 20-digit coordinate exited 1 (ValueError)."""
+    d, lines = nose04_program
+    k = _first(lines, "N9 G1 ")  # the facing cut
+    bad = list(lines)
+    bad[k] = edit(bad[k])
+    (tmp_path / "c.toml").write_text(NOSE04)
+    (tmp_path / "e.ngc").write_text("\n".join(bad) + "\n")
+    line = refused(tmp_path, "toolpath", "--config", "c.toml", "--check", "e.ngc")
+    assert f"--check e.ngc line {k + 1} (N9): " in line and message in line, line
+
+
+@pytest.mark.parametrize("feed", ["F0", "F-0.1", "F0.0"])
+def test_check_refuses_a_zero_or_negative_feed(tmp_path, nose04_program, feed):
+    """F0 gave "cycle time inf s" and null in the JSON."""
+    d, lines = nose04_program
+    k = _first(lines, "N4 F")
+    bad = list(lines)
+    bad[k] = f"N4 {feed}"
+    (tmp_path / "e.ngc").write_text("\n".join(bad) + "\n")
+    line = refused(tmp_path, "toolpath", "--check", "e.ngc", "--json")
+    assert f"line {k + 1} (N4): {feed.replace('F0.0', 'F0').replace('F-0.1', 'F-0.1')}" in line
+    assert "a feed must be above 0 and at most 500 mm/rev" in line
+
+
+def test_check_refuses_a_feed_move_before_any_feed(tmp_path, nose04_program):
+    d, lines = nose04_program
+    bad = [ln for ln in lines if not ln.startswith("N4 F")]
+    (tmp_path / "e.ngc").write_text("\n".join(bad) + "\n")
+    assert "(N9): a feed move before any F word" in refused(tmp_path, "toolpath", "--check", "e.ngc")
+
+
+def test_check_refuses_a_program_beyond_its_stated_size(tmp_path, nose04_program):
+    """A 5.6 MB program ran past 120 s: beyond 2 MiB it is refused unread; beyond 10 000
+    moves before the simulation starts."""
+    from lathe_mirror.shop.replay import MAX_MOVES, MAX_PROGRAM_BYTES
+
+    d, lines = nose04_program
+    head, tail = lines[:_first(lines, "N9 G1 ")], lines[-3:]
+    big = tmp_path / "big.ngc"
+    big.write_text("\n".join(head + ["G1 X10.000 Z0.350"] * (MAX_PROGRAM_BYTES // 18) + tail) + "\n")
+    assert big.stat().st_size > MAX_PROGRAM_BYTES
+    line = refused(tmp_path, "toolpath", "--check", "big.ngc", within=2)
+    assert f"allowed at most {MAX_PROGRAM_BYTES} bytes" in line
+    many = tmp_path / "many.ngc"
+    many.write_text("\n".join(head + ["G1 X10.000 Z0.350", "G1 X10.000 Z0.300"] * (MAX_MOVES // 2 + 1) + tail) + "\n")
+    assert many.stat().st_size < MAX_PROGRAM_BYTES
+    line = refused(tmp_path, "toolpath", "--check", "many.ngc", within=10)
+    assert f"more than {MAX_MOVES} moves" in line
+
+
+@pytest.mark.parametrize("what", ["FIFO", "/dev/zero", "DIR"])
+def test_check_refuses_a_special_file_at_once(tmp_path, what):
+    os.mkfifo(tmp_path / "FIFO")
+    (tmp_path / "DIR").mkdir()
+    line = refused(tmp_path, "toolpath", "--check", what, within=3)
+    assert line.startswith(f"lathe-mirror toolpath: error: --check {what}: is ")

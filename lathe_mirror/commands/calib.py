@@ -55,6 +55,11 @@ def run(args: argparse.Namespace) -> int:
     range_m = DEFAULT_RANGE_MM / 1000.0 if args.range_m is None else args.range_m
     nose = settings.tool.nose_radius if args.nose_radius is None else args.nose_radius
     pose = settings.pose
+    from ..optics.zones import zones as zones_of
+
+    tol = settings.tolerance
+    zn = zones_of(mirror, nose, float(tol.tolerances.get("nose_radius_mm", 0.0)) if tol is not None and nose > 0 else 0.0,
+                  settings.machine.resolution)
     # Before any progress display: a bad name is one line.
     names = [parse(Surface, n, "--surface") for n in ((args.surface,) if args.surface is not None
                                                       else DEFAULT_SURFACES)]
@@ -72,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
             nose_k = 0.0 if name in builtin else nose
             surface = named_surface(name, mirror, settings, nose_radius=nose_k)
             try:
-                fig = made_figures(surface, mirror, range_mm=range_m * 1000.0, pose=pose)
+                fig = made_figures(surface, mirror, range_mm=range_m * 1000.0, pose=pose, zones=zn)
             except InputError as exc:
                 raise InputError(f"--surface {name.value}: {exc}") from None
             made[name.value] = {"surface": name.value, "nose_radius_mm": nose_k, **fig}
@@ -82,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         from ..export.files import write_text
         from .common import output_dir
 
-        texts = calibration_texts(mirror)  # every file's text before the directory is made
+        texts = calibration_texts(mirror, zn)  # every file's text before the directory is made
         out = output_dir(args.output or "calib")
         files = [str(write_text(Path(out) / name, text)) for name, text in texts.items()]
         steps.done()
@@ -92,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
         raise
     finally:
         steps.close()
-    figures = {"design": design_model_figures(mirror),
+    figures = {"design": design_model_figures(mirror, zn), "zones": zn.as_dict(), "zones_text": zn.describe(),
                "camera_pose": "aligned" if pose.aligned else {
                    "decentre_mm": list(pose.decentre), "axial_offset_mm": pose.axial_offset,
                    "tilt_deg": [math.degrees(t) for t in pose.tilt]},
@@ -123,5 +128,7 @@ def format_figures(fig: dict) -> str:
             lines.append(f"  {lb['name']:6s} design model {d['rms']:.4g} / {d['max']:.4g}; refit "
                          f"(xi {lb['refit']['xi']:.6g}, gamma {lb['refit']['gamma_px']:.6g} px, "
                          f"k1 {lb['refit']['k1']:.3g}, k2 {lb['refit']['k2']:.3g}) {r['rms']:.4g} / {r['max']:.4g}")
+    if "zones_text" in fig:
+        lines.append(fig["zones_text"])
     lines += [f"wrote {f}" for f in fig["files"]]
     return "\n".join(lines)

@@ -82,7 +82,9 @@ def run(args: argparse.Namespace) -> int:
     cad = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
     from ..export.calib import write_calibration
 
-    calib = write_calibration(calib_dir, mirror)
+    from ..optics.zones import zones_for
+
+    calib = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
     data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render)
     data.figures["shop"] = [{"name": shop.program.name, "setup_sheet": f"{shop.program.name}.setup.html",
                              **shop.simulation.figures()} for shop in shops]

@@ -97,6 +97,11 @@ def format_tolerance(out: dict) -> str:
              f"{spec['image_displacement_px']:g} px per lobe, depth error <= {spec['depth_error_pct']:g} % at "
              f"{spec['depth_range_m']:g} m (as disparity, 90 % of the band), RMS slope error <= "
              f"{spec['slope_error_rad']:g} rad; {out['trials']} trials, seed {out['seed']}"]
+    zn = next((t["monte_carlo"].get("zones") for t in out["programs"].values()), None)
+    if zn is not None:
+        from ..optics.zones import describe_dict
+
+        lines.append(describe_dict(zn))
     for name, t in out["programs"].items():
         v, mc = t["verdict"], t["monte_carlo"]
         lines.append(f"{name} program ({t['surfaces']}; polished {t['nominal_polish_time_s']:g} s nominal): "
@@ -124,8 +129,7 @@ def format_tolerance(out: dict) -> str:
                          f"{m['calibrated']['disparity_px_p90']:.3g} / {p['calibrated']['disparity_px_p90']:.3g}")
         for r in t["inverse_sensitivity"]:
             if r["no_margin"]:
-                lines.append(f"  {r['parameter']:>20s} alone: no margin left (the nominal part fails "
-                             f"{', '.join(r['no_margin'])})")
+                lines.append(f"  {r['parameter']:>20s} alone: no margin left ({r['no_margin_why']})")
                 continue
             why = f"set by {r['limited_by']}" if r["limited_by"] else "no criterion reaches its share in the scan"
             more = "" if r["limited_by"] else " or more"

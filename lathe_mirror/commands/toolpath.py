@@ -121,16 +121,15 @@ def run(args: argparse.Namespace) -> int:
 def check(args: argparse.Namespace, settings) -> int:
     """--check PROGRAM: replay a G-code file against the configured stock and tool."""
     from ..errors import InputError
+    from ..inputs import read_text
     from ..job import design
-    from ..shop.replay import read_program
+    from ..shop.replay import MAX_PROGRAM_BYTES, read_program
     from ..shop.stock import simulate
 
-    try:
-        text = open(args.check, encoding="utf-8").read()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"--check {args.check}: cannot read ({getattr(exc, 'strerror', None) or exc})") from None
+    # a regular file (or - for stdin) of at most MAX_PROGRAM_BYTES, bounded while reading
+    text = read_text(args.check, "--check", MAX_PROGRAM_BYTES)
     lathe, t = settings.machine, settings.toolpath
-    ops = read_program(text, lathe, source=args.check)
+    ops = read_program(text, lathe, source=f"--check {args.check}")
     if not ops:
         raise InputError(f"--check {args.check}: no moves to simulate")
     from ..toolpath.moves import Hand

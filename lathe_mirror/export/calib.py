@@ -39,25 +39,27 @@ point is the sensor centre ({cx:g}, {cy:g}).
 Valid image: the annulus {r0:.6f} px <= |pixel - principal point| <= {r1:.6f} px{note}."""
 
 
-def calibration_texts(mirror: Mirror) -> dict[str, str]:
-    """The text of every calibration file of the design (FILE_NAMES), by file name."""
-    models = [design_model(mirror, k) for k in (0, 1)]
+def calibration_texts(mirror: Mirror, zones=None) -> dict[str, str]:
+    """The text of every calibration file of the design (FILE_NAMES), by file name.
+    zones (optics.zones.Zones): the valid annuli are its used zones (the ring the nose
+    cannot reach at the junction masked too)."""
+    models = [design_model(mirror, k, zones) for k in (0, 1)]
     texts = {}
     for k, model in enumerate(models):
-        texts[f"opencv_{model.name}.yaml"] = opencv_yaml(model, _design_note(mirror, k))
+        texts[f"opencv_{model.name}.yaml"] = opencv_yaml(model, _design_note(mirror, k, zones))
     texts["kalibr_camchain.yaml"] = kalibr_camchain(models, _kalibr_note(mirror))
     for k, model in enumerate(models):
-        texts[f"calib_results_{model.name}.txt"] = ocamcalib_text(lobe_ocam_model(mirror, k),
-                                                                  _ocam_note(mirror, k))
+        texts[f"calib_results_{model.name}.txt"] = ocamcalib_text(lobe_ocam_model(mirror, k, zones),
+                                                                  _ocam_note(mirror, k, zones))
     return texts
 
 
-def write_calibration(directory: str | Path, mirror: Mirror) -> list[Path]:
+def write_calibration(directory: str | Path, mirror: Mirror, zones=None) -> list[Path]:
     """Write the design's calibration files into an existing directory; their paths.
 
     Every file's text is built before the first is written (a failure writes nothing).
     """
-    texts = calibration_texts(mirror)
+    texts = calibration_texts(mirror, zones)
     d = Path(directory)
     return [write_text(d / name, texts[name]) for name in FILE_NAMES]
 
@@ -181,7 +183,16 @@ def _frame(model: UnifiedModel, note: str) -> str:
                          r1=model.annulus_px[1], note=note)
 
 
-def _design_note(mirror: Mirror, k: int) -> str:
+def _fillet_note(zones, k: int) -> str:
+    if zones is None or zones.lobes[k].fillet_px is None:
+        return ""
+    z = zones.lobes[k]
+    return (f"; the ring {z.fillet_px[0]:.6f} to {z.fillet_px[1]:.6f} px sees the fillet a "
+            f"{zones.nose_mm:g} mm nose leaves at the junction (r {z.fillet_mm[0]:.4f} to {z.fillet_mm[1]:.4f} mm), "
+            f"not the designed lobe: masked ({z.fillet_pixels} pixels)")
+
+
+def _design_note(mirror: Mirror, k: int, zones=None) -> str:
     lobe, cam = mirror.lobes[k], mirror.camera
     radii = mirror.image_radii_px
     band = ""
@@ -191,6 +202,7 @@ def _design_note(mirror: Mirror, k: int) -> str:
     elif k == 1:
         lo, hi = radii["lost_ring"]
         band = f" (inside it: the ring {lo:.6f} to {hi:.6f} px lost on the step wall, and the inner lobe)"
+    band += _fillet_note(zones, k)
     return (band + ".\n"
             f"Design: a = {lobe.a:.9f} mm, b = {lobe.b:.9f} mm, e = sqrt(a^2 + b^2) = {lobe.e:.9f} mm, "
             f"f = {cam.f:g} mm, t_pixel = {cam.t_pixel:g} mm: xi = 2 a e / (a^2 + e^2), "
@@ -204,10 +216,10 @@ def _kalibr_note(mirror: Mirror) -> str:
             "elevation; the exact design is the calibration (no distortion).")
 
 
-def _ocam_note(mirror: Mirror, k: int) -> str:
-    r0, r1 = valid_annulus_px(mirror, k)
+def _ocam_note(mirror: Mirror, k: int, zones=None) -> str:
+    r0, r1 = valid_annulus_px(mirror, k, zones)
     return (f"Valid image: the annulus {r0:.6f} px <= rho <= {r1:.6f} px about the centre (the lost ring "
-            "and the band the step wall blocks left out).")
+            f"and the band the step wall blocks left out{_fillet_note(zones, k)}).")
 
 
 def _comment(text: str, width: int = 92) -> list[str]:

@@ -189,8 +189,9 @@ class OcamModel:
 # Public entry points
 
 
-def design_model(mirror: Mirror, k: int) -> UnifiedModel:
-    """The unified model of lobe k (0 inner, 1 outer) of the design (see the module doc)."""
+def design_model(mirror: Mirror, k: int, zones=None) -> UnifiedModel:
+    """The unified model of lobe k (0 inner, 1 outer) of the design (see the module doc);
+    its valid annulus the zones' used zone when given (valid_annulus_px)."""
     lobe = mirror.lobes[k]
     cam = mirror.camera
     f_px = cam.f / cam.t_pixel
@@ -199,13 +200,17 @@ def design_model(mirror: Mirror, k: int) -> UnifiedModel:
     w, h = (int(n) for n in cam.sensor_px)
     return UnifiedModel(name=lobe.name, xi=2.0 * lobe.a * lobe.e / d, fu=gamma, fv=gamma,
                         cx=(w - 1) / 2.0, cy=(h - 1) / 2.0, image_size=(w, h),
-                        annulus_px=valid_annulus_px(mirror, k), viewpoint_z=lobe.focus_z)
+                        annulus_px=valid_annulus_px(mirror, k, zones), viewpoint_z=lobe.focus_z)
 
 
-def valid_annulus_px(mirror: Mirror, k: int) -> tuple[float, float]:
+def valid_annulus_px(mirror: Mirror, k: int, zones=None) -> tuple[float, float]:
     """(inner, outer) image radius (px) of lobe k's valid annulus about the sensor centre:
     the inner disc up to where the step wall starts to block its world rays; the outer
-    annulus from the lost ring to the outer rim."""
+    annulus from the lost ring to the outer rim. zones (optics.zones.Zones): the lobe's
+    used zone, which also leaves out the ring the nose cannot reach at the junction."""
+    if zones is not None:
+        lo, hi = zones.lobes[k].used_px
+        return (float(lo), float(hi))
     radii = mirror.image_radii_px
     if k == 0:
         return (0.0, float(radii["inner_blocked_by_step"][0]))
@@ -228,7 +233,7 @@ def from_lobe_frame(points_lobe: np.ndarray, viewpoint_z: float) -> np.ndarray:
 
 def trace_correspondences(profile: Profile, mirror: Mirror, k: int, *,
                           range_mm: float = DEFAULT_RANGE_MM,
-                          pose: CameraPose = ALIGNED) -> Correspondences:
+                          pose: CameraPose = ALIGNED, zones=None) -> Correspondences:
     """Pixel <-> world point pairs of lobe k of a made surface, by the exact tracer.
 
     Pixels: the design's usable annulus of lobe k (optics.radial.lobe_pixel_radii: the
@@ -238,12 +243,13 @@ def trace_correspondences(profile: Profile, mirror: Mirror, k: int, *,
     pixel centre in each direction, traced in 3-D. Pairs whose made ray misses the lobe or
     runs into the step wall are left out (counted in `excluded`). range_mm: the world
     point's distance from F1 along the traced ray (mm; inf: the ray's direction).
+    zones: optics.zones.Zones: the lobe's used zone only (the fillet ring left out).
     """
     if not (range_mm > 0):
         raise InputError(f"--range-m {range_mm / 1000.0!r}: must be > 0 (inf: directions)")
     cam = mirror.camera
     lobe = mirror.lobes[k]
-    px = lobe_pixel_radii(mirror, k)
+    px = lobe_pixel_radii(mirror, k, zones=zones)
     if pose.aligned:
         xy = np.stack([px.radius_px, np.zeros_like(px.radius_px)], axis=-1)
         weight = px.count.astype(float)
@@ -358,15 +364,15 @@ def refit(model: UnifiedModel, corr: Correspondences, *, fit_centre: bool | None
 
 
 def made_lobe_figures(profile: Profile, mirror: Mirror, k: int, *,
-                      range_mm: float = DEFAULT_RANGE_MM, pose: CameraPose = ALIGNED) -> dict:
+                      range_mm: float = DEFAULT_RANGE_MM, pose: CameraPose = ALIGNED, zones=None) -> dict:
     """One lobe of a made surface: the design model's reprojection error and the refit.
 
     Returns {"name", "pixels", "pixels_excluded", "design": {"reprojection_error_px"},
     "refit": {model parameters, "principal_point", "reprojection_error_px"}}. Raises
     InputError when no camera pixel of the lobe's annulus sees the lobe of this surface.
     """
-    design = design_model(mirror, k)
-    corr = trace_correspondences(profile, mirror, k, range_mm=range_mm, pose=pose)
+    design = design_model(mirror, k, zones)
+    corr = trace_correspondences(profile, mirror, k, range_mm=range_mm, pose=pose, zones=zones)
     n = int(round(np.sum(corr.weight)))
     if corr.pixels.shape[0] < MIN_SAMPLES:
         what = "pixels" if corr.aligned else f"pixels sampled every {MISALIGNED_STRIDE_PX} px"
@@ -386,18 +392,23 @@ def made_lobe_figures(profile: Profile, mirror: Mirror, k: int, *,
 
 
 def made_figures(profile: Profile, mirror: Mirror, *, range_mm: float = DEFAULT_RANGE_MM,
-                 pose: CameraPose = ALIGNED) -> dict:
-    """made_lobe_figures of both lobes, inner first: {"range_m", "lobes": [...]}."""
-    return {"range_m": range_mm / 1000.0,
-            "lobes": [made_lobe_figures(profile, mirror, k, range_mm=range_mm, pose=pose) for k in (0, 1)]}
+                 pose: CameraPose = ALIGNED, zones=None) -> dict:
+    """made_lobe_figures of both lobes, inner first: {"range_m", "lobes": [...]} (and
+    "zones" when given: the pixels the figures cover)."""
+    out = {"range_m": range_mm / 1000.0,
+           "lobes": [made_lobe_figures(profile, mirror, k, range_mm=range_mm, pose=pose, zones=zones)
+                     for k in (0, 1)]}
+    if zones is not None:
+        out["zones"] = zones.as_dict()
+    return out
 
 
 def calibration_figures(mirror: Mirror, made: dict[str, Profile], *,
-                        range_mm: float = DEFAULT_RANGE_MM) -> dict:
+                        range_mm: float = DEFAULT_RANGE_MM, zones=None) -> dict:
     """The report's calibration section: the design models (design_model_figures) and, for each
-    made mirror (name -> profile; aligned camera), made_figures."""
-    return {"design": design_model_figures(mirror),
-            "made": {name: made_figures(p, mirror, range_mm=range_mm) for name, p in made.items()}}
+    made mirror (name -> profile; aligned camera), made_figures, over the zones' used zone."""
+    return {"design": design_model_figures(mirror, zones),
+            "made": {name: made_figures(p, mirror, range_mm=range_mm, zones=zones) for name, p in made.items()}}
 
 
 def model_dict(model: UnifiedModel) -> dict:
@@ -406,12 +417,12 @@ def model_dict(model: UnifiedModel) -> dict:
             "cx_px": model.cx, "cy_px": model.cy, "k1": model.k1, "k2": model.k2}
 
 
-def design_model_figures(mirror: Mirror) -> dict:
+def design_model_figures(mirror: Mirror, zones=None) -> dict:
     """Both lobes' design models, annuli and the viewpoints' axial offset (for --json and
     the report): {"frame", "lobes": [...], "t_cn_cnm1_mm"}."""
     lobes = []
     for k in (0, 1):
-        m = design_model(mirror, k)
+        m = design_model(mirror, k, zones)
         lobes.append({"name": m.name, **model_dict(m),
                       "annulus_px": {"min": m.annulus_px[0], "max": m.annulus_px[1]},
                       "viewpoint_z_mm": m.viewpoint_z,
@@ -471,9 +482,9 @@ def ocam_model(model: UnifiedModel, rho_max_px: float, *, tolerance_px: float = 
                      max_error_px={"pol": pol_err, "invpol": inv_err})
 
 
-def lobe_ocam_model(mirror: Mirror, k: int) -> OcamModel:
+def lobe_ocam_model(mirror: Mirror, k: int, zones=None) -> OcamModel:
     """ocam_model of lobe k's design model over its whole image disc (to the rim, R_pixel)."""
-    return ocam_model(design_model(mirror, k), mirror.lobes[k].r_pixel)
+    return ocam_model(design_model(mirror, k, zones), mirror.lobes[k].r_pixel)
 
 
 # --------------------------------------------------------------------------------------

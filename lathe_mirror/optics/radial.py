@@ -65,7 +65,7 @@ class MeridianRays:
 
 
 def lobe_pixel_radii(mirror: Mirror, k: int, *, bin_px: float | None = None,
-                     corner_mm: float = 0.0) -> PixelRadii:
+                     corner_mm: float = 0.0, zones=None) -> PixelRadii:
     """Image radii of the pixel centres of lobe k's usable annulus, with their counts.
 
     The annuli are the design's (Mirror.image_radii_px): the inner disc, and the outer
@@ -75,12 +75,17 @@ def lobe_pixel_radii(mirror: Mirror, k: int, *, bin_px: float | None = None,
     corner_mm: width (mm) of the inner lobe's band next to the step that is not usable,
     e.g. the fillet a nose of that radius leaves in the inside corner; its pixels are
     counted lost like the step wall's (see corner_limit_px).
+    zones: an optics.zones.Zones; the lobe's used zone only (the fillet ring the nose
+    cannot reach left out).
     """
     radii = mirror.image_radii_px
     lo, hi = radii["inner_disc"] if k == 0 else radii["outer_annulus"]
     if k == 0 and corner_mm > 0:
         hi = corner_limit_px(mirror, corner_mm)
-    rho_all, cnt_all = _sensor_radii(tuple(int(n) for n in mirror.camera.sensor_px))
+    if zones is not None:
+        u_lo, u_hi = zones.lobes[k].used_px
+        lo, hi = (lo, min(hi, u_hi)) if k == 0 else (max(lo, u_lo), hi)
+    rho_all, cnt_all = sensor_radii(tuple(int(n) for n in mirror.camera.sensor_px))
     rho, cnt = rho_all, cnt_all
     if k == 0:
         m = rho < hi
@@ -101,10 +106,16 @@ def lobe_pixel_radii(mirror: Mirror, k: int, *, bin_px: float | None = None,
     return PixelRadii(rho.astype(float), cnt.astype(float))
 
 
-def used_extent(mirror: Mirror, k: int) -> tuple[float, float]:
-    """Radial extent (mm) of lobe k that the image uses: the whole outer lobe; the inner
-    lobe up to where its exact reflected rays start to run into the step wall (beyond, the
-    surface, including any fillet the tool leaves in the inside corner, shows no world)."""
+def used_extent(mirror: Mirror, k: int, zones=None) -> tuple[float, float]:
+    """Radial extent (mm) of lobe k that the image uses: the outer lobe from where the
+    inner lobe's rim stops hiding it (Mirror.r_outer_visible) to the rim; the inner lobe up
+    to where its exact reflected rays start to run into the step wall (beyond, the
+    surface, including any fillet the tool leaves in the inside corner, shows no world).
+    zones: an optics.zones.Zones: its used zone (the fillet ring left out) instead."""
+    if zones is not None:
+        return zones.lobes[k].used_mm
+    if k == 1:
+        return max(float(mirror.r_outer_visible), mirror.r_junction), mirror.r_max
     lo, hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
     if k == 1 or mirror.step <= 0:
         return lo, hi
@@ -198,18 +209,19 @@ def radial_displacement(profile: Profile, mirror: Mirror, k: int, radius_px: np.
 
 
 def radial_figures(profile: Profile, mirror: Mirror, *, camera_dz: float = 0.0,
-                   bin_px: float | None = None, corner_mm: float = 0.0) -> dict:
+                   bin_px: float | None = None, corner_mm: float = 0.0, zones=None) -> dict:
     """Per-lobe ray_deviation_deg, image_displacement_px, viewpoint_spread_mm ({rms, max}).
 
     RMS and max over the pixel centres of each lobe's usable annulus (each distinct radius
     weighted by its pixel count). Aligned camera, optionally shifted along the axis.
     Pixels count where the exact ray lands on the lobe unobstructed (lobe_pixel_radii drops
     the ones the step vignettes on the exact design) and the made ray lands on the lobe:
-    the rule of optics.distortion's usable annulus. corner_mm: see lobe_pixel_radii.
+    the rule of optics.distortion's usable annulus. corner_mm, zones: see lobe_pixel_radii
+    (zones: each lobe's used zone, its "zone_px" given).
     """
     lobes = []
     for k, lobe in enumerate(mirror.lobes):
-        px = lobe_pixel_radii(mirror, k, bin_px=bin_px, corner_mm=corner_mm)
+        px = lobe_pixel_radii(mirror, k, bin_px=bin_px, corner_mm=corner_mm, zones=zones)
         made = trace_lobe(profile, mirror, k, px.radius_px, camera_dz=camera_dz)
         exact = trace_lobe(lobe, mirror, k, px.radius_px)
         use = made.ok
@@ -228,6 +240,9 @@ def radial_figures(profile: Profile, mirror: Mirror, *, camera_dz: float = 0.0,
             "image_displacement_px": weighted_stats(disp[use], w[use]),
             "viewpoint_spread_mm": weighted_stats(spread[use], w[use]),
         })
+        if zones is not None:
+            u = zones.lobes[k].used_px
+            lobes[-1]["zone_px"] = {"min": float(u[0]), "max": float(u[1])}
     return {"lobes": lobes}
 
 
@@ -271,7 +286,7 @@ def weighted_stats(values: np.ndarray, weights: np.ndarray) -> dict:
 
 
 @functools.lru_cache(maxsize=4)
-def _sensor_radii(sensor_px: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+def sensor_radii(sensor_px: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     """Distinct radii (px) of all pixel centres about the sensor centre, with counts."""
     w, h = sensor_px
     x = np.arange(w) + 0.5 - w / 2.0

@@ -48,7 +48,7 @@ class ReportData:
     plots: dict[str, bytes] = dataclasses.field(default_factory=dict)
 
 
-def mirror_figures(profile: Profile, mirror: Mirror) -> dict:
+def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> dict:
     """The five figures per lobe (ARCHITECTURE.md), surface and optics.
 
     Surface figures: toolpath.profile_errors. Optical figures: over the pixels each lobe
@@ -56,9 +56,11 @@ def mirror_figures(profile: Profile, mirror: Mirror) -> dict:
     camera; equal to optics.distortion's per-pixel figures over the usable annulus, which
     the tests check); those per-pixel figures (with the pixels the step wall vignettes
     counted too under "with_vignetted") are kept alongside under "optics_distortion".
+    zones (optics.zones.Zones): the optical figures over each lobe's used zone (the ring
+    the nose cannot reach left out), its image radii under "zone_px".
     """
     surf = profile_errors(profile, mirror)
-    rad = radial_figures(profile, mirror)
+    rad = radial_figures(profile, mirror, zones=zones)
     full = distortion_figures(profile, mirror)
     lobes = []
     for s, o, f in zip(surf["lobes"], rad["lobes"], full["lobes"]):
@@ -68,6 +70,7 @@ def mirror_figures(profile: Profile, mirror: Mirror) -> dict:
                       "image_displacement_px": o["image_displacement_px"],
                       "viewpoint_spread_mm": o["viewpoint_spread_mm"],
                       "pixels": o["pixels"], "pixels_excluded": o["pixels_excluded"],
+                      **({"zone_px": o["zone_px"]} if "zone_px" in o else {}),
                       "optics_distortion": f})
     return {"lobes": lobes}
 

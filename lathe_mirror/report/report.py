@@ -356,7 +356,7 @@ def _tolerance_html(f: dict, img) -> str:
         block.append(_stereo_html(t["stereo"], spec))
         block.append(_sensitivity_html(t["sensitivity"]))
         inv = [(r["parameter"], f"{_fmt(r['tolerance'])} {r['unit']}",
-                "none: the nominal part fails " + ", ".join(r["no_margin"]) if r["no_margin"] else
+                "none: " + r["no_margin_why"] if r["no_margin"] else
                 f"{_fmt(r['largest'])} {r['unit']}" + ("" if r["limited_by"] else " or more"),
                 r["limited_by"] or "-") for r in t["inverse_sensitivity"]]
         block.append("<p>Inverse sensitivity: the largest +/- value of each parameter that alone keeps every "

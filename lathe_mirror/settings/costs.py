@@ -205,10 +205,11 @@ def estimate_costs(settings: Settings, mirror: Mirror) -> list[Cost]:
         costs.append(Cost(
             "the tolerance analysis' machined and polished surfaces",
             f"(tolerance.lattice_phases = {ts.lattice_phases} + {noses:.3g} noses (tolerance.params.nose_radius_mm "
-            f"/ tolerance.nose_step_mm)) x {programs} programs",
+            f"/ tolerance.nose_step_mm)) x {programs} programs, each polished in {node_steps:.3g} time steps "
+            f"(polish.preston_coefficient, pressure_kpa, spindle_rpm, lap_rpm, compliance_mm)",
             programs * surfaces * per_surface,
             _BASE_BYTES + surfaces * _TIME_NODES * grid * 16.0,
-            "fewer lattice_phases, a coarser nose_step_mm or polish.grid_step_mm"))
+            "fewer lattice_phases, a coarser nose_step_mm or polish.grid_step_mm, or a slower removal"))
 
     tri = _STL_TRIANGLES * (0.01 / settings.cad.stl_tolerance) * (mirror.r_max / 35.0)
     costs.append(Cost(

@@ -51,6 +51,7 @@ def from_config(cfg: dict[str, Any]) -> Settings:
 
     The design is built once here, so an impossible design fails before anything else.
     """
+    check_ranges(cfg)  # every key within its declared range (settings.keys), before any section is built
     camera = Camera(f=float(cfg["camera"]["f"]), t_pixel=float(cfg["camera"]["t_pixel"]),
                     sensor_px=tuple(int(n) for n in cfg["camera"]["sensor_px"]),
                     f_number=float(cfg["camera"]["f_number"]))
@@ -78,7 +79,6 @@ def from_config(cfg: dict[str, Any]) -> Settings:
         machine_errors=_machine_errors(cfg["machine"]["errors"]),
         compute=_compute(cfg["compute"]),
     )
-    check_ranges(cfg)                 # every key within its documented range (RANGES)
     mirror = check_design(settings)   # the design's own checks, and a lobe that is no degenerate conic
     build_scene(settings.scene, mirror_top=float(mirror.outer.z(mirror.r_max)), mirror_radius=mirror.r_max)
     check_costs(settings, mirror)     # what the keys cost: estimated, refused above the limits

@@ -11,14 +11,23 @@ replay it faithfully.
 
 Each move's label names its block as the operator finds it: "N130 G0 X0.000 Z3.000" or,
 without block numbers, "line 130: G0 X0.000 Z3.000".
+
+A program a user may have edited by hand is held to what the simulation can replay
+faithfully, each refusal one line naming the line (and the N number): every word a letter
+of ALLOWED_LETTERS and a finite decimal number (`Xnan`, `X1e5`, `Y2` are refused), X and Z
+within the machine's travel (machine.travel_x, travel_z_min / travel_z_max), I and K
+within MAX_ARC_OFFSET_MM, feeds F above 0 and at most MAX_FEED_MM_REV (a feed move before
+any F is refused), T from 0 to 9999, and at most MAX_MOVES moves (the simulation's time
+grows with them: README "Toolpath and G-code").
 """
 
 from __future__ import annotations
 
+import math
 import re
 from typing import TYPE_CHECKING
 
-from ..errors import InputError
+from ..errors import InputError, num
 from ..path import Arc, Line
 from .stock import SimMove, SimOperation
 
@@ -26,6 +35,19 @@ if TYPE_CHECKING:
     from ..lathe import Lathe
 
 _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
+#: The words a program may have (the two dialects' and a hand edit's): anything else is
+#: refused rather than ignored.
+ALLOWED_LETTERS = frozenset("GMNTSDFXZIKOHP")
+#: Largest feed per revolution a program may give (mm/rev; machine.feed_* allow as much).
+MAX_FEED_MM_REV = 500.0
+#: Largest arc centre offset I / K (mm): a lobe's vertex radius is at most 10 000 mm.
+MAX_ARC_OFFSET_MM = 100_000.0
+#: Most moves a program checked by `toolpath --check` may have (3.4 ms of simulation a move
+#: on the 2-core reference machine under load 8; benchmarks/bench_check.py).
+MAX_MOVES = 10_000
+#: Largest program file `toolpath --check` reads (bytes).
+MAX_PROGRAM_BYTES = 2 << 20
+_N = re.compile(r"N\s*(\d{1,9})\b")
 _UNSUPPORTED_G = {"28", "30", "53", "91", "41", "42", "71", "72", "73", "70", "76", "33", "32", "92", "50.1"}
 
 
@@ -48,8 +70,11 @@ def read_program(text: str, lathe: Lathe, *, source: str = "program") -> list[Si
         last_comment, prev_comment = prev_comment, (comments[-1] if comments and not code else "")
         if not code or code.startswith("%") or re.fullmatch(r"O\d+", code.split()[0] if code else ""):
             continue
-        words = _WORD.findall(code)
+        n_word = _N.match(code)
+        where = f"{source} line {k}" + (f" (N{n_word.group(1)})" if n_word else "")
+        words = _words(code, where)
         block_no = next((int(float(v)) for w, v in words if w == "N"), None)
+        _check_words(words, where, lathe, diameter)
         g = [_g(v) for w, v in words if w == "G"]
         for gv in g:
             if gv in _UNSUPPORTED_G:
@@ -70,6 +95,9 @@ def read_program(text: str, lathe: Lathe, *, source: str = "program") -> list[Si
         vals = {w: float(v) for w, v in words if w in "XZIKFT"}
         if "F" in vals:
             feed = vals["F"]
+            if not 0.0 < feed <= MAX_FEED_MM_REV:
+                raise InputError(f"{where}: F{num(feed)}: a feed must be above 0 and at most "
+                                 f"{num(MAX_FEED_MM_REV)} mm/rev")
         if "T" in vals:
             t = int(vals["T"])
             if moves:
@@ -97,11 +125,55 @@ def read_program(text: str, lathe: Lathe, *, source: str = "program") -> list[Si
         if motion != 0 and not per_rev:
             raise InputError(f"{source} line {k}: a feed move in feed per minute (G94); the "
                              "simulation takes feed per revolution (G95 / G99)")
+        if motion != 0 and feed <= 0.0:
+            raise InputError(f"{where}: a feed move before any F word (the feed, mm/rev)")
+        if sum(len(op.moves) for op in ops) + len(moves) >= MAX_MOVES:
+            raise InputError(f"{source}: more than {MAX_MOVES} moves (at line {k}); --check simulates "
+                             f"at most {MAX_MOVES}")
         moves.append(SimMove(rapid=motion == 0, move=mv, feed=feed, label=label))
         pos = [end[0], end[1]]
     if moves:
         ops.append(SimOperation(name=name, station=station, moves=tuple(moves)))
     return ops
+
+
+def _words(code: str, where: str) -> list[tuple[str, str]]:
+    """The (letter, number) words of a block (comments removed, upper case): InputError
+    naming the first piece that is not a letter of ALLOWED_LETTERS and a finite decimal."""
+    words = _WORD.findall(code)
+    rest = _WORD.sub(" ", code).split()
+    if rest:
+        token = rest[0][:20]
+        raise InputError(f"{where}: '{token}' is not a word of this program (a letter of "
+                         f"{''.join(sorted(ALLOWED_LETTERS))} and a finite decimal number)")
+    for w, v in words:
+        if w not in ALLOWED_LETTERS:
+            raise InputError(f"{where}: word {w}{v[:20]} is not simulated (allowed letters: "
+                             f"{''.join(sorted(ALLOWED_LETTERS))})")
+        if len(v) > 40 or not math.isfinite(float(v)):
+            raise InputError(f"{where}: {w}{v[:20]}...: a number of {len(v)} characters")
+    return words
+
+
+def _check_words(words: list[tuple[str, str]], where: str, lathe: Lathe, diameter: bool) -> None:
+    """Coordinates within the machine's travel, arc offsets and tool numbers bounded."""
+    for w, v in words:
+        f = float(v)
+        if w == "X":
+            r = f / 2 if diameter else f
+            if abs(r) > lathe.travel_x:
+                raise InputError(f"{where}: X{v} is outside the machine's travel (radius at most "
+                                 f"{num(lathe.travel_x)} mm, machine.travel_x{'; X is a diameter' if diameter else ''})")
+        elif w == "Z":
+            if not lathe.travel_z_min <= f <= lathe.travel_z_max:
+                raise InputError(f"{where}: Z{v} is outside the machine's travel ({num(lathe.travel_z_min)} "
+                                 f"to {num(lathe.travel_z_max)} mm, machine.travel_z_min / travel_z_max)")
+        elif w in "IK":
+            if abs(f) > MAX_ARC_OFFSET_MM:
+                raise InputError(f"{where}: {w}{v}: an arc centre offset of at most {num(MAX_ARC_OFFSET_MM)} mm")
+        elif w == "T":
+            if not 0 <= f <= 9999:
+                raise InputError(f"{where}: T{v}: a tool number 0 to 9999")
 
 
 def _g(v: str) -> str:

@@ -132,8 +132,17 @@ def inverse_sensitivity(resp: Responses, limits: dict[str, float]) -> list[dict]
         rows.append({"parameter": key, "unit": PARAMETERS[key][1], "tolerance": resp.tolerances[key],
                      "largest": per[limiting], "limited_by": limiting if per[limiting] < scanned else "",
                      "per_criterion": per, "scanned_to": scanned,
-                     "no_margin": [c for j, c in enumerate(CRITERIA) if share[j] <= 0]})
+                     "no_margin": [c for j, c in enumerate(CRITERIA) if share[j] <= 0],
+                     "no_margin_why": no_margin_text(c0, lim, share)})
     return rows
+
+
+def no_margin_text(worst: np.ndarray, lim: np.ndarray, share: np.ndarray) -> str:
+    """Why a parameter has no margin, naming only the criteria that leave none: the part at
+    its worst lattice phase (worst, per criterion) already at or beyond the limit (lim);
+    "" when every criterion leaves a margin."""
+    bad = [f"{c} ({_num(float(worst[j]))} >= {_num(float(lim[j]))})" for j, c in enumerate(CRITERIA) if share[j] <= 0]
+    return ("at its worst lattice phase the part already fails " + ", ".join(bad)) if bad else ""
 
 
 def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: float | None = None,
@@ -187,11 +196,13 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
             for c in nominal_fails) + " at every lattice phase")
     while not reached and not unreachable and rounds < ROUNDS:
         rungs, scale, y_sur = _greedy(surrogate_yield, rungs, cost, aim)
+        all_out = False
         if y_sur < aim and rounds == 0:
-            unreachable = (f"the surrogate reaches only {100 * y_sur:.1f} % with every useful tolerance "
-                           f"tightened up to {1 / TIGHTEN ** MAX_RUNGS:.0f} times")
-            scale = {k: 1.0 for k in keys}
-            break
+            # The surrogate sees no way: the Monte Carlo judges the tightest allocation itself
+            # (one more run), so the verdict and the yield quoted come from the same trials.
+            rungs = {k: MAX_RUNGS for k in keys}
+            scale = {k: TIGHTEN ** MAX_RUNGS for k in keys}
+            all_out = True
         rounds += 1
         tol = {k: base[k] * scale[k] for k in keys}
         confirm = run_monte_carlo(ctx, seed=s.seed + rounds, tolerances={**s.tolerances, **tol},
@@ -201,6 +212,10 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
                         "yield_wilson95": list(wilson(k_pass, n)), "seed": confirm.seed,
                         "tolerances": {k: tol[k] for k in keys}})
         reached = confirm.yield_fraction >= target
+        if not reached and all_out:
+            unreachable = (f"with every tolerance tightened {1 / TIGHTEN ** MAX_RUNGS:.0f} times the Monte Carlo "
+                           f"still passes only {percent_interval(k_pass, n)} of its trials")
+            break
         if not reached:
             if y_sur < aim:  # the surrogate could not reach its aim: nothing left to tighten
                 break

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..design import Mirror
+from ..optics.zones import zones as zones_of
 from .perturb import (
     LOBE_FIGURES,
     STEREO_FIGURES,
@@ -33,6 +34,8 @@ from .stats import wilson
 from .surfaces import SurfaceBank, time_nodes
 
 #: The judged criteria, in order.
+#: The disparity criterion's quantile: 90 % of the band's points seen and within the limit.
+DISPARITY_QUANTILE = 0.9
 CRITERIA = ("image_displacement_px", "outlier_pct", "disparity_px", "slope_error_rad")
 #: A pixel whose image displacement exceeds this many times the spec's limit is an outlier
 #: (perturb.evaluate): it leaves the RMS and counts in outlier_pct.
@@ -54,6 +57,7 @@ class Context:
     program: Program
     limits: dict[str, float]
     progress: bool = False
+    zones: object = None   # optics.zones.Zones: the pixels and radii the criteria judge
 
     def ensure(self, trials: Trials, progress: bool | None = None) -> None:
         """Cut and polish every nose the trials drew that is not made yet."""
@@ -81,6 +85,7 @@ class MonteCarloResult:
     nominal_nose_mm: float = 0.0
     nominal_time_s: float = 0.0
     phases: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    zones: object = None   # optics.zones.Zones the figures cover
 
     @property
     def pass_all(self) -> np.ndarray:
@@ -131,11 +136,12 @@ class MonteCarloResult:
                                    "normal_deviation_mm": _dist(f.normal_deviation_mm_rms[:, k])}
                                   for k, name in enumerate(("inner", "outer"))]},
             "lost_pixel_fraction": _dist(f.lost_fraction),
+            "zones": None if self.zones is None else self.zones.as_dict(),
             "calibration_rotation_deg": _dist(np.degrees(_rotation_angle(f.calibration.rotation))),
             "note": "per-trial figures: RMS over each lobe's pixels (image displacement, ray error, viewpoint "
                     "spread), over its radii (slope error, normal deviation); stereo figures over the band's "
                     "points at the spec's range (disparity px: the point value with 50 % / 90 % of the points "
-                    "at or below it, unseen points counting as infinite); distributions give the mean and "
+                    "at or below it, over the points both lobes see; seen_fraction counts the others); distributions give the mean and "
                     "percentiles over trials",
         }
         if per_trial:
@@ -202,7 +208,7 @@ def disparity_limit_px(mirror: Mirror, depth_error_pct: float, depth_range_m: fl
 
 def prepare(mirror: Mirror, settings: ToleranceSettings, polish_params, nominal_time_s: float,
             program: Program, *, nose0: float, machine_at: Callable, progress: bool = False,
-            leave_junction: bool = True) -> Context:
+            leave_junction: bool = True, zones=None) -> Context:
     """The program's part cut at each lattice phase with the programmed nose, polished at
     the time nodes (nominal -/+ the time tolerance); noses are cut as trials draw them.
 
@@ -219,14 +225,16 @@ def prepare(mirror: Mirror, settings: ToleranceSettings, polish_params, nominal_
     bank = SurfaceBank(mirror, machine_at, polish_params, times, phases, nose0, settings.nose_step_mm,
                        leave_junction=leave_junction, progress=bar)
     bar.close()
-    samples = (pixel_sample(mirror, 0, bin_px=settings.bin_px, azimuths=settings.azimuths),
-               pixel_sample(mirror, 1, bin_px=settings.bin_px, azimuths=settings.azimuths))
+    # the pixels and radii the criteria judge (optics.zones: default without the lattice's guard)
+    zn = zones_of(mirror, float(nose0), float(tol.get("nose_radius_mm", 0.0))) if zones is None else zones
+    samples = (pixel_sample(mirror, 0, bin_px=settings.bin_px, azimuths=settings.azimuths, zones=zn),
+               pixel_sample(mirror, 1, bin_px=settings.bin_px, azimuths=settings.azimuths, zones=zn))
     sp = settings.spec
     limits = {"image_displacement_px": sp.image_displacement_px, "outlier_pct": sp.outlier_pct,
               "disparity_px": disparity_limit_px(mirror, sp.depth_error_pct, sp.depth_range_m, settings.depth_points),
               "slope_error_rad": sp.slope_error_rad}
     return Context(mirror, settings, bank, samples, float(nose0), float(nominal_time_s), bank.source, program,
-                   limits, progress)
+                   limits, progress, zn)
 
 
 def draw_trials(ctx: Context, n: int | None = None, seed: int | None = None,
@@ -269,7 +277,7 @@ def evaluate_trials(ctx: Context, trials: Trials, *, progress: bool = False, des
     bar = _bar(len(trials), desc, progress)
     ranges = (ctx.settings.spec.depth_range_m,) if ranges_m is None else tuple(ranges_m)
     args = dict(ranges_m=ranges, depth_points=ctx.settings.depth_points, seat_pivot_mm=ctx.settings.seat_pivot_mm,
-                outlier_px=OUTLIER_FACTOR * ctx.limits["image_displacement_px"], **kw)
+                outlier_px=OUTLIER_FACTOR * ctx.limits["image_displacement_px"], zones=ctx.zones, **kw)
     ex = active()
     batch = batch_trials(ctx.samples, kw.get("chunk", 100))
     n = len(trials)
@@ -317,13 +325,15 @@ def _concat(parts: list[TrialFigures]) -> TrialFigures:
 def judge(figures: TrialFigures, limits: dict[str, float], calibrated: bool) -> dict[str, np.ndarray]:
     """Pass flags of each criterion per trial (both lobes must pass): the RMS image
     displacement and the outlier pixels' share, the 90th percentile of the disparity-equivalent error over the band at
-    the spec's range (the first range of the figures), the RMS slope error; calibrated or
+    the spec's range (the first range of the figures; over the points both lobes see, and
+    at least DISPARITY_QUANTILE of the band's points seen), the RMS slope error; calibrated or
     raw figures."""
     d = figures.judged(calibrated)
     return {
         "image_displacement_px": np.all(d["image_displacement_px_rms"] <= limits["image_displacement_px"], axis=1),
         "outlier_pct": np.all(d["outlier_pct"] <= limits["outlier_pct"], axis=1),
-        "disparity_px": d["disparity_px_p90"][:, 0] <= limits["disparity_px"],
+        "disparity_px": (d["disparity_px_p90"][:, 0] <= limits["disparity_px"])
+        & (d["seen_fraction"][:, 0] >= DISPARITY_QUANTILE),
         "slope_error_rad": np.all(figures.slope_error_rad_rms <= limits["slope_error_rad"], axis=1),
     }
 
@@ -339,7 +349,7 @@ def run_monte_carlo(ctx: Context, *, progress: bool = False, seed: int | None = 
     fig = evaluate_trials(ctx, trials, progress=progress, desc=desc)
     return MonteCarloResult(trials, fig, judge(fig, ctx.limits, ctx.settings.spec.calibrated), ctx.settings,
                             ctx.program, dict(ctx.limits), {k: tol.get(k, 0.0) for k in DRAWN}, seed,
-                            ctx.nominal_nose_mm, ctx.nominal_time_s, ctx.bank.phases)
+                            ctx.nominal_nose_mm, ctx.nominal_time_s, ctx.bank.phases, ctx.zones)
 
 
 def stereo_table(ctx: Context, ranges_m) -> dict:

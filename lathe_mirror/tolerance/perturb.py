@@ -127,13 +127,14 @@ class TrialFigures:
 # The sample
 
 
-def pixel_sample(mirror: Mirror, k: int, *, bin_px: float, azimuths: int) -> PixelSample:
+def pixel_sample(mirror: Mirror, k: int, *, bin_px: float, azimuths: int, zones=None) -> PixelSample:
     """Image-radius bins of lobe k's annulus x `azimuths` evenly spaced azimuths.
 
     Each ray's weight is its bin's pixel count / azimuths, so weighted sums over the
     sample estimate sums over all the lobe's pixel centres (exactly, for a radial field).
+    zones: optics.zones.Zones: the lobe's used zone only (the fillet ring left out).
     """
-    px = lobe_pixel_radii(mirror, k, bin_px=bin_px)
+    px = lobe_pixel_radii(mirror, k, bin_px=bin_px, zones=zones)
     psi = (np.arange(azimuths) + 0.5) * (2.0 * math.pi / azimuths)
     rho, ang = np.meshgrid(px.radius_px, psi, indexing="ij")
     w = np.repeat(px.count[:, None] / azimuths, azimuths, axis=1)
@@ -189,7 +190,7 @@ def matching_floor_pct(mirror: Mirror, ranges_m, noise_px: float, n_elev: int) -
 def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[PixelSample, PixelSample], *,
              ranges_m=(1.0,), depth_points: int = 9, seat_pivot_mm: float = 125.0, calibrate: bool = True,
              outlier_px: float = np.inf, chunk: int = 100, progress=None,
-             keep_displacements: bool = False) -> TrialFigures:
+             keep_displacements: bool = False, zones=None) -> TrialFigures:
     """Figures of every trial (TrialFigures). ranges_m: ranges (m) of the stereo figures.
 
     Of the pixels whose made ray lands on their lobe, those displaced more than outlier_px
@@ -201,7 +202,9 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
     step's ring. Pixels whose ray misses the lobe (past the rim of a tilted camera) count
     in lost_fraction.
     calibrate=False skips the calibration fit (the calibrated figures then equal the raw).
-    chunk: trials per vectorised batch. The bank must hold every trial's nose (ensure)."""
+    chunk: trials per vectorised batch. The bank must hold every trial's nose (ensure).
+    zones: optics.zones.Zones: the slope error and normal deviation over its used zone
+    (default radial.used_extent's; the samples carry the pixels' zone)."""
     n = len(trials)
     R = len(ranges_m)
     raw = {k: np.empty((n, 2)) for k in LOBE_FIGURES} | {k: np.empty((n, R)) for k in STEREO_FIGURES}
@@ -254,7 +257,7 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
             for key, v in stereo.items():
                 out[key][sl] = v
         for k in (0, 1):
-            slope[sl, k], ndev[sl, k] = _surface_errors(mirror, bank, k, surf[k], tr)
+            slope[sl, k], ndev[sl, k] = _surface_errors(mirror, bank, k, surf[k], tr, zones=zones)
         if progress is not None:
             progress.update(m)
     if not calibrate:
@@ -400,14 +403,14 @@ def _trace(mirror: Mirror, bank: SurfaceBank, k: int, surfs, tr: Trials, origin,
     return p, out, ok, blocked
 
 
-def _surface_errors(mirror: Mirror, bank: SurfaceBank, k: int, surf, tr: Trials, stride: int = 4):
+def _surface_errors(mirror: Mirror, bank: SurfaceBank, k: int, surf, tr: Trials, stride: int = 4, zones=None):
     """RMS slope error (rad) and RMS normal deviation (mm) of lobe k per trial, uniform in r
-    over the extent the image uses (radial.used_extent)."""
+    over the extent the image uses (radial.used_extent: the zones' used zone if given)."""
     lobe = mirror.lobes[k]
     r = bank.r0[k] + bank.dr[k] * np.arange(0, bank.n[k], stride)
     if k == 1:
         r[0] = np.nextafter(r[0], np.inf)
-    u_lo, u_hi = used_extent(mirror, k)
+    u_lo, u_hi = used_extent(mirror, k, zones)
     r = r[(r >= u_lo) & (r <= u_hi)]
     lo, hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
     rows = np.arange(len(tr))[:, None]
@@ -464,12 +467,16 @@ def _stereo(mirror: Mirror, bank: SurfaceBank, surf, tr: Trials, origin, rot, sp
         delta = np.tile(sp.parallax_base, R) * (1.0 / rng - 1.0 / r_made)
     px = np.where(seen, np.abs(delta) / np.tile(sp.px_scale, R), np.inf)
     out = {key: np.empty((n, R)) for key in STEREO_FIGURES}
-    w1 = np.ones((n, M))
     for i in range(R):
         cols = slice(i * M, (i + 1) * M)
         e, d, s = err[:, cols], px[:, cols], seen[:, cols]
-        out["disparity_px_median"][:, i] = _wquantile(d, w1, 0.5)
-        out["disparity_px_p90"][:, i] = _wquantile(d, w1, 0.9)
+        # Over the points both lobes see (finite); the unseen ones are counted in
+        # seen_fraction (monte carlo's judge fails a trial that sees less than the
+        # quantile's share), 0 where none is seen.
+        w_seen = s.astype(float)
+        none = ~np.any(s, axis=1)
+        out["disparity_px_median"][:, i] = np.where(none, 0.0, _wquantile(np.where(s, d, 0.0), w_seen, 0.5))
+        out["disparity_px_p90"][:, i] = np.where(none, 0.0, _wquantile(np.where(s, d, 0.0), w_seen, 0.9))
         out["within_5_pct"][:, i] = np.mean(s & (np.abs(np.nan_to_num(e, nan=np.inf)) <= 5.0), axis=1)
         out["within_10_pct"][:, i] = np.mean(s & (np.abs(np.nan_to_num(e, nan=np.inf)) <= 10.0), axis=1)
         out["seen_fraction"][:, i] = np.mean(s, axis=1)

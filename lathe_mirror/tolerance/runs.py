@@ -109,8 +109,11 @@ def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nomi
         return made_surface(mirror, settings.machine, settings.tool, strategy, nose_radius=nose,
                             toolpath=programs[phase])
 
+    from ..optics.zones import zones_for
+
     return prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
-                   nose0=settings.tool.nose_radius, machine_at=machine_at, progress=progress)
+                   nose0=settings.tool.nose_radius, machine_at=machine_at, progress=progress,
+                   zones=zones_for(settings, mirror))
 
 
 def verdict(t: dict, spec: dict) -> dict:

@@ -1,0 +1,81 @@
+"""The documentation: generated reference pages are current, the site builds with
+`mkdocs build --strict` (its examples run during the build, tools/mkdocs_hooks.py), the
+README's runnable examples run, and a browser shows the tutorial with its figures."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import require_program
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tools"))
+
+import reference  # noqa: E402
+import runnable  # noqa: E402
+
+
+def test_command_reference_is_generated_from_the_parser():
+    page = (ROOT / "docs" / "reference" / "commands.md").read_text(encoding="utf-8")
+    assert page == reference.commands(), "run: python tools/reference.py"
+    for name in ("design", "optimize", "toolpath", "cad", "calib", "tolerance", "run"):
+        assert f"## `lathe-mirror {name}`" in page
+
+
+def test_key_reference_is_generated_from_the_declaration():
+    page = (ROOT / "docs" / "reference" / "keys.md").read_text(encoding="utf-8")
+    assert page == reference.keys(), "run: python tools/reference.py"
+    from lathe_mirror.settings import RANGES
+    for pattern in RANGES:
+        assert f"`{pattern.replace('lobes.*.', 'lobes.')}`" in page
+
+
+def test_runnable_blocks_are_found_and_outputs_replaced(tmp_path):
+    page = ("x\n<!-- run -->\n```sh\necho 41; echo 42\n```\n\n<!-- output grep=2 -->\n"
+            "```text\nstale\n```\n")
+    got = runnable.execute(page, tmp_path, "page")
+    assert "```text\n42\n```" in got and "stale" not in got and "echo 41" in got
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    out = tmp_path_factory.mktemp("site")
+    proc = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q", "-d", str(out)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=900,
+                          env={**runnable.environment(), "NO_MKDOCS_2_WARNING": "1"})
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    return out
+
+
+def test_site_builds_strict_and_has_every_page(site):
+    for page in ("tutorials/paper-mirror", "tutorials/your-camera", "reference/commands",
+                 "reference/keys", "reference/api"):
+        assert (site / page / "index.html").is_file(), page
+
+
+def test_tutorial_shows_its_figures_in_a_browser(site, tmp_path):
+    chromium = require_program("chromium")
+    page = site / "tutorials" / "your-camera" / "index.html"
+    proc = subprocess.run([chromium, "--headless=new", "--no-sandbox", "--disable-gpu",
+                           "--disable-background-networking", "--disable-component-update",
+                           "--disable-sync", "--no-first-run", "--allow-file-access-from-files",
+                           f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000",
+                           "--dump-dom", page.as_uri()], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    imgs = re.findall(r"<img[^>]*>", proc.stdout)
+    figures = [tag for tag in imgs if "figures/" in tag]
+    assert len(figures) >= 2, imgs
+    for tag in figures:
+        width = re.search(r'data-decoded="(\d+)"', tag)
+        assert width and int(width.group(1)) > 50, tag
+
+
+def test_readme_examples_run(tmp_path):
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert runnable.blocks(readme), "the README marks its examples <!-- run -->"
+    runnable.execute(readme, tmp_path, "README.md")
