@@ -1,33 +1,96 @@
-"""Time `lathe-mirror run` on the paper default in a fresh process (target < 60 s).
+"""Time the main job and the test suite on this machine (targets: run <= 20 s, suite <= 3 min).
 
-Run: .venv/bin/python benchmarks/bench_run.py
-Writes into a temporary directory (report, programs, CAD, calibration files), so the
-repository's gcode/, cad/ and calib/ are left alone; prints the wall time and the run's summary.
+Run: .venv/bin/python benchmarks/bench_run.py [--runs 3] [--no-suite] [--suite-args "-x"]
+
+- `lathe-mirror run` on the paper default (what `scripts/run` does after the set-up),
+  each time in a fresh process writing into a temporary directory (report, programs, CAD,
+  calibration files), so the repository's gcode/, cad/ and calib/ are left alone; the
+  median of --runs wall times, with the CPU time (user + system of the child processes:
+  above the wall time when both cores work).
+- The test suite as `scripts/test` runs it (`pytest -n auto --dist loadscope`), wall and CPU time.
+
+Prints a table (seconds). Measure on an idle machine: another job on a 2-core machine
+doubles the figures.
 """
 
 from __future__ import annotations
 
+import argparse
+import os
+import resource
+import shlex
+import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+REPO = Path(__file__).resolve().parents[1]
+
+
+def timed(cmd: list[str], **kw) -> tuple[float, float, subprocess.CompletedProcess]:
+    """Wall and CPU (children's user + system) seconds of one command."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, **kw)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu, proc
+
+
+def bench_run(runs: int) -> list[tuple[float, float]]:
+    out = []
+    for _ in range(runs):
+        with tempfile.TemporaryDirectory(prefix="bench-run-") as tmp:
+            tmp = Path(tmp)
+            cmd = [sys.executable, "-m", "lathe_mirror", "run", "-o", str(tmp / "out"),
+                   "--gcode-dir", str(tmp / "gcode"), "--cad-dir", str(tmp / "cad"),
+                   "--calib-dir", str(tmp / "calib")]
+            wall, cpu, proc = timed(cmd, cwd=tmp)
+            if proc.returncode != 0:
+                sys.stderr.write(proc.stderr)
+                raise SystemExit(f"lathe-mirror run failed with status {proc.returncode}")
+            out.append((wall, cpu))
+            print(f"  run: {wall:.1f} s wall, {cpu:.1f} s CPU", file=sys.stderr)
+    return out
+
+
+def bench_suite(extra: list[str]) -> tuple[float, float, str]:
+    cmd = [sys.executable, "-m", "pytest", "-n", "auto", "--dist", "loadscope", "-q", "-p", "no:cacheprovider", *extra]
+    wall, cpu, proc = timed(cmd, cwd=REPO)
+    last = (proc.stdout.strip().splitlines() or ["(no output)"])[-1]
+    if proc.returncode != 0:
+        sys.stderr.write(proc.stdout[-4000:])
+    return wall, cpu, last
+
 
 def main() -> None:
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        cmd = [sys.executable, "-m", "lathe_mirror", "run", "-o", str(tmp / "out"),
-               "--gcode-dir", str(tmp / "gcode"), "--cad-dir", str(tmp / "cad"),
-               "--calib-dir", str(tmp / "calib")]
-        t0 = time.perf_counter()
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        dt = time.perf_counter() - t0
-        if proc.returncode != 0:
-            sys.stderr.write(proc.stderr)
-            raise SystemExit(f"lathe-mirror run failed with status {proc.returncode}")
-        print(proc.stdout.strip())
-        print(f"lathe-mirror run (paper default): {dt:.1f} s wall")
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=3, help="runs of lathe-mirror run (median)")
+    ap.add_argument("--no-suite", action="store_true", help="skip the test suite")
+    ap.add_argument("--suite-args", default="", help="extra pytest arguments (quoted)")
+    args = ap.parse_args()
+    if args.runs < 1:
+        raise SystemExit("--runs: allowed 1 or more")
+
+    rows = []
+    print(f"lathe-mirror run on the paper default, {args.runs} runs ({os.cpu_count()} cores, "
+          f"load {os.getloadavg()[0]:.1f}) ...", file=sys.stderr)
+    runs = bench_run(args.runs)
+    walls = [w for w, _ in runs]
+    cpus = [c for _, c in runs]
+    rows.append((f"lathe-mirror run (median of {args.runs})", statistics.median(walls),
+                 statistics.median(cpus), f"min {min(walls):.1f}, max {max(walls):.1f} s wall; target 20 s"))
+    if not args.no_suite:
+        print("test suite (pytest -n auto) ...", file=sys.stderr)
+        wall, cpu, last = bench_suite(shlex.split(args.suite_args))
+        rows.append(("test suite (pytest -n auto)", wall, cpu, f"{last}; target 180 s"))
+
+    print(f"{'what':<36} {'wall s':>8} {'CPU s':>8}  note")
+    for what, wall, cpu, note in rows:
+        print(f"{what:<36} {wall:8.1f} {cpu:8.1f}  {note}")
 
 
 if __name__ == "__main__":

@@ -68,11 +68,26 @@ class Terminated(BaseException):
 def main(argv: list[str] | None = None) -> int:
     from .export import files
 
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    debug = bool(os.environ.get("LATHE_MIRROR_DEBUG"))
     received: list[int] = []  # signals caught: one may surface as another exception
-    with warnings.catch_warnings(), _signals_raise(received, files.committed, settle=argv is None):
+    # From the start (the commands' modules import while the parser is built): a signal
+    # at any point is exit 130 / 143 and one line.
+    with _signals_raise(received, files.committed, settle=argv is None):
+        try:
+            args = build_parser().parse_args(argv)
+        except (KeyboardInterrupt, Terminated, ImportError):
+            if not received:
+                raise
+            print(f"lathe-mirror: {'interrupted' if received[0] == 2 else 'terminated'}", file=sys.stderr)
+            return 128 + received[0]
+        return _run(args, received)
+
+
+def _run(args: argparse.Namespace, received: list[int]) -> int:
+    """The command, inside main's signal handlers: its files staged and committed."""
+    from .export import files
+
+    debug = bool(os.environ.get("LATHE_MIRROR_DEBUG"))
+    with warnings.catch_warnings():
         if not debug:
             # numpy's RuntimeWarnings (overflow, 0/0) are expected where a stage probes a
             # surface's edge; they never reach the user's stderr (LATHE_MIRROR_DEBUG shows them).

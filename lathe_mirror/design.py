@@ -165,6 +165,18 @@ class Mirror:
         """Height of the mirror's vertex (the inner lobe's), mm; machine Z = 0 there."""
         return self.inner.vertex_z
 
+    @property
+    def far_z(self) -> float:
+        """Height (mm) of the mirror's farthest point from the pinhole: the higher of the
+        inner lobe's rim (at the junction) and the outer rim."""
+        return max(self.junction_z[0], float(self.outer.z(self.r_max)))
+
+    @property
+    def depth(self) -> float:
+        """The mirror's depth (mm), the one definition (`design`, `optimize`, the bar and the
+        body): from the vertex to the farthest point, far_z - vertex_z."""
+        return self.far_z - self.vertex_z
+
     @cached_property  # asked for by most other figures (the design optimiser: per design)
     def junction_z(self) -> tuple[float, float]:
         """Heights (mm) of the inner and outer sheets at the junction radius."""
@@ -436,7 +448,8 @@ def design_figures(mirror: Mirror) -> dict:
             "r_outer_visible": mirror.r_outer_visible,
         },
         "vertex_z": mirror.vertex_z,
-        "depth_mm": float(mirror.outer.z(mirror.r_max)) - mirror.vertex_z,
+        "far_z": mirror.far_z,
+        "depth_mm": mirror.depth,
         "baseline_mm": mirror.baseline,
         "common_band_deg": {"min": math.degrees(band[0]), "max": math.degrees(band[1])},
         "image_radii_px": {k: {"min": v[0], "max": v[1]} for k, v in radii.items()},

@@ -40,8 +40,9 @@ class Dialect(str, Enum):
 
 
 class Surface(str, Enum):
-    """Named mirror surfaces (pipeline.named_surface): the exact design, references, the
-    programmed contour of each strategy, and the polished paper program."""
+    """Named mirror surfaces (job.named_surface): the exact design, references, the
+    programmed contour of each strategy, the polished paper program, and a measured part
+    (given on the command line as measured:FILE)."""
 
     EXACT = "exact"
     REFERENCE = "reference"
@@ -51,6 +52,7 @@ class Surface(str, Enum):
     ARCS = "arcs"
     BEST = "best"
     POLISHED = "polished"
+    MEASURED = "measured"  # --surface measured:FILE, a measured part (measure.surface)
 
 
 class Program(str, Enum):

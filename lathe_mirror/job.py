@@ -131,7 +131,8 @@ def program_target(settings: Settings, mirror: Mirror) -> Mirror:
     return compensated_mirror(mirror, params, params.time_s)
 
 
-def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_radius: float = 0.0) -> Profile:
+def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_radius: float = 0.0,
+                  measured: str | None = None) -> Profile:
     """The surface called `name` (enums.Surface), for the commands that take --surface.
 
       exact       the designed hyperbolic lobes (closed form)
@@ -143,16 +144,24 @@ def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_rad
                   along its own program
       polished    the paper program's as-machined surface (the [tool] nose, or
                   nose_radius) polished for its polishing curve's optimum (~2 s)
+      measured    the part measured in the file `measured` (--surface measured:FILE), fitted
+                  against the design (measure.surface)
     """
     if not (nose_radius >= 0 and np.isfinite(nose_radius)):
         raise InputError(f"--nose-radius {nose_radius!r}: must be a finite number >= 0 mm")
-    builtin = (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528)
+    builtin = (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528, Surface.MEASURED)
     if nose_radius > 0 and name in builtin:
         strategies = [s.value for s in Surface if s not in builtin]
         raise InputError(f"--nose-radius {nose_radius:g}: the as-machined surface needs a toolpath; use "
                          f"--surface with one of {', '.join(strategies)}")
     if name is Surface.EXACT:
         return ExactProfile(mirror)
+    if name is Surface.MEASURED:
+        if not measured:
+            raise InputError("--surface measured: name the measured file, measured:FILE")
+        from .measure.surface import measured_profile
+
+        return measured_profile(measured, mirror, nose_radius_mm=settings.tool.nose_radius)
     if name in builtin:
         return reference_surface(name.value, mirror)
     lathe, tool = settings.machine, settings.tool
@@ -244,23 +253,24 @@ def check_cad(settings: Settings, mirror: Mirror) -> None:
 
 
 def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surface, *,
-                  tool: Tool | None = None) -> Toolpath | None:
+                  tool: Tool | None = None, target: Mirror | None = None) -> Toolpath | None:
     """The program of `strategy` checked the same way by every command that uses one
     (toolpath, cad, render, polish, tolerance, calib, stereo, report, run), before any work
     or file: planned on the lattice within the point budget for toolpath.max_deviation
     (plan), and its as-machined surface no deeper inside the part than
     toolpath.gouge_tolerance (the check shop.plan_program makes before it writes G-code).
     A named Surface stands for the program it is cut with (polished: the paper's; exact,
-    reference, uniform528: none, None returned). tool: default [tool]. Returns the
-    toolpath; InputError names the setting to change."""
+    reference, uniform528: none, None returned). tool: default [tool]. target: the surface
+    the program cuts when it is not program_target's (a compensated re-cut:
+    measure.compensate). Returns the toolpath; InputError names the setting to change."""
     if isinstance(strategy, Surface):
-        if strategy in (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528):
+        if strategy in (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528, Surface.MEASURED):
             return None
         strategy = (Strategy.PAPER if strategy is Surface.POLISHED else
                     BEST if strategy is Surface.BEST else Strategy(strategy.value))
     tp = plan(mirror, settings.machine, tool or settings.tool, strategy,
               max_deviation=settings.toolpath.max_deviation,
-              target=program_target(settings, mirror))  # polish.precompensate: the allowance
+              target=target if target is not None else program_target(settings, mirror))  # precompensate
     depth = gouge_depth(tp)
     limit = settings.toolpath.gouge_tolerance
     if depth > limit:

@@ -41,6 +41,7 @@ import numpy as np
 from .profile import TabulatedProfile
 
 if TYPE_CHECKING:
+    from .design import Mirror
     from .toolpath import Toolpath
 
 #: Spacing (mm) of the nose-centre samples along the path.
@@ -77,28 +78,37 @@ class MachineErrors:
 
 
 def centre_path(toolpath: Toolpath, errors: MachineErrors) -> tuple[np.ndarray, np.ndarray]:
-    """Where the nose centre really goes (x, Z), mm, sampled every SAMPLE_MM: the
-    programmed centres moved by the X offset, the nose-setting error (dr, dr), backlash on
-    the moves cut in +X, and squareness (Z + eps x). x may be negative (past the axis)."""
-    from .toolpath.moves import Hand
-
-    xs, zs, shift = [], [], []
-    forward = toolpath.hand is Hand.AS_CONFIGURED  # segments run axis -> rim; cut that way?
-    for seg in toolpath.segments:
+    """Where the nose centre really goes (x, Z), mm, sampled every SAMPLE_MM along the
+    program's moves in cutting order (displaced_centres)."""
+    xs, zs = [], []
+    for seg in toolpath.cutting_moves():
         p0, p1 = np.asarray(seg.start, float), np.asarray(seg.end, float)
         length = float(np.hypot(*(p1 - p0)))
         if hasattr(seg, "sweep"):
             length = max(length, abs(seg.sweep) * max(seg.radius, seg.end_radius))
-        n = max(int(math.ceil(length / SAMPLE_MM)) + 1, 2)
-        pts = seg.sample(n)
+        pts = seg.sample(max(int(math.ceil(length / SAMPLE_MM)) + 1, 2))
         xs.append(pts[:, 0])
         zs.append(pts[:, 1])
-        d_r = (p1[0] - p0[0]) * (1 if forward else -1)  # +: the cut runs in +X
-        shift.append(np.full(n, -errors.backlash_mm if d_r > 1e-12 else 0.0))
-    x = np.concatenate(xs)
-    z = np.concatenate(zs)
+    return displaced_centres(np.concatenate(xs), np.concatenate(zs), errors)
+
+
+def displaced_centres(x: np.ndarray, z: np.ndarray, errors: MachineErrors) -> tuple[np.ndarray, np.ndarray]:
+    """The programmed nose-centre points (x, Z), mm, in cutting order, moved where the
+    machine puts them: the X offset, the nose-setting error (dr, dr), backlash on the
+    stretches cut in +X (the zero set approaching in -X), squareness (Z + eps x). x may come
+    out negative (past the axis)."""
+    x = np.asarray(x, float)
+    z = np.asarray(z, float)
+    step = np.diff(x, prepend=x[0])
+    if step.size > 1:
+        step[0] = step[1]
+    # a point inherits the direction of the last move that changed X
+    moving = np.where(np.abs(step) > 1e-12, np.sign(step), 0.0)
+    idx = np.where(moving != 0, np.arange(moving.size), 0)
+    np.maximum.accumulate(idx, out=idx)
+    plus = moving[idx] > 0
     dr = errors.nose_radius_error_mm
-    xp = x + errors.x_offset_mm + dr + np.concatenate(shift)
+    xp = x + errors.x_offset_mm + dr - np.where(plus, errors.backlash_mm, 0.0)
     zp = z + dr + errors.squareness_rad * xp
     return xp, zp
 
@@ -129,15 +139,24 @@ def machined_with_errors(toolpath: Toolpath, errors: MachineErrors, *,
     `errors`: a nose of toolpath.nose_radius + nose_radius_error_mm (mm). pip_height_mm:
     the stock the finishing pass was to take (toolpath.rough_allowance), what stands at
     radii the edge never reaches."""
-    m = toolpath.mirror
     rho = toolpath.nose_radius + errors.nose_radius_error_mm
     if not rho > 0:
         raise ValueError(f"nose radius {rho:g} mm (programmed {toolpath.nose_radius:g} + error "
                          f"{errors.nose_radius_error_mm:g}) must be > 0")
     xc, zc = centre_path(toolpath, errors)
+    return surface_from_centres(toolpath.mirror, xc, zc, rho, errors.centre_height_mm, pip_height_mm=pip_height_mm)
+
+
+def surface_from_centres(m: Mirror, xc: np.ndarray, zc: np.ndarray, rho: float, centre_height_mm: float, *,
+                         pip_height_mm: float = 0.15) -> TabulatedProfile:
+    """The turned surface (camera frame, on mirror m's lobes and machine frame) that a nose
+    of radius rho (mm) leaves along the real centre points (xc, zc) (mm, machine frame)
+    with the edge centre_height_mm above the spindle centre (module doc)."""
     r = np.arange(0.0, m.r_max + GRID_MM / 2, GRID_MM)
     r[-1] = min(r[-1], m.r_max)
-    h = abs(errors.centre_height_mm)
+    if m.step <= 0:  # the inner lobe stands proud: its rim just inside the wall's line
+        r = np.where(r == m.r_junction, np.nextafter(m.r_junction, 0.0), r)
+    h = abs(centre_height_mm)
     # the slide positions that reach radius r: +/- sqrt(r^2 - h^2)
     xr = np.sqrt(np.maximum(r * r - h * h, 0.0))
     grid = np.union1d(-xr, xr)
@@ -151,7 +170,7 @@ def machined_with_errors(toolpath: Toolpath, errors: MachineErrors, *,
     zm = np.where(np.isfinite(zm), zm, top)
     inside = r < h
     if np.any(inside):
-        if errors.centre_height_mm > 0:  # above centre: a cone, the flank rubbing it
+        if centre_height_mm > 0:  # above centre: a cone, the flank rubbing it
             zm = np.where(inside, top - (top - edge) * r / h, zm)
         else:  # below centre: a cylindrical stub
             zm = np.where(inside, top, zm)

@@ -79,6 +79,11 @@ def nose_envelope(toolpath: Toolpath, rho: float, *, include_junction: bool = Tr
             r = np.union1d(r, np.linspace(max(lo, hi - 2 * rho), hi, 8001))
         elif k == 1 and m.step <= 0:
             r = np.union1d(r, np.linspace(r[0], min(hi, lo + 2 * rho), 8001))
+        if k == 0 and m.step <= 0:
+            # the inner lobe's last sample just inside r_junction: at r_junction itself a nose
+            # running down the wall (its centre exactly rho beyond, e.g. 0.21 mm on the 0.005 mm
+            # lattice) reaches the wall's foot, which interpolation would smear over the rim
+            r[-1] = np.nextafter(hi, lo)
         n = r.size
         keep = [i for i, lb in enumerate(lobes) if lb == name or (include_junction and lb == "junction")]
         zbest = np.full(n, np.inf)

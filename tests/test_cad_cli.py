@@ -1,5 +1,5 @@
 """`lathe-mirror cad`: bad inputs give one line, exit 2 and no file; same bytes twice;
-the committed reference CAD in cad/ is current."""
+the committed reference CAD in cad/ is current (read back and measured)."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from committed import dxf_differs, step_differs
 from conftest import run_cli
 from lathe_mirror.export.cad import REFERENCE_FILES, write_reference_cad
 from lathe_mirror.job import cad_model
@@ -128,7 +129,12 @@ def test_reference_cad_is_current(tmp_path):
     for name in REFERENCE_FILES:
         committed = REPO / "cad" / name
         assert committed.exists(), f"cad/{name} is missing"
-        assert (tmp_path / name).read_bytes() == committed.read_bytes(), f"cad/{name} is stale"
+        # Read back and measured, never bytes (numbers are written at 1e-9 mm).
+        if name.endswith(".dxf"):
+            why = dxf_differs((tmp_path / name).read_bytes(), committed.read_bytes())
+        else:
+            why = step_differs(tmp_path / name, committed)
+        assert why is None, f"cad/{name} is stale ({why}): run lathe-mirror run"
 
 
 def test_check_cad_config_refuses_before_anything_is_planned(paper_config):

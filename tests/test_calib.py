@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 import yaml
 
+from committed import numbers_differ
 from conftest import run_cli
 from lathe_mirror.design import design_lobe, design_mirror
 from lathe_mirror.export.calib import FILE_NAMES, calibration_texts, opencv_yaml, write_calibration
@@ -139,7 +140,11 @@ def test_opencv_undistort_points_and_rectify_map_take_the_file(files, paper_mirr
     px = tracer_pixels(paper_mirror, k, pts)
     und = cv2.omnidir.undistortPoints(px.reshape(1, -1, 2), cal["K"], cal["D"], cal["xi"], np.eye(3))
     lobe = to_lobe(pts, f1)
-    assert np.abs(und.reshape(-1, 2) - lobe[:, :2] / lobe[:, 2:]).max() < 1e-9
+    # The directions agree to the file's precision: K at 1e-6 px over gamma ~ 240-480 px is
+    # ~4e-9 rad (compared as angles: x/z itself grows as 1/cos^2 near the horizon).
+    got_dir = np.concatenate([und.reshape(-1, 2), np.ones((len(pts), 1))], axis=1)
+    ang = np.arctan2(np.linalg.norm(np.cross(got_dir, lobe), axis=1), np.sum(got_dir * lobe, axis=1))
+    assert ang.max() < 1e-8
     # initUndistortRectifyMap: a perspective view (R takes the lobe frame to the view's).
     knew = np.array([[300.0, 0.0, 200.0], [0.0, 300.0, 150.0], [0.0, 0.0, 1.0]])
     el = math.radians(-60.0 if k == 0 else -13.0)  # the view's centre, inside the lobe's field
@@ -397,8 +402,10 @@ def test_refit_model_through_opencv_gives_the_reported_residual(tmp_path, paper_
     err = np.linalg.norm(got.reshape(-1, 2) - corr.pixels, axis=-1)
     rms = math.sqrt(np.sum(corr.weight * err**2) / corr.weight.sum())
     fig = made_lobe_figures(made, paper_mirror, 1)
-    assert fig["refit"]["reprojection_error_px"]["rms"] == pytest.approx(rms, rel=1e-9)
-    assert fig["refit"]["reprojection_error_px"]["max"] == pytest.approx(err.max(), rel=1e-9)
+    # The file holds K to 1e-6 px and D, xi to 1e-12 (export.numbers): a pixel moves by
+    # ~1e-6 px at most, so the residuals agree to a few 1e-6 px.
+    assert fig["refit"]["reprojection_error_px"]["rms"] == pytest.approx(rms, rel=1e-9, abs=3e-6)
+    assert fig["refit"]["reprojection_error_px"]["max"] == pytest.approx(err.max(), rel=1e-9, abs=3e-6)
     # Refitting takes up the polished form's low orders: much less than the design model leaves.
     assert rms < 0.2 * fig["design"]["reprojection_error_px"]["rms"]
 
@@ -408,10 +415,18 @@ def test_refit_model_through_opencv_gives_the_reported_residual(tmp_path, paper_
 
 
 def test_committed_calib_files_are_current(paper_mirror):
-    for name, text in calibration_texts(paper_mirror).items():
+    """calib/ holds what `lathe-mirror run` writes there: the design's files with the used
+    zones of the paper default (the fillet ring masked)."""
+    from lathe_mirror.config import load
+    from lathe_mirror.optics.zones import zones_for
+
+    for name, text in calibration_texts(paper_mirror, zones_for(load(), paper_mirror)).items():
         path = REPO / "calib" / name
         assert path.exists(), f"calib/{name} missing: run lathe-mirror run (or calib)"
-        assert path.read_text() == text, f"calib/{name} is stale: run lathe-mirror run (or calib)"
+        # Numbers to 1e-6 relative (+1e-12): the files write them at 1e-6 px, 1e-9 mm,
+        # 1e-12 for ratios and each polynomial term to 1e-8 px; never bytes.
+        why = numbers_differ(text, path.read_text(), rel=1e-6, abs_=1e-12)
+        assert why is None, f"calib/{name} is stale ({why}): run lathe-mirror run (or calib)"
 
 
 def test_design_model_matches_table_1(paper_mirror):

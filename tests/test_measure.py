@@ -200,3 +200,64 @@ def test_not_a_regular_file(tmp_path):
     (tmp_path / "d.csv").mkdir()
     p = run_cli("measure", str(tmp_path / "d.csv"))
     assert p.returncode == 2 and "is a directory" in p.stderr and len(p.stderr.strip().splitlines()) == 1
+
+
+class _ClosedForm:
+    """The test's own made surface: design minus the smooth residual, camera frame (the
+    residual is in the machine frame, Z = vertex - z)."""
+
+    def __new__(cls, mirror):
+        from lathe_mirror.profile import Profile
+
+        class P(Profile):
+            def z(self, r):
+                r = np.asarray(r, float)
+                i, o = mirror.inner, mirror.outer
+                zz = np.where(r <= mirror.r_junction, i.e + i.a * np.sqrt(1 + r ** 2 / i.b ** 2),
+                              o.e + o.a * np.sqrt(1 + r ** 2 / o.b ** 2))
+                return zz - smooth_residual(mirror, r)
+
+            def slope(self, r):
+                r = np.asarray(r, float)
+                i, o = mirror.inner, mirror.outer
+                s = np.where(r <= mirror.r_junction, i.a * r / (i.b ** 2 * np.sqrt(1 + r ** 2 / i.b ** 2)),
+                             o.a * r / (o.b ** 2 * np.sqrt(1 + r ** 2 / o.b ** 2)))
+                ds = -2e-3 * 2 * np.pi / 7.0 * np.sin(2 * np.pi * r / 7.0) + 2 * 1.5e-3 * r / mirror.r_max ** 2
+                return s - ds
+
+        return P(r_junction=mirror.r_junction, r_max=mirror.r_max, vertex_z=mirror.inner.e + mirror.inner.a)
+
+
+def test_measured_surface_images_as_the_part(case):
+    """The measured part as a surface (--surface measured:FILE's profile) sends the camera's
+    rays where the test's closed-form part does: image displacement and ray deviation per
+    lobe within 15 % (and a few hundredths of a pixel) of the closed form's."""
+    from lathe_mirror.measure.surface import measured_profile
+    from lathe_mirror.optics.radial import radial_figures
+
+    m, d = case["mirror"], case["dir"]
+    x, z = trace_of(m)
+    write_csv(d / "s.csv", x, z)
+    got = radial_figures(measured_profile(d / "s.csv", m, nose_radius_mm=0.2), m)["lobes"]
+    want = radial_figures(_ClosedForm(m), m)["lobes"]
+    for g, w in zip(got, want):
+        for key in ("image_displacement_px", "ray_deviation_deg"):
+            assert abs(g[key]["rms"] - w[key]["rms"]) < 0.15 * w[key]["rms"] + (0.03 if key.endswith("px") else 1e-3), \
+                (g["name"], key, g[key], w[key])
+
+
+def test_commands_take_measured_surface(case, tmp_path):
+    m = case["mirror"]
+    x, z = trace_of(m)
+    write_csv(tmp_path / "s.csv", x, z)
+    cfg = ["--config", str(case["cfg"])] if case["cfg"] else []
+    p = run_cli("render", "--surface", f"measured:{tmp_path / 's.csv'}", "--json", "--no-progress", *cfg)
+    assert p.returncode == 0, p.stderr
+    out = json.loads(p.stdout)
+    assert out["surface"] == "measured" and len(out["lobes"]) == 2
+    p = run_cli("calib", "--surface", f"measured:{tmp_path / 's.csv'}", "-o", str(tmp_path / "calib"),
+                "--no-progress", *cfg)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "calib" / "opencv_inner.yaml").is_file()
+    p = run_cli("render", "--surface", "measured:", *cfg)
+    assert p.returncode == 2 and "measured:FILE" in p.stderr

@@ -194,7 +194,9 @@ def test_design_toml_round_trips():
     lobes = (LobeSpec("inner", 20.123456789012345, 307.1, alpha_deg=13.000000000000002),
              LobeSpec("outer", 35.0, 504.0, alpha_deg=-1e-7))
     doc = tomllib.loads(design_toml(s.camera, lobes, comments=["a", "b"], extra=extra))
-    assert doc["lobes"]["inner"] == {"r_top": 20.123456789012345, "r_pixel": 307.1, "alpha_deg": 13.000000000000002}
+    # Written at 12 significant digits (export.numbers): 20.123456789012345 -> 20.1234567890,
+    # 13.000000000000002 -> 13.0; short numbers exactly.
+    assert doc["lobes"]["inner"] == {"r_top": 20.123456789, "r_pixel": 307.1, "alpha_deg": 13.0}
     assert doc["lobes"]["outer"]["alpha_deg"] == -1e-7
     assert doc["scene"] == extra["scene"] and doc["cad"] == extra["cad"] and doc["optimize"] == extra["optimize"]
     assert doc["camera"]["sensor_px"] == [1008, 1018]
@@ -208,7 +210,7 @@ def test_optimize_beats_the_paper_in_its_own_envelope(tmp_path):
     """A short search (the full one is benchmarks/bench_optimize.py): the winner is at
     least the paper's R10 and meets every constraint."""
     cfg = tmp_path / "c.toml"
-    cfg.write_text("[optimize]\nmaxiter = 15\n")
+    cfg.write_text("[optimize]\nmaxiter = 15\n[tolerance]\ntrials = 40\nlattice_phases = 4\n")
     proc = run_cli("optimize", "--config", str(cfg), "--json", "--no-progress", "--workers", "2")
     assert proc.returncode == 0, proc.stderr
     assert proc.stderr == ""
@@ -217,6 +219,10 @@ def test_optimize_beats_the_paper_in_its_own_envelope(tmp_path):
     assert data["gain"] >= 1.0
     assert all(c["slack"] >= 0 for c in data["constraints"])
     assert data["reference"]["r10_m"] == pytest.approx(0.2344, abs=0.0005)
+    # the winner through the tolerance analysis: the nominal part passes every criterion
+    check = data["check"]
+    assert check["nominal_pass"] and all(c["pass"] for c in check["nominal"].values())
+    assert "why" not in check or not check["why"].startswith("the nominal part fails")
 
 
 #: The 35 mm envelope (vertex >= 103.6 mm, farthest point <= 138.6 mm) with a bar and body
@@ -237,6 +243,9 @@ thickness = 45.0
 [optimize]
 rim_max_mm = 138.6
 maxiter = 25
+[tolerance]
+trials = 40
+lattice_phases = 4
 """
 
 
@@ -252,23 +261,33 @@ def test_written_design_reproduces_through_design_and_runs(tmp_path):
     assert out.exists() and (tmp_path / "best_pareto.png").read_bytes()[:4] == b"\x89PNG"
     best = data["best"]
     assert best["recessed"] == "outer" and best["hand"] == "opposite hand"
+    # the outer-recessed winner passes its own tolerance verdict nominally (issue 20: the
+    # slope criterion judged the fillet the inner rim hides)
+    assert data["check"]["nominal_pass"], data["check"]
     design = run_cli("design", "--config", str(out), "--json")
     assert design.returncode == 0, design.stderr
     fig = json.loads(design.stdout)
+    # The TOML holds the design at 12 significant digits (export.numbers): the figures
+    # come back to ~1e-11 relative; 1e-9 leaves room for the conditioning of the rim angle.
     for k, lobe in enumerate(fig["lobes"]):
         for key in ("r_top", "r_pixel", "alpha_deg"):
-            assert lobe[key] == pytest.approx(best["lobes"][k][key], rel=1e-12, abs=1e-12)
-    assert fig["baseline_mm"] == pytest.approx(best["baseline_mm"], rel=1e-12)
-    assert fig["common_band_deg"]["min"] == pytest.approx(best["band_deg"]["min"], rel=1e-12)
-    assert fig["junction"]["step_mm"] == pytest.approx(best["step_mm"], rel=1e-12)
+            assert lobe[key] == pytest.approx(best["lobes"][k][key], rel=1e-9, abs=1e-9)
+    assert fig["baseline_mm"] == pytest.approx(best["baseline_mm"], rel=1e-9)
+    assert fig["common_band_deg"]["min"] == pytest.approx(best["band_deg"]["min"], rel=1e-9)
+    assert fig["junction"]["step_mm"] == pytest.approx(best["step_mm"], rel=1e-9)
     # the same R10 from the design the file describes
     s = load(out)
-    assert r10(s.mirror(), (math.radians(-20), 0.0)) == pytest.approx(best["r10_m"], rel=1e-12)
+    assert r10(s.mirror(), (math.radians(-20), 0.0)) == pytest.approx(best["r10_m"], rel=1e-9)
     # the user's sections are carried over
     assert tomllib.loads(out.read_text())["stock"]["length"] == 50.0
-    # run: programs, CAD, report
-    run = run_cli("run", "--config", str(out), "-o", str(tmp_path / "out"), "--no-render", "--no-progress")
+    # run: programs, CAD, report, on the written file plus a short Monte Carlo and polishing
+    # curve (the sections the optimiser does not write; the design and the shop are the file's).
+    quick = tmp_path / "quick.toml"
+    quick.write_text(out.read_text() + "\n[polish]\ncurve_points = 3\n[tolerance]\ntrials = 20\nlattice_phases = 1\n")
+    run = run_cli("run", "--config", str(quick), "-o", str(tmp_path / "out"), "--no-render", "--no-progress")
     assert run.returncode == 0, run.stderr[-3000:]
+    # --no-progress (as render's): nothing on stderr on success, the summary on stdout.
+    assert run.stderr == "" and run.stdout.strip()
     exe = require_program("rs274")
     (tmp_path / "tools.tbl").write_text("".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4)))
     programs = sorted((tmp_path / "out" / "gcode").glob("*.ngc"))
@@ -288,7 +307,8 @@ def test_written_design_reproduces_through_design_and_runs(tmp_path):
 
 
 @pytest.mark.parametrize("text, key", [
-    ("[optimize]\nblur_max_px = 0.5\nmaxiter = 10\n", "optimize.blur_max_px"),
+    ("[optimize]\nblur_limit_um = 4.5\nmaxiter = 10\n", "optimize.blur_limit_um"),
+    ("[optimize]\nblur_limit_um = 0.0\nblur_max_px = 0.5\nmaxiter = 10\n", "optimize.blur_max_px"),
     ("[optimize]\nband_deg = [-80.0, 30.0]\nmaxiter = 10\n", "optimize.band_deg"),
 ])
 def test_infeasible_constraints_one_line_exit_2_nothing_written(tmp_path, text, key):

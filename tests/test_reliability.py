@@ -276,17 +276,20 @@ def test_every_flag_at_its_ends_and_just_past_them():
     from lathe_mirror.commands.flags import FLAGS
 
     parser = build_parser()
+    subparsers = next(a for a in parser._actions if a.choices and isinstance(a.choices, dict))
     for name, rng in FLAGS.items():
         command, flag = name.split()
+        # a command's required positional arguments (measure, compensate: the file)
+        positional = ["x" for a in subparsers.choices[command]._actions if not a.option_strings and a.required]
         for end, up in ((rng.lo, False), (rng.hi, True)):
             if end is None:
                 continue
-            args = parser.parse_args([command, flag, str(end)])
+            args = parser.parse_args([command, *positional, flag, str(end)])
             assert getattr(args, flag.lstrip("-").replace("-", "_")) == end
             for bad in (_just_past(end, up), "nan") if isinstance(end, float) else (_just_past(end, up),):
                 err = io.StringIO()
                 with redirect_stderr(err), pytest.raises(SystemExit) as exc:
-                    parser.parse_args([command, f"{flag}={bad}"])
+                    parser.parse_args([command, *positional, f"{flag}={bad}"])
                 assert exc.value.code == 2 and err.getvalue().count("\n") == 1, (name, bad)
                 assert f"argument {flag}: {bad}" in err.getvalue() and f"allowed {rng.text()}" in err.getvalue()
 

@@ -98,10 +98,3 @@ def _small(tmp_path):
     return cfg
 
 
-def test_run_cli_no_progress_keeps_stderr_empty(tmp_path):
-    """--no-progress (as render's): nothing on stderr on success, the figures on stdout."""
-    cfg = tmp_path / "quick.toml"
-    cfg.write_text("[polish]\ncurve_points = 3\n[tolerance]\ntrials = 20\nlattice_phases = 1\n")
-    proc = run_cli("run", "--config", str(cfg), "--no-progress", "--no-render", "-o", str(tmp_path / "out"))
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    assert proc.stderr == "" and proc.stdout.strip()

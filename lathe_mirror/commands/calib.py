@@ -20,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "with what it leaves, RMS / max px per lobe.")
     add_common(p, output_help="directory for the calibration files (default: calib/)")
     p.add_argument("--surface", metavar="NAME", default=None,
-                   help="the made mirror: exact, reference, uniform528, a toolpath strategy (paper, "
+                   help="the made mirror: exact, reference, uniform528, measured:FILE (a measured part), a toolpath strategy (paper, "
                    "lattice, arcs, best) or polished; default: paper, best and polished, as the report")
     p.add_argument("--nose-radius", metavar="MM", type=float, default=None,
                    help="a toolpath strategy's surface as machined by a tool of this nose radius (mm; "
@@ -61,9 +61,15 @@ def run(args: argparse.Namespace) -> int:
     zn = zones_of(mirror, nose, float(tol.tolerances.get("nose_radius_mm", 0.0)) if tol is not None and nose > 0 else 0.0,
                   settings.machine.resolution)
     # Before any progress display: a bad name is one line.
-    names = [parse(Surface, n, "--surface") for n in ((args.surface,) if args.surface is not None
-                                                      else DEFAULT_SURFACES)]
-    builtin = (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528)
+    from .common import surface_arg
+
+    measured = None
+    if args.surface is not None:
+        first, measured = surface_arg(args.surface)  # a name, or measured:FILE
+        names = [first]
+    else:
+        names = [parse(Surface, n, "--surface") for n in DEFAULT_SURFACES]
+    builtin = (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528, Surface.MEASURED)
     check_outputs(args.output or "calib", list(FILE_NAMES))  # every output name, before any work
     for name in names:  # each program surface's program, checked as every command checks one
         check_program(settings, mirror, name,
@@ -75,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
             steps.start(name.value)
             # The nose applies to toolpath surfaces (and to polished, as its machining).
             nose_k = 0.0 if name in builtin else nose
-            surface = named_surface(name, mirror, settings, nose_radius=nose_k)
+            surface = named_surface(name, mirror, settings, nose_radius=nose_k, measured=measured)
             try:
                 fig = made_figures(surface, mirror, range_mm=range_m * 1000.0, pose=pose, zones=zn)
             except InputError as exc:

@@ -121,3 +121,19 @@ def program_strategy(value: str | None, settings):
     if value is None:
         return settings.toolpath.strategy
     return BEST if parse(Program, value, "--program") is Program.BEST else Strategy.PAPER
+
+
+def surface_arg(text: str | None, flag: str = "--surface"):
+    """--surface NAME or measured:FILE as (enums.Surface or None, the measured file or None)."""
+    from ..enums import Surface, parse
+
+    if text is None:
+        return None, None
+    if text.lower().startswith("measured:"):
+        path = text.split(":", 1)[1]
+        if not path:
+            from ..errors import InputError
+
+            raise InputError(f"{flag} measured: name the measured file, measured:FILE")
+        return Surface.MEASURED, path
+    return parse(Surface, text, flag), None

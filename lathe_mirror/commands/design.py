@@ -31,11 +31,9 @@ def run(args: argparse.Namespace) -> int:
     if args.config is None:
         figures["notes"] = [TABLE1_SWAP_NOTE]
     if args.output:
-        import json
+        from ..export.files import json_text, write_text
 
-        from ..export.files import write_text
-
-        write_text(args.output, json.dumps(figures, indent=2) + "\n")
+        write_text(args.output, json_text(figures))
     if args.json:
         print_json(figures)
     else:
@@ -82,7 +80,7 @@ def format_design(fig: dict) -> str:
         f"stereo baseline (F1 to F1): {fig['baseline_mm']:.3f} mm; "
         f"common band: {band['min']:.3f} to {band['max']:.3f} deg elevation",
         "image radii: " + _radii_text(radii),
-        f"mirror depth (vertex to outer rim): {fig['depth_mm']:.3f} mm",
+        f"mirror depth (vertex to the farthest point, the higher rim): {fig['depth_mm']:.3f} mm",
     ]
     for note in fig.get("notes", []):
         lines.append(f"note: {note}")

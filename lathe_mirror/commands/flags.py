@@ -65,6 +65,8 @@ FLAGS: dict[str, FlagRange] = {
     "calib --range-m": FlagRange(0.05, _KM_IN_M, "m", inf="directions",
                                  why="the nearest range of the stereo (stereo.min_range_m) to 1000 km, "
                                  "beyond which world points are directions to rounding"),
+    "compensate --gain": FlagRange(0.01, 1.0, "", why="the share of the residual the re-cut takes off; "
+                                   "below 1 % a re-cut changes nothing the lattice holds"),
     "optimize --workers": FlagRange(1, 64, "", key="optimize.workers"),
     "report --workers": FlagRange(0, 1024, "", key="compute.workers"),
     "run --workers": FlagRange(0, 1024, "", key="compute.workers"),

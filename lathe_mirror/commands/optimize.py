@@ -24,6 +24,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scheduler", metavar="ADDRESS", default=None,
                    help="evaluate the generations on the Dask cluster at this scheduler address "
                    "(tcp://HOST:PORT; default [compute] scheduler)")
+    p.add_argument("--no-check", action="store_true",
+                   help="skip the winner's tolerance check (the best program with the configured tool: the "
+                   "nominal part against [tolerance.spec] and the yield against tolerance.target_yield)")
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -47,16 +50,14 @@ def run(args: argparse.Namespace) -> int:
     problem = Problem(camera=settings.camera, tool=settings.tool, stock=settings.stock, body=settings.body,
                       clearance=settings.toolpath.clearance, settings=settings.optimize,
                       reference=settings.lobes)
-    from ..compute import default_workers, session
+    from ..compute import activate, default_workers
 
     workers, scheduler = compute_options(args, settings)
     if workers is None and not scheduler:
         workers = settings.optimize.workers if settings.optimize.workers > 1 else default_workers()
-    with session(workers, scheduler) as ex:
-        if ex.kind == "dask":
-            ex.client()  # connect: its worker threads set the chunks
-        result = search(problem, workers=min(max(ex.workers, 1), 64),  # optimize.workers' range
-                        progress=not args.no_progress)
+    ex = activate(workers, scheduler)  # the search's generations and the winner's Monte Carlo
+    result = search(problem, workers=min(max(ex.workers, 1), 64),  # optimize.workers' range
+                    progress=not args.no_progress)
     best = dataclasses.replace(settings, lobes=result.best)
     check_made(best)
     ref_name = "paper" if _is_paper(settings) else "configured"
@@ -76,7 +77,14 @@ def run(args: argparse.Namespace) -> int:
                    "converged": result.converged, "seconds": result.seconds,
                    "evaluations_per_second": result.evaluations_per_second},
         "pareto": _fronts(result),
+        "heights_above_pinhole_mm": {"vertex": result.best_figures.vertex_mm, "far": result.best_figures.far_mm},
+        "bound_margin": o.bound_margin,
+        "warnings": bound_warnings(result, problem),
     }
+    if not args.no_check:
+        from ..tolerance.runs import winner_check
+
+        data["check"] = winner_check(best.mirror(), best, progress=not args.no_progress)
     if out is not None:
         from ..export.design_toml import design_toml, write_design_toml
         from ..export.files import write_bytes
@@ -92,6 +100,33 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_result(data))
     return 0
+
+
+def bound_warnings(result, problem) -> list[str]:
+    """One line per bound the winner sits on: a searched parameter at the edge of its range
+    less optimize.bound_margin (it would go further: widen optimize.search), and each active
+    constraint (the key that limits the design)."""
+    import numpy as np
+
+    from ..optimize.evaluate import constraint_table, vector_of
+    from ..optimize.spec import PARAMETERS
+
+    s = problem.settings
+    out = []
+    x = vector_of(result.best, problem)
+    for name, v, (lo, hi), (lo0, hi0) in zip(PARAMETERS, x, s.margin_bounds(), s.search.bounds()):
+        if hi0 <= lo0:
+            continue
+        tol = 1e-3 * (hi0 - lo0)
+        for end, b, b0 in (("low", lo, lo0), ("high", hi, hi0)):
+            if abs(v - b) <= tol and not (name.startswith("outer_r_") and end == "high" and b >= 1.0):
+                out.append(f"optimize.search.{name} = {float(v):.6g} sits on its {end} bound ({b0:g}, kept "
+                           f"{100 * s.bound_margin:g} % of the range clear: {b:.6g}); widen the range to let it go on")
+    for c in constraint_table(result.best_figures, problem):
+        if c["active"]:
+            out.append(f"{c['key']}: the winner sits on this bound ({c['what']} {c['value']:.6g}, {c['bound']} "
+                       f"{c['limit']:.6g}{' ' + c['unit'] if c['unit'] else ''})")
+    return out
 
 
 def check_made(settings) -> None:
@@ -146,11 +181,19 @@ def format_result(data: dict) -> str:
         lines.append(f"best / {name}: {data['gain']:.4f} x the {name} design's {data['objective']} "
                      f"({100 * (data['gain'] - 1):+.2f} %)"
                      + ("" if data["reference_feasible"] else f"; the {name} design breaks a constraint"))
-    active = [c for c in data["constraints"] if c["active"]]
-    if active:
-        lines.append("active constraints: " + "; ".join(
-            f"{c['key']} ({c['what']} {c['value']:.4g}, {c['bound']} {c['limit']:.4g}"
-            f"{' ' + c['unit'] if c['unit'] else ''})" for c in active))
+    h = data["heights_above_pinhole_mm"]
+    lines.append(f"heights above the pinhole: vertex {h['vertex']:.3f} mm, farthest point {h['far']:.3f} mm "
+                 f"(depth {best['depth_mm']:.3f} mm)")
+    for w in data["warnings"]:
+        lines.append(f"warning: {w}")
+    if "check" in data:
+        c = data["check"]
+        verdict = "PASS" if c["nominal_pass"] else "FAIL"
+        lines.append(f"tolerance check ({c['program']} program, configured tool, default tolerances): nominal "
+                     f"{verdict}, yield {100 * c['yield']:.1f} % of {c['trials']} trials (target "
+                     f"{100 * c['target_yield']:g} %)")
+        if "why" in c:
+            lines.append(f"warning: {c['why']}")
     if best["hand"] != "as configured":
         lines.append("the outer lobe is recessed: the programs cut it with the tools in opposite-hand "
                      "holders (T3, T4), from the rim in")

@@ -17,7 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "image_displacement_px, viewpoint_spread_mm), plots, and the POV-Ray 3.7 scene.")
     add_common(p, output_help="output directory for the PNGs, plots, figures.json and .pov")
     p.add_argument("--surface", metavar="NAME", default=None,
-                   help="made surface: exact, reference, uniform528, a toolpath strategy "
+                   help="made surface: exact, reference, uniform528, measured:FILE (a measured part), a toolpath strategy "
                    "(paper, best, ...), or polished (the paper program as machined, polished at "
                    "the polishing optimum); default [render] surface")
     p.add_argument("--nose-radius", metavar="MM", type=float, default=None,
@@ -42,13 +42,15 @@ def run(args: argparse.Namespace) -> int:
     from ..job import check_program, design, named_surface, scene_for
     from ..profile import ExactProfile
 
-    surface = parse(Surface, args.surface, "--surface") if args.surface is not None else None
+    from .common import surface_arg
+
+    surface, measured = surface_arg(args.surface)  # a name, or measured:FILE
     # The flags are the [render] keys: validated (ranges, the render's memory) with the rest.
     settings = load(args, [("render.supersample", args.supersample, "--supersample"),
                            ("render.nose_radius", args.nose_radius, "--nose-radius"),
-                           ("render.surface", surface.value if surface else None, "--surface")])
+                           ("render.surface", surface.value if surface and not measured else None, "--surface")])
     rc = settings.render
-    surface, nose, n = rc.surface, rc.nose_radius, rc.supersample
+    surface, nose, n = (rc.surface if measured is None else Surface.MEASURED), rc.nose_radius, rc.supersample
     if args.output:  # every output name, before any work
         from .common import check_outputs
 
@@ -58,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     exact = ExactProfile(mirror)
     tool = dataclasses.replace(settings.tool, nose_radius=nose) if nose > 0 else None
     check_program(settings, mirror, surface, tool=tool)  # a program's surface: its program checked
-    made = named_surface(surface, mirror, settings, nose_radius=float(nose))
+    made = named_surface(surface, mirror, settings, nose_radius=float(nose), measured=measured)
     z_top = float(max(np.max(made.z(np.linspace(0, made.r_max, 2001))), mirror.outer.h))
     scene = scene_for(settings, mirror, mirror_top=z_top + abs(pose.axial_offset))
     _check_sees_mirror(made, mirror, pose)

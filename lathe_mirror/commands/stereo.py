@@ -20,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_common(p, output_help="output directory for range_<surface>.png, error_range_<surface>.png, "
                "points_<surface>.ply and stereo_<surface>.json")
     p.add_argument("--surface", metavar="NAME", default=None,
-                   help="the mirror: exact, reference, uniform528, a toolpath strategy (paper, best, "
+                   help="the mirror: exact, reference, uniform528, measured:FILE (a measured part), a toolpath strategy (paper, best, "
                    "...) or polished; default [stereo] surface")
     add_no_progress(p)
     p.set_defaults(func=run)
@@ -39,7 +39,10 @@ def run(args: argparse.Namespace) -> int:
 
     settings = load(args)
     st = settings.stereo
-    surface = parse(Surface, args.surface, "--surface") if args.surface is not None else st.surface
+    from .common import surface_arg
+
+    surface, measured = surface_arg(args.surface)  # a name, or measured:FILE
+    surface = surface if surface is not None else st.surface
     mirror = design(settings)
     pose = settings.pose
     grid, match = prepare(mirror, st.params)  # an empty or too narrow band stops here
@@ -52,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     stages = Stages(["surface", "render", "match", "truth", "write"], enabled=not args.no_progress)
     try:
         stages.start("surface")
-        made = named_surface(surface, mirror, settings)
+        made = named_surface(surface, mirror, settings, measured=measured)
         seen = band_visibility(made, mirror, grid, pose)
         for name, frac in zip(("inner", "outer"), seen):
             if frac < 0.5:

@@ -19,9 +19,13 @@ import textwrap
 from pathlib import Path
 
 from ..design import Mirror
-from ..optics.camera_model import (OcamModel, UnifiedModel, design_model, lobe_ocam_model,
-                                   valid_annulus_px)
+from ..optics.camera_model import UnifiedModel, design_model, valid_annulus_px
+from ..optics.ocam import OcamModel, lobe_ocam_model
 from .files import write_text
+from .numbers import LENGTH_M, LENGTH_MM, PIXEL, RATIO, fmt, polynomial_exponent
+
+#: The precision of one term of an OCamCalib polynomial at the largest value of its variable.
+POLYNOMIAL_TERM_PX = -8
 
 #: The files write_calibration writes, in order.
 FILE_NAMES = ("opencv_inner.yaml", "opencv_outer.yaml", "kalibr_camchain.yaml",
@@ -77,17 +81,17 @@ def opencv_yaml(model: UnifiedModel, note: str = "") -> str:
         "initUndistortRectifyMap take them as they are; projectPoints(points_in_lobe_frame, rvec=0, "
         "tvec=0, K, xi[0, 0], D) takes xi as a number.\n"
         + _frame(model, note))
-    lines += _matrix("K", 3, 3, k)
-    lines += _matrix("D", 1, 4, model.distortion.ravel())
+    lines += _matrix("K", 3, 3, k, PIXEL)
+    lines += _matrix("D", 1, 4, model.distortion.ravel(), RATIO)
     # xi as a 1 x 1 matrix, as cv::omnidir::calibrate returns it and OpenCV's omnidir sample
     # stores it: fs.getNode("xi").mat() goes to undistortPoints / initUndistortRectifyMap as
     # is; projectPoints' binding takes the number, xi[0, 0].
-    lines += _matrix("xi", 1, 1, [model.xi])
+    lines += _matrix("xi", 1, 1, [model.xi], RATIO)
     lines += [f"image_width: {model.image_size[0]}",
               f"image_height: {model.image_size[1]}",
-              f"annulus_inner_radius_px: {_num(model.annulus_px[0])}",
-              f"annulus_outer_radius_px: {_num(model.annulus_px[1])}",
-              f"viewpoint_z_mm: {_num(model.viewpoint_z)}"]
+              f"annulus_inner_radius_px: {fmt(model.annulus_px[0], PIXEL)}",
+              f"annulus_outer_radius_px: {fmt(model.annulus_px[1], PIXEL)}",
+              f"viewpoint_z_mm: {fmt(model.viewpoint_z, LENGTH_MM)}"]
     return "\n".join(lines) + "\n"
 
 
@@ -115,12 +119,14 @@ def kalibr_camchain(models: list[UnifiedModel], note: str = "") -> str:
         if i > 0:
             t = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, dz_m], [0.0, 0.0, 0.0, 1.0]]
             lines.append("  T_cn_cnm1:")
-            lines += [f"  - [{', '.join(_num(x) for x in row)}]" for row in t]
+            # rotation entries are ratios, the translation column metres.
+            lines += [f"  - [{', '.join(fmt(x, LENGTH_M if j == 3 else RATIO) for j, x in enumerate(row))}]"
+                      for row in t]
         lines += [f"  # {m.name} lobe; valid annulus {m.annulus_px[0]:.6f} to {m.annulus_px[1]:.6f} px "
                   f"about (pu, pv); F1 at z = {m.viewpoint_z:.6f} mm in the camera frame",
                   f"  cam_overlaps: [{1 - i}]",
                   "  camera_model: omni",
-                  f"  intrinsics: [{', '.join(_num(x) for x in (m.xi, m.fu, m.fv, m.cx, m.cy))}]",
+                  f"  intrinsics: [{', '.join([fmt(m.xi, RATIO)] + [fmt(x, PIXEL) for x in (m.fu, m.fv, m.cx, m.cy)])}]",
                   "  distortion_model: none",
                   "  distortion_coeffs: []",
                   f"  resolution: [{m.image_size[0]}, {m.image_size[1]}]",
@@ -132,23 +138,24 @@ def ocamcalib_text(ocam: OcamModel, note: str = "") -> str:
     """calib_results.txt of Scaramuzza's OCamCalib toolbox (export_data.m's layout, read by
     its C get_ocam_model and the Python ports): the direct polynomial (ascending, for
     cam2world), the inverse polynomial (ascending, for world2cam), the centre (row, column
-    from 0), the affine c, d, e (1, 0, 0) and the image height and width. Coefficients carry
-    13 significant digits (the toolbox prints %e / %f; fscanf's %lf reads both). Notes on
+    from 0), the affine c, d, e (1, 0, 0) and the image height and width. Each coefficient
+    is written so its term is exact to 1e-8 px at the variable's largest value, the centre
+    to 1e-6 px (export.numbers; the toolbox prints %e / %f; fscanf's %lf reads both). Notes on
     the frame follow the last field, where the readers stop."""
     lines = [
         "#polynomial coefficients for the DIRECT mapping function (ocam_model.ss in MATLAB). "
         "These are used by cam2world",
         "",
-        f"{ocam.pol.size} " + "".join(f"{c:.12e} " for c in ocam.pol),
+        f"{ocam.pol.size} " + _polynomial(ocam.pol, ocam.rho_max_px),
         "",
         "#polynomial coefficients for the inverse mapping function (ocam_model.invpol in MATLAB). "
         "These are used by world2cam",
         "",
-        f"{ocam.invpol.size} " + "".join(f"{c:.12e} " for c in ocam.invpol),
+        f"{ocam.invpol.size} " + _polynomial(ocam.invpol, math.pi / 2),
         "",
         '#center: "row" and "column", starting from 0 (C convention)',
         "",
-        f"{ocam.xc:f} {ocam.yc:f}",
+        f"{fmt(ocam.xc, PIXEL)} {fmt(ocam.yc, PIXEL)}",
         "",
         '#affine parameters "c", "d", "e"',
         "",
@@ -230,11 +237,15 @@ def _comment(text: str, width: int = 92) -> list[str]:
     return out
 
 
-def _matrix(name: str, rows: int, cols: int, data) -> list[str]:
+def _matrix(name: str, rows: int, cols: int, data, exp: int) -> list[str]:
+    """An OpenCV matrix with its entries at the precision 10**exp (export.numbers)."""
     return [f"{name}: !!opencv-matrix", f"   rows: {rows}", f"   cols: {cols}", "   dt: d",
-            f"   data: [ {', '.join(_num(x) for x in data)} ]"]
+            f"   data: [ {', '.join(fmt(x, exp) for x in data)} ]"]
 
 
-def _num(x: float) -> str:
-    """A float as its shortest round-trip text ('0.0', '237.66846224748042')."""
-    return repr(float(x))
+def _polynomial(coefficients, variable_max: float) -> str:
+    """OCamCalib's ascending coefficients, each term c_i x^i to POLYNOMIAL_TERM_PX (1e-8 px)
+    at the variable's largest value (rho_max px for the direct map, pi/2 rad of elevation for
+    the inverse): 1000 times below the fit's own departure from the exact map (~1e-5 px)."""
+    return "".join(fmt(c, polynomial_exponent(i, variable_max, POLYNOMIAL_TERM_PX)) + " "
+                   for i, c in enumerate(coefficients))

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..design import Camera, LobeSpec
+from .numbers import fmt_sig
 
 
 def design_toml(camera: Camera, lobes: tuple[LobeSpec, LobeSpec], *, comments: list[str] | None = None,
@@ -95,7 +96,7 @@ def _value(v: Any) -> str:
     if isinstance(v, float):
         if not math.isfinite(v):
             raise ValueError(f"a TOML configuration holds finite numbers only, got {v!r}")
-        return repr(v)
+        return fmt_sig(v)  # 12 significant digits (export.numbers)
     if isinstance(v, str):
         return json.dumps(v, ensure_ascii=False)
     if isinstance(v, (list, tuple)):

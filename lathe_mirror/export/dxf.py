@@ -17,7 +17,8 @@ Layers:
   DIMENSIONS    both R_top, the vertex and rim heights above the camera (Table 1's h),
                 the rim depths below the vertex, and the step between the lobes
 
-The file is reproducible: ezdxf's creation/update dates and GUIDs are written fixed.
+The file is reproducible: ezdxf's creation/update dates and GUIDs are written fixed, and
+every float group code is rewritten at its stated precision (export.numbers.dxf_text).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from typing import Iterator, Sequence
 
 from ..body import Meridian, Role, Segment, SegmentKind
 from ..design import Mirror
+from .numbers import dxf_text
 
 #: The dimension style of the drawing (mm, three decimals).
 DIMSTYLE = "LATHE_MIRROR_MM"
@@ -97,7 +99,8 @@ def dxf_bytes(mirror: Mirror, design: Meridian, *, programmed: Meridian | None =
         doc.classes.classes.update(ordered)
         stream = io.StringIO()
         doc.write(stream)
-    return stream.getvalue().encode("utf-8")
+    # Every float at its stated precision (export.numbers: mm to 1e-9, degrees to 1e-10).
+    return dxf_text(stream.getvalue()).encode("utf-8")
 
 
 def audit(path_or_bytes: str | Path | bytes) -> list[str]:

@@ -33,6 +33,7 @@ from ..optics.scene import Scene
 from ..optics.trace import polyline_vertices
 from ..profile import ExactProfile, Profile
 from .files import write_text
+from .numbers import LENGTH_MM, fmt, fmt_sig
 
 #: Samples per lobe for a Profile that is not a polyline (lathe points are straight segments).
 DENSE_POINTS = 2001
@@ -124,8 +125,9 @@ def _mirror(profile: Profile, mirror: Mirror) -> list[str]:
         for k, lobe in enumerate(mirror.lobes):
             a2, b2, e = lobe.a**2, lobe.b**2, lobe.e
             # (y - e)^2 / a^2 - (x^2 + z^2) / b^2 - 1 = 0 in POV-Ray's frame.
-            coeffs = (f"<{_f(-1 / b2)}, {_f(1 / a2)}, {_f(-1 / b2)}>, <0, 0, 0>, "
-                      f"<0, {_f(-2 * e / a2)}, 0>, {_f(e * e / a2 - 1)}")
+            # quadric coefficients (1/mm^2, 1/mm, 1): 12 significant digits (export.numbers)
+            coeffs = (f"<{fmt_sig(-1 / b2)}, {fmt_sig(1 / a2)}, {fmt_sig(-1 / b2)}>, <0, 0, 0>, "
+                      f"<0, {fmt_sig(-2 * e / a2)}, 0>, {fmt_sig(e * e / a2 - 1)}")
             top = float(lobe.z(profile.lobe_range(k)[1])) + 1.0
             keep = f"cylinder {{ <0, {_f(e)}, 0>, <0, {_f(top)}, 0>, {_f(profile.lobe_range(k)[1])} }}"
             if k == 1:
@@ -188,4 +190,5 @@ def _rgb(c) -> str:
 
 
 def _f(x: float) -> str:
-    return repr(float(x)) if x != 0 else "0"
+    """A scene number (mm; colours and finishes are ratios) to 1e-9 (export.numbers)."""
+    return fmt(float(x), LENGTH_MM)

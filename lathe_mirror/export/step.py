@@ -32,6 +32,7 @@ from typing import Any
 from ..body import Meridian, SegmentKind, check_product_name
 from ..enums import StepSchema, parse
 from ..errors import InputError
+from .numbers import step_text
 
 #: The FILE_NAME time stamp written into every STEP (ISO 8601): fixed, not "now".
 FIXED_TIMESTAMP = "2000-01-01T00:00:00"
@@ -129,7 +130,8 @@ def step_bytes(meridian: Meridian, *, schema: StepSchema = StepSchema.AP214,
         out = os.path.join(tmp, "mirror.step")
         if writer.Write(out) != IFSelect_RetDone:
             raise RuntimeError("STEP: OCC could not write the file")
-        return Path(out).read_bytes()
+        # Every REAL at its stated precision (export.numbers.step_text: mm to 1e-9).
+        return step_text(Path(out).read_bytes().decode("latin-1")).encode("latin-1")
 
 
 def read_step(path: str | Path) -> Any:

@@ -149,6 +149,12 @@ def diagnose(fit: TraceFit, nominal: Profile, programmed_nose_mm: float, *,
                      programmed_nose_mm=programmed_nose_mm)
 
 
+def centre_pip(fit: TraceFit) -> tuple[float, str | None, float]:
+    """The centre pip of a fitted trace against the design alone (no program at hand):
+    (radius mm, "cone" | "stub" | None, height mm)."""
+    return _pip(fit.r, fit.resid, fit)
+
+
 def _pip(r: np.ndarray, d: np.ndarray, fit: TraceFit) -> tuple[float, str | None, float]:
     """The centre pip: (radius |h| mm, "cone" | "stub" | None, height mm)."""
     ring = (r > PIP_SEARCH_MM) & (r < 3 * PIP_SEARCH_MM)

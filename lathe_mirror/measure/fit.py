@@ -217,7 +217,7 @@ def fit_trace(trace: Trace, mirror: Mirror, *, nose_radius_mm: float = 0.2,
     resid = w - zd(np.abs(u))  # measured minus design (with conic=True too: R, k are reported)
     lobes, splines, means = [], [], []
     for kk in (0, 1):
-        lf, sp = _lobe_figures(mirror, kk, np.abs(u), resid, mask, options)
+        lf, sp = lobe_figures(mirror, kk, np.abs(u), resid, mask, options)
         if lf is not None and options.conic:
             R, kc = (params[3], params[4]) if kk == 0 else (params[5], params[6])
             lf = LobeFit(**{**lf.__dict__, "radius_mm": float(R), "conic": float(kc)})
@@ -234,7 +234,7 @@ def fit_trace(trace: Trace, mirror: Mirror, *, nose_radius_mm: float = 0.2,
                     tuple(lobes), tuple(splines), step, conic_params, options)
 
 
-def _lobe_figures(mirror: Mirror, k: int, r: np.ndarray, resid: np.ndarray, mask: np.ndarray,
+def lobe_figures(mirror: Mirror, k: int, r: np.ndarray, resid: np.ndarray, mask: np.ndarray,
                   options: FitOptions):
     from scipy.interpolate import make_lsq_spline
 

@@ -252,8 +252,11 @@ def _read_x3p(data: bytes, name: str) -> Trace | AreaMap:
 
 def _read_zygo(path, data: bytes, kind, name: str) -> AreaMap:
     import tempfile
+    import warnings
 
-    from prysm import io as pio
+    with warnings.catch_warnings():  # prysm's import warns about pkg_resources
+        warnings.simplefilter("ignore")
+        from prysm import io as pio
 
     # prysm opens files by name: hand it the bytes already checked
     with tempfile.TemporaryDirectory(prefix="lathe-mirror-") as tmp:

@@ -3,13 +3,13 @@ diagnosed against the program's nominal part; its figures as the JSON of `measur
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..design import Mirror
 from ..profile import Profile
 from .diagnose import Diagnosis, diagnose
-from .fit import FitOptions, TraceFit, fit_trace, profile_through_axis
+from .fit import FitOptions, TraceFit, fit_trace, lobe_figures, profile_through_axis
 from .readers import AreaMap, read_measurement
 
 
@@ -41,4 +41,24 @@ def measure(path: str | Path, mirror: Mirror, nominal: Profile, programmed_nose_
     areal = isinstance(data, AreaMap)
     trace = profile_through_axis(data, mirror) if areal else data
     fit = fit_trace(trace, mirror, nose_radius_mm=programmed_nose_mm, options=options)
-    return Measurement(fit, diagnose(fit, nominal, programmed_nose_mm, resolution_mm=resolution_mm), areal)
+    dg = diagnose(fit, nominal, programmed_nose_mm, resolution_mm=resolution_mm)
+    if dg.centre_pip is not None:  # the pip is the diagnosis's: the lobe's form figures are about it
+        fit = without_pip(fit, 2.0 * abs(dg.centre_height_mm))
+    return Measurement(fit, dg, areal)
+
+
+def without_pip(fit: TraceFit, radius_mm: float) -> TraceFit:
+    """The fit with its lobe figures taken outside `radius_mm` of the axis (the centre pip,
+    reported on its own by the diagnosis)."""
+    used = fit.used & (fit.r > radius_mm)
+    lobes, splines = [], []
+    for k in (0, 1):
+        lf, sp = lobe_figures(fit.mirror, k, fit.r, fit.resid, used, fit.options)
+        if lf is not None:
+            old = next((o for o in fit.lobes if o.name == lf.name), None)
+            if old is not None and old.radius_mm is not None:
+                lf = replace(lf, radius_mm=old.radius_mm, conic=old.conic)
+            lobes.append(lf)
+        splines.append(sp)
+    step = (lobes[1].mean_um - lobes[0].mean_um) if len(lobes) == 2 else None
+    return replace(fit, lobes=tuple(lobes), splines=tuple(splines), step_error_um=step)

@@ -58,8 +58,6 @@ from .trace import Fate, trace_pixels
 DEFAULT_RANGE_MM = 2000.0
 #: Pixel pitch (px) of the sample grid of a misaligned camera (aligned: every pixel).
 MISALIGNED_STRIDE_PX = 4
-#: The OCamCalib polynomials are raised in degree until they hold the exact map to this, px.
-OCAM_TOLERANCE_PX = 1e-4
 #: Fewest usable pixel radii (aligned) or samples (misaligned) a lobe needs for a fit.
 MIN_SAMPLES = 16
 
@@ -159,30 +157,6 @@ class Correspondences:
     excluded: int
     range_mm: float
     aligned: bool
-
-
-@dataclass(frozen=True)
-class OcamModel:
-    """Scaramuzza's OCamCalib model of one lobe (calib_results.txt).
-
-    pol: ascending coefficients of f(rho) (rho in px): the ray of an image point at
-    (x, y) px from the centre (x along the rows, y along the columns) is (x, y, f(rho)).
-    invpol: ascending coefficients of rho(theta), theta = atan(z / sqrt(x^2 + y^2)) (rad).
-    xc, yc: the centre's row and column from 0, px. width, height: px. max_error_px: the
-    largest departure from the exact map of each polynomial over its fitted range, px.
-    Its frame: origin F1, x along the rows (camera y), y along the columns (camera x), z up
-    the axis away from the camera; the lobe frame with x, y swapped and z reversed.
-    """
-
-    name: str
-    pol: np.ndarray
-    invpol: np.ndarray
-    xc: float
-    yc: float
-    width: int
-    height: int
-    rho_max_px: float
-    max_error_px: dict
 
 
 # --------------------------------------------------------------------------------------
@@ -434,69 +408,8 @@ def design_model_figures(mirror: Mirror, zones=None) -> dict:
             "t_cn_cnm1_mm": [0.0, 0.0, mirror.outer.focus_z - mirror.inner.focus_z]}
 
 
-def ocam_model(model: UnifiedModel, rho_max_px: float, *, tolerance_px: float = OCAM_TOLERANCE_PX,
-               max_degree: int = 24) -> OcamModel:
-    """Scaramuzza's polynomials fitted to an undistorted unified model (a lobe's exact map).
-
-    Direct: f(rho) = gamma (xi / lambda - 1) with lambda = (xi + sqrt(1 + (1 - xi^2) m^2)) /
-    (1 + m^2), m = rho / gamma (Mei's lifting, seen in OCamCalib's frame), an even function:
-    fitted in even powers of rho on [0, rho_max_px]. Inverse: rho(theta) = gamma cos(theta) /
-    (xi - sin(theta)) on theta from -pi/2 to the elevation at rho_max_px. Each is a
-    least-squares Chebyshev fit (well conditioned), converted to plain powers, of the lowest
-    degree whose pixel error stays within tolerance_px.
-    """
-    from numpy.polynomial import Chebyshev, Polynomial
-
-    if model.k1 or model.k2 or model.fu != model.fv:
-        raise ValueError("ocam_model: needs an undistorted model with fu == fv")
-    g, xi, big_r = model.fu, model.xi, float(rho_max_px)
-    rho = np.linspace(0.0, big_r, 4001)
-    f_exact = _ocam_f(rho, g, xi)
-
-    pol = pol_err = None
-    for deg in range(1, max_degree // 2 + 1):
-        c = Chebyshev.fit((rho / big_r) ** 2, f_exact, deg, domain=[0.0, 1.0])
-        coef_s = c.convert(kind=Polynomial, domain=[-1.0, 1.0], window=[-1.0, 1.0]).coef
-        coef = np.zeros(2 * coef_s.size - 1)
-        coef[::2] = coef_s / big_r ** (2 * np.arange(coef_s.size))
-        phi = np.arctan2(np.polynomial.polynomial.polyval(rho, coef), rho)
-        pol_err = float(np.max(np.abs(model.radius_px(phi) - rho)))
-        pol = coef
-        if pol_err <= tolerance_px:
-            break
-
-    theta_hi = math.atan2(float(f_exact[-1]), big_r)
-    theta = np.linspace(-math.pi / 2, theta_hi, 4001)
-    rho_t = model.radius_px(theta)
-    invpol = inv_err = None
-    for deg in range(1, max_degree + 1):
-        c = Chebyshev.fit(theta, rho_t, deg)
-        coef = c.convert(kind=Polynomial, domain=[-1.0, 1.0], window=[-1.0, 1.0]).coef
-        inv_err = float(np.max(np.abs(np.polynomial.polynomial.polyval(theta, coef) - rho_t)))
-        invpol = coef
-        if inv_err <= tolerance_px:
-            break
-    w, h = model.image_size
-    return OcamModel(name=model.name, pol=pol, invpol=invpol, xc=model.cy, yc=model.cx,
-                     width=w, height=h, rho_max_px=big_r,
-                     max_error_px={"pol": pol_err, "invpol": inv_err})
-
-
-def lobe_ocam_model(mirror: Mirror, k: int, zones=None) -> OcamModel:
-    """ocam_model of lobe k's design model over its whole image disc (to the rim, R_pixel)."""
-    return ocam_model(design_model(mirror, k, zones), mirror.lobes[k].r_pixel)
-
-
 # --------------------------------------------------------------------------------------
 # Helpers
-
-
-def _ocam_f(rho: np.ndarray, gamma: float, xi: float) -> np.ndarray:
-    """OCamCalib's f(rho) of the unified model: z of the ray (x, y, f) with |(x, y)| = rho
-    in its frame (z up the axis), from Mei's lifting."""
-    r2 = (rho / gamma) ** 2
-    lam = (xi + np.sqrt(1.0 + (1.0 - xi * xi) * r2)) / (1.0 + r2)
-    return gamma * (xi / lam - 1.0)
 
 
 def _grid_samples(mirror: Mirror, radii_px: np.ndarray, stride: int) -> np.ndarray:

@@ -136,9 +136,37 @@ class Constraint:
     scale: float
     value: object
 
+    def key_for(self, problem: Problem) -> str:
+        """The key that sets this constraint for `problem` (the user's terms when given)."""
+        s = problem.settings
+        if self.key == "optimize.r_max_mm":
+            return s.radial_key
+        if self.key == "optimize.rim_max_mm" and s.max_depth_mm > 0:
+            return "optimize.max_depth_mm"
+        if self.key == "optimize.blur_max_px":
+            return s.blur_key
+        return self.key
+
     def violation(self, fig: Figures, problem: Problem) -> float:
         got, limit = self.value(fig, problem)
         return max(0.0, self.sense * (got - limit) / self.scale)
+
+
+def _margin(p: Problem) -> float:
+    return p.settings.bound_margin
+
+
+def _radial(f: Figures, p: Problem):
+    return f.lobes[1].r_top, p.settings.radial_limit_mm
+
+
+def _far(f: Figures, p: Problem):
+    # max_depth_mm: the higher rim at most that far beyond the vertex (the heights above
+    # the pinhole follow from the vertex the design has); else rim_max_mm above the pinhole
+    s = p.settings
+    if s.max_depth_mm > 0:
+        return f.far_mm, f.vertex_mm + s.max_depth_mm
+    return f.far_mm, s.rim_max_mm
 
 
 def _band_low(fig: Figures, p: Problem):
@@ -149,23 +177,27 @@ def _band_high(fig: Figures, p: Problem):
     return fig.band_deg[1], p.settings.band_deg[1]
 
 
+def _blur(f: Figures, p: Problem):
+    return f.blur_px, p.settings.blur_limit_px(p.camera.t_pixel) * (1.0 - _margin(p))
+
+
 CONSTRAINTS: tuple[Constraint, ...] = (
-    Constraint("optimize.r_max_mm", "outer r_top (the radial envelope)", "mm", +1, 1.0,
-               lambda f, p: (f.lobes[1].r_top, p.settings.r_max_mm)),
+    Constraint("optimize.r_max_mm", "outer r_top (the radial envelope)", "mm", +1, 1.0, _radial),
     Constraint("optimize.vertex_min_mm", "the vertex's height above the pinhole", "mm", -1, 1.0,
-               lambda f, p: (f.vertex_mm, p.settings.vertex_min_mm)),
-    Constraint("optimize.rim_max_mm", "the farthest point's height above the pinhole", "mm", +1, 1.0,
-               lambda f, p: (f.far_mm, p.settings.rim_max_mm)),
-    Constraint("optimize.band_deg", "the common band's lowest elevation", "deg", +1, 1.0, _band_low),
-    Constraint("optimize.band_deg", "the common band's highest elevation", "deg", -1, 1.0, _band_high),
+               lambda f, p: (f.vertex_mm, p.settings.vertex_limit_mm)),
+    Constraint("optimize.rim_max_mm", "the farthest point's height above the pinhole", "mm", +1,
+               1.0, _far),
+    Constraint("optimize.band_deg", "the common band's lowest elevation", "deg", +1, 1.0,
+               _band_low),
+    Constraint("optimize.band_deg", "the common band's highest elevation", "deg", -1, 1.0,
+               _band_high),
     Constraint("optimize.band_width_min_deg", "the common band's width", "deg", -1, 1.0,
                lambda f, p: (f.band_width_deg, p.settings.band_width_min_deg)),
     Constraint("optimize.rim_margin_px", "the outer rim's image radius", "px", +1, 1.0,
                lambda f, p: (f.r_pixel_outer, p.camera.r_pixel_max - p.settings.rim_margin_px)),
     Constraint("optimize.usable_min", "the usable share of the image", "", -1, 0.01,
                lambda f, p: (f.usable_share, p.settings.usable_min)),
-    Constraint("optimize.blur_max_px", "the largest defocus blur", "px", +1, 1.0,
-               lambda f, p: (f.blur_px, p.settings.blur_max_px)),
+    Constraint("optimize.blur_max_px", "the largest defocus blur (less the margin)", "px", +1, 1.0, _blur),
     Constraint("tool.nose_radius", "the step's top above the nose centre in its inside corner", "mm", -1, 0.01,
                lambda f, p: (f.junction_margin_mm, 0.0)),
     Constraint("tool.nose_radius", "the nose's corner fillet's distance (in r) from the camera's sight", "mm", -1, 0.01, lambda f, p: (f.fillet_hidden_mm, 0.0)),
@@ -183,7 +215,7 @@ CONSTRAINTS: tuple[Constraint, ...] = (
 def design_of(x: np.ndarray, problem: Problem) -> tuple[LobeSpec, LobeSpec]:
     """The two LobeSpecs (inner, outer) of a design vector (spec.PARAMETERS order)."""
     s = problem.settings
-    r_top_outer = float(x[0]) * s.r_max_mm
+    r_top_outer = float(x[0]) * s.radial_limit_mm
     r_pixel_outer = float(x[2]) * (problem.camera.r_pixel_max - s.rim_margin_px)
     return (LobeSpec("inner", r_top=float(x[1]) * r_top_outer, r_pixel=float(x[3]) * r_pixel_outer,
                      alpha_deg=float(x[4])),
@@ -196,7 +228,7 @@ def vector_of(lobes: tuple[LobeSpec, LobeSpec], problem: Problem) -> np.ndarray:
     mirror = mirror_from_specs(problem.camera, lobes)
     s = problem.settings
     inner, outer = mirror.inner, mirror.outer
-    return np.array([outer.r_top / s.r_max_mm, inner.r_top / outer.r_top,
+    return np.array([outer.r_top / s.radial_limit_mm, inner.r_top / outer.r_top,
                      outer.r_pixel / (problem.camera.r_pixel_max - s.rim_margin_px),
                      inner.r_pixel / outer.r_pixel, math.degrees(inner.alpha), math.degrees(outer.alpha)])
 
@@ -222,7 +254,7 @@ def measure(mirror: Mirror, problem: Problem, lobes: tuple[LobeSpec, LobeSpec], 
     blur = defocus(mirror, problem.camera.f_number, s.focus_range_m * 1000.0, radii=radii)
     zi, zo = mirror.junction_z
     vertex = mirror.vertex_z
-    far = max(mirror.inner.h, mirror.outer.h)
+    far = mirror.far_z  # Mirror.depth's definition (far - vertex)
     hand = Hand.for_mirror(mirror)
     return Figures(
         lobes=lobes,
@@ -259,7 +291,7 @@ def constraint_table(fig: Figures, problem: Problem, *, active: float = 0.02) ->
     for c in CONSTRAINTS:
         got, limit = c.value(fig, problem)
         slack = -c.sense * (got - limit) / c.scale
-        rows.append({"key": c.key, "what": c.what, "unit": c.unit, "value": float(got), "limit": float(limit),
+        rows.append({"key": c.key_for(problem), "what": c.what, "unit": c.unit, "value": float(got), "limit": float(limit),
                      "bound": "max" if c.sense > 0 else "min", "slack": float(slack),
                      "active": bool(slack < active)})
     return rows

@@ -96,7 +96,7 @@ def search(problem: Problem, *, workers: int | None = None, progress: bool = Fal
     workers = s.workers if workers is None else int(workers)
     if not 1 <= workers <= 64:
         raise InputError(f"--workers {workers}: allowed 1 .. 64")
-    bounds = np.array(s.search.bounds(), dtype=float)
+    bounds = np.array(s.margin_bounds(), dtype=float)  # bound_margin clear of the search's bounds
     free = bounds[:, 1] > bounds[:, 0]
     fixed = bounds[:, 0].copy()
     t0 = time.perf_counter()
@@ -254,10 +254,10 @@ def _binding_message(hist: History, problem: Problem) -> str:
     fig = figures(design_of(hist.x[i], problem), problem)
     got, limit = c.value(fig, problem)
     unit = f" {c.unit}" if c.unit else ""
-    others = [CONSTRAINTS[m].key for m in np.flatnonzero(v > 0) if m != j]
+    others = [CONSTRAINTS[m].key_for(problem) for m in np.flatnonzero(v > 0) if m != j]
     also = f"; it also breaks {', '.join(dict.fromkeys(others))}" if others else ""
     bound = "at most" if c.sense > 0 else "at least"
-    return (f"{c.key}: no design in the search space meets every constraint; binding: {c.what} must be "
+    return (f"{c.key_for(problem)}: no design in the search space meets every constraint; binding: {c.what} must be "
             f"{bound} {_fmt(limit)}{unit}, the closest design found has {_fmt(got)}{unit}{also}")
 
 

@@ -17,6 +17,9 @@ from ..errors import InputError
 PARAMETERS = ("outer_r_top_fraction", "junction_fraction", "outer_r_pixel_fraction",
               "pixel_fraction", "alpha_inner_deg", "alpha_outer_deg")
 
+#: Parameters whose upper end 1.0 is the envelope or the sensor's edge (a constraint).
+ENVELOPE_FRACTIONS = ("outer_r_top_fraction", "outer_r_pixel_fraction")
+
 #: Most DE generations and population factor a configuration may ask for (cost bound).
 MAX_GENERATIONS = 5000
 MAX_POPSIZE = 100
@@ -157,6 +160,48 @@ class OptimizeSettings:
     def band(self) -> tuple[float, float]:
         """The required band, rad (lowest, highest elevation)."""
         return (math.radians(self.band_deg[0]), math.radians(self.band_deg[1]))
+
+    @property
+    def radial_limit_mm(self) -> float:
+        """The outer rim's largest radius (mm): max_diameter_mm / 2 when given, else r_max_mm."""
+        return self.max_diameter_mm / 2.0 if self.max_diameter_mm > 0 else self.r_max_mm
+
+    @property
+    def users_terms(self) -> bool:
+        """The envelope given as the mirror's own diameter and depth (max_diameter_mm or
+        max_depth_mm): the heights above the pinhole then follow from the design."""
+        return self.max_diameter_mm > 0 or self.max_depth_mm > 0
+
+    @property
+    def vertex_limit_mm(self) -> float:
+        """The vertex's least height above the pinhole: vertex_min_mm, or 0 in the user's
+        terms (the design places the mirror; `optimize` prints the heights)."""
+        return 0.0 if self.users_terms else self.vertex_min_mm
+
+    @property
+    def radial_key(self) -> str:
+        return "optimize.max_diameter_mm" if self.max_diameter_mm > 0 else "optimize.r_max_mm"
+
+    def blur_limit_px(self, t_pixel_mm: float) -> float:
+        """The blur limit in pixels of t_pixel_mm: blur_limit_um on the sensor when given
+        (the same micrometres for any pixel), else blur_max_px."""
+        return self.blur_limit_um * 1e-3 / t_pixel_mm if self.blur_limit_um > 0 else self.blur_max_px
+
+    @property
+    def blur_key(self) -> str:
+        return "optimize.blur_limit_um" if self.blur_limit_um > 0 else "optimize.blur_max_px"
+
+    def margin_bounds(self) -> list[tuple[float, float]]:
+        """The searched ranges less bound_margin of each one's span at both ends (a fixed
+        parameter stays fixed): the winner keeps that clear of the search's bounds."""
+        out = []
+        for name, (lo, hi) in zip(PARAMETERS, self.search.bounds()):
+            m = self.bound_margin * (hi - lo)
+            # the outer rim's radius and image radius may fill the envelope and the sensor:
+            # those ends are constraints (reported when active), not the search's bounds
+            top = hi if name in ENVELOPE_FRACTIONS and hi >= 1.0 else hi - m
+            out.append((lo + m, top))
+        return out
 
 
 def _int_in(key: str, value: int, lo: int, hi: int) -> None:

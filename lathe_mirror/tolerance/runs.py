@@ -140,3 +140,62 @@ def verdict(t: dict, spec: dict) -> dict:
     if "allocation" in t:
         out["allocation"] = t["allocation"]["statement"]
     return out
+
+
+def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False) -> dict:
+    """The optimiser's winner through the tolerance analysis of the best program with the
+    configured tool and default tolerances: the nominal part (lattice phase 0, every
+    parameter nominal) judged against the spec, and the Monte Carlo's yield against
+    tolerance.target_yield. When the nominal part fails, the criteria it fails (only
+    those); when the yield falls short, the criteria failing trials break and the drawn
+    parameter those trials stand out on (the mean |offset| / tolerance of the failing
+    trials less the passing ones'), which `tolerance --allocate` tightens."""
+    import numpy as np
+
+    from ..job import polishing_curve
+    from .montecarlo import CRITERIA, evaluate_trials, judge
+    from .perturb import Trials
+
+    ts = settings.tolerance
+    made = made_surface(mirror, settings.machine, settings.tool, BEST)
+    time_s = polishing_curve(made.profile, mirror, settings.polish).optimum_time_s
+    ctx = tolerance_context(mirror, settings, Program.BEST, time_s, progress=progress)
+    nom = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s))
+    ok = judge(nom, ctx.limits, ts.spec.calibrated)
+    from .sensitivity import judged_values
+
+    vals = judged_values(nom, ts.spec.calibrated)[0]
+    nominal = {c: {"value": float(vals[j]), "limit": float(ctx.limits[c]), "pass": bool(ok[c][0])}
+               for j, c in enumerate(CRITERIA)}
+    failing = [c for c in CRITERIA if not nominal[c]["pass"]]
+    mc = run_monte_carlo(ctx, progress=progress)
+    y = float(mc.yield_fraction)
+    out = {"program": Program.BEST.value, "polish_time_s": time_s, "nominal": nominal,
+           "nominal_pass": not failing, "yield": y, "target_yield": ts.target_yield, "trials": len(mc.trials),
+           "zones": ctx.zones.describe()}
+    if failing:
+        out["why"] = ("the nominal part fails " + ", ".join(
+            f"{c} ({nominal[c]['value']:.4g} > {nominal[c]['limit']:.4g})" for c in failing)
+            + ": no tolerance can fix it (the design, the tool or the spec must change)")
+    elif y < ts.target_yield:
+        broken = [c for c in CRITERIA if float(np.mean(mc.passed[c])) < ts.target_yield]
+        cols = mc.parameter_columns()
+        fail = ~mc.pass_all
+        offsets = {"nose_radius_mm": np.abs(np.asarray(cols["nose_mm"]) - mc.nominal_nose_mm),
+                   "polish_time_s": np.abs(np.asarray(cols["polish_time_s"]) - mc.nominal_time_s),
+                   "tool_x_mm": np.abs(cols["tool_x_mm"]), "tool_z_mm": np.abs(cols["tool_z_mm"]),
+                   "camera_decentre_mm": np.hypot(cols["camera_x_mm"], cols["camera_y_mm"]),
+                   "camera_axial_mm": np.abs(cols["camera_axial_mm"]),
+                   "camera_tilt_deg": np.hypot(cols["camera_tilt_x_deg"], cols["camera_tilt_y_deg"]),
+                   "seat_tilt_deg": np.hypot(cols["seat_tilt_x_deg"], cols["seat_tilt_y_deg"])}
+        score = {}
+        for k, v in offsets.items():
+            t = ts.tolerances.get(k, 0.0)
+            if t > 0 and fail.any() and (~fail).any():
+                score[k] = float(np.mean(v[fail]) / t - np.mean(v[~fail]) / t)
+        worst = max(score, key=score.get) if score else None
+        out["why"] = (f"yield {100 * y:.1f} % < {100 * ts.target_yield:g} %: the failing trials break "
+                      + ", ".join(f"{c} (pass {100 * float(np.mean(mc.passed[c])):.1f} %)" for c in broken)
+                      + (f"; they stand out on {worst} (tolerance {ts.tolerances[worst]:g}): "
+                         "`tolerance --allocate` says how far to tighten it" if worst else ""))
+    return out

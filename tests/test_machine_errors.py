@@ -1,0 +1,170 @@
+"""A lathe with set-up errors (machine_errors), and `measure` naming them.
+
+The simulated surface is checked against closed forms: with no error it is the nose
+envelope nose_envelope.as_machined computes piece by piece in closed form; a nose radius
+error moves the surface by dr (1 - cos t, 1 - sin t) (X radial, Z) at the normal's angle
+t (the shop's rule for a tool set on its tip); an X offset moves it out in r; a centre
+height leaves radii under |h| uncut. Then a part cut with a 0.21 mm nose where 0.20 was
+programmed and the tool 0.05 mm above centre is traced and `measure` must name both (nose
+within 0.002 mm, height within 0.01 mm), on the paper default and on a design whose outer
+lobe is recessed.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from conftest import RECESSED_OUTER, run_cli
+from lathe_mirror.config import load
+from lathe_mirror.machine_errors import MachineErrors, machined_with_errors
+from lathe_mirror.job import check_program, machine
+
+
+@pytest.fixture(scope="module", params=["paper", "recessed"])
+def case(request, tmp_path_factory):
+    d = tmp_path_factory.mktemp(request.param)
+    cfg = None
+    if request.param == "recessed":
+        cfg = d / "recessed.toml"
+        cfg.write_text(RECESSED_OUTER)
+    settings = load(cfg)
+    mirror = settings.mirror()
+    tp = check_program(settings, mirror, settings.toolpath.strategy)
+    return {"cfg": cfg, "settings": settings, "mirror": mirror, "tp": tp, "nominal": machine(tp), "dir": d}
+
+
+def lobe_radii(m, k, n=3000, margin=0.5):
+    lo, hi = (0.0, m.r_junction) if k == 0 else (m.r_junction, m.r_max)
+    return np.linspace(lo + margin, hi - margin, n)
+
+
+def test_no_error_is_the_closed_form_envelope(case):
+    made = machined_with_errors(case["tp"], MachineErrors())
+    for k in (0, 1):
+        r = lobe_radii(case["mirror"], k)
+        assert np.max(np.abs(made.z(r) - case["nominal"].z(r))) < 2e-6
+
+
+def test_nose_error_moves_the_surface_by_the_shop_rule(case):
+    dr = 0.01
+    made = machined_with_errors(case["tp"], MachineErrors(nose_radius_error_mm=dr))
+    nom = case["nominal"]
+    for k in (0, 1):
+        r = lobe_radii(case["mirror"], k)
+        s = nom.slope(r)  # camera frame dz/dr; machine Z' = -s
+        t = np.arctan2(1.0, s)  # outward normal (s, 1)/|.| in the machine frame: angle from +r
+        dX, dZ = dr * (1 - np.cos(t)), dr * (1 - np.sin(t))
+        expected = dZ + s * dX  # vertical change of a surface moved by (dX, dZ): dZ - Z' dX
+        got = nom.z(r) - made.z(r)  # machine Z up = camera z down
+        assert np.max(np.abs(got - expected)) < 0.03 * dr
+
+
+def test_x_offset_and_centre_height(case):
+    m, tp, nom = case["mirror"], case["tp"], case["nominal"]
+    made = machined_with_errors(tp, MachineErrors(x_offset_mm=0.02))
+    r = lobe_radii(m, 0, margin=0.6)
+    assert np.max(np.abs(made.z(r) - nom.z(r - 0.02))) < 2e-6
+    h = 0.05
+    made = machined_with_errors(tp, MachineErrors(centre_height_mm=h), pip_height_mm=0.1)
+    r = np.linspace(h + 0.01, 1.0, 200)
+    assert np.max(np.abs(made.z(r) - nom.z(np.sqrt(r * r - h * h)))) < 2e-6
+    zm = m.vertex_z - made.z(np.array([0.0, 0.5 * h]))  # machine Z of the pip (a cone)
+    edge = m.vertex_z - nom.z(0.0)
+    assert zm[0] == pytest.approx(edge + 0.1, abs=1e-6) and zm[1] == pytest.approx(edge + 0.05, abs=2e-4)
+
+
+def test_measure_names_nose_and_centre_height(case):
+    m, d = case["mirror"], case["dir"]
+    made = machined_with_errors(case["tp"], MachineErrors(centre_height_mm=0.05, nose_radius_error_mm=0.01),
+                                pip_height_mm=case["settings"].toolpath.rough_allowance)
+    x0, tilt, p = -0.211, -2.0e-4, 0.5
+    u = np.linspace(-m.r_max, m.r_max, 600001)
+    w = m.vertex_z - made.z(np.abs(u))
+    X = x0 + u * math.cos(tilt) - w * math.sin(tilt)
+    Z = p + u * math.sin(tilt) + w * math.cos(tilt)
+    x = np.arange(X.min() + 0.01, X.max() - 0.01, 0.002)
+    z = np.interp(x, X, Z) + np.random.default_rng(3).normal(0, 5e-5, x.size)
+    np.savetxt(d / "part.csv", np.c_[x, z], delimiter=",", header="x_mm,z_mm", comments="", fmt="%.7f")
+    args = ["measure", str(d / "part.csv"), "--json"] + (["--config", str(case["cfg"])] if case["cfg"] else [])
+    p = run_cli(*args)
+    assert p.returncode == 0, p.stderr
+    out = json.loads(p.stdout)
+    dg = out["diagnosis"]
+    assert abs(dg["nose_radius_error_mm"] - 0.01) < 0.002
+    assert abs(dg["nose_radius_mm"] - 0.21) < 0.002
+    assert abs(dg["centre_height_mm"] - 0.05) < 0.01
+    assert any("lower the tool 0.05" in c for c in dg["corrections"])
+    assert any("nose radius 0.21" in c and "tool table" in c for c in dg["corrections"])
+    assert abs(out["fit"]["decentre_mm"] - x0) < 2e-3 and abs(out["fit"]["tilt_rad"] - tilt) < 2e-6
+
+
+def test_compensate_recut_on_the_corrected_machine(case, tmp_path):
+    """The part of the 0.21 mm nose and the tool 0.05 mm above centre, compensated: the
+    re-cut program (read by LinuxCNC's rs274 with the written tool table) cut by the
+    machine after the set-up corrections (the 0.21 mm insert, the tool lowered by what
+    measure found) leaves no more residual than the original program on a perfect
+    machine, within the lattice, in at most two iterations."""
+    from test_outer_step import canonical, sample_moves
+
+    from conftest import require_program
+    from lathe_mirror.machine_errors import displaced_centres, surface_from_centres
+    from lathe_mirror.optics.polishing_curve import clear_aperture
+
+    exe = require_program("rs274")
+    m, s = case["mirror"], case["settings"]
+    true_h, true_nose = 0.05, 0.21
+    errors = MachineErrors(centre_height_mm=true_h, nose_radius_error_mm=true_nose - 0.2)
+    part = machined_with_errors(case["tp"], errors, pip_height_mm=s.toolpath.rough_allowance)
+
+    def rms_vs_design(profile):
+        """RMS (mm) of each lobe's height error over its clear aperture, off the axis by one
+        lattice step (a pip narrower than the lattice is below what setting the tool's
+        height to the lattice can remove)."""
+        out = []
+        for k in (0, 1):
+            lo, hi = clear_aperture(m, k, 0.0)
+            r = np.linspace(max(lo, s.machine.resolution), hi, 4000)
+            if k == 1:
+                r[0] = np.nextafter(r[0], hi)  # r_junction itself is the inner lobe's
+            d = profile.z(r) - m.lobes[k].z(r)
+            out.append(float(np.sqrt(np.mean((d - d.mean()) ** 2))))
+        return np.array(out)
+
+    perfect = rms_vs_design(case["nominal"])
+    set_h, nose_in_table = 0.0, 0.2  # the machine's set-up as the operator has it
+    for iteration in (1, 2):
+        u = np.linspace(-m.r_max, m.r_max, 600001)
+        z = (m.vertex_z - part.z(np.abs(u))) + np.random.default_rng(iteration).normal(0, 5e-5, u.size)
+        np.savetxt(tmp_path / "part.csv", np.c_[u, z][::3], delimiter=",", header="x_mm,z_mm", comments="",
+                   fmt="%.7f")
+        out = tmp_path / f"recut{iteration}"
+        args = ["compensate", str(tmp_path / "part.csv"), "-o", str(out), "--json"]
+        p = run_cli(*(args + (["--config", str(case["cfg"])] if case["cfg"] else [])))
+        assert p.returncode == 0, p.stderr
+        res = json.loads(p.stdout)
+        dg = res["measurement"]["diagnosis"]
+        set_h += dg["centre_height_mm"]  # "lower the tool h": the operator does it
+        nose_in_table = res["program"]["nose_radius_mm"]
+        import subprocess
+
+        run = subprocess.run([exe, "-t", str(out / "tools.tbl"), "-g", str(out / "mirror_recut.ngc")],
+                             capture_output=True, text=True, cwd=out, env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"},
+                             timeout=120)
+        assert run.returncode == 0, run.stdout[-1000:] + run.stderr[-1000:]
+        moves, start = canonical(run.stdout)
+        fin = [mv for mv in moves if mv[4]]
+        pts = np.concatenate([p_[2] for p_ in sample_moves(fin, start, step=0.0005)])
+        # the machine after the corrections: the real insert, the tool where the operator set it
+        left = MachineErrors(centre_height_mm=true_h - set_h, nose_radius_error_mm=true_nose - nose_in_table)
+        xc, zc = displaced_centres(pts[:, 0], pts[:, 1], left)
+        part = surface_from_centres(m, xc, zc, true_nose, left.centre_height_mm,
+                                    pip_height_mm=s.toolpath.rough_allowance)
+        got = rms_vs_design(part)
+        if np.all(got <= perfect + 0.1 * s.machine.resolution):
+            break
+    assert np.all(got <= perfect + 0.1 * s.machine.resolution), (iteration, got, perfect)
+    assert abs(nose_in_table - true_nose) < 0.002 and abs(set_h - true_h) < 0.01
