@@ -79,11 +79,29 @@ class Executor:
     def bound(self, shared: Any) -> Iterator[Mapper]:
         yield _SerialMapper(shared)
 
+    @contextlib.contextmanager
+    def background(self, fn: Callable[[Any], Any], shared: Any) -> Iterator["Background"]:
+        """fn(shared) while the caller goes on: `.result()` waits for it (serial: runs it
+        then). Leaving the block early (an error, a signal) abandons it."""
+        yield Background(lambda: fn(shared))
+
     def close(self) -> None:
         pass
 
     def describe(self) -> str:
         return "1 process (serial)"
+
+
+class Background:
+    """A task started by Executor.background; result() waits for its value."""
+
+    def __init__(self, wait: Callable[[], Any]) -> None:
+        self._wait, self._done, self._value = wait, False, None
+
+    def result(self) -> Any:
+        if not self._done:
+            self._value, self._done = self._wait(), True
+        return self._value
 
 
 class _SerialMapper(Mapper):
@@ -118,12 +136,41 @@ class ProcessExecutor(Executor):
         else:
             pool.close()
 
+    @contextlib.contextmanager
+    def background(self, fn: Callable[[Any], Any], shared: Any) -> Iterator[Background]:
+        """fn(shared) in a forked process of its own, which keeps this executor for its
+        own trials (its pool's processes and ours share the cores)."""
+        pool = _ForkPool(1, shared, nested=self.workers)
+        try:
+            conn = pool.conns[0]
+            conn.send((0, _call_shared, fn))
+
+            def wait():
+                try:
+                    _, ok, value = conn.recv()
+                except EOFError:
+                    raise RuntimeError("a worker process died (out of memory?)") from None
+                if not ok:
+                    raise value
+                return value
+
+            yield Background(wait)
+        except BaseException:
+            pool.kill()
+            raise
+        else:
+            pool.close()
+
     def describe(self) -> str:
         return f"{self.workers} processes"
 
 
+def _call_shared(shared, fn):
+    return fn(shared)
+
+
 class _ForkPool(Mapper):
-    def __init__(self, workers: int, shared: Any) -> None:
+    def __init__(self, workers: int, shared: Any, nested: int = 1) -> None:
         import multiprocessing
 
         ctx = multiprocessing.get_context("fork")
@@ -136,7 +183,8 @@ class _ForkPool(Mapper):
             try:
                 for _ in range(workers):
                     parent, child = ctx.Pipe(duplex=True)
-                    p = ctx.Process(target=_worker_main, args=(child, parent, shared), daemon=True)
+                    p = ctx.Process(target=_worker_main, args=(child, parent, shared, nested),
+                                    daemon=nested == 1)
                     p.start()
                     child.close()
                     self.procs.append(p)
@@ -202,15 +250,17 @@ class _ForkPool(Mapper):
         self.conns = []
 
 
-def _worker_main(conn, parent_end, shared) -> None:
-    """A worker: ignore the terminal's signals (the parent ends us), then run tasks until
-    told to stop or the parent goes away."""
+def _worker_main(conn, parent_end, shared, nested: int = 1) -> None:
+    """A worker: ignore the terminal's signals (the parent ends us), die with the parent
+    (Linux: PR_SET_PDEATHSIG), then run tasks until told to stop or the parent goes away.
+    nested: the workers of its own trials (1: in the worker itself)."""
     global _ACTIVE
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+    _die_with_parent()
     parent_end.close()
-    _ACTIVE = Executor(1)  # nested work runs in the worker itself
+    _ACTIVE = ProcessExecutor(nested) if nested > 1 else Executor(1)
     while True:
         try:
             msg = conn.recv()
@@ -231,6 +281,18 @@ def _worker_main(conn, parent_end, shared) -> None:
             with contextlib.suppress(Exception):
                 conn.send((i, False, RuntimeError(f"{type(exc).__name__}: {exc}")))
     os._exit(0)  # no atexit handlers or buffers of the parent's inherited state
+
+
+def _die_with_parent() -> None:
+    """SIGKILL this process when its parent dies (Linux prctl; elsewhere the pipe's EOF
+    ends an idle worker)."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        pass
 
 
 # --------------------------------------------------------------------------------------
@@ -275,6 +337,15 @@ class DaskExecutor(Executor):
             yield mapper
         finally:
             mapper.cancel()
+
+    @contextlib.contextmanager
+    def background(self, fn: Callable[[Any], Any], shared: Any) -> Iterator[Background]:
+        future = self.client().submit(fn, shared, pure=False)
+        try:
+            yield Background(future.result)
+        finally:
+            with contextlib.suppress(Exception):
+                future.cancel()
 
     def close(self) -> None:
         if self._client is not None:

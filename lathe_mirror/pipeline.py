@@ -27,9 +27,12 @@ Millimetres and radians inside (ARCHITECTURE.md).
 
 from __future__ import annotations
 
+import contextlib
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from .compute import active
 from .design import TABLE1_SWAP_NOTE, design_figures
 from .enums import Program
 from .job import design
@@ -53,10 +56,14 @@ STAGES = ["design", "toolpaths", "polishing", "distortion", "stereo", "renders",
 
 
 def report_figures(settings: Settings, *, progress: bool = False, renders: bool = True,
-                   tolerance: bool = True) -> ReportData:
+                   tolerance: bool = True, alongside: Callable[[], None] | None = None) -> ReportData:
     """Run every analysis stage on the settings: design, the toolpath of each strategy and
     its as-machined surface, polishing, the distortion of each made mirror, stereo depth
-    error against range, renders, the tolerance analysis and the verdict. No files."""
+    error against range, renders, the tolerance analysis and the verdict. No files.
+
+    The tolerance analysis needs only the polishing times: it runs in the background
+    (lathe_mirror.compute) beside the stages after polishing and `alongside()` (the
+    caller's own work, e.g. `run`'s programs and CAD), the same figures as in turn."""
     steps = Stages(STAGES, progress)
     out: dict[str, Any] = {"schema": "lathe-mirror report 1", "notes": []}
     steps.start("design")
@@ -77,7 +84,34 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     curve_paper, curve_best = polish_curves["paper"], polish_curves["best"]
     made["polished"] = curve_paper.profiles[curve_paper.optimum_index]
     steps.done()
+    with contextlib.ExitStack() as stack:
+        tol = None
+        if tolerance:  # the tolerance analysis needs only the polishing times: it runs beside the rest
+            times = {Program.PAPER: curve_paper.optimum_time_s, Program.BEST: curve_best.optimum_time_s}
+            tol = stack.enter_context(active().background(_tolerance, (mirror, settings, times)))
+        data = _optics_stages(out, made, mirror, settings, steps, renders, curve_paper.optimum_time_s)
+        if alongside is not None:
+            alongside()
+        steps.start("tolerance")
+        if tol is not None:
+            out["tolerance"] = tol.result()
+            out["verdict"] = {name: t["verdict"] for name, t in out["tolerance"]["programs"].items()}
+        steps.done()
+    steps.close()
+    return data
 
+
+def _tolerance(job) -> dict:
+    """The report's tolerance analysis (in the background: no progress bars)."""
+    mirror, settings, times = job
+    return tolerance_analysis(mirror, settings, times, progress=False,
+                              allocate=(Program.BEST,) if Program.BEST in settings.tolerance.programs else ())
+
+
+def _optics_stages(out: dict, made: dict, mirror, settings, steps, renders: bool,
+                   polish_time_s: float) -> ReportData:
+    """The stages after polishing but the tolerance: distortion, calibration, stereo,
+    renders, ranging (into `out`); the report's data."""
     steps.start("distortion")
     made["exact"] = ExactProfile(mirror)
     from .optics.zones import zones_for
@@ -85,7 +119,7 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     zn = zones_for(settings, mirror)
     out["zones"] = {**zn.as_dict(), "text": zn.describe()}
     out["mirrors"] = {name: mirror_figures(made[name], mirror, zn) for name in MIRRORS}
-    out["mirrors"]["polished"]["polish_time_s"] = curve_paper.optimum_time_s
+    out["mirrors"]["polished"]["polish_time_s"] = polish_time_s
     out["calibration"] = calibration_figures(mirror, {n: made[n] for n in ("paper", "best", "polished")}, zones=zn)
     steps.done()
 
@@ -112,16 +146,6 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     if renders:
         out["ranging"], data.curves["range_maps"] = ranging_figures(made, mirror, settings)
     steps.done()
-
-    steps.start("tolerance")
-    if tolerance:
-        times = {Program.PAPER: curve_paper.optimum_time_s, Program.BEST: curve_best.optimum_time_s}
-        out["tolerance"] = tolerance_analysis(mirror, settings, times, progress=progress,
-                                              allocate=(Program.BEST,) if Program.BEST in settings.tolerance.programs
-                                              else ())
-        out["verdict"] = {name: t["verdict"] for name, t in out["tolerance"]["programs"].items()}
-    steps.done()
-    steps.close()
     return data
 
 

@@ -76,6 +76,24 @@ def _divide(shared, item):
     return shared / item
 
 
+def _trials_in_background(n):
+    """A background task that runs its own pool (nested: 2 processes of its own)."""
+    with compute.active().bound(n) as run:
+        return run.map(_divide, [1, 2, 4])
+
+
+def test_a_background_task_runs_beside_the_caller_with_its_own_pool():
+    with compute.session(workers=2) as ex:
+        with ex.background(_trials_in_background, 8.0) as job:
+            mine = [_divide(8.0, k) for k in (1, 2, 4)]
+            assert job.result() == mine == [8.0, 4.0, 2.0]
+        with pytest.raises(ZeroDivisionError):
+            with ex.background(_trials_in_background, 1.0):
+                raise ZeroDivisionError("the caller fails: the task is killed")
+    with compute.Executor(1).background(_trials_in_background, 4.0) as job:
+        assert job.result() == [4.0, 2.0, 1.0]
+
+
 def test_tolerance_cli_on_a_dask_scheduler_gives_the_local_yield(tmp_path):
     """120 trials: two batches of 100 and 20 (the local run on 2 processes splits them the
     same way); the Dask workers are threads of this test's process, over TCP."""

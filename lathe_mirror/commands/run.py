@@ -69,23 +69,29 @@ def run(args: argparse.Namespace) -> int:
         check_program(settings, mirror, strategy)  # as every command that uses a program
     check_cad(settings, mirror)       # the CAD body, checked up front too
     shops = shop_programs(settings, mirror, strategies=strategies)  # plans and simulates both programs: a
-    texts = program_files(shops)      # design no program can cut, a program that touches the stock, stop here
+    # design no program can cut, a program that touches the stock, stop here
     for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir"),
                     (calib_dir, "--calib-dir")):
         output_dir(d, what)  # one that cannot be made takes the ones before it away
     say = (lambda m: None) if args.no_progress else (lambda m: print(m, file=sys.stderr))
-    say("lathe-mirror run: programs")
-    programs = [write_text(gcode_dir / name, text) for name, text in texts.items()]
-    say("lathe-mirror run: CAD")
-    from ..export.cad import write_reference_cad
+    written: dict[str, list] = {}
 
-    cad = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
-    from ..export.calib import write_calibration
+    def programs_and_cad() -> None:
+        """The programs, the CAD and the calibration files: beside the tolerance analysis."""
+        from ..export.cad import write_reference_cad
+        from ..export.calib import write_calibration
+        from ..optics.zones import zones_for
 
-    from ..optics.zones import zones_for
+        say("lathe-mirror run: programs")
+        texts = program_files(shops)
+        written["gcode"] = [write_text(gcode_dir / name, text) for name, text in texts.items()]
+        say("lathe-mirror run: CAD")
+        written["cad"] = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
+        written["calib"] = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
 
-    calib = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
-    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render)
+    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render,
+                          alongside=programs_and_cad)
+    programs, cad, calib = written["gcode"], written["cad"], written["calib"]
     data.figures["shop"] = [{"name": shop.program.name, "setup_sheet": f"{shop.program.name}.setup.html",
                              **shop.simulation.figures()} for shop in shops]
     data.figures["outputs"] = {kind: [{"path": str(p), "sha256": _sha256(p)} for p in paths]
