@@ -16,6 +16,9 @@ nose envelope), `made_surface` / `MadeSurface` (plan -> machine -> polish, the o
 Polishing: `PolishParams`, `polish`, `polishing_curve`. Optics: `image_displacement`
 (per-pixel maps), `distortion_figures`; ranging: `r10` (the range at which one pixel of
 disparity costs 10 %, m), `stereo_range` (range an image). Tolerance: `monte_carlo`.
+Errors: `Error`, the one family, of kinds input (`InputError`), design (`DesignError`)
+and internal (`InternalError`); `lm.Settings(...)` or `dataclasses.replace(settings, ...)`
+to a design that cannot exist raises the message `load()` gives for the same values.
 Lengths in mm, angles in radians, image positions in px (docs/architecture.md).
 """
 
@@ -33,6 +36,7 @@ _API = {
     "PolishParams": "polishing", "polish": "polishing",
     "image_displacement": "optics.distortion", "distortion_figures": "optics.distortion",
     "r10": "optics.ranging.resolution", "stereo_range": "optics.ranging.stereo",
+    "Error": "errors", "InputError": "errors", "DesignError": "errors", "InternalError": "errors",
 }
 
 __all__ = ["__version__", *_API]

@@ -1,12 +1,34 @@
-"""Errors that mean "the input is wrong": the CLI prints their one line and exits 2."""
+"""The exception family of lathe-mirror: `Error`, of three kinds.
+
+  input     InputError (ConfigError): an input that cannot be used; the message names the
+            input and what is allowed. The CLI prints its one line and exits 2.
+  design    DesignError (an InputError too): a design that cannot exist; the message
+            names the design input and its allowed range. Exit 2.
+  internal  InternalError: the tool itself failed (a bug or an environment it cannot
+            work in), not the user's input. The CLI exits 1 (as for any other exception).
+
+`Error.kind` names the kind and `Error.exit_status` the CLI's status for it. InputError
+is also a ValueError (a wrong argument) and InternalError a RuntimeError, so code that
+catches those still catches them.
+"""
 
 from __future__ import annotations
 
 import math
 
 
-class InputError(ValueError):
+class Error(Exception):
+    """Every error lathe-mirror raises on purpose (see the module doc for the kinds)."""
+
+    kind = "internal"
+    exit_status = 1
+
+
+class InputError(Error, ValueError):
     """Bad input: the message names the input and what is allowed (exit status 2)."""
+
+    kind = "input"
+    exit_status = 2
 
 
 class ConfigError(InputError):
@@ -15,6 +37,12 @@ class ConfigError(InputError):
 
 class DesignError(InputError):
     """A design that cannot exist; the message names the input and the allowed range."""
+
+    kind = "design"
+
+
+class InternalError(Error, RuntimeError):
+    """The tool failed, not the input (exit status 1)."""
 
 
 def num(value: object) -> str:

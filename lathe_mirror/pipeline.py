@@ -34,8 +34,8 @@ from typing import TYPE_CHECKING, Any
 
 from .compute import active
 from .design import TABLE1_SWAP_NOTE, design_figures
-from .enums import Program
-from .job import design
+from .enums import BEST, Program, Strategy
+from .job import MachiningJob, design
 from .notes import NOTES
 from .optics.camera_model import calibration_figures
 from .optics.radial import corner_limit_px, used_extent
@@ -76,11 +76,12 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     steps.done()
 
     steps.start("toolpaths")
-    made, out["machine"], out["toolpaths"] = strategy_table(mirror, settings)
+    job = MachiningJob.from_settings(settings, mirror)  # the one machining job every stage takes
+    made, out["machine"], out["toolpaths"] = strategy_table(job)
     steps.done()
 
     steps.start("polishing")
-    out["polishing"], polish_curves = polishing_study(settings, mirror, made, progress=progress)
+    out["polishing"], polish_curves = polishing_study(settings, job, made, progress=progress)
     curve_paper, curve_best = polish_curves["paper"], polish_curves["best"]
     made["polished"] = curve_paper.profiles[curve_paper.optimum_index]
     steps.done()
@@ -88,8 +89,8 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
         tol = None
         if tolerance:  # the tolerance analysis needs only the polishing times: it runs beside the rest
             times = {Program.PAPER: curve_paper.optimum_time_s, Program.BEST: curve_best.optimum_time_s}
-            tol = stack.enter_context(active().background(_tolerance, (mirror, settings, times)))
-        data = _optics_stages(out, made, mirror, settings, steps, renders, curve_paper.optimum_time_s)
+            tol = stack.enter_context(active().background(_tolerance, (mirror, settings, times, job)))
+        data = _optics_stages(out, made, mirror, settings, steps, renders, curve_paper.optimum_time_s, job)
         if alongside is not None:
             alongside()
         steps.start("tolerance")
@@ -101,15 +102,15 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     return data
 
 
-def _tolerance(job) -> dict:
+def _tolerance(task) -> dict:
     """The report's tolerance analysis (in the background: no progress bars)."""
-    mirror, settings, times = job
-    return tolerance_analysis(mirror, settings, times, progress=False,
+    mirror, settings, times, job = task
+    return tolerance_analysis(mirror, settings, times, progress=False, job=job,
                               allocate=(Program.BEST,) if Program.BEST in settings.tolerance.programs else ())
 
 
 def _optics_stages(out: dict, made: dict, mirror, settings, steps, renders: bool,
-                   polish_time_s: float) -> ReportData:
+                   polish_time_s: float, job: MachiningJob) -> ReportData:
     """The stages after polishing but the tolerance: distortion, calibration, stereo,
     renders, ranging (into `out`); the report's data."""
     steps.start("distortion")
@@ -120,6 +121,12 @@ def _optics_stages(out: dict, made: dict, mirror, settings, steps, renders: bool
     out["zones"] = {**zn.as_dict(), "text": zn.describe()}
     out["mirrors"] = {name: mirror_figures(made[name], mirror, zn) for name in MIRRORS}
     out["mirrors"]["polished"]["polish_time_s"] = polish_time_s
+    parts = {"paper": job.but(strategy=Strategy.PAPER), "best": job.but(strategy=BEST),
+             "polished": job.but(strategy=Strategy.PAPER, polish_time_s=polish_time_s)}
+    out["made_mirror"] = job.to_dict()  # the made mirror every command describes by default
+    out["mirrors"]["exact"]["made_mirror"] = "the exact design"
+    for name, part in parts.items():  # which part each mirror is
+        out["mirrors"][name]["made_mirror"] = part.label
     out["calibration"] = calibration_figures(mirror, {n: made[n] for n in ("paper", "best", "polished")}, zones=zn)
     steps.done()
 

@@ -154,3 +154,99 @@ def test_a_dependent_limit_is_stated_in_the_table():
     for k in KEYS:
         if k.lo_depends or k.hi_depends:
             assert k.depends and k.depends in table, k.name
+
+
+# --------------------------------------------------------------------------------------
+# A Settings built in Python gets the same checks and messages as a configuration
+
+
+def _config_message(dotted: str, value) -> str:
+    cfg = copy.deepcopy(BASE)
+    parts = dotted.split(".")
+    node = cfg
+    for p in parts[:-1]:
+        node = node[p]
+    if parts[0] == "lobes" and parts[-1] in ("a_over_b", "e"):
+        node.pop("alpha_deg")
+    node[parts[-1]] = value
+    with pytest.raises(InputError) as exc:
+        from_config(cfg)
+    return str(exc.value)
+
+
+def _replace(settings, section: str, **changes):
+    import dataclasses
+
+    return dataclasses.replace(settings, **{section: dataclasses.replace(getattr(settings, section), **changes)})
+
+
+TYPED_CASES = [
+    # (dotted key, value in the file, section, typed field changes)
+    ("render.supersample", 9, "render", {"supersample": 9}),
+    ("render.nose_radius", 5.5, "render", {"nose_radius": 5.5}),
+    ("stereo.supersample", 5, "stereo", {"supersample": 5}),
+    ("tolerance.bin_px", 60.0, "tolerance", {"bin_px": 60.0}),
+    ("tolerance.azimuths", 2000, "tolerance", {"azimuths": 2000}),  # the sample's rays (cross-key)
+    ("machine.max_points", 1_000_000, "machine", {"max_points": 1_000_000}),  # the envelope's memory (cost)
+    ("polish.preston_coefficient", 1e-9, "polish", {"preston_coefficient": 1e-9}),  # the time steps (cost)
+    ("optimize.bound_margin", 0.5, "optimize", {"bound_margin": 0.5}),
+    ("compute.scheduler", "localhost:8786", "compute", {"scheduler": "localhost:8786"}),
+    ("toolpath.max_finish_depth_mm", 0.0, "toolpath", {"max_finish_depth_mm": 0.0}),
+]
+
+
+@pytest.mark.parametrize("dotted, value, section, changes", TYPED_CASES, ids=[c[0] for c in TYPED_CASES])
+def test_a_replaced_settings_is_refused_with_the_configs_message(dotted, value, section, changes):
+    from lathe_mirror.config import load
+
+    expected = _config_message(dotted, value)
+    with pytest.raises(InputError) as exc:
+        _replace(load(), section, **changes)
+    assert str(exc.value) == expected
+
+
+def test_a_replaced_impossible_design_raises_the_configs_message():
+    """Issue 26: a_over_b = 1e-9 gave a lobe with R = 1.2e11 mm, planned without complaint."""
+    import dataclasses
+
+    from lathe_mirror.config import load
+    from lathe_mirror.errors import DesignError, Error
+
+    settings = load()
+    inner = dataclasses.replace(settings.lobes[0], alpha_deg=None, a_over_b=1e-9)
+    with pytest.raises(DesignError) as exc:
+        dataclasses.replace(settings, lobes=(inner, settings.lobes[1]))
+    assert str(exc.value) == _config_message("lobes.inner.a_over_b", 1e-9)
+    assert str(exc.value).startswith("lobes.inner.a_over_b = 1e-09: allowed 0.01143 to 5.763")
+    assert isinstance(exc.value, Error) and exc.value.kind == "design" and exc.value.exit_status == 2
+
+
+def test_the_exception_family():
+    import lathe_mirror as lm
+
+    assert issubclass(lm.InputError, lm.Error) and issubclass(lm.DesignError, lm.InputError)
+    assert issubclass(lm.InternalError, lm.Error) and not issubclass(lm.InternalError, lm.InputError)
+    assert (lm.InputError.kind, lm.DesignError.kind, lm.InternalError.kind) == ("input", "design", "internal")
+    assert (lm.InputError.exit_status, lm.InternalError.exit_status) == (2, 1)
+    assert issubclass(lm.InputError, ValueError)  # a wrong argument is still a ValueError
+
+
+def test_the_typed_settings_write_back_as_the_configuration():
+    """settings.dump.to_config inverts from_config (degrees, m, urad back in the file's units)."""
+    from lathe_mirror.config import load
+    from lathe_mirror.settings.dump import to_config
+
+    back = to_config(load())
+    for key in _leaves(BASE):
+        if key.startswith("stereo.") and key.split(".")[-1] in ("p1", "p2"):
+            continue
+        want, got = _get(BASE, key), _get(back, key)
+        assert got == pytest.approx(want, rel=1e-12) if isinstance(want, float) else got == want, key
+
+
+def _get(cfg: dict, dotted: str):
+    node = cfg
+    for p in dotted.split("."):
+        m = re.fullmatch(r"(\w+)\[(\d+)\]", p)
+        node = node[m.group(1)][int(m.group(2))] if m else node[p]
+    return node

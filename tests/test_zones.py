@@ -16,7 +16,7 @@ from lathe_mirror.lathe import Tool
 from lathe_mirror.nose_envelope import junction_fillet
 from lathe_mirror.optics.radial import radial_figures, surface_errors
 from lathe_mirror.optics.zones import zones, zones_for
-from lathe_mirror.pipeline import made_surface, plan
+from lathe_mirror.job import made_surface, plan
 from lathe_mirror.toolpath import Strategy, profile_errors, usable_ranges
 
 #: The paper camera opened to 35 mm of depth (the README's deep.toml, as `optimize` found it).
@@ -127,3 +127,16 @@ def test_calibration_files_mask_the_ring(small):
     assert lo == pytest.approx(zn.lobes[1].used_px[0], abs=1e-5)
     assert lo > m.image_radii_px["outer_annulus"][0] + 1.0
     assert "fillet" in text
+
+
+def test_camera_constants_print_with_their_digits(tmp_path):
+    """A 3.45 um pixel (a common machine-vision sensor) prints as given in `design`, not
+    rounded to 0.0034."""
+    from conftest import run_cli
+
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[camera]\nt_pixel = 0.00345\nf = 4.5\n[lobes.inner]\nr_pixel = 110.0\n[lobes.outer]\nr_pixel = 180.0\n")
+    proc = run_cli("design", "--config", str(cfg))
+    assert proc.returncode == 0, proc.stderr
+    row = next(line for line in proc.stdout.splitlines() if line.startswith("T_pixel"))
+    assert row.split()[-2:] == ["0.00345", "0.00345"]

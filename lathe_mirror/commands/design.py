@@ -46,8 +46,8 @@ def format_design(fig: dict) -> str:
     rows = [
         ("R_top", "mm", "r_top", "{:.3f}"),
         ("R_pixel", "px", "r_pixel", "{:.3f}"),
-        ("f", "mm", "f", "{:.3f}"),
-        ("T_pixel", "mm", "t_pixel", "{:.4f}"),
+        ("f", "mm", "f", "{:.6g}"),
+        ("T_pixel", "mm", "t_pixel", "{:.6g}"),  # as given: 0.00345, not 0.0034
         ("c = 2e (focal dist.)", "mm", "c", "{:.3f}"),
         ("R = b^2/a (ISO)", "mm", "R_mm", "{:.4f}"),
         ("k (ISO conic)", "", "k", "{:.5f}"),

@@ -11,8 +11,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("polish", help="polish the as-machined mirror (Preston's law, compliant pad)",
                        description="Polish a program's as-machined mirror ([polish] settings): the "
                        "polishing curve (slope error, normal deviation, form change, image displacement "
-                       "against time), the time that minimises image displacement and the form it costs, "
-                       "and the figures after polish.time_s.")
+                       "and the stereo figures against time), the time polish.objective chooses (default "
+                       "'stereo': the calibrated stereo residual at polish.objective_range_m; "
+                       "'image_displacement' and 'slope_error' assume an uncalibrated camera) with its "
+                       "assumption and the figure it trades, and the figures after polish.time_s.")
     add_common(p, output_help="directory for polish.json (the curve and the figures)")
     p.add_argument("--program", default="paper", metavar="paper|best",
                    help="which program's as-machined surface to polish (default: paper, the paper's "
@@ -22,10 +24,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..enums import BEST, Program, Strategy, parse
+    from ..enums import Program, parse
     from ..optics.polishing_curve import polish_summary
     from ..optics.radial import radial_figures
-    from ..job import check_program, check_programs, design, made_surface, polishing_curve, process_for
+    from ..job import MachiningJob, check_programs, design, polishing_curve, process_for
     from ..report.polishing_study import polish_params_dict
     from ..polishing import polish
     from ..toolpath import profile_errors
@@ -35,21 +37,21 @@ def run(args: argparse.Namespace) -> int:
     params = settings.polish
     mirror = design(settings)
     check_programs(settings, mirror, tolerance=False)  # bad input stops here, before the output directory is made
-    strategy = BEST if program is Program.BEST else Strategy.PAPER
-    check_program(settings, mirror, strategy)
+    job = MachiningJob.from_settings(settings, mirror, strategy=program.strategy)
+    job.check()
     if args.output:
         from .common import check_outputs, output_dir
 
         check_outputs(args.output, ["polish.json"])
         output_dir(args.output)
-    made = made_surface(mirror, settings.machine, settings.tool, strategy)
+    made = job.made()
     curve = polishing_curve(made.profile, mirror, params, process=process_for(settings),
                             progress=not args.no_progress)
     polished = polish(made.profile, params)
     # The five figures of ARCHITECTURE.md per lobe, surface then optics, as the report's.
     at_time = [{**s, **{k: v for k, v in o.items() if k != "name"}} for s, o in
                zip(profile_errors(polished, mirror)["lobes"], radial_figures(polished, mirror)["lobes"])]
-    out = {"program": program.value, "surface": made.source, "params": polish_params_dict(params),
+    out = {"program": program.value, "made_mirror": job.to_dict(), "surface": made.source, "params": polish_params_dict(params),
            "summary": polish_summary(curve, program.value), "curve": curve.to_dict(),
            "at_time_s": {"time_s": params.time_s, "lobes": at_time}}
     if args.output:

@@ -33,9 +33,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..enums import BEST, Program, Strategy
     from ..errors import InputError
-    from ..job import check_program, check_programs, design, made_surface, polishing_curve
+    from ..job import MachiningJob, check_programs, design, polishing_curve
     from ..tolerance.runs import tolerance_runs
 
     if args.target_yield is not None:
@@ -47,8 +46,9 @@ def run(args: argparse.Namespace) -> int:
     use_compute(args, settings)
     mirror = design(settings)
     check_programs(settings, mirror)  # bad input stops here, before the output directory is made
+    job = MachiningJob.from_settings(settings, mirror)  # the one machining job, each program a variant
     for program in settings.tolerance.programs:
-        check_program(settings, mirror, BEST if program is Program.BEST else Strategy.PAPER)
+        job.but(strategy=program.strategy).check()
     if args.csv:
         from ..export.files import check_writable
         from .flags import check_suffix
@@ -62,10 +62,9 @@ def run(args: argparse.Namespace) -> int:
         output_dir(args.output)
     times = {}
     for program in settings.tolerance.programs:
-        strategy = BEST if program is Program.BEST else Strategy.PAPER
-        made = made_surface(mirror, settings.machine, settings.tool, strategy)
+        made = job.but(strategy=program.strategy).made()
         times[program] = polishing_curve(made.profile, mirror, settings.polish).optimum_time_s
-    runs = tolerance_runs(mirror, settings, times, progress=not args.no_progress,
+    runs = tolerance_runs(mirror, settings, times, progress=not args.no_progress, job=job,
                           allocate=settings.tolerance.programs if args.allocate else ())
     out = runs.figures
     if args.output:
@@ -104,7 +103,7 @@ def format_tolerance(out: dict) -> str:
         lines.append(describe_dict(zn))
     for name, t in out["programs"].items():
         v, mc = t["verdict"], t["monte_carlo"]
-        lines.append(f"{name} program ({t['surfaces']}; polished {t['nominal_polish_time_s']:g} s nominal): "
+        lines.append(f"{name} program ({t['made_mirror']['label']} nominal): "
                      f"nominal {'PASS' if v['nominal_pass'] else 'FAIL'}, yield "
                      f"{percent_interval(mc['passed'], mc['trials'])}")
         if "allocation" in t:

@@ -301,6 +301,30 @@ def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams,
                        profiles=profiles)
 
 
+#: What each objective assumes of the camera that uses the mirror.
+ASSUMPTIONS = {
+    PolishObjective.STEREO: "calibrated",
+    PolishObjective.IMAGE_DISPLACEMENT: "uncalibrated",
+    PolishObjective.SLOPE_ERROR: "uncalibrated",
+}
+
+
+def trade_sentence(curve: PolishCurve) -> str:
+    """The recommendation's assumption and the figure it trades: a calibrated objective
+    against the uncalibrated depth error at the objective's range, an uncalibrated one
+    against the calibrated stereo residual (before -> at the chosen time)."""
+    i = curve.optimum_index
+    c = curve.combined
+    rng = f"{curve.range_m:g} m"
+    if ASSUMPTIONS[curve.objective] == "calibrated":
+        d = c["depth_error_pct"]
+        return (f"It assumes a calibrated camera; uncalibrated, the depth error at {rng} goes "
+                f"{d[0]:.3g} -> {d[i]:.3g} %.")
+    d = c["stereo_residual_pct"]
+    return (f"It assumes an uncalibrated camera; calibrated, the stereo residual at {rng} goes "
+            f"{d[0]:.3g} -> {d[i]:.3g} %.")
+
+
 def polish_summary(curve: PolishCurve, program: str) -> dict:
     """The chosen time (s), what the objective and image displacement are before and at it,
     the time each objective would choose, the form it costs per lobe (mm), and a sentence."""
@@ -333,9 +357,12 @@ def polish_summary(curve: PolishCurve, program: str) -> dict:
             f"(the lap's even removal; pre-compensation takes it out of the program)."
             + ("" if curve.optimum_inside else
                " The objective still falls at the end of the explored range: widen polish.curve_max_s."))
+    statement += " " + trade_sentence(curve)
     return {
         "program": program,
         "objective": curve.objective.value,
+        "assumption": ASSUMPTIONS[curve.objective],
+        "range_m": curve.range_m,
         "optimum_time_s": curve.optimum_time_s,
         "optimum_inside_range": curve.optimum_inside,
         "chosen_time_s": chosen,

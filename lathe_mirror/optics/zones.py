@@ -212,7 +212,11 @@ def zones(mirror: Mirror, nose_mm: float, guard_mm: float = 0.0, lattice_mm: flo
 def zones_for(settings: "Settings", mirror: Mirror) -> Zones:
     """The zones every command uses for `settings`' made mirror: the configured tool's nose,
     guarded by the nose radius's tolerance ([tolerance] nose_radius_mm), the junction by one
-    step of the controller's lattice ([machine] resolution)."""
+    step of the coarsest lattice cut ([machine] resolution + [tolerance.params]
+    resolution_mm)."""
     tol = settings.tolerance
-    guard = float(tol.tolerances.get("nose_radius_mm", 0.0)) if tol is not None else 0.0
-    return zones(mirror, float(settings.tool.nose_radius), guard, float(settings.machine.resolution))
+    tols = tol.tolerances if tol is not None else {}
+    guard = float(tols.get("nose_radius_mm", 0.0))
+    # the coarsest lattice the analysis cuts (the resolution row re-plans at + its tolerance)
+    lattice = float(settings.machine.resolution) + float(tols.get("resolution_mm", 0.0))
+    return zones(mirror, float(settings.tool.nose_radius), guard, lattice)

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..design import Mirror
 from ..enums import BEST, Strategy
-from ..job import made_surface, scene_for
+from ..job import MachiningJob, scene_for
 from ..nose_envelope import contour_profile
 from ..optics.distortion import distortion_figures
 from ..optics.radial import lobe_pixel_radii, radial_displacement, radial_figures, used_extent
@@ -101,16 +101,18 @@ def report_curves(made: dict[str, Profile], mirror: Mirror) -> dict[str, Any]:
             "displacement": displacement, "lost_ring_px": tuple(mirror.image_radii_px["lost_ring"])}
 
 
-def strategy_table(mirror: Mirror, settings: Settings):
-    """As-machined profile per strategy; machine/tool table; toolpath figures per strategy."""
-    lathe, tool = settings.machine, settings.tool
+def strategy_table(job: MachiningJob):
+    """As-machined profile per strategy (the job's program of each strategy: with
+    polish.precompensate the programs' parts); machine/tool table; toolpath figures per strategy."""
+    mirror = job.mirror
+    lathe, tool = job.lathe, job.tool
     machine_table = {"lathe": dict(lathe.__dict__),
                      "tool": {"nose_radius": tool.nose_radius,
                               "included_angle_deg": math.degrees(tool.included_angle),
                               "approach_angle_deg": math.degrees(tool.approach_angle)}}
     made, table = {}, []
     for strategy in Strategy:
-        m = made_surface(mirror, lathe, tool, strategy)
+        m = job.but(strategy=strategy).made()
         tp = m.toolpath
         table.append({"strategy": strategy.value, "best": strategy is BEST, "n_points": int(tp.n_points),
                       "moves": {"G1": sum(1 for s in tp.segments if isinstance(s, Line)),

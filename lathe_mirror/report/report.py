@@ -90,7 +90,10 @@ def _fmt(v: Any) -> str:
     if isinstance(v, float):
         if v == 0 or not math.isfinite(v):
             return str(v)
-        return f"{v:.4g}" if abs(v) < 1e-3 or abs(v) >= 1e5 else f"{v:.4f}".rstrip("0").rstrip(".")
+        if abs(v) < 1e-3 or abs(v) >= 1e5:
+            return f"{v:.4g}"
+        # below 1, significant digits (a 0.00345 mm pixel stays 0.00345, not 0.0035)
+        return f"{v:.5g}" if abs(v) < 1 else f"{v:.4f}".rstrip("0").rstrip(".")
     if isinstance(v, dict) and set(v) >= {"rms", "max"}:
         return f"{_fmt(v['rms'])} / {_fmt(v['max'])}"
     return html.escape(str(v))
@@ -157,7 +160,8 @@ def _mirrors_table(m: dict) -> str:
     body = ""
     for name, fig in m.items():
         for lb in fig["lobes"]:
-            body += f"<tr><td>{name}</td><td>{lb['name']}</td>" + "".join(
+            label = f"{name}<br><small>{html.escape(fig['made_mirror'])}</small>" if "made_mirror" in fig else name
+            body += f"<tr><td>{label}</td><td>{lb['name']}</td>" + "".join(
                 f"<td>{_fmt(lb[k])}</td>" for k in keys) + "</tr>"
     return f"<table>{head}{body}</table>"
 

@@ -79,13 +79,20 @@ class Key:
     # ----------------------------------------------------------------------------------
     # What it allows
 
-    def allows(self, v: float) -> bool:
-        """Whether the number v lies in the range (not the length of a list)."""
+    def allows(self, v: float, slack: float = 0.0) -> bool:
+        """Whether the number v lies in the range (not the length of a list); `slack`
+        widens a closed end by that fraction of its size (for values converted back to
+        the file's units)."""
         if isinstance(v, float) and not math.isfinite(v):
             return False
-        if self.lo is not None and not (v > self.lo if self.lo_open else v >= self.lo):
-            return False
-        return self.hi is None or (v < self.hi if self.hi_open else v <= self.hi)
+        if self.lo is not None:
+            lo = self.lo - slack * abs(self.lo) if slack and not self.lo_open else self.lo
+            if not (v > lo if self.lo_open else v >= lo):
+                return False
+        if self.hi is None:
+            return True
+        hi = self.hi + slack * abs(self.hi) if slack and not self.hi_open else self.hi
+        return v < hi if self.hi_open else v <= hi
 
     def range_text(self) -> str:
         """The range alone: "0.1 to 1000 mm", "> 0 and <= 10 mm"."""
@@ -129,8 +136,9 @@ class Key:
         u = f" {self.unit}" if self.unit and not isinstance(value, (list, tuple)) else ""
         return f"{where} = {num(value)}{u}: allowed {self.text()}" + (f" ({self.why})" if self.why else "")
 
-    def check(self, where: str, value: Any) -> None:
-        """ConfigError (one line naming `where` and what the key allows) unless value fits."""
+    def check(self, where: str, value: Any, slack: float = 0.0) -> None:
+        """ConfigError (one line naming `where` and what the key allows) unless value fits
+        (`slack`: see allows)."""
         if value is None:
             return
         if isinstance(value, (list, tuple)) and self.length is not None:
@@ -148,9 +156,9 @@ class Key:
                         and v not in self.choices:
                     raise ConfigError(f"{at} = {v!r}: allowed {', '.join(repr(c) for c in self.choices)}")
                 continue
-            if self.numeric and not self.allows(v):
+            if self.numeric and not self.allows(v, slack):
                 raise ConfigError(self.refusal(at, v))
-            if self.step is not None and abs(v / self.step - round(v / self.step)) > 1e-6:
+            if self.step is not None and abs(v / self.step - round(v / self.step)) > 1e-6 + slack:
                 raise ConfigError(self.refusal(at, v))
 
     def row(self) -> str:

@@ -5,6 +5,7 @@ that share a stereo band; assembly tolerances under which each lobe still sees i
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import TYPE_CHECKING
 
@@ -155,9 +156,11 @@ def check_assembly_tolerances(mirror: Mirror, tolerances: dict[str, float]) -> N
 MIN_SEEN = 0.5
 
 
+@functools.lru_cache(maxsize=256)
 def seen_fraction(mirror: Mirror, key: str, t: float) -> float:
     """Smallest share (both lobes, both signs of an axial offset) of the lobe's sample
-    pixels that still see that lobe with the camera moved by t along `key`."""
+    pixels that still see that lobe with the camera moved by t along `key` (remembered
+    per design: every Settings built, replaced or loaded is validated)."""
     radii = mirror.image_radii_px
     if key == "camera_tilt_deg":
         poses = [CameraPose(tilt=(math.radians(t), 0.0))]

@@ -61,14 +61,14 @@ def key(name: str) -> Key:
     raise KeyError(name)
 
 
-def check_ranges(cfg: dict[str, Any]) -> None:
+def check_ranges(cfg: dict[str, Any], slack: float = 0.0) -> None:
     """ConfigError (one line: the key, its value, the allowed range) for the first value of
-    the merged configuration outside its declared range."""
+    the merged configuration outside its declared range (`slack`: Key.allows)."""
     for k in KEYS:
         for where, value in find(cfg, k.name.split("."), ""):
             if isinstance(value, dict) and k.type != "table":
                 continue
-            k.check(where, value)
+            k.check(where, value, slack)
 
 
 def find(node: Any, parts: list[str], prefix: str):

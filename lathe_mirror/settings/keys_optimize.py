@@ -61,13 +61,15 @@ KEYS: tuple[Key, ...] = (
         help='range of the scene points whose virtual images are in focus'),
     Key('optimize.max_diameter_mm', 0.0, 'mm', 0.0, 20000.0,
         why='0: optimize.r_max_mm holds',
-        help="the mirror's largest diameter, mm (0: r_max_mm holds)"),
+        help=("the mirror's largest diameter, mm (0: r_max_mm holds; given, it or max_depth_mm replaces "
+              "vertex_min_mm too: the heights above the pinhole follow from the design)")),
     Key('optimize.max_depth_mm', 0.0, 'mm', 0.0, 10000.0,
         why='0: optimize.rim_max_mm holds',
         help="the mirror's largest depth, vertex to the higher rim, mm (0: rim_max_mm holds)"),
-    Key('optimize.blur_limit_um', 0.0, 'um', 0.0, 100000.0,
+    Key('optimize.blur_limit_um', 63.0, 'um', 0.0, 100000.0,
         why='0: optimize.blur_max_px holds',
-        help='largest blur circle on the sensor, um (0: blur_max_px holds; 63 um is 7 px of 9 um)'),
+        help=("largest blur circle on the sensor, um, the same for any pixel pitch (63 um: 7 px of the paper's "
+              "9 um pixels; 0: blur_max_px holds); the winner keeps bound_margin below it")),
     Key('optimize.bound_margin', 0.02, "", 0.0, 0.25,
         why="of each searched parameter's span",
         help="fraction of each searched parameter's span the winner keeps clear of its bounds"),

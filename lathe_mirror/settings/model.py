@@ -21,6 +21,7 @@ from ..optimize.spec import OptimizeSettings
 from ..polishing import PolishParams
 from ..tolerance.spec import ToleranceSettings
 from ..toolpath import ToolpathSettings
+from .validate import validate
 
 #: Largest supersampling factor of a render (N x N rays per pixel).
 MAX_SUPERSAMPLE = 8
@@ -61,7 +62,10 @@ class ComputeSettings:
 
 @dataclass(frozen=True)
 class Settings:
-    """Every section of a configuration, typed and checked (see the module doc).
+    """Every section of a configuration, typed and checked on construction: a Settings
+    that cannot exist cannot be built, from a configuration or in Python
+    (`dataclasses.replace(settings, ...)`), and the message is the one `load()` gives
+    (settings.validate).
 
     camera, lobes: the design's inputs (pipeline.design builds the Mirror from them).
     machine, tool, stock, toolpath: the lathe, its insert, the bar and the program's knobs.
@@ -90,6 +94,9 @@ class Settings:
     optimize: OptimizeSettings = field(default_factory=OptimizeSettings)
     machine_errors: MachineErrors = field(default_factory=MachineErrors)
     compute: ComputeSettings = field(default_factory=ComputeSettings)
+
+    def __post_init__(self) -> None:
+        validate(self)  # the one validation, however the Settings was built
 
     def mirror(self) -> Mirror:
         """The designed mirror (design.mirror_from_specs; cheap, the design is closed form)."""

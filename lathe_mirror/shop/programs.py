@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 from ..design import Mirror
 from ..enums import BEST, Strategy
-from ..job import plan, program_target
+from ..job import MachiningJob
 from ..lathe import Stock
 from ..tolerance.setting import setting_error_costs
 from ..toolpath import Toolpath
@@ -61,8 +61,6 @@ def shop_programs(settings: Settings, mirror: Mirror, *,
     the best), named mirror_<strategy>, with the settings' lathe, tool, stock and knobs."""
     costs = setting_error_costs(mirror, SETTING_ERROR_MM)
     options = options_from_settings(settings.toolpath)
-    target = program_target(settings, mirror)  # polish.precompensate: the polish's allowance
-    return [shop_program(plan(mirror, settings.machine, settings.tool, strategy,
-                              max_deviation=settings.toolpath.max_deviation, target=target),
-                         settings.stock, options, setting_costs=costs)
+    job = MachiningJob.from_settings(settings, mirror)  # polish.precompensate: the polish's allowance
+    return [shop_program(job.but(strategy=strategy).toolpath, settings.stock, options, setting_costs=costs)
             for strategy in strategies]

@@ -42,8 +42,9 @@ ALLOWED_LETTERS = frozenset("GMNTSDFXZIKOHP")
 MAX_FEED_MM_REV = 500.0
 #: Largest arc centre offset I / K (mm): a lobe's vertex radius is at most 10 000 mm.
 MAX_ARC_OFFSET_MM = 100_000.0
-#: Most moves a program checked by `toolpath --check` may have (3.4 ms of simulation a move
-#: on the 2-core reference machine under load 8; benchmarks/bench_check.py).
+#: Most moves a program checked by `toolpath --check` may have (the simulation took 3.4 ms
+#: a move on the 2-core reference machine under load 8, 11 ms under load 18;
+#: benchmarks/bench_check.py).
 MAX_MOVES = 10_000
 #: Largest program file `toolpath --check` reads (bytes).
 MAX_PROGRAM_BYTES = 2 << 20
