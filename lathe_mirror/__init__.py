@@ -16,6 +16,7 @@ nose envelope), `made_surface` / `MadeSurface` (plan -> machine -> polish, the o
 Polishing: `PolishParams`, `polish`, `polishing_curve`. Optics: `image_displacement`
 (per-pixel maps), `distortion_figures`; ranging: `r10` (the range at which one pixel of
 disparity costs 10 %, m), `stereo_range` (range an image). Tolerance: `monte_carlo`.
+`checked_mirror(camera, lobe_specs)` designs a mirror with every check `load()` gives.
 Errors: `Error`, the one family, of kinds input (`InputError`), design (`DesignError`)
 and internal (`InternalError`); `lm.Settings(...)` or `dataclasses.replace(settings, ...)`
 to a design that cannot exist raises the message `load()` gives for the same values.
@@ -36,6 +37,7 @@ _API = {
     "PolishParams": "polishing", "polish": "polishing",
     "image_displacement": "optics.distortion", "distortion_figures": "optics.distortion",
     "r10": "optics.ranging.resolution", "stereo_range": "optics.ranging.stereo",
+    "checked_mirror": "settings",
     "Error": "errors", "InputError": "errors", "DesignError": "errors", "InternalError": "errors",
 }
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_common, add_no_progress, compute_options, load, print_json
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:

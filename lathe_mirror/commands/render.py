@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_common, load, print_json
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -19,12 +20,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--surface", metavar="NAME", default=None,
                    help="made surface: exact, reference, uniform528, measured:FILE (a measured part), a toolpath strategy "
                    "(paper, best, ...), or polished (the paper program as machined, polished at "
-                   "the polishing optimum); default [render] surface")
+                   "the polishing optimum); " + help_default("render.surface"))
     p.add_argument("--nose-radius", metavar="MM", type=float, default=None,
                    help="trace the as-machined surface of a tool with this nose radius (mm) "
-                   "instead of the programmed contour; default [render] nose_radius")
+                   "instead of the programmed contour; " + help_default("render.nose_radius"))
     p.add_argument("--supersample", metavar="N", type=int, default=None,
-                   help="N x N rays per pixel for the images (N^2 the cost); default [render] supersample")
+                   help="N x N rays per pixel for the images (N^2 the cost); " + help_default("render.supersample"))
     p.add_argument("--image-only", action="store_true",
                    help="render only the made surface's image (no exact image, figures or plots)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")

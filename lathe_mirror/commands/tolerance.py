@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_common, add_compute, add_no_progress, compute_options, load, path_arg, print_json, use_compute
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -17,13 +18,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "tolerance.programs. --allocate: the least-cost tolerances that reach the target "
                        "yield, confirmed by a fresh Monte Carlo.")
     add_common(p, output_help="directory for tolerance.json")
-    p.add_argument("--trials", type=int, default=None, metavar="N", help="override tolerance.trials")
-    p.add_argument("--seed", type=int, default=None, metavar="S", help="override tolerance.seed")
+    p.add_argument("--trials", type=int, default=None, metavar="N", help=f"Monte Carlo trials ({help_default('tolerance.trials')})")
+    p.add_argument("--seed", type=int, default=None, metavar="S", help=f"seed of every draw ({help_default('tolerance.seed')})")
     p.add_argument("--allocate", action="store_true",
                    help="tighten the tolerances at least cost ([tolerance.cost]) to reach the target yield, "
                    "confirmed by a fresh Monte Carlo of as many trials (about the Monte Carlo's time again)")
     p.add_argument("--target-yield", type=float, default=None, metavar="P",
-                   help="the allocation's target yield, 0.5 .. 0.999 (default tolerance.target_yield, 0.95)")
+                   help=f"the allocation's target yield ({help_default('tolerance.target_yield')})")
     p.add_argument("--csv", metavar="FILE", default=None, type=path_arg,
                    help="write one row per trial (drawn parameters, every figure, pass flags) of every "
                    "Monte Carlo run, the allocation's confirming runs included; its directory must exist")

@@ -6,6 +6,7 @@ import argparse
 
 from ..path import Arc
 from .common import add_common, load, print_json
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -16,14 +17,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         "report the profile errors per lobe.")
     add_common(p, output_help="G-code file, or a directory (gets mirror_<strategy>.ngc/.nc)")
     p.add_argument("--strategy", default=None,
-                   help="paper | lattice | arcs | best (= arcs; default: the config's toolpath.strategy)")
+                   help=f"paper | lattice | arcs | best (= arcs; {help_default('toolpath.strategy')})")
     p.add_argument("--dialect", default="linuxcnc", help="linuxcnc | fanuc (default linuxcnc)")
     p.add_argument("--points", type=int, default=None, metavar="N",
-                   help="point budget of the finishing contour (machine.max_points, default 528)")
+                   help=f"point budget of the finishing contour ({help_default('machine.max_points')})")
     p.add_argument("--resolution", type=float, default=None, metavar="MM",
-                   help="lattice step of r and Z, mm (machine.resolution, default 0.005)")
+                   help=f"lattice step of r and Z, mm ({help_default('machine.resolution')})")
     p.add_argument("--nose-radius", type=float, default=None, metavar="MM",
-                   help="tool nose radius, mm (tool.nose_radius, default 0.2; 0 = sharp)")
+                   help=f"tool nose radius, mm, 0 = sharp ({help_default('tool.nose_radius')})")
     p.add_argument("--check", metavar="PROGRAM",
                    help="simulate an existing G-code program (either dialect) against the configured "
                    "stock and tool instead of planning one; exit 2 naming the first block that touches "
