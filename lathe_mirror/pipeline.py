@@ -40,7 +40,7 @@ from .notes import NOTES
 from .optics.camera_model import calibration_figures
 from .optics.radial import corner_limit_px, used_extent
 from .optics.stereo import depth_error_curve
-from .profile import ExactProfile
+from .profile import ExactProfile, Profile
 from .progress import Stages
 from .report.analysis import (DEPTH_REPORT_M, MIRRORS, ReportData, mirror_figures, ranging_figures, render_mirrors,
                               report_curves, strategy_table)
@@ -56,10 +56,13 @@ STAGES = ["design", "toolpaths", "polishing", "distortion", "stereo", "renders",
 
 
 def report_figures(settings: Settings, *, progress: bool = False, renders: bool = True,
-                   tolerance: bool = True, alongside: Callable[[], None] | None = None) -> ReportData:
+                   tolerance: bool = True, alongside: Callable[[], None] | None = None,
+                   measured: Profile | None = None) -> ReportData:
     """Run every analysis stage on the settings: design, the toolpath of each strategy and
     its as-machined surface, polishing, the distortion of each made mirror, stereo depth
     error against range, renders, the tolerance analysis and the verdict. No files.
+    measured: a measured part (measure.surface.MeasuredProfile) added to the mirrors'
+    figures as "measured".
 
     The tolerance analysis needs only the polishing times: it runs in the background
     (lathe_mirror.compute) beside the stages after polishing and `alongside()` (the
@@ -73,6 +76,9 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     facts = {"r_used": r_used, "rho_used": corner_limit_px(mirror, mirror.r_junction - r_used),
              "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
     out["notes"] += [TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)]
+    from .iso10110 import spec_of
+
+    out["spec"] = spec_of(settings).to_dict()  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
     steps.done()
 
     steps.start("toolpaths")
@@ -90,7 +96,8 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
         if tolerance:  # the tolerance analysis needs only the polishing times: it runs beside the rest
             times = {Program.PAPER: curve_paper.optimum_time_s, Program.BEST: curve_best.optimum_time_s}
             tol = stack.enter_context(active().background(_tolerance, (mirror, settings, times, job)))
-        data = _optics_stages(out, made, mirror, settings, steps, renders, curve_paper.optimum_time_s, job)
+        data = _optics_stages(out, made, mirror, settings, steps, renders, curve_paper.optimum_time_s, job,
+                              measured)
         if alongside is not None:
             alongside()
         steps.start("tolerance")
@@ -110,7 +117,7 @@ def _tolerance(task) -> dict:
 
 
 def _optics_stages(out: dict, made: dict, mirror, settings, steps, renders: bool,
-                   polish_time_s: float, job: MachiningJob) -> ReportData:
+                   polish_time_s: float, job: MachiningJob, measured: Profile | None = None) -> ReportData:
     """The stages after polishing but the tolerance: distortion, calibration, stereo,
     renders, ranging (into `out`); the report's data."""
     steps.start("distortion")
@@ -123,6 +130,9 @@ def _optics_stages(out: dict, made: dict, mirror, settings, steps, renders: bool
     out["mirrors"]["polished"]["polish_time_s"] = polish_time_s
     parts = {"paper": job.but(strategy=Strategy.PAPER), "best": job.but(strategy=BEST),
              "polished": job.but(strategy=Strategy.PAPER, polish_time_s=polish_time_s)}
+    if measured is not None:  # report --surface measured:FILE: the part that came back
+        out["mirrors"]["measured"] = mirror_figures(measured, mirror, zn)
+        out["mirrors"]["measured"]["made_mirror"] = f"the measured part: {measured!r}"
     out["made_mirror"] = job.to_dict()  # the made mirror every command describes by default
     out["mirrors"]["exact"]["made_mirror"] = "the exact design"
     for name, part in parts.items():  # which part each mirror is

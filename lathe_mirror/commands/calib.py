@@ -58,11 +58,10 @@ def run(args: argparse.Namespace) -> int:
     range_m = DEFAULT_RANGE_MM / 1000.0 if args.range_m is None else args.range_m
     nose = settings.tool.nose_radius if args.nose_radius is None else args.nose_radius
     pose = settings.pose
-    from ..optics.zones import zones as zones_of
+    from ..optics.zones import zones_for
 
-    tol = settings.tolerance
-    zn = zones_of(mirror, nose, float(tol.tolerances.get("nose_radius_mm", 0.0)) if tol is not None and nose > 0 else 0.0,
-                  settings.machine.resolution)
+    # the zones every command states its figures over (optics.zones.zones_for), for this nose
+    zn = zones_for(dataclasses.replace(settings, tool=dataclasses.replace(settings.tool, nose_radius=nose)), mirror)
     # Before any progress display: a bad name is one line.
     from .common import surface_arg
 
@@ -95,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
             if pose.aligned:  # the image displacement as every command states it (optics.radial)
                 made[name.value]["image_displacement_px"] = [
                     {"name": lb["name"], **lb["image_displacement_px"]}
-                    for lb in radial_figures(surface, mirror)["lobes"]]
+                    for lb in radial_figures(surface, mirror, zones=zn)["lobes"]]
             steps.done()
         steps.start("files")
         from ..export.calib import calibration_texts

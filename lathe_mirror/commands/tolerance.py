@@ -35,7 +35,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
-    from ..job import MachiningJob, check_programs, design, polishing_curve
+    from ..api import nominal_polish_time_s
+    from ..job import MachiningJob, check_programs, design
     from ..tolerance.runs import tolerance_runs
 
     if args.target_yield is not None:
@@ -61,10 +62,7 @@ def run(args: argparse.Namespace) -> int:
 
         check_outputs(args.output, ["tolerance.json"])
         output_dir(args.output)
-    times = {}
-    for program in settings.tolerance.programs:
-        made = job.but(strategy=program.strategy).made()
-        times[program] = polishing_curve(made.profile, mirror, settings.polish).optimum_time_s
+    times = {program: nominal_polish_time_s(settings, program, job=job) for program in settings.tolerance.programs}
     runs = tolerance_runs(mirror, settings, times, progress=not args.no_progress, job=job,
                           allocate=settings.tolerance.programs if args.allocate else ())
     out = runs.figures

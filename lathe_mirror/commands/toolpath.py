@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
         junction_fillet,
     )
     from ..job import check_program, design
-    from ..shop.programs import shop_program
+    from ..shop.programs import inspection_table, shop_program
     from ..shop import options_from_settings
     from ..toolpath import profile_errors, usable_ranges
 
@@ -78,7 +78,8 @@ def run(args: argparse.Namespace) -> int:
     lathe, tool, stock = settings.machine, settings.tool, settings.stock
     opts = options_from_settings(settings.toolpath)
     tp = check_program(settings, mirror, strategy)  # as every command that uses a program
-    shop = shop_program(tp, stock, opts)  # simulated against the stock; refused if it touches
+    # simulated against the stock; refused if it touches
+    shop = shop_program(tp, stock, opts, inspection=inspection_table(settings))
     text = format_program(shop.program, dialect)
     if out is not None:
         from ..export.files import write_text

@@ -51,6 +51,8 @@ def render_html(data: ReportData) -> str:
     from importlib import resources
     from string import Template
 
+    from .spec_section import spec_html
+
     tpl = Template((resources.files("lathe_mirror.report") / "template.html").read_text(encoding="utf-8"))
     f = data.figures
 
@@ -79,6 +81,7 @@ def render_html(data: ReportData) -> str:
         tolerance_section=_tolerance_html(f, img),
         calibration_table=_calibration_table(f.get("calibration")),
         ranging_section=_ranging_html(f.get("ranging"), img),
+        spec_section=spec_html(f.get("spec")),
         summary=summary_html(f),
         notes="".join(f"<li>{html.escape(n)}</li>" for n in f.get("notes", [])),
     )

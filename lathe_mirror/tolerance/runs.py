@@ -109,9 +109,11 @@ def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nomi
 
     from ..optics.zones import zones_for
 
-    return prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
-                   nose0=job.tool.nose_radius, machine_at=machine_at, progress=progress,
-                   zones=zones_for(settings, mirror))
+    ctx = prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
+                  nose0=job.tool.nose_radius, machine_at=machine_at, progress=progress,
+                  zones=zones_for(settings, mirror))
+    ctx.cut_plus_x = mirror.step > 0  # the finishing pass runs axis -> rim (+X): backlash shows
+    return ctx
 
 
 def verdict(t: dict, spec: dict) -> dict:
