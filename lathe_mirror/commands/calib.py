@@ -60,8 +60,7 @@ def run(args: argparse.Namespace) -> int:
     pose = settings.pose
     from ..optics.zones import zones_for
 
-    # the zones every command states its figures over (optics.zones.zones_for), for this nose
-    zn = zones_for(dataclasses.replace(settings, tool=dataclasses.replace(settings.tool, nose_radius=nose)), mirror)
+    zn = zones_for(settings, mirror, nose)  # the zones every command uses, for this nose
     # Before any progress display: a bad name is one line.
     from .common import surface_arg
 
@@ -91,10 +90,13 @@ def run(args: argparse.Namespace) -> int:
                 raise InputError(f"--surface {name.value}: {exc}") from None
             made[name.value] = {"surface": name.value, "made_mirror": surface_label(name, job, nose_radius=nose_k),
                                 "nose_radius_mm": nose_k, **fig}
-            if pose.aligned:  # the image displacement as every command states it (optics.radial)
+            if pose.aligned:  # the image displacement as every command states it (optics.radial), over the zone
+                lobes = radial_figures(surface, mirror, zones=zn)["lobes"]
                 made[name.value]["image_displacement_px"] = [
-                    {"name": lb["name"], **lb["image_displacement_px"]}
-                    for lb in radial_figures(surface, mirror, zones=zn)["lobes"]]
+                    {"name": lb["name"], **lb["image_displacement_px"]} for lb in lobes]
+                made[name.value]["over_zone"] = [
+                    {"name": lb["name"], "image_displacement_px": lb["image_displacement_px"], "zone_px": lb["zone_px"]}
+                    for lb in lobes]
             steps.done()
         steps.start("files")
         from ..export.calib import calibration_texts

@@ -73,7 +73,8 @@ def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Pro
                  "monte_carlo": mc.to_dict(), "sensitivity": sens,
                  "inverse_sensitivity": inverse_sensitivity(resp, ctx.limits),
                  "stereo": stereo_table(ctx, DEPTH_RANGES_M),
-                 "nose_radii_cut": len(ctx.bank.nose_mm)}
+                 "nose_radii_cut": len(ctx.bank.nose_mm),
+                 "nominal_over_zone": nominal_over_zone(mirror, part.but(polish_time_s=ctx.nominal_time_s), ctx)}
         if program in allocate:
             entry["allocation"], confirm = allocate_tolerances(ctx, resp, mc, target=target, progress=progress)
             if confirm is not None:
@@ -81,6 +82,20 @@ def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Pro
         entry["verdict"] = verdict(entry, ts.spec_dict())
         out["programs"][program.value] = entry
     return ToleranceRuns(out, results)
+
+
+def nominal_over_zone(mirror: Mirror, part: MachiningJob, ctx) -> dict:
+    """The nominal part's shared figure, exactly (optics.radial: every pixel centre of the
+    aligned camera) over the zone the criteria judge: the image displacement per lobe (px),
+    the figure `calib` and the report quote for the same made mirror (`part`, polished for
+    the nominal time); the Monte Carlo's sparse 3-D sample estimates it per trial."""
+    from ..optics.radial import radial_figures
+
+    made = part.made()
+    lobes = radial_figures(made.profile, mirror, zones=ctx.zones)["lobes"]
+    return {"surface": made.source, "zones": ctx.zones.describe(),
+            "lobes": [{"name": lb["name"], "image_displacement_px": lb["image_displacement_px"],
+                       "zone_px": lb["zone_px"]} for lb in lobes]}
 
 
 def monte_carlo(mirror: Mirror, settings: Settings, program: Program, nominal_time_s: float, *,
@@ -142,7 +157,8 @@ def verdict(t: dict, spec: dict) -> dict:
     return out
 
 
-def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False) -> dict:
+def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
+                 polish_time_s: float | None = None) -> dict:
     """The optimiser's winner through the tolerance analysis of the best program with the
     configured tool and default tolerances: the nominal part (lattice phase 0, every
     parameter nominal) judged against the spec, and the Monte Carlo's yield against
@@ -157,7 +173,10 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False) 
 
     ts = settings.tolerance
     job = MachiningJob.from_settings(settings, mirror, strategy=Program.BEST.strategy)
-    time_s = polishing_curve(job.made().profile, mirror, settings.polish).optimum_time_s
+    if polish_time_s is None:  # the best program's polishing curve chooses it, as `tolerance` does
+        time_s = polishing_curve(job.made().profile, mirror, settings.polish).optimum_time_s
+    else:
+        time_s = float(polish_time_s)
     ctx = tolerance_context(mirror, settings, Program.BEST, time_s, progress=progress, job=job)
     nom = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s))
     ok = judge(nom, ctx.limits, ts.spec.calibrated)
