@@ -164,14 +164,3 @@ def _optics_stages(out: dict, made: dict, mirror, settings, steps, renders: bool
         out["ranging"], data.curves["range_maps"] = ranging_figures(made, mirror, settings)
     steps.done()
     return data
-
-
-# Transition (issue 26): the names that moved to job.py, shop/programs.py, tolerance/runs.py
-# and report/, importable from here until every branch in flight has followed them.
-from .job import (  # noqa: E402,F401
-    MadeSurface, ZeroShiftedMirror, cad_model, check_cad, check_program, check_programs, machine,
-    made_surface, named_surface, plan, polishing_curve, process_for, program_target, scene_for)
-from .report.polishing_study import (  # noqa: E402,F401
-    polish_params_dict, polishing_conclusion, precompensation_study, process_table, surface_figures)
-from .shop.programs import SETTING_ERROR_MM, ShopProgram, shop_program, shop_programs  # noqa: E402,F401
-from .tolerance.runs import ToleranceRuns, monte_carlo, tolerance_context, tolerance_runs, verdict  # noqa: E402,F401

@@ -132,8 +132,8 @@ def bound_warnings(result, problem) -> list[str]:
 
 def check_made(settings) -> None:
     """The winner through the checks `run` makes before it writes anything: the junction
-    and the polishing times (pipeline.check_programs), the CAD body (pipeline.check_cad),
-    and both programs planned and simulated against the stock (pipeline.shop_programs:
+    and the polishing times (job.check_programs), the CAD body (job.check_cad),
+    and both programs planned and simulated against the stock (shop.programs.shop_programs:
     gouge, bar, travel, no rapid or insert body in stock). An InputError here names the
     check the winner fails."""
     from ..errors import InputError
