@@ -44,7 +44,7 @@ def main() -> int:
     from lathe_mirror.optics.camera import CameraPose, pixel_centres, ray_directions
     from lathe_mirror.optics.trace import trace_pixels
     from lathe_mirror.optics.trace3d import trace_rays
-    from lathe_mirror.pipeline import named_surface
+    from lathe_mirror.job import named_surface
     from lathe_mirror.profile import ExactProfile
 
     s = load(args.config)

@@ -19,7 +19,7 @@ import pytest
 from conftest import run_cli
 from lathe_mirror import compute
 from lathe_mirror.enums import Program
-from lathe_mirror.pipeline import tolerance_context
+from lathe_mirror.tolerance.runs import tolerance_context
 from lathe_mirror.settings import from_config
 from lathe_mirror.tolerance.montecarlo import draw_trials, evaluate_trials, judge
 

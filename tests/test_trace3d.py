@@ -16,7 +16,7 @@ from lathe_mirror.config import load
 from lathe_mirror.enums import Surface
 from lathe_mirror.optics.camera import CameraPose, ray_directions
 from lathe_mirror.optics.trace import Fate, trace_pixels, trace_rays
-from lathe_mirror.pipeline import named_surface
+from lathe_mirror.job import named_surface
 from lathe_mirror.profile import ExactProfile, LobeSamples, SampledProfile, sample_lobes
 
 POSES = [CameraPose(decentre=(0.05, -0.03), axial_offset=0.1, tilt=(math.radians(0.1), math.radians(-0.06))),
