@@ -66,20 +66,41 @@ class Terminated(BaseException):
 
 
 def main(argv: list[str] | None = None) -> int:
-    from .export import files
-
     received: list[int] = []  # signals caught: one may surface as another exception
     # From the start (the commands' modules import while the parser is built): a signal
     # at any point is exit 130 / 143 and one line.
-    with _signals_raise(received, files.committed, settle=argv is None):
-        try:
-            args = build_parser().parse_args(argv)
-        except (KeyboardInterrupt, Terminated, ImportError):
-            if not received:
-                raise
-            print(f"lathe-mirror: {'interrupted' if received[0] == 2 else 'terminated'}", file=sys.stderr)
-            return 128 + received[0]
-        return _run(args, received)
+    with _signals_raise(received, _committed, settle=argv is None):
+        status = _parse_and_run(argv, received)
+    if argv is None and received and status in (130, 143):
+        # Interrupted, nothing written, the line printed: exit now. (CPython kills itself
+        # with SIGINT at exit, status -2, when a KeyboardInterrupt passed through code an
+        # extension module runs while it imports, even though it was caught.)
+        _exit_now(status)
+    return status
+
+
+def _committed() -> bool:
+    """export.files.committed(), if the module has been imported (else nothing is)."""
+    files = sys.modules.get("lathe_mirror.export.files")
+    return files is not None and files.committed()
+
+
+def _parse_and_run(argv: list[str] | None, received: list[int]) -> int:
+    try:
+        args = build_parser().parse_args(argv)
+    except (KeyboardInterrupt, Terminated, ImportError):
+        if not received:
+            raise
+        print(f"lathe-mirror: {'interrupted' if received[0] == 2 else 'terminated'}", file=sys.stderr)
+        return 128 + received[0]
+    return _run(args, received)
+
+
+def _exit_now(status: int) -> None:
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    os._exit(status)
 
 
 def _run(args: argparse.Namespace, received: list[int]) -> int:
@@ -140,8 +161,6 @@ def _signals_raise(received: list[int], done=lambda: False, *, settle: bool = Fa
     import signal
     import threading
 
-    from .export import files
-
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -150,7 +169,8 @@ def _signals_raise(received: list[int], done=lambda: False, *, settle: bool = Fa
         received.append(signum)
         if done():  # after the last rename: the command has succeeded
             return
-        if files.defer_signal(signum):  # renaming the outputs: raised again when done
+        files = sys.modules.get("lathe_mirror.export.files")
+        if files is not None and files.defer_signal(signum):  # renaming: raised again after
             return
         raise KeyboardInterrupt() if signum == signal.SIGINT else Terminated()
 

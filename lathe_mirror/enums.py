@@ -21,10 +21,11 @@ class Strategy(str, Enum):
     PAPER = "paper"
     LATTICE = "lattice"
     ARCS = "arcs"
+    BEST = "arcs"  # an alias of ARCS (Strategy.BEST is Strategy.ARCS), as the CLI's "best"
 
 
 #: The strategy with the smallest slope error on the paper's machine (toolpath/ package doc).
-BEST = Strategy.ARCS
+BEST = Strategy.BEST
 
 
 class Dialect(str, Enum):
@@ -41,8 +42,9 @@ class Dialect(str, Enum):
 
 class Surface(str, Enum):
     """Named mirror surfaces (job.named_surface): the exact design, references, the
-    programmed contour of each strategy, the polished paper program, and a measured part
-    (given on the command line as measured:FILE)."""
+    programmed contour of each strategy, the polished paper program, a measured part (given
+    on the command line as measured:FILE), and made: the configured machining job's made
+    mirror (job.MachiningJob.from_settings)."""
 
     EXACT = "exact"
     REFERENCE = "reference"
@@ -53,6 +55,18 @@ class Surface(str, Enum):
     BEST = "best"
     POLISHED = "polished"
     MEASURED = "measured"  # --surface measured:FILE, a measured part (measure.surface)
+    MADE = "made"
+
+    @property
+    def strategy(self) -> Strategy | None:
+        """The toolpath strategy this surface is cut with: its own, best's (BEST), the
+        paper's for polished; None for the surfaces no program cuts (exact, reference,
+        uniform528, measured) and for made (the configured [toolpath] strategy: MachiningJob)."""
+        if self in (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528, Surface.MEASURED, Surface.MADE):
+            return None
+        if self is Surface.POLISHED:
+            return Strategy.PAPER
+        return BEST if self is Surface.BEST else Strategy(self.value)
 
 
 class Program(str, Enum):
@@ -60,6 +74,11 @@ class Program(str, Enum):
 
     BEST = "best"
     PAPER = "paper"
+
+    @property
+    def strategy(self) -> Strategy:
+        """The toolpath strategy this program is planned with (best: BEST)."""
+        return BEST if self is Program.BEST else Strategy.PAPER
 
 
 class Distribution(str, Enum):

@@ -14,6 +14,7 @@ Millimetres and radians inside (ARCHITECTURE.md).
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -21,10 +22,11 @@ import numpy as np
 
 from .body import MAX_LENGTH, CadModel, design_meridian, programmed_parts
 from .design import Mirror
-from .enums import BEST, Mount, Strategy, Surface
+from .enums import BEST, Mount, Program, Strategy, Surface
 from .errors import InputError
 from .finish import Process
 from .lathe import Lathe, Tool
+from .machine_errors import MachineErrors, machined_with_errors
 from .nose_envelope import as_machined, contour_profile, gouge_depth
 from .optics.polishing_curve import PolishCurve, polish_curve
 from .optics.reference import reference_surface
@@ -83,7 +85,7 @@ def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = 
                  nose_radius: float | None = None, phase: float = 0.0,
                  polish_params: PolishParams | None = None, polish_time_s: float = 0.0,
                  max_deviation: float = 0.01, toolpath: Toolpath | None = None,
-                 target: Mirror | None = None) -> MadeSurface:
+                 target: Mirror | None = None, errors: MachineErrors | None = None) -> MadeSurface:
     """The one made-surface builder: plan -> machine -> (polish).
 
     The program is planned for `tool` (its nose offset) at lattice `phase` (steps), on
@@ -91,14 +93,21 @@ def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = 
     part is cut by a nose of `nose_radius` mm (default the tool's: a worn or mis-measured
     insert differs from the programmed one); with polish_params and polish_time_s > 0 it
     is then polished for that time (s). toolpath: the program already planned with these
-    arguments (a caller cutting one program with many noses plans it once).
+    arguments (a caller cutting one program with many noses plans it once). errors: the
+    lathe's set-up errors ([machine.errors], machine_errors.MachineErrors; None or all zero:
+    a perfect machine), cut by machine_errors.machined_with_errors.
     """
     tp = toolpath if toolpath is not None else plan(mirror, lathe, tool, strategy, max_deviation=max_deviation,
                                                     phase=phase, target=target)
     rho = tool.nose_radius if nose_radius is None else nose_radius
-    profile = machine(tp, rho)
     source = f"{strategy.value} program{' (pre-compensated)' if target is not None else ''}, " \
              f"as-machined with a {rho:g} mm nose"
+    if errors is not None and not errors.is_zero:
+        profile = machined_with_errors(tp, errors, nose_radius=rho, pip_height_mm=0.15)
+        source += ", on a lathe with set-up errors " + ", ".join(
+            f"{k} {v:g}" for k, v in errors.to_dict().items() if v)
+    else:
+        profile = machine(tp, rho)
     if polish_params is not None and polish_time_s > 0:
         profile = polish(profile, polish_params, polish_time_s)
         source += f", polished {polish_time_s / 60:g} min"
@@ -132,7 +141,7 @@ def program_target(settings: Settings, mirror: Mirror) -> Mirror:
 
 
 def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_radius: float = 0.0,
-                  measured: str | None = None) -> Profile:
+                  measured: str | None = None, job: MachiningJob | None = None) -> Profile:
     """The surface called `name` (enums.Surface), for the commands that take --surface.
 
       exact       the designed hyperbolic lobes (closed form)
@@ -146,6 +155,10 @@ def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_rad
                   nose_radius) polished for its polishing curve's optimum (~2 s)
       measured    the part measured in the file `measured` (--surface measured:FILE), fitted
                   against the design (measure.surface)
+      made        the configured machining job's made mirror (MachiningJob.from_settings:
+                  the [toolpath] strategy cut by the [tool] nose, or nose_radius)
+
+    job: the machining job the programs come from (default MachiningJob.from_settings).
     """
     if not (nose_radius >= 0 and np.isfinite(nose_radius)):
         raise InputError(f"--nose-radius {nose_radius!r}: must be a finite number >= 0 mm")
@@ -164,15 +177,17 @@ def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_rad
         return measured_profile(measured, mirror, nose_radius_mm=settings.tool.nose_radius)
     if name in builtin:
         return reference_surface(name.value, mirror)
-    lathe, tool = settings.machine, settings.tool
+    job = job if job is not None else MachiningJob.from_settings(settings, mirror)
     if nose_radius > 0:
-        tool = dataclasses.replace(tool, nose_radius=nose_radius)
+        job = job.but(tool=dataclasses.replace(job.tool, nose_radius=nose_radius))
+    if name is Surface.MADE:
+        return job.made().profile
     if name is Surface.POLISHED:
-        machined = made_surface(mirror, lathe, tool, Strategy.PAPER).profile
-        curve = polishing_curve(machined, mirror, settings.polish)
+        curve = polishing_curve(job.but(strategy=Strategy.PAPER).made().profile, mirror, settings.polish)
         return curve.profiles[curve.optimum_index]
-    strategy = BEST if name is Surface.BEST else Strategy(name.value)
-    tp = plan(mirror, lathe, tool, strategy)
+    if job.errors is not None:  # the part as the configured lathe cuts it ([machine.errors])
+        return job.but(strategy=name.strategy).made().profile
+    tp = job.but(strategy=name.strategy).toolpath
     return machine(tp) if nose_radius > 0 else contour_profile(tp)
 
 
@@ -201,8 +216,7 @@ def cad_model(settings: Settings, mirror: Mirror, *, programmed: bool,
                  if programmed_face_only else spec)
     # The same planning as `lathe-mirror toolpath`: the config's max_deviation decides
     # whether the point budget can hold the profile, so both commands accept the same configs.
-    tp = plan(mirror, settings.machine, settings.tool, settings.toolpath.strategy,
-              max_deviation=settings.toolpath.max_deviation, target=program_target(settings, mirror))
+    tp = MachiningJob.from_settings(settings, mirror).toolpath
     prog, centre, figures = programmed_parts(tp, mirror, prog_spec)
     return CadModel(mirror, design_face, prog, centre, figures)
 
@@ -252,30 +266,173 @@ def check_cad(settings: Settings, mirror: Mirror) -> None:
     design_meridian(mirror, settings.body)
 
 
-def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surface, *,
+def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surface | Program, *,
                   tool: Tool | None = None, target: Mirror | None = None) -> Toolpath | None:
     """The program of `strategy` checked the same way by every command that uses one
     (toolpath, cad, render, polish, tolerance, calib, stereo, report, run), before any work
-    or file: planned on the lattice within the point budget for toolpath.max_deviation
-    (plan), and its as-machined surface no deeper inside the part than
-    toolpath.gouge_tolerance (the check shop.plan_program makes before it writes G-code).
-    A named Surface stands for the program it is cut with (polished: the paper's; exact,
-    reference, uniform528: none, None returned). tool: default [tool]. target: the surface
-    the program cuts when it is not program_target's (a compensated re-cut:
-    measure.compensate). Returns the toolpath; InputError names the setting to change."""
-    if isinstance(strategy, Surface):
-        if strategy in (Surface.EXACT, Surface.REFERENCE, Surface.UNIFORM528, Surface.MEASURED):
+    or file: MachiningJob.check on the configured job with that program (and tool: default
+    [tool]). A named Surface or Program stands for the program it is cut with (polished: the
+    paper's; made: the configured [toolpath] strategy; exact, reference, uniform528,
+    measured: none, None returned). target: the surface the program cuts when it is not
+    program_target's (a compensated re-cut: measure.compensate). Returns the toolpath;
+    InputError names the setting to change."""
+    job = MachiningJob.from_settings(settings, mirror)
+    if isinstance(strategy, Surface) and strategy is not Surface.MADE:
+        if strategy.strategy is None:
             return None
-        strategy = (Strategy.PAPER if strategy is Surface.POLISHED else
-                    BEST if strategy is Surface.BEST else Strategy(strategy.value))
-    tp = plan(mirror, settings.machine, tool or settings.tool, strategy,
-              max_deviation=settings.toolpath.max_deviation,
-              target=target if target is not None else program_target(settings, mirror))  # precompensate
-    depth = gouge_depth(tp)
-    limit = settings.toolpath.gouge_tolerance
-    if depth > limit:
-        raise InputError(
-            f"the {strategy.value} toolpath would gouge the part by {depth:.4f} mm "
-            f"(toolpath.gouge_tolerance = {limit:g} mm); program refused "
-            "(more points, a finer machine.resolution or another strategy cut closer)")
-    return tp
+        job = job.but(strategy=strategy.strategy)
+    elif isinstance(strategy, Program):
+        job = job.but(strategy=strategy.strategy)
+    elif isinstance(strategy, Strategy):
+        job = job.but(strategy=strategy)
+    if tool is not None:
+        job = job.but(tool=tool)
+    if target is not None:
+        job = dataclasses.replace(job, target=target)
+    return job.check()
+
+
+@dataclass(frozen=True)
+class MachiningJob:
+    """One machining job: the finishing program cut on the lathe and the part it makes.
+
+    Built once from the settings (`from_settings`) and handed to every command, the
+    report and the tolerance analysis, so the configured deviation, gouge tolerance and
+    pre-compensation hold everywhere; a variant (another program, nose, lattice phase,
+    resolution, polish time) is `job.but(...)`.
+
+    mirror: the design. lathe, tool: the machine and the insert the program is planned for
+    (mm). strategy: the toolpath strategy. max_deviation (mm): the largest normal deviation
+    a contour may have ([toolpath]). gouge_tolerance (mm): the deepest a made point may lie
+    inside the exact part. target: the surface the program cuts when it is not the design
+    (polish.precompensate: program_target), else None. nose_radius (mm): the nose that
+    cuts (None: the tool's; a worn or mis-measured insert differs). phase: the work zero's
+    lattice phase (steps, 0 <= phase < 1). polish, polish_time_s (s): the part polished
+    that long after cutting (0: as machined).
+    """
+
+    mirror: Mirror
+    lathe: Lathe
+    tool: Tool
+    strategy: Strategy = BEST
+    max_deviation: float = 0.01
+    gouge_tolerance: float = 0.005
+    target: Mirror | None = None
+    nose_radius: float | None = None
+    phase: float = 0.0
+    polish: PolishParams | None = None
+    polish_time_s: float = 0.0
+    precompensation_s: float = 0.0
+    errors: MachineErrors | None = None  # the lathe's set-up errors ([machine.errors]); None: perfect
+
+    @classmethod
+    def from_settings(cls, settings: Settings, mirror: Mirror | None = None, *,
+                      strategy: Strategy | None = None) -> MachiningJob:
+        """The configured job: the [toolpath] strategy (or `strategy`) planned for the [tool]
+        on the [machine] within toolpath.max_deviation, on the pre-compensated target when
+        polish.precompensate, cut by the [tool] nose, as machined."""
+        mirror = design(settings) if mirror is None else mirror
+        target = program_target(settings, mirror)
+        return cls(mirror=mirror, lathe=settings.machine, tool=settings.tool,
+                   strategy=settings.toolpath.strategy if strategy is None else strategy,
+                   max_deviation=settings.toolpath.max_deviation,
+                   gouge_tolerance=settings.toolpath.gouge_tolerance,
+                   target=None if target is mirror else target, polish=settings.polish,
+                   precompensation_s=settings.polish.time_s if target is not mirror else 0.0,
+                   errors=None if settings.machine_errors.is_zero else settings.machine_errors)
+
+    def but(self, *, strategy: Strategy | None = None, tool: Tool | None = None,
+            nose_radius: float | None = None, phase: float | None = None,
+            resolution: float | None = None, polish_time_s: float | None = None) -> MachiningJob:
+        """This job with the given fields changed (resolution: the lathe's, mm)."""
+        changes: dict = {}
+        if strategy is not None:
+            changes["strategy"] = strategy
+        if tool is not None:
+            changes["tool"] = tool
+        if nose_radius is not None:
+            changes["nose_radius"] = nose_radius
+        if phase is not None:
+            changes["phase"] = phase
+        if resolution is not None:
+            changes["lathe"] = dataclasses.replace(self.lathe, resolution=resolution)
+        if polish_time_s is not None:
+            changes["polish_time_s"] = polish_time_s
+        new = dataclasses.replace(self, **changes)
+        if "toolpath" in self.__dict__ and set(changes) <= {"nose_radius", "polish_time_s"}:
+            new.__dict__["toolpath"] = self.__dict__["toolpath"]  # the same program: planned once
+        return new
+
+    @functools.cached_property
+    def toolpath(self) -> Toolpath:
+        """The program, planned once (plan)."""
+        return plan(self.mirror, self.lathe, self.tool, self.strategy, max_deviation=self.max_deviation,
+                    phase=self.phase, target=self.target)
+
+    @property
+    def cutting_nose(self) -> float:
+        """The nose radius that cuts the part, mm."""
+        return self.tool.nose_radius if self.nose_radius is None else self.nose_radius
+
+    def made(self) -> MadeSurface:
+        """The made surface: the program cut by the cutting nose, polished polish_time_s."""
+        return made_surface(self.mirror, self.lathe, self.tool, self.strategy, nose_radius=self.cutting_nose,
+                            polish_params=self.polish if self.polish_time_s > 0 else None,
+                            polish_time_s=self.polish_time_s, toolpath=self.toolpath, target=self.target,
+                            errors=self.errors)
+
+    def check(self) -> Toolpath:
+        """The program planned within the point budget (plan raises otherwise) and its
+        as-machined surface no deeper inside the part than gouge_tolerance (the check
+        shop.plan_program makes before it writes G-code). InputError names the setting."""
+        tp = self.toolpath
+        depth = gouge_depth(tp)
+        if depth > self.gouge_tolerance:
+            raise InputError(
+                f"the {self.strategy.value} toolpath would gouge the part by {depth:.4f} mm "
+                f"(toolpath.gouge_tolerance = {self.gouge_tolerance:g} mm); program refused "
+                "(more points, a finer machine.resolution or another strategy cut closer)")
+        return tp
+
+    @property
+    def label(self) -> str:
+        """Which part this is, in one line: 'arcs program (best), nose 0.2 mm, lattice
+        0.005 mm, as machined'."""
+        parts = [f"{self.strategy.value} program{' (best)' if self.strategy is BEST else ''}",
+                 f"nose {self.cutting_nose:g} mm", f"lattice {self.lathe.resolution:g} mm"]
+        if self.phase:
+            parts.append(f"phase {self.phase:g}")
+        if self.target is not None:
+            parts.append(f"pre-compensated for {self.precompensation_s / 60:g} min")
+        parts.append(f"polished {self.polish_time_s / 60:g} min" if self.polish_time_s > 0 else "as machined")
+        return ", ".join(parts)
+
+    def to_dict(self) -> dict:
+        """The part's identity for JSON: label, program, nose, lattice, phase, polish."""
+        return {"label": self.label, "program": self.strategy.value, "nose_radius_mm": self.cutting_nose,
+                "resolution_mm": self.lathe.resolution, "lattice_phase": self.phase,
+                "polish_time_s": self.polish_time_s, "precompensated": self.target is not None,
+                "max_deviation_mm": self.max_deviation}
+
+
+def surface_label(name: Surface, job: MachiningJob, *, nose_radius: float = 0.0) -> str:
+    """Which part a named surface (named_surface) is, in one line, for every output: the
+    made mirror's and a program's as-machined part by their job's label, the others by
+    what they are. nose_radius (mm): as named_surface's."""
+    if name is Surface.EXACT:
+        return "the exact design"
+    if name is Surface.MEASURED:
+        return "the measured part (design + the fitted residual)"
+    if name in (Surface.REFERENCE, Surface.UNIFORM528):
+        return f"the paper's {name.value} model"
+    if nose_radius > 0:
+        job = job.but(tool=dataclasses.replace(job.tool, nose_radius=nose_radius))
+    if name is Surface.MADE:
+        return job.label
+    if name is Surface.POLISHED:
+        return job.but(strategy=Strategy.PAPER).label.replace("as machined", "polished at the curve's optimum")
+    strategy = name.strategy
+    if nose_radius > 0:
+        return job.but(strategy=strategy).label
+    return (f"{strategy.value} program{' (best)' if strategy is BEST else ''}, programmed contour "
+            f"(a sharp tool), lattice {job.lathe.resolution:g} mm")

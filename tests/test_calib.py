@@ -444,7 +444,9 @@ def test_calib_command_json_and_files(tmp_path):
     assert proc.stderr == ""
     data = json.loads(proc.stdout)
     assert sorted(p.name for p in out.iterdir()) == sorted(FILE_NAMES)
-    assert [m["surface"] for m in data["made"]] == ["paper", "best", "polished"]
+    # By default the made mirror every command describes: the configured job's part.
+    assert [m["surface"] for m in data["made"]] == ["made"]
+    assert data["made"][0]["made_mirror"] == "arcs program (best), nose 0.2 mm, lattice 0.005 mm, as machined"
     for m in data["made"]:
         assert m["range_m"] == 2.0
         assert [lb["name"] for lb in m["lobes"]] == ["inner", "outer"]
@@ -453,13 +455,14 @@ def test_calib_command_json_and_files(tmp_path):
             assert 0 < d["rms"] <= d["max"] and 0 < r["rms"] <= r["max"]
             assert r["rms"] <= d["rms"] * (1 + 1e-9)  # least squares from the design model
             assert lb["refit"]["principal_point"] == "fixed at the sensor centre"
+    # Same inputs, same bytes (the files are the design's, whichever made mirror).
+    again = tmp_path / "again"
+    proc = run_cli("calib", "-o", str(again), "--surface", "paper", "--json", "--no-progress")
+    assert proc.returncode == 0
     # The paper program's facets: the design's error is the README's image displacement
     # order (10.9 / 21.7 px RMS programmed; as machined here).
-    paper = data["made"][0]["lobes"]
+    paper = json.loads(proc.stdout)["made"][0]["lobes"]
     assert 5 < paper[0]["design"]["reprojection_error_px"]["rms"] < 20
-    # Same inputs, same bytes.
-    again = tmp_path / "again"
-    assert run_cli("calib", "-o", str(again), "--surface", "exact", "--no-progress").returncode == 0
     for name in FILE_NAMES:
         assert (again / name).read_bytes() == (out / name).read_bytes()
 

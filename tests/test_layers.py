@@ -27,7 +27,7 @@ RANKS = {
     "body": 7,
     "optics": 8, "machine_errors": 5, "measure": 8.5, "job": 8.5,
     "tolerance": 9, "optimize": 9,
-    "iso10110": 9.5, "shop": 9.5,
+    "iso10110": 9.4, "shop": 9.5, "api": 9.5,
     "settings": 10,
     "config": 11,
     "notes": 12,

@@ -16,7 +16,7 @@ from lathe_mirror.lathe import Tool
 from lathe_mirror.nose_envelope import junction_fillet
 from lathe_mirror.optics.radial import radial_figures, surface_errors
 from lathe_mirror.optics.zones import zones, zones_for
-from lathe_mirror.pipeline import made_surface, plan
+from lathe_mirror.job import made_surface, plan
 from lathe_mirror.toolpath import Strategy, profile_errors, usable_ranges
 
 #: The paper camera opened to 35 mm of depth (the README's deep.toml, as `optimize` found it).

@@ -7,8 +7,9 @@ import argparse
 
 from .common import add_common, add_no_progress, load, print_json
 
-#: The made mirrors compared by default: the report's (programs as machined, polished).
-DEFAULT_SURFACES = ("paper", "best", "polished")
+#: The made mirror compared by default: the configured machining job's part (job.MachiningJob),
+#: the one every command describes unless told otherwise.
+DEFAULT_SURFACES = ("made",)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -20,8 +21,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "with what it leaves, RMS / max px per lobe.")
     add_common(p, output_help="directory for the calibration files (default: calib/)")
     p.add_argument("--surface", metavar="NAME", default=None,
-                   help="the made mirror: exact, reference, uniform528, measured:FILE (a measured part), a toolpath strategy (paper, "
-                   "lattice, arcs, best) or polished; default: paper, best and polished, as the report")
+                   help="the made mirror: exact, reference, uniform528, measured:FILE (a measured part), a "
+                   "toolpath strategy (paper, lattice, arcs, best), polished or made (the configured machining "
+                   "job's part); default: made")
     p.add_argument("--nose-radius", metavar="MM", type=float, default=None,
                    help="a toolpath strategy's surface as machined by a tool of this nose radius (mm; "
                    "0: the programmed contour); default: the [tool] nose radius")
@@ -45,7 +47,8 @@ def run(args: argparse.Namespace) -> int:
         design_model_figures,
         made_figures,
     )
-    from ..job import check_program, design, named_surface
+    from ..job import MachiningJob, check_program, design, named_surface, surface_label
+    from ..optics.radial import radial_figures
     from ..progress import Stages
     from .common import check_outputs
 
@@ -55,11 +58,9 @@ def run(args: argparse.Namespace) -> int:
     range_m = DEFAULT_RANGE_MM / 1000.0 if args.range_m is None else args.range_m
     nose = settings.tool.nose_radius if args.nose_radius is None else args.nose_radius
     pose = settings.pose
-    from ..optics.zones import zones as zones_of
+    from ..optics.zones import zones_for
 
-    tol = settings.tolerance
-    zn = zones_of(mirror, nose, float(tol.tolerances.get("nose_radius_mm", 0.0)) if tol is not None and nose > 0 else 0.0,
-                  settings.machine.resolution)
+    zn = zones_for(settings, mirror, nose)  # the zones every command uses, for this nose
     # Before any progress display: a bad name is one line.
     from .common import surface_arg
 
@@ -74,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
     for name in names:  # each program surface's program, checked as every command checks one
         check_program(settings, mirror, name,
                       tool=dataclasses.replace(settings.tool, nose_radius=nose) if nose > 0 else None)
+    job = MachiningJob.from_settings(settings, mirror)  # the made mirror every command describes by default
     steps = Stages([n.value for n in names] + ["files"], not args.no_progress)
     try:
         made = {}
@@ -81,12 +83,20 @@ def run(args: argparse.Namespace) -> int:
             steps.start(name.value)
             # The nose applies to toolpath surfaces (and to polished, as its machining).
             nose_k = 0.0 if name in builtin else nose
-            surface = named_surface(name, mirror, settings, nose_radius=nose_k, measured=measured)
+            surface = named_surface(name, mirror, settings, nose_radius=nose_k, measured=measured, job=job)
             try:
                 fig = made_figures(surface, mirror, range_mm=range_m * 1000.0, pose=pose, zones=zn)
             except InputError as exc:
                 raise InputError(f"--surface {name.value}: {exc}") from None
-            made[name.value] = {"surface": name.value, "nose_radius_mm": nose_k, **fig}
+            made[name.value] = {"surface": name.value, "made_mirror": surface_label(name, job, nose_radius=nose_k),
+                                "nose_radius_mm": nose_k, **fig}
+            if pose.aligned:  # the image displacement as every command states it (optics.radial), over the zone
+                lobes = radial_figures(surface, mirror, zones=zn)["lobes"]
+                made[name.value]["image_displacement_px"] = [
+                    {"name": lb["name"], **lb["image_displacement_px"]} for lb in lobes]
+                made[name.value]["over_zone"] = [
+                    {"name": lb["name"], "image_displacement_px": lb["image_displacement_px"], "zone_px": lb["zone_px"]}
+                    for lb in lobes]
             steps.done()
         steps.start("files")
         from ..export.calib import calibration_texts
@@ -125,8 +135,7 @@ def format_figures(fig: dict) -> str:
     dz = fig["design"]["t_cn_cnm1_mm"][2]
     lines.append(f"viewpoints {dz:.6f} mm apart along the axis (Kalibr T_cn_cnm1 of the outer lobe)")
     for m in fig["made"]:
-        what = f"{m['surface']}" + (f" (as machined, nose {m['nose_radius_mm']:g} mm)"
-                                    if m["nose_radius_mm"] and m["surface"] != "polished" else "")
+        what = f"{m['surface']} ({m['made_mirror']})"
         rng = "directions" if m["range_m"] == float("inf") else f"world points at {m['range_m']:g} m"
         lines.append(f"{what}, {rng}: reprojection error px RMS / max")
         for lb in m["lobes"]:

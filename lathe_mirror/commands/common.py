@@ -72,11 +72,11 @@ def path_arg(text: str) -> str:
 
 def program_strategy(value: str | None, settings):
     """--program paper|best as the Strategy a part was cut with (None: [toolpath] strategy)."""
-    from ..enums import BEST, Program, Strategy, parse
+    from ..enums import Program, parse
 
     if value is None:
         return settings.toolpath.strategy
-    return BEST if parse(Program, value, "--program") is Program.BEST else Strategy.PAPER
+    return parse(Program, value, "--program").strategy
 
 
 def surface_arg(text: str | None, flag: str = "--surface"):

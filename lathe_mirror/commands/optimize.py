@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_common, add_no_progress, load, print_json
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -18,7 +19,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_common(p, output_help="write the best design as a TOML configuration (and <stem>_pareto.png "
                               "beside it)")
     p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="processes evaluating each generation (default optimize.workers, 1)")
+                   help=f"processes evaluating each generation ({help_default('optimize.workers')})")
     p.add_argument("--no-check", action="store_true",
                    help="skip the winner's tolerance check (the best program with the configured tool: the "
                    "nominal part against [tolerance.spec] and the yield against tolerance.target_yield)")
@@ -119,8 +120,8 @@ def bound_warnings(result, problem) -> list[str]:
 
 def check_made(settings) -> None:
     """The winner through the checks `run` makes before it writes anything: the junction
-    and the polishing times (pipeline.check_programs), the CAD body (pipeline.check_cad),
-    and both programs planned and simulated against the stock (pipeline.shop_programs:
+    and the polishing times (job.check_programs), the CAD body (job.check_cad),
+    and both programs planned and simulated against the stock (shop.programs.shop_programs:
     gouge, bar, travel, no rapid or insert body in stock). An InputError here names the
     check the winner fails."""
     from ..errors import InputError

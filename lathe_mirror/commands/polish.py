@@ -24,10 +24,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..enums import BEST, Program, Strategy, parse
+    from ..enums import Program, parse
     from ..optics.polishing_curve import polish_summary
     from ..optics.radial import radial_figures
-    from ..job import check_program, check_programs, design, made_surface, polishing_curve, process_for
+    from ..job import MachiningJob, check_programs, design, polishing_curve, process_for
     from ..report.polishing_study import polish_params_dict
     from ..polishing import polish
     from ..toolpath import profile_errors
@@ -37,21 +37,21 @@ def run(args: argparse.Namespace) -> int:
     params = settings.polish
     mirror = design(settings)
     check_programs(settings, mirror, tolerance=False)  # bad input stops here, before the output directory is made
-    strategy = BEST if program is Program.BEST else Strategy.PAPER
-    check_program(settings, mirror, strategy)
+    job = MachiningJob.from_settings(settings, mirror, strategy=program.strategy)
+    job.check()
     if args.output:
         from .common import check_outputs, output_dir
 
         check_outputs(args.output, ["polish.json"])
         output_dir(args.output)
-    made = made_surface(mirror, settings.machine, settings.tool, strategy)
+    made = job.made()
     curve = polishing_curve(made.profile, mirror, params, process=process_for(settings),
                             progress=not args.no_progress)
     polished = polish(made.profile, params)
     # The five figures of ARCHITECTURE.md per lobe, surface then optics, as the report's.
     at_time = [{**s, **{k: v for k, v in o.items() if k != "name"}} for s, o in
                zip(profile_errors(polished, mirror)["lobes"], radial_figures(polished, mirror)["lobes"])]
-    out = {"program": program.value, "surface": made.source, "params": polish_params_dict(params),
+    out = {"program": program.value, "made_mirror": job.to_dict(), "surface": made.source, "params": polish_params_dict(params),
            "summary": polish_summary(curve, program.value), "curve": curve.to_dict(),
            "at_time_s": {"time_s": params.time_s, "lobes": at_time}}
     if args.output:

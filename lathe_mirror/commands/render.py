@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_common, load, print_json
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -19,12 +20,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--surface", metavar="NAME", default=None,
                    help="made surface: exact, reference, uniform528, measured:FILE (a measured part), a toolpath strategy "
                    "(paper, best, ...), or polished (the paper program as machined, polished at "
-                   "the polishing optimum); default [render] surface")
+                   "the polishing optimum); " + help_default("render.surface"))
     p.add_argument("--nose-radius", metavar="MM", type=float, default=None,
                    help="trace the as-machined surface of a tool with this nose radius (mm) "
-                   "instead of the programmed contour; default [render] nose_radius")
+                   "instead of the programmed contour; " + help_default("render.nose_radius"))
     p.add_argument("--supersample", metavar="N", type=int, default=None,
-                   help="N x N rays per pixel for the images (N^2 the cost); default [render] supersample")
+                   help="N x N rays per pixel for the images (N^2 the cost); " + help_default("render.supersample"))
     p.add_argument("--image-only", action="store_true",
                    help="render only the made surface's image (no exact image, figures or plots)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
@@ -37,9 +38,9 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from ..enums import Surface, parse
+    from ..enums import Surface
     from ..optics.render import image_difference, render_image
-    from ..job import check_program, design, named_surface, scene_for
+    from ..job import MachiningJob, check_program, design, named_surface, scene_for, surface_label
     from ..profile import ExactProfile
 
     from .common import surface_arg
@@ -60,7 +61,17 @@ def run(args: argparse.Namespace) -> int:
     exact = ExactProfile(mirror)
     tool = dataclasses.replace(settings.tool, nose_radius=nose) if nose > 0 else None
     check_program(settings, mirror, surface, tool=tool)  # a program's surface: its program checked
-    made = named_surface(surface, mirror, settings, nose_radius=float(nose), measured=measured)
+    job = MachiningJob.from_settings(settings, mirror)  # the made mirror every command describes by default
+    made = named_surface(surface, mirror, settings, nose_radius=float(nose), measured=measured,
+                         job=job)
+    label = surface_label(surface, job, nose_radius=float(nose))
+    # The zones of the nose that cut this surface (a program's contour: none), as every
+    # command states its figures over them (optics.zones.zones_for).
+    from ..optics.zones import zones_for
+
+    cut_nose = float(nose) if nose > 0 else (job.cutting_nose if surface in (Surface.MADE, Surface.POLISHED) else 0.0)
+    zn = zones_for(dataclasses.replace(settings, tool=dataclasses.replace(settings.tool, nose_radius=cut_nose)),
+                   mirror)
     z_top = float(max(np.max(made.z(np.linspace(0, made.r_max, 2001))), mirror.outer.h))
     scene = scene_for(settings, mirror, mirror_top=z_top + abs(pose.axial_offset))
     _check_sees_mirror(made, mirror, pose)
@@ -77,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
         if out is not None:
             files.append(_write_png(out / f"{surface}.png", made_img))
         if args.json:
-            print_json({"surface": surface, "files": files})
+            print_json({"surface": surface, "made_mirror": label, "files": files})
         return 0
 
     from ..optics.distortion import image_displacement
@@ -87,14 +98,17 @@ def run(args: argparse.Namespace) -> int:
         exact, mirror, scene, pose=pose, supersample=n, progress=progress)
     # Over the lobes' usable annuli, as the distortion figures: the step-vignetted band is
     # black in both images and would only dilute the difference.
+    # (maps.lobe >= 0) & ~maps.blocked is optics.distortion.usable_annulus: the design's own
     diff = image_difference(exact_img, made_img, mask=(maps.lobe >= 0) & ~maps.blocked)
     figures = {
         "surface": surface,
+        "made_mirror": label,
         "nose_radius_mm": float(nose),
         "supersample": n,
         "pose": {"decentre_mm": list(pose.decentre), "axial_offset_mm": pose.axial_offset,
                  "tilt_deg": [math.degrees(t) for t in pose.tilt]},
-        **maps.figures(),
+        **maps.figures(zn),
+        "zones": zn.as_dict(),
         "image_difference": diff,
         "image_radii_px": {k: {"min": v[0], "max": v[1]} for k, v in mirror.image_radii_px.items()},
     }
@@ -109,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
         if not same:
             files.append(_write_png(out / f"{surface}.png", made_img))
             files.append(_write_png(out / f"difference_{surface}.png", difference_image(exact_img, made_img)))
-        title = f"{surface}" + (f", as machined (nose {nose:g} mm)" if nose else "")
+        title = label
         files.append(str(write_bytes(out / f"displacement_radius_{surface}.png",
                                      displacement_vs_radius_png(maps, title=title))))
         files.append(str(write_bytes(out / f"displacement_map_{surface}.png",
@@ -142,15 +156,7 @@ def output_names(surface: str, nose: float, *, image_only: bool = False) -> list
 
 def format_figures(fig: dict) -> str:
     """The figures as a short table."""
-    if fig["surface"] == "polished":
-        what = ", the paper program as machined, polished at the polishing curve's optimum"
-    elif fig["surface"] in ("exact", "reference", "uniform528"):
-        what = ""
-    elif fig["nose_radius_mm"]:
-        what = f", as machined with nose radius {fig['nose_radius_mm']:g} mm"
-    else:
-        what = ", programmed contour"
-    lines = [f"surface {fig['surface']}{what}"]
+    lines = [f"surface {fig['surface']}: {fig['made_mirror']}"]
     lines.append(f"{'lobe':8s}{'pixels':>9s}{'ray dev. deg rms/max':>24s}{'image disp. px rms/max':>26s}"
                  f"{'viewpoint mm rms/max':>24s}")
     for lobe in fig["lobes"]:

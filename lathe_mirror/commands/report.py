@@ -13,6 +13,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "report.json and report.html (figures embedded, opens without a network).")
     add_common(p, output_help="output directory (default: out/)")
     p.add_argument("--no-render", action="store_true", help="skip the renders side by side")
+    p.add_argument("--surface", metavar="measured:FILE", default=None,
+                   help="add a measured part (measured:FILE, as `lathe-mirror measure` reads it) to the "
+                        "made mirrors' figures")
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -29,10 +32,22 @@ def run(args: argparse.Namespace) -> int:
     check_programs(settings, mirror)
     for strategy in (Strategy.PAPER, BEST):  # the programs it machines, polishes and tolerances
         check_program(settings, mirror, strategy)
+    measured = None
+    if args.surface is not None:
+        from ..enums import Surface
+        from ..errors import InputError
+        from ..job import named_surface
+        from .common import surface_arg
+
+        name, path = surface_arg(args.surface)
+        if name is not Surface.MEASURED:
+            raise InputError(f"--surface {args.surface!r}: report takes measured:FILE (the programs' parts "
+                             "are in the report already)")
+        measured = named_surface(name, mirror, settings, measured=path)
     out_dir = args.output or "out"
     check_outputs(out_dir, list(REPORT_FILES))
     output_dir(out_dir)
-    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render)
+    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render, measured=measured)
     paths = write_report(data, out_dir)
     if args.json:
         print_json(data.figures)

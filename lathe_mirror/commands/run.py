@@ -1,7 +1,8 @@
 """`lathe-mirror run`: the whole pipeline on the paper default or --config.
 
 design -> programs into gcode/ -> STEP and DXF into cad/ -> calibration files into calib/
--> as-machined, renders, polishing, stereo, tolerance -> report into out/ (or -o). On the
+-> as-machined, renders, polishing, stereo, tolerance -> report into out/ (or -o), with the
+optics shop's specification and drawing beside it (lathe-mirror spec). On the
 paper default gcode/, cad/ and calib/ are the repository's reference outputs (regenerated
 here); with --config they go into the output directory unless --gcode-dir / --cad-dir /
 --calib-dir say otherwise.
@@ -56,7 +57,9 @@ def run(args: argparse.Namespace) -> int:
     strategies = (Strategy.PAPER, BEST)
     exts = [d.extension for d in Dialect] + ["setup.html"]
     programs = [f"mirror_{s.value}.{ext}" for s in strategies for ext in exts]
-    for d, names, what in ((out_dir, list(REPORT_FILES), "-o/--output"), (gcode_dir, programs, "--gcode-dir"),
+    from .spec import FILES as SPEC_FILES, write_spec
+
+    for d, names, what in ((out_dir, list(REPORT_FILES) + list(SPEC_FILES), "-o/--output"), (gcode_dir, programs, "--gcode-dir"),
                            (cad_dir, list(REFERENCE_FILES), "--cad-dir"),
                            (calib_dir, list(CALIB_FILES), "--calib-dir")):
         check_outputs(d, names, what)  # every output name, before any work
@@ -88,6 +91,9 @@ def run(args: argparse.Namespace) -> int:
     data.figures["outputs"] = {kind: [{"path": str(p), "sha256": _sha256(p)} for p in paths]
                                for kind, paths in (("gcode", programs), ("cad", cad), ("calib", calib))}
     paths = write_report(data, out_dir)
+    from ..iso10110 import spec_of
+
+    write_spec(out_dir, settings, spec_of(settings))  # the drawing beside the report (lathe-mirror spec)
     if args.json:
         print_json(data.figures)
     else:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_common, add_no_progress, load, print_json
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -21,7 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                "points_<surface>.ply and stereo_<surface>.json")
     p.add_argument("--surface", metavar="NAME", default=None,
                    help="the mirror: exact, reference, uniform528, measured:FILE (a measured part), a toolpath strategy (paper, best, "
-                   "...) or polished; default [stereo] surface")
+                   "...) or polished; " + help_default("stereo.surface"))
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -29,12 +30,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ..enums import Surface, parse
     from ..optics.ranging.stereo import (band_visibility, error_curve, image_mask, prepare,
                                          range_figures, stereo_range)
     from ..optics.ranging.truth import true_range
     from ..optics.render import render_image
-    from ..job import check_program, design, named_surface, scene_for
+    from ..job import MachiningJob, check_program, design, named_surface, scene_for, surface_label
     from ..progress import Stages
 
     settings = load(args)
@@ -55,7 +55,8 @@ def run(args: argparse.Namespace) -> int:
     stages = Stages(["surface", "render", "match", "truth", "write"], enabled=not args.no_progress)
     try:
         stages.start("surface")
-        made = named_surface(surface, mirror, settings, measured=measured)
+        job = MachiningJob.from_settings(settings, mirror)  # the made mirror every command describes
+        made = named_surface(surface, mirror, settings, measured=measured, job=job)
         seen = band_visibility(made, mirror, grid, pose)
         for name, frac in zip(("inner", "outer"), seen):
             if frac < 0.5:
@@ -76,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         stages.done()
         stages.start("truth")
         truth = true_range(mirror, scene, grid)
-        figures = {"surface": surface.value, "supersample": st.supersample,
+        figures = {"surface": surface.value, "made_mirror": surface_label(surface, job), "supersample": st.supersample,
                    "camera_pose_aligned": pose.aligned, **range_figures(result, truth, mirror)}
         precision = figures["disparity_error_px"]["precision"]
         curve = {**error_curve(result, truth, mirror, precision), "precision_px": precision}
@@ -144,7 +145,7 @@ def format_figures(fig: dict) -> str:
     e = fig["range_error_pct"]
     d = fig["disparity_error_px"]
     lines = [
-        f"surface {fig['surface']}: {fig['grid']['n_elevation']} x {fig['grid']['n_azimuth']} px panoramas over "
+        f"surface {fig['surface']} ({fig['made_mirror']}): {fig['grid']['n_elevation']} x {fig['grid']['n_azimuth']} px panoramas over "
         f"{fig['grid']['band_deg']['min']:.2f} to {fig['grid']['band_deg']['max']:.2f} deg "
         f"({fig['grid']['elevation_step_deg']:.4f} deg/px), baseline {fig['baseline_mm']:.3f} mm, "
         f"R10 {fig['r10_m']:.3f} m",

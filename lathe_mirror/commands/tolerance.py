@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_common, add_no_progress, load, path_arg, print_json
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -17,13 +18,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "tolerance.programs. --allocate: the least-cost tolerances that reach the target "
                        "yield, confirmed by a fresh Monte Carlo.")
     add_common(p, output_help="directory for tolerance.json")
-    p.add_argument("--trials", type=int, default=None, metavar="N", help="override tolerance.trials")
-    p.add_argument("--seed", type=int, default=None, metavar="S", help="override tolerance.seed")
+    p.add_argument("--trials", type=int, default=None, metavar="N", help=f"Monte Carlo trials ({help_default('tolerance.trials')})")
+    p.add_argument("--seed", type=int, default=None, metavar="S", help=f"seed of every draw ({help_default('tolerance.seed')})")
     p.add_argument("--allocate", action="store_true",
                    help="tighten the tolerances at least cost ([tolerance.cost]) to reach the target yield, "
                    "confirmed by a fresh Monte Carlo of as many trials (about the Monte Carlo's time again)")
     p.add_argument("--target-yield", type=float, default=None, metavar="P",
-                   help="the allocation's target yield, 0.5 .. 0.999 (default tolerance.target_yield, 0.95)")
+                   help=f"the allocation's target yield ({help_default('tolerance.target_yield')})")
     p.add_argument("--csv", metavar="FILE", default=None, type=path_arg,
                    help="write one row per trial (drawn parameters, every figure, pass flags) of every "
                    "Monte Carlo run, the allocation's confirming runs included; its directory must exist")
@@ -32,9 +33,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..enums import BEST, Program, Strategy
     from ..errors import InputError
-    from ..job import check_program, check_programs, design, made_surface, polishing_curve
+    from ..api import nominal_polish_time_s
+    from ..job import MachiningJob, check_programs, design
     from ..tolerance.runs import tolerance_runs
 
     if args.target_yield is not None:
@@ -44,8 +45,9 @@ def run(args: argparse.Namespace) -> int:
                            ("tolerance.target_yield", args.target_yield, "--target-yield")])
     mirror = design(settings)
     check_programs(settings, mirror)  # bad input stops here, before the output directory is made
+    job = MachiningJob.from_settings(settings, mirror)  # the one machining job, each program a variant
     for program in settings.tolerance.programs:
-        check_program(settings, mirror, BEST if program is Program.BEST else Strategy.PAPER)
+        job.but(strategy=program.strategy).check()
     if args.csv:
         from ..export.files import check_writable
         from .flags import check_suffix
@@ -57,12 +59,8 @@ def run(args: argparse.Namespace) -> int:
 
         check_outputs(args.output, ["tolerance.json"])
         output_dir(args.output)
-    times = {}
-    for program in settings.tolerance.programs:
-        strategy = BEST if program is Program.BEST else Strategy.PAPER
-        made = made_surface(mirror, settings.machine, settings.tool, strategy)
-        times[program] = polishing_curve(made.profile, mirror, settings.polish).optimum_time_s
-    runs = tolerance_runs(mirror, settings, times, progress=not args.no_progress,
+    times = {program: nominal_polish_time_s(settings, program, job=job) for program in settings.tolerance.programs}
+    runs = tolerance_runs(mirror, settings, times, progress=not args.no_progress, job=job,
                           allocate=settings.tolerance.programs if args.allocate else ())
     out = runs.figures
     if args.output:
@@ -101,7 +99,7 @@ def format_tolerance(out: dict) -> str:
         lines.append(describe_dict(zn))
     for name, t in out["programs"].items():
         v, mc = t["verdict"], t["monte_carlo"]
-        lines.append(f"{name} program ({t['surfaces']}; polished {t['nominal_polish_time_s']:g} s nominal): "
+        lines.append(f"{name} program ({t['made_mirror']['label']} nominal): "
                      f"nominal {'PASS' if v['nominal_pass'] else 'FAIL'}, yield "
                      f"{percent_interval(mc['passed'], mc['trials'])}")
         if "allocation" in t:

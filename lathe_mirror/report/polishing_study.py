@@ -10,9 +10,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..design import Mirror
-from ..enums import BEST, Program, Strategy
+from ..enums import Program, Strategy
 from ..finish import feed_mark_height, feed_mark_rms
-from ..job import made_surface, polishing_curve, process_for, program_target
+from ..job import MachiningJob, polishing_curve, process_for
 from ..optics.calibrated_stereo import calibrated_depth_error
 from ..optics.polishing_curve import (CURVE_BIN_PX, PolishCurve, clear_surface_errors, form_change,
                                      form_facet_decomposition, polish_summary)
@@ -27,24 +27,21 @@ if TYPE_CHECKING:
 
 
 
-def polishing_study(settings: Settings, mirror: Mirror, made: dict[str, Profile], *,
+def polishing_study(settings: Settings, job: MachiningJob, made: dict[str, Profile], *,
                     progress: bool = False) -> tuple[dict, dict[str, PolishCurve]]:
     """The report's polishing section: both programs' polishing curves (the conventional
     process's finish on them) and the time polish.objective chooses; the form / facet
     decomposition of the polished paper mirror (and of the first model's: a fixed lap, 60
     min); pre-compensation at each program's chosen time; the process presets side by side.
 
-    made: the as-machined "paper" and "best" parts (of the design; with polish.precompensate
-    the parts cut from program_target are polished instead). Returns (JSON-ready dict,
-    {"paper": curve, "best": curve}).
+    job: the machining job; made: its as-machined "paper" and "best" parts (with
+    polish.precompensate, the parts its programs cut from the pre-compensated target).
+    Returns (JSON-ready dict, {"paper": curve, "best": curve}).
     """
+    mirror = job.mirror
     params = settings.polish
     process = process_for(settings)
-    target = program_target(settings, mirror)
     parts = {"paper": made["paper"], "best": made["best"]}
-    if target is not mirror:
-        for key, strategy in (("paper", Strategy.PAPER), ("best", BEST)):
-            parts[key] = made_surface(mirror, settings.machine, settings.tool, strategy, target=target).profile
     curves = {key: polishing_curve(parts[key], mirror, params, process=process, progress=progress)
               for key in ("paper", "best")}
     paper = curves["paper"]
@@ -63,7 +60,7 @@ def polishing_study(settings: Settings, mirror: Mirror, made: dict[str, Profile]
     }
     # The paper program, the one polishing rescues (the best program's figures after the
     # same study are in the README; each program costs ~1.5 s).
-    precomp = {"paper": precompensation_study(mirror, settings, Strategy.PAPER, time_s,
+    precomp = {"paper": precompensation_study(job.but(strategy=Strategy.PAPER), time_s,
                                               polished=paper.profiles[paper.optimum_index])}
     out = {
         "params": polish_params_dict(params),
@@ -78,8 +75,8 @@ def polishing_study(settings: Settings, mirror: Mirror, made: dict[str, Profile]
         "summary_best": polish_summary(curves["best"], "best"),
         "decomposition": decomposition,
         "precompensation": precomp,
-        "processes": process_table(settings, mirror, curves),
-        "precompensated_programs": target is not mirror,
+        "processes": process_table(settings, job, curves),
+        "precompensated_programs": job.target is not None,
     }
     out["conclusion"] = polishing_conclusion(out)
     return out, curves
@@ -123,18 +120,16 @@ def surface_figures(profile: Profile, mirror: Mirror, params: PolishParams) -> d
     }
 
 
-def precompensation_study(mirror: Mirror, settings: Settings, strategy: Strategy, time_s: float, *,
-                          polished: Profile | None = None) -> dict:
+def precompensation_study(job: MachiningJob, time_s: float, *, polished: Profile | None = None) -> dict:
     """The program's part polished time_s (s) as programmed on the design and as programmed on
     the design lowered by the allowance (polishing.compensated_mirror): the form each lands
     with (surface_figures), and the allowance itself (um, per lobe: min, max). polished: the
     program's part on the design polished time_s, if already made."""
-    params, lathe, tool = settings.polish, settings.machine, settings.tool
+    mirror, params, strategy = job.mirror, job.polish, job.strategy
     target = compensated_mirror(mirror, params, time_s)
-    plain = polished if polished is not None else \
-        made_surface(mirror, lathe, tool, strategy, polish_params=params, polish_time_s=time_s).profile
-    comp = made_surface(mirror, lathe, tool, strategy, polish_params=params, polish_time_s=time_s,
-                        target=target).profile
+    on_design = dataclasses.replace(job, target=None, precompensation_s=0.0, polish_time_s=time_s)
+    plain = polished if polished is not None else on_design.made().profile
+    comp = dataclasses.replace(on_design, target=target, precompensation_s=time_s).made().profile
     allowance = {}
     for k, lobe in enumerate(target.lobes):
         lo, hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
@@ -144,18 +139,20 @@ def precompensation_study(mirror: Mirror, settings: Settings, strategy: Strategy
             "without": surface_figures(plain, mirror, params), "with": surface_figures(comp, mirror, params)}
 
 
-def process_table(settings: Settings, mirror: Mirror, curves: dict[str, PolishCurve]) -> list[dict]:
+def process_table(settings: Settings, job: MachiningJob, curves: dict[str, PolishCurve]) -> list[dict]:
     """The process presets side by side: turning (feed marks, roughness), the polish (the
     objective's time on the preset's program's curve) or none, and what the made surface
-    gives (surface_figures; roughness, TIS and haze per lobe, optics.scatter)."""
-    params = settings.polish
+    gives (surface_figures; roughness, TIS and haze per lobe, optics.scatter). A preset
+    without polish turns the design (a pre-compensation is for a polish)."""
+    mirror, params = job.mirror, settings.polish
+    turned_job = dataclasses.replace(job, target=None, precompensation_s=0.0)
     plan = lap_plan(mirror, params)
     geometry = (lobe_geometry(mirror, 0, bin_px=CURVE_BIN_PX), lobe_geometry(mirror, 1, bin_px=CURVE_BIN_PX))
     made_cache: dict[tuple, Profile] = {}
     rows = []
     for preset in params.processes:
         proc = process_for(settings, preset.name)
-        strategy = BEST if proc.program is Program.BEST else Strategy.PAPER
+        strategy = proc.program.strategy
         if proc.polish:
             curve = curves["best" if proc.program is Program.BEST else "paper"]
             t = curve.optimum_time_s
@@ -164,9 +161,9 @@ def process_table(settings: Settings, mirror: Mirror, curves: dict[str, PolishCu
             t = 0.0
             key = (strategy, proc.nose_radius_mm, proc.resolution_mm)
             if key not in made_cache:
-                lathe = dataclasses.replace(settings.machine, resolution=proc.resolution_mm)
-                tool = dataclasses.replace(settings.tool, nose_radius=proc.nose_radius_mm)
-                made_cache[key] = made_surface(mirror, lathe, tool, strategy).profile
+                tool = dataclasses.replace(job.tool, nose_radius=proc.nose_radius_mm)
+                made_cache[key] = turned_job.but(strategy=strategy, tool=tool,
+                                                 resolution=proc.resolution_mm).made().profile
             surface = made_cache[key]
         haze = haze_figures(mirror, proc, removal_mm=(lambda k, r, t=t: plan.rate(k, r) * t) if t > 0 else None,
                             compliance_mm=params.compliance_mm, wavelength_mm=params.wavelength_mm,

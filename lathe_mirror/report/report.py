@@ -51,6 +51,8 @@ def render_html(data: ReportData) -> str:
     from importlib import resources
     from string import Template
 
+    from .spec_section import spec_html
+
     tpl = Template((resources.files("lathe_mirror.report") / "template.html").read_text(encoding="utf-8"))
     f = data.figures
 
@@ -79,6 +81,7 @@ def render_html(data: ReportData) -> str:
         tolerance_section=_tolerance_html(f, img),
         calibration_table=_calibration_table(f.get("calibration")),
         ranging_section=_ranging_html(f.get("ranging"), img),
+        spec_section=spec_html(f.get("spec")),
         summary=summary_html(f),
         notes="".join(f"<li>{html.escape(n)}</li>" for n in f.get("notes", [])),
     )
@@ -160,7 +163,8 @@ def _mirrors_table(m: dict) -> str:
     body = ""
     for name, fig in m.items():
         for lb in fig["lobes"]:
-            body += f"<tr><td>{name}</td><td>{lb['name']}</td>" + "".join(
+            label = f"{name}<br><small>{html.escape(fig['made_mirror'])}</small>" if "made_mirror" in fig else name
+            body += f"<tr><td>{label}</td><td>{lb['name']}</td>" + "".join(
                 f"<td>{_fmt(lb[k])}</td>" for k in keys) + "</tr>"
     return f"<table>{head}{body}</table>"
 

@@ -76,14 +76,16 @@ KEYS: tuple[Key, ...] = (
     Key('render.supersample', 1, "", 1, 8,
         why='N x N rays a pixel; the render estimate bounds it with the sensor',
         help='n x n rays per pixel (n^2 the cost)'),
-    Key('render.surface', 'paper',
-        choices='exact, reference, uniform528, paper, lattice, arcs, best, polished',
-        help='exact | reference | uniform528 | paper | lattice | arcs | best | polished'),
+    Key('render.surface', 'made',
+        choices='exact, reference, uniform528, paper, lattice, arcs, best, polished, made',
+        help=("made (the configured machining job's part, as every command) | exact | reference | uniform528 | "
+              'paper | lattice | arcs | best | polished')),
     Key('render.nose_radius', 0.0, 'mm', 0.0, 5.0,
-        help='> 0: the as-machined surface of a tool of this nose radius, mm'),
-    Key('stereo.surface', 'exact',
+        help="> 0: the as-machined surface of a tool of this nose radius, mm (0: a program's contour; made: the "
+             '[tool] nose)'),
+    Key('stereo.surface', 'made',
         choices='any render.surface name',
-        help='the mirror ranged: any render --surface name (exact, paper, best, polished, ...)'),
+        help='the mirror ranged: any render --surface name (made, exact, paper, best, polished, ...)'),
     Key('stereo.supersample', 2, "", 1, 4,
         why='the render estimate bounds it with the sensor',
         help=('render n x n rays per pixel (1..4); anti-aliased edges give the matcher its sub-pixel precision '

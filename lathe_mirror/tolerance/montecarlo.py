@@ -27,7 +27,7 @@ from .perturb import (
     evaluate,
     pixel_sample,
 )
-from .spec import DRAWN, Distribution, Program, ToleranceSettings
+from .spec import DRAWN, MACHINE_DRAWN, Distribution, Program, ToleranceSettings
 from .stats import wilson
 from .surfaces import SurfaceBank, time_nodes
 
@@ -56,6 +56,7 @@ class Context:
     limits: dict[str, float]
     progress: bool = False
     zones: object = None   # optics.zones.Zones: the pixels and radii the criteria judge
+    cut_plus_x: bool = True  # the finishing pass runs in +X (axis -> rim): backlash shifts it
 
     def ensure(self, trials: Trials, progress: bool | None = None) -> None:
         """Cut and polish every nose the trials drew that is not made yet."""
@@ -261,8 +262,19 @@ def draw_trials(ctx: Context, n: int | None = None, seed: int | None = None,
     sx, sy = draw("seat_tilt_deg", deg), draw("seat_tilt_deg", deg)
     # The nose is cut as drawn, rounded to the nose step; never at or below zero.
     nose = ctx.bank.snapped(np.maximum(nose, ctx.bank.nose_step))
+    # the lathe's set-up errors about their configured values (which the bank's parts were
+    # cut with), drawn after the others so that their draws do not change
+    me = {**s.machine_errors, **{k: tolerances[k] for k in MACHINE_DRAWN if tolerances and k in tolerances}}
+    mdraw = {}
+    for key in MACHINE_DRAWN:
+        t = me.get(key, 0.0)
+        mdraw[key] = np.zeros(n) if t == 0 else (rng.normal(0.0, t / 3.0, n) if s.distribution is Distribution.NORMAL
+                                                 else rng.uniform(-t, t, n))
+    backlash = np.abs(mdraw["backlash_mm"]) if ctx.cut_plus_x else np.zeros(n)
     return Trials(phase=phase.astype(np.intp), nose_mm=nose, time_s=time, tool_x_mm=tx,
-                  tool_z_mm=tz, cam_x_mm=cx, cam_y_mm=cy, cam_z_mm=cz, tilt_x=ax, tilt_y=ay, seat_x=sx, seat_y=sy)
+                  tool_z_mm=tz, cam_x_mm=cx, cam_y_mm=cy, cam_z_mm=cz, tilt_x=ax, tilt_y=ay, seat_x=sx, seat_y=sy,
+                  centre_height_mm=mdraw["centre_height_mm"], nose_error_mm=mdraw["nose_radius_error_mm"],
+                  squareness_rad=mdraw["squareness_urad"] * 1e-6, machine_x_mm=mdraw["x_offset_mm"] - backlash)
 
 
 def evaluate_trials(ctx: Context, trials: Trials, *, progress: bool = False, desc: str = "tolerance: trials",

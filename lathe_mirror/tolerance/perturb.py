@@ -65,6 +65,19 @@ class Trials:
     tilt_y: np.ndarray
     seat_x: np.ndarray
     seat_y: np.ndarray
+    # the lathe's set-up errors beyond the configured ones (machine_errors; tolerance.
+    # machine_errors): centre height (mm), nose radius error with the tool set on its tip
+    # (mm), X slide squareness (rad), and the X shift of the finishing pass (X offset plus
+    # the backlash a pass cut in +X loses, mm)
+    centre_height_mm: np.ndarray = None
+    nose_error_mm: np.ndarray = None
+    squareness_rad: np.ndarray = None
+    machine_x_mm: np.ndarray = None
+
+    def __post_init__(self) -> None:
+        for name in ("centre_height_mm", "nose_error_mm", "squareness_rad", "machine_x_mm"):
+            if getattr(self, name) is None:
+                setattr(self, name, np.zeros(self.phase.size))
 
     def __len__(self) -> int:
         return int(self.phase.size)
@@ -183,6 +196,31 @@ def matching_floor_pct(mirror: Mirror, ranges_m, noise_px: float, n_elev: int) -
 
 
 # --------------------------------------------------------------------------------------
+# The lathe's set-up errors on a trial's surface
+
+
+def machine_error_surface(bank: SurfaceBank, k: int, surf: tuple[np.ndarray, np.ndarray], tr: Trials):
+    """(z, slope) of lobe k of each trial on the lobe's grid with the trial's set-up errors
+    (machine_errors' model, to first order in each; camera frame, z up = machine Z down):
+    the centre height h moves every radius r to sqrt(r^2 - h^2) (radii under h are held at
+    the vertex: the pip a pixel or less across); a nose radius error dr, the tool set on its
+    tip, raises the part by dr (1 + z' - sqrt(1 + z'^2)) in machine Z; squareness eps tilts
+    Z by eps r. The X shift is the setting error's (tool_x_mm)."""
+    z, s = surf
+    r = bank.grid(k)
+    h = tr.centre_height_mm[:, None]
+    q = np.sqrt(np.maximum(r[None, :] ** 2 - h ** 2, 0.0))
+    if np.any(h):
+        z = np.stack([np.interp(q[i], r, z[i]) for i in range(z.shape[0])])
+        s = np.stack([np.interp(q[i], r, s[i]) for i in range(s.shape[0])])
+    dr = tr.nose_error_mm[:, None]
+    lift = dr * (1.0 + np.abs(s) - np.sqrt(1.0 + s * s))
+    dlift = np.gradient(lift, r, axis=1) if r.size > 1 else np.zeros_like(lift)
+    eps = tr.squareness_rad[:, None]
+    return z - lift - eps * r[None, :], s - dlift - eps
+
+
+# --------------------------------------------------------------------------------------
 # Evaluation
 
 
@@ -219,6 +257,10 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
         tr = trials.take(sl)
         m = len(tr)
         surf = [bank.trial_surface(k, tr.phase, tr.nose_mm, tr.time_s, tr.tool_z_mm) for k in (0, 1)]
+        if np.any(tr.centre_height_mm) or np.any(tr.nose_error_mm) or np.any(tr.squareness_rad) \
+                or np.any(tr.machine_x_mm):
+            surf = [machine_error_surface(bank, k, surf[k], tr) for k in (0, 1)]
+            tr.tool_x_mm = tr.tool_x_mm + tr.machine_x_mm  # the pass shifted in X, as a setting error
         origin, rotation = poses(tr, seat_pivot_mm)
         traced = [_trace(mirror, bank, k, surf, tr, origin, rotation, samples[k].u, samples[k].v) for k in (0, 1)]
         valid = [t[2] for t in traced]

@@ -5,14 +5,12 @@ sensitivity, allocation and the verdict against the spec.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ..design import Mirror
-from ..enums import BEST, Program, Strategy
-from ..job import MadeSurface, made_surface, plan
-from ..toolpath import Toolpath
+from ..enums import Program
+from ..job import MachiningJob, MadeSurface, polishing_curve
 from .allocation import allocate as allocate_tolerances
 from .allocation import inverse_sensitivity
 from .montecarlo import prepare, run_monte_carlo, stereo_table
@@ -37,19 +35,22 @@ class ToleranceRuns:
 
 def tolerance_analysis(mirror: Mirror, settings: Settings, nominal_times_s: dict[Program, float], *,
                        progress: bool = False, allocate: tuple[Program, ...] = (),
-                       target_yield: float | None = None) -> dict:
+                       target_yield: float | None = None, job: MachiningJob | None = None) -> dict:
     """Monte Carlo, sensitivity and inverse sensitivity for each toleranced program
     ([tolerance] programs), each polished for its nominal time (s); the verdict of each
     against the spec; for the programs in `allocate`, the least-cost tolerances that reach
-    target_yield (default tolerance.target_yield), confirmed by a fresh Monte Carlo."""
+    target_yield (default tolerance.target_yield), confirmed by a fresh Monte Carlo. job: the
+    machining job the parts are cut by (default MachiningJob.from_settings); each program's
+    part is its variant with that program."""
     return tolerance_runs(mirror, settings, nominal_times_s, progress=progress, allocate=allocate,
-                          target_yield=target_yield).figures
+                          target_yield=target_yield, job=job).figures
 
 
 def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Program, float], *,
                    progress: bool = False, allocate: tuple[Program, ...] = (),
-                   target_yield: float | None = None) -> ToleranceRuns:
+                   target_yield: float | None = None, job: MachiningJob | None = None) -> ToleranceRuns:
     """tolerance_analysis, keeping the Monte Carlo results (ToleranceRuns)."""
+    job = MachiningJob.from_settings(settings, mirror) if job is None else job
     ts = settings.tolerance
     target = ts.target_yield if target_yield is None else target_yield
     out = {"spec": ts.spec_dict(), "distribution": ts.distribution.value, "tolerances": ts.tolerances,
@@ -58,23 +59,22 @@ def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Pro
            "nose_step_mm": ts.nose_step_mm, "programs": {}}
     results = []
     for program in ts.programs:
-        ctx = tolerance_context(mirror, settings, program, nominal_times_s[program], progress=progress)
+        part = job.but(strategy=program.strategy)
+        ctx = tolerance_context(mirror, settings, program, nominal_times_s[program], progress=progress, job=part)
         mc = run_monte_carlo(ctx, progress=progress)
         results.append((f"{program.value}: monte carlo", mc))
         resp = responses(ctx, progress=progress)
         sens = sensitivity_table(ctx, resp)
-        strategy = BEST if program is Program.BEST else Strategy.PAPER
-        row = resolution_row(ctx, settings.polish, res0=settings.machine.resolution,
-                             machine_at=lambda res: made_surface(
-                                 mirror, dataclasses.replace(settings.machine, resolution=res), settings.tool,
-                                 strategy, nose_radius=ctx.nominal_nose_mm))
+        row = resolution_row(ctx, settings.polish, res0=part.lathe.resolution,
+                             machine_at=lambda res: part.but(resolution=res, nose_radius=ctx.nominal_nose_mm).made())
         if row is not None:
             sens["rows"].insert(0, row)
-        entry = {"surfaces": ctx.source, "nominal_polish_time_s": ctx.nominal_time_s, "limits": ctx.limits,
+        entry = {"made_mirror": part.but(polish_time_s=ctx.nominal_time_s).to_dict(), "surfaces": ctx.source, "nominal_polish_time_s": ctx.nominal_time_s, "limits": ctx.limits,
                  "monte_carlo": mc.to_dict(), "sensitivity": sens,
                  "inverse_sensitivity": inverse_sensitivity(resp, ctx.limits),
                  "stereo": stereo_table(ctx, DEPTH_RANGES_M),
-                 "nose_radii_cut": len(ctx.bank.nose_mm)}
+                 "nose_radii_cut": len(ctx.bank.nose_mm),
+                 "nominal_over_zone": nominal_over_zone(mirror, part.but(polish_time_s=ctx.nominal_time_s), ctx)}
         if program in allocate:
             entry["allocation"], confirm = allocate_tolerances(ctx, resp, mc, target=target, progress=progress)
             if confirm is not None:
@@ -84,36 +84,51 @@ def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Pro
     return ToleranceRuns(out, results)
 
 
+def nominal_over_zone(mirror: Mirror, part: MachiningJob, ctx) -> dict:
+    """The nominal part's shared figure, exactly (optics.radial: every pixel centre of the
+    aligned camera) over the zone the criteria judge: the image displacement per lobe (px),
+    the figure `calib` and the report quote for the same made mirror (`part`, polished for
+    the nominal time); the Monte Carlo's sparse 3-D sample estimates it per trial."""
+    from ..optics.radial import radial_figures
+
+    made = part.made()
+    lobes = radial_figures(made.profile, mirror, zones=ctx.zones)["lobes"]
+    return {"surface": made.source, "zones": ctx.zones.describe(),
+            "lobes": [{"name": lb["name"], "image_displacement_px": lb["image_displacement_px"],
+                       "zone_px": lb["zone_px"]} for lb in lobes]}
+
+
 def monte_carlo(mirror: Mirror, settings: Settings, program: Program, nominal_time_s: float, *,
-                progress: bool = False):
+                progress: bool = False, job: MachiningJob | None = None):
     """The seeded Monte Carlo of one program's part polished nominal_time_s (s): settings.
     tolerance.trials draws from its seed (tolerance.montecarlo.MonteCarloResult: the
     trials, their figures, pass flags per criterion, `.yield_fraction`)."""
-    return run_monte_carlo(tolerance_context(mirror, settings, program, nominal_time_s, progress=progress),
-                           progress=progress)
+    return run_monte_carlo(tolerance_context(mirror, settings, program, nominal_time_s, progress=progress,
+                                             job=job), progress=progress)
 
 
 def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nominal_time_s: float, *,
-                      progress: bool = False):
-    """The Monte Carlo's shared context: the program's part cut at each lattice phase (and,
-    as trials draw them, with each nose radius) by this module's made_surface, polished
-    at the time nodes."""
-    strategy = BEST if program is Program.BEST else Strategy.PAPER
-    programs: dict[float, Toolpath] = {}
+                      progress: bool = False, job: MachiningJob | None = None):
+    """The Monte Carlo's shared context: the program's part (the machining job with that
+    program: default MachiningJob.from_settings) cut at each lattice phase (and, as trials
+    draw them, with each nose radius), polished at the time nodes."""
+    job = (MachiningJob.from_settings(settings, mirror) if job is None else job).but(strategy=program.strategy)
+    phases: dict[float, MachiningJob] = {}
 
     def machine_at(phase: float, nose: float) -> MadeSurface:
         # each phase's program planned once: the noses the trials draw are all cut along
         # the program planned for the [tool] nose.
-        if phase not in programs:
-            programs[phase] = plan(mirror, settings.machine, settings.tool, strategy, phase=phase)
-        return made_surface(mirror, settings.machine, settings.tool, strategy, nose_radius=nose,
-                            toolpath=programs[phase])
+        if phase not in phases:
+            phases[phase] = job.but(phase=phase)
+        return phases[phase].but(nose_radius=nose).made()
 
     from ..optics.zones import zones_for
 
-    return prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
-                   nose0=settings.tool.nose_radius, machine_at=machine_at, progress=progress,
-                   zones=zones_for(settings, mirror))
+    ctx = prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
+                  nose0=job.tool.nose_radius, machine_at=machine_at, progress=progress,
+                  zones=zones_for(settings, mirror))
+    ctx.cut_plus_x = mirror.step > 0  # the finishing pass runs axis -> rim (+X): backlash shows
+    return ctx
 
 
 def verdict(t: dict, spec: dict) -> dict:
@@ -142,7 +157,8 @@ def verdict(t: dict, spec: dict) -> dict:
     return out
 
 
-def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False) -> dict:
+def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
+                 polish_time_s: float | None = None) -> dict:
     """The optimiser's winner through the tolerance analysis of the best program with the
     configured tool and default tolerances: the nominal part (lattice phase 0, every
     parameter nominal) judged against the spec, and the Monte Carlo's yield against
@@ -152,14 +168,16 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False) 
     trials less the passing ones'), which `tolerance --allocate` tightens."""
     import numpy as np
 
-    from ..job import polishing_curve
     from .montecarlo import CRITERIA, evaluate_trials, judge
     from .perturb import Trials
 
     ts = settings.tolerance
-    made = made_surface(mirror, settings.machine, settings.tool, BEST)
-    time_s = polishing_curve(made.profile, mirror, settings.polish).optimum_time_s
-    ctx = tolerance_context(mirror, settings, Program.BEST, time_s, progress=progress)
+    job = MachiningJob.from_settings(settings, mirror, strategy=Program.BEST.strategy)
+    if polish_time_s is None:  # the best program's polishing curve chooses it, as `tolerance` does
+        time_s = polishing_curve(job.made().profile, mirror, settings.polish).optimum_time_s
+    else:
+        time_s = float(polish_time_s)
+    ctx = tolerance_context(mirror, settings, Program.BEST, time_s, progress=progress, job=job)
     nom = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s))
     ok = judge(nom, ctx.limits, ts.spec.calibrated)
     from .sensitivity import judged_values

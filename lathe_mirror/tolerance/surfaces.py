@@ -4,7 +4,7 @@ What varies from part to part in the shop, and how each trial gets its own surfa
 
 - the lattice phase (where the work zero falls on the controller's lattice): one of
   `phases` realisations, each a program planned, cut and polished
-  (pipeline.made_surface, then the polishing snapshots), drawn uniformly;
+  (job.made_surface, then the polishing snapshots), drawn uniformly;
 - the nose radius: the drawn nose, rounded to `nose_step` (mm), is the nose the part is
   cut with: a machining of its own (made when a trial first draws it), not a blend of
   neighbouring surfaces. A nose larger than the program's moves the step's wall into the
