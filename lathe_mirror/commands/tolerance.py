@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, path_arg, print_json
+from .common import add_common, add_compute, add_no_progress, compute_options, load, path_arg, print_json, use_compute
 from ..settings.keys import help_default
 
 
@@ -28,6 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--csv", metavar="FILE", default=None, type=path_arg,
                    help="write one row per trial (drawn parameters, every figure, pass flags) of every "
                    "Monte Carlo run, the allocation's confirming runs included; its directory must exist")
+    add_compute(p, "the Monte Carlo trials, the sensitivity runs and the allocation's confirmations")
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -41,8 +42,10 @@ def run(args: argparse.Namespace) -> int:
     if args.target_yield is not None:
         if not args.allocate:
             raise InputError("--target-yield applies to --allocate (the allocation's target)")
+    compute_options(args)  # the flags, before any work
     settings = load(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed"),
                            ("tolerance.target_yield", args.target_yield, "--target-yield")])
+    use_compute(args, settings)
     mirror = design(settings)
     check_programs(settings, mirror)  # bad input stops here, before the output directory is made
     job = MachiningJob.from_settings(settings, mirror)  # the one machining job, each program a variant

@@ -116,8 +116,7 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
     out.append(f"<p>End position: home X{sheet.home[0] * (2 if sheet.diameter_mode else 1):.3f} "
                f"Z{sheet.home[1]:.3f}, reached Z first.</p>")
     out.append("<h2>The stock after each operation</h2>")
-    for op in sheet.operations:
-        png = _stock_picture(sheet, op)
+    for op, png in zip(sheet.operations, stock_pictures(sheet)):
         out.append(f"<h3>{e(op.name)}</h3><img alt='stock after {e(op.name)}' "
                    f"src='data:image/png;base64,{base64.b64encode(png).decode('ascii')}'>")
     out.append("</body></html>")
@@ -162,6 +161,22 @@ def _polygons(geom):
     if geom.geom_type == "Polygon":
         return [geom]
     return [g for part in getattr(geom, "geoms", []) for g in _polygons(part)]
+
+
+def stock_pictures(sheet: SetupSheet) -> list[bytes]:
+    """The stock picture of each operation, drawn on the command's executor
+    (lathe_mirror.compute: whole pictures per worker; the same bytes as one by one)."""
+    from ..compute import active
+
+    ex = active()
+    if ex.workers == 1 or len(sheet.operations) < 2:
+        return [_stock_picture(sheet, op) for op in sheet.operations]
+    with ex.bound(sheet) as run:
+        return run.map(_picture_of, list(range(len(sheet.operations))))
+
+
+def _picture_of(sheet: SetupSheet, i: int) -> bytes:
+    return _stock_picture(sheet, sheet.operations[i])
 
 
 def _stock_picture(sheet: SetupSheet, op) -> bytes:
