@@ -6,16 +6,27 @@ The Python API (names load on first use, so `import lathe_mirror` stays light):
 
     settings = lm.load()                      # the paper default, or lm.load("my.toml")
     mirror = settings.mirror()                # Eqs. 3-6: both lobes, Table 1's figures
-    made = lm.made_surface(mirror, settings.machine, settings.tool, lm.Strategy.ARCS)
+    made = lm.made_surface(mirror, settings.machine, settings.tool, lm.Strategy.BEST)
     lm.distortion_figures(made.profile, mirror)          # five figures per lobe
 
-Settings and the design: `load`, `Settings` (`.mirror()` designs it), `Mirror`, `Camera`,
-`design_figures`.
-The lathe: `Lathe`, `Tool`, `Stock`, `Strategy`, `plan` (the toolpath), `machine` (the
-nose envelope), `made_surface` / `MadeSurface` (plan -> machine -> polish, the one builder).
-Polishing: `PolishParams`, `polish`, `polishing_curve`. Optics: `image_displacement`
-(per-pixel maps), `distortion_figures`; ranging: `r10` (the range at which one pixel of
-disparity costs 10 %, m), `stereo_range` (range an image). Tolerance: `monte_carlo`.
+Settings and the design: `load`, `Settings` (`.mirror()` designs it), `Camera`,
+`LobeSpec` and `mirror_from_specs` (a design from a camera and two lobe specs;
+`checked_mirror` the same with every check `load()` gives),
+`design_mirror`, `Mirror`, `Lobe`, `design_figures`.
+The lathe: `Lathe`, `Tool`, `Stock`, `Strategy` (`BEST` is `ARCS`), `MachiningJob` (the
+one machining job every command uses), `plan` (the toolpath), `machine` (the nose
+envelope), `made_surface` / `MadeSurface` (plan -> machine -> polish, the one builder),
+`Program` and `shop_program` (the whole part program), `ExactProfile`, `Profile`.
+Polishing: `PolishParams`, `polish`, `polishing_curve`, `nominal_polish_time_s`.
+Optics: `image_displacement` (per-pixel maps), `distortion_figures`, `zones` / `Zones`
+(the pixels and radii every figure covers), `render_image`,
+`SceneSpec` / `build_scene` / `Scene`, `UnifiedModel` and `design_model` (each lobe's
+camera model, as OpenCV's omnidir and Kalibr take it); ranging: `r10` (the range at
+which one pixel of disparity costs 10 %, m), `stereo_range` (range an image).
+Tolerance: `monte_carlo` (trials=, seed=, the polishing time chosen as the command
+chooses it unless given), `ProgramName` (which program a toleranced part is cut from).
+The shop and the inspection room: `spec_of` / `PartSpec` (ISO 10110), `measure` /
+`Measurement` (a measured profile fitted and diagnosed), `measured_profile`.
 Errors: `Error`, the one family, of kinds input (`InputError`), design (`DesignError`)
 and internal (`InternalError`); `lm.Settings(...)` or `dataclasses.replace(settings, ...)`
 to a design that cannot exist raises the message `load()` gives for the same values.
@@ -29,13 +40,22 @@ from .version import __version__
 #: Public name -> the module that defines it.
 _API = {
     "load": "config", "Settings": "settings",
-    "plan": "job", "machine": "job", "made_surface": "job",
-    "MadeSurface": "job", "polishing_curve": "job", "monte_carlo": "tolerance.runs",
-    "Mirror": "design", "Camera": "design", "design_figures": "design",
+    "Camera": "design", "LobeSpec": "design", "mirror_from_specs": "design", "design_mirror": "design",
+    "Mirror": "design", "Lobe": "design", "design_figures": "design",
     "Lathe": "lathe", "Tool": "lathe", "Stock": "lathe", "Strategy": "enums",
-    "PolishParams": "polishing", "polish": "polishing",
+    "MachiningJob": "job", "plan": "job", "machine": "job", "made_surface": "job", "MadeSurface": "job",
+    "polishing_curve": "job", "Program": "shop.program", "shop_program": "shop.programs",
+    "ExactProfile": "profile", "Profile": "profile",
+    "PolishParams": "polishing", "polish": "polishing", "nominal_polish_time_s": "api",
     "image_displacement": "optics.distortion", "distortion_figures": "optics.distortion",
+    "render_image": "optics.render", "SceneSpec": "optics.scene", "build_scene": "optics.scene",
+    "Scene": "optics.scene", "UnifiedModel": "optics.camera_model", "design_model": "optics.camera_model",
+    "zones": "optics.zones", "Zones": "optics.zones",
     "r10": "optics.ranging.resolution", "stereo_range": "optics.ranging.stereo",
+    "monte_carlo": "api", "ProgramName": "enums:Program",
+    "spec_of": "iso10110", "PartSpec": "iso10110",
+    "measure": "measure.result", "Measurement": "measure.result", "measured_profile": "measure.surface",
+    "checked_mirror": "settings",
     "Error": "errors", "InputError": "errors", "DesignError": "errors", "InternalError": "errors",
 }
 
@@ -44,7 +64,8 @@ __all__ = ["__version__", *_API]
 
 def __getattr__(name: str):
     if name in _API:
-        return getattr(import_module(f".{_API[name]}", __name__), name)
+        module, _, attr = _API[name].partition(":")
+        return getattr(import_module(f".{module}", __name__), attr or name)
     raise AttributeError(f"module 'lathe_mirror' has no attribute {name!r}")
 
 

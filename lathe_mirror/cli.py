@@ -136,6 +136,17 @@ def _run(args: argparse.Namespace, received: list[int]) -> int:
                 print(f"lathe-mirror: {'interrupted' if received[0] == 2 else 'terminated'}", file=sys.stderr)
                 return 128 + received[0]
             return _internal(args, exc, debug)
+        finally:
+            _shutdown_compute()
+
+
+def _shutdown_compute() -> None:
+    """Close the command's executor (compute.activate), if the command made one: its
+    worker processes are gone already (each pool ends with its map block)."""
+    mod = sys.modules.get("lathe_mirror.compute")
+    if mod is not None:
+        with contextlib.suppress(Exception):
+            mod.shutdown()
 
 
 def _internal(args: argparse.Namespace, exc: BaseException, debug: bool) -> int:

@@ -4,9 +4,9 @@
 functions below (load_config, merge, set_value) check names and types only; settings/
 checks the values and builds the typed sections.
 
-The defaults are every `*.toml` in `lathe_mirror/data/` (`paper.toml` holds the paper's
-design; each later stage ships its own section file). A user's file may override any
-part of them; it may not add keys the defaults do not have (except the exclusive design
+The defaults are the declared keys' (settings/keys*.py; `lathe_mirror/data/*.toml` show
+them, generated with each key's help and range: `paper.toml` holds the paper's design). A
+user's file may override any part of them; it may not add keys the defaults do not have (except the exclusive design
 choices below), change a value's type, or give a non-finite number. Every rejection is a
 ConfigError whose one line names the key and what is allowed.
 """
@@ -18,7 +18,6 @@ import difflib
 import math
 import os
 import tomllib
-from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -39,18 +38,12 @@ EXCLUSIVE_KEYS: dict[str, tuple[str, ...]] = {
 
 
 def default_config() -> dict[str, Any]:
-    """The embedded defaults: every data/*.toml merged (their sections must not overlap)."""
-    merged: dict[str, Any] = {}
-    data = resources.files("lathe_mirror") / "data"
-    for entry in sorted(data.iterdir(), key=lambda p: p.name):
-        if not entry.name.endswith(".toml"):
-            continue
-        doc = tomllib.loads(entry.read_text(encoding="utf-8"))
-        for key, value in doc.items():
-            if key in merged:
-                raise RuntimeError(f"default section [{key}] is defined twice (data/{entry.name})")
-            merged[key] = value
-    return merged
+    """The embedded defaults: every declared key's default (settings.keys, the one
+    declaration; lathe_mirror/data/*.toml are generated from it, with each key's help and
+    range as comments, and a test holds them equal)."""
+    from .settings.keys import declared_defaults  # with Settings: loaded when load() is
+
+    return declared_defaults()
 
 
 def load(path: str | Path | None = None, *,

@@ -21,10 +21,11 @@ class Strategy(str, Enum):
     PAPER = "paper"
     LATTICE = "lattice"
     ARCS = "arcs"
+    BEST = "arcs"  # an alias of ARCS (Strategy.BEST is Strategy.ARCS), as the CLI's "best"
 
 
 #: The strategy with the smallest slope error on the paper's machine (toolpath/ package doc).
-BEST = Strategy.ARCS
+BEST = Strategy.BEST
 
 
 class Dialect(str, Enum):

@@ -26,6 +26,7 @@ from .enums import BEST, Mount, Program, Strategy, Surface
 from .errors import InputError
 from .finish import Process
 from .lathe import Lathe, Tool
+from .machine_errors import MachineErrors, machined_with_errors
 from .nose_envelope import as_machined, contour_profile, gouge_depth
 from .optics.polishing_curve import PolishCurve, polish_curve
 from .optics.reference import reference_surface
@@ -84,7 +85,7 @@ def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = 
                  nose_radius: float | None = None, phase: float = 0.0,
                  polish_params: PolishParams | None = None, polish_time_s: float = 0.0,
                  max_deviation: float = 0.01, toolpath: Toolpath | None = None,
-                 target: Mirror | None = None) -> MadeSurface:
+                 target: Mirror | None = None, errors: MachineErrors | None = None) -> MadeSurface:
     """The one made-surface builder: plan -> machine -> (polish).
 
     The program is planned for `tool` (its nose offset) at lattice `phase` (steps), on
@@ -92,14 +93,21 @@ def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = 
     part is cut by a nose of `nose_radius` mm (default the tool's: a worn or mis-measured
     insert differs from the programmed one); with polish_params and polish_time_s > 0 it
     is then polished for that time (s). toolpath: the program already planned with these
-    arguments (a caller cutting one program with many noses plans it once).
+    arguments (a caller cutting one program with many noses plans it once). errors: the
+    lathe's set-up errors ([machine.errors], machine_errors.MachineErrors; None or all zero:
+    a perfect machine), cut by machine_errors.machined_with_errors.
     """
     tp = toolpath if toolpath is not None else plan(mirror, lathe, tool, strategy, max_deviation=max_deviation,
                                                     phase=phase, target=target)
     rho = tool.nose_radius if nose_radius is None else nose_radius
-    profile = machine(tp, rho)
     source = f"{strategy.value} program{' (pre-compensated)' if target is not None else ''}, " \
              f"as-machined with a {rho:g} mm nose"
+    if errors is not None and not errors.is_zero:
+        profile = machined_with_errors(tp, errors, nose_radius=rho, pip_height_mm=0.15)
+        source += ", on a lathe with set-up errors " + ", ".join(
+            f"{k} {v:g}" for k, v in errors.to_dict().items() if v)
+    else:
+        profile = machine(tp, rho)
     if polish_params is not None and polish_time_s > 0:
         profile = polish(profile, polish_params, polish_time_s)
         source += f", polished {polish_time_s / 60:g} min"
@@ -177,6 +185,8 @@ def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_rad
     if name is Surface.POLISHED:
         curve = polishing_curve(job.but(strategy=Strategy.PAPER).made().profile, mirror, settings.polish)
         return curve.profiles[curve.optimum_index]
+    if job.errors is not None:  # the part as the configured lathe cuts it ([machine.errors])
+        return job.but(strategy=name.strategy).made().profile
     tp = job.but(strategy=name.strategy).toolpath
     return machine(tp) if nose_radius > 0 else contour_profile(tp)
 
@@ -313,6 +323,7 @@ class MachiningJob:
     polish: PolishParams | None = None
     polish_time_s: float = 0.0
     precompensation_s: float = 0.0
+    errors: MachineErrors | None = None  # the lathe's set-up errors ([machine.errors]); None: perfect
 
     @classmethod
     def from_settings(cls, settings: Settings, mirror: Mirror | None = None, *,
@@ -327,7 +338,8 @@ class MachiningJob:
                    max_deviation=settings.toolpath.max_deviation,
                    gouge_tolerance=settings.toolpath.gouge_tolerance,
                    target=None if target is mirror else target, polish=settings.polish,
-                   precompensation_s=settings.polish.time_s if target is not mirror else 0.0)
+                   precompensation_s=settings.polish.time_s if target is not mirror else 0.0,
+                   errors=None if settings.machine_errors.is_zero else settings.machine_errors)
 
     def but(self, *, strategy: Strategy | None = None, tool: Tool | None = None,
             nose_radius: float | None = None, phase: float | None = None,
@@ -366,7 +378,8 @@ class MachiningJob:
         """The made surface: the program cut by the cutting nose, polished polish_time_s."""
         return made_surface(self.mirror, self.lathe, self.tool, self.strategy, nose_radius=self.cutting_nose,
                             polish_params=self.polish if self.polish_time_s > 0 else None,
-                            polish_time_s=self.polish_time_s, toolpath=self.toolpath, target=self.target)
+                            polish_time_s=self.polish_time_s, toolpath=self.toolpath, target=self.target,
+                            errors=self.errors)
 
     def check(self) -> Toolpath:
         """The program planned within the point budget (plan raises otherwise) and its

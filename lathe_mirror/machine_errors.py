@@ -133,13 +133,13 @@ def disc_envelope(xc: np.ndarray, zc: np.ndarray, rho: float, x: np.ndarray) -> 
     return out
 
 
-def machined_with_errors(toolpath: Toolpath, errors: MachineErrors, *,
+def machined_with_errors(toolpath: Toolpath, errors: MachineErrors, *, nose_radius: float | None = None,
                          pip_height_mm: float = 0.15) -> TabulatedProfile:
     """The surface (camera frame) the program's nose-centre path cuts on a lathe with
-    `errors`: a nose of toolpath.nose_radius + nose_radius_error_mm (mm). pip_height_mm:
-    the stock the finishing pass was to take (toolpath.rough_allowance), what stands at
-    radii the edge never reaches."""
-    rho = toolpath.nose_radius + errors.nose_radius_error_mm
+    `errors`: a nose of nose_radius (default toolpath.nose_radius, mm) + nose_radius_error_mm.
+    pip_height_mm: the stock the finishing pass was to take (toolpath.rough_allowance),
+    what stands at radii the edge never reaches."""
+    rho = (toolpath.nose_radius if nose_radius is None else float(nose_radius)) + errors.nose_radius_error_mm
     if not rho > 0:
         raise ValueError(f"nose radius {rho:g} mm (programmed {toolpath.nose_radius:g} + error "
                          f"{errors.nose_radius_error_mm:g}) must be > 0")

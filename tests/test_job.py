@@ -110,3 +110,36 @@ def test_the_made_mirror_is_named_and_labelled():
     assert np.allclose(made.z(r), best.z(r), atol=1e-12, equal_nan=True)
     contour = named_surface(Surface.BEST, mirror, settings)  # the sharp programmed contour differs
     assert np.nanmax(np.abs(contour.z(r) - made.z(r))) > 1e-3
+
+
+def test_calib_render_and_report_quote_one_image_displacement(tmp_path):
+    """Issue 20: on the paper camera cut with a 0.4 mm nose (not the paper's tool), `calib`
+    and `render` by default and the report's figures of its best mirror describe one part
+    (labelled alike) and quote the same image displacement over the same zones, to 1 %:
+    render from its per-pixel 2-D trace (optics.distortion), calib and the report from
+    the 1-D radial trace (optics.radial)."""
+    from lathe_mirror.optics.zones import zones_for
+    from lathe_mirror.report.analysis import mirror_figures
+
+    toml = tmp_path / "nose04.toml"
+    toml.write_text("[tool]\nnose_radius = 0.4\n")
+    calib = run_cli("calib", "--config", str(toml), "-o", str(tmp_path / "calib"), "--json", "--no-progress")
+    assert calib.returncode == 0, calib.stderr
+    render = run_cli("render", "--config", str(toml), "--json", "--no-progress")
+    assert render.returncode == 0, render.stderr
+    c = json.loads(calib.stdout)["made"][0]
+    r = json.loads(render.stdout)
+    settings = load(toml)
+    mirror = settings.mirror()
+    job = MachiningJob.from_settings(settings, mirror)
+    made, _, _ = strategy_table(job)  # the report's made mirrors
+    report = mirror_figures(made["best"], mirror, zones_for(settings, mirror))
+    label = "arcs program (best), nose 0.4 mm, lattice 0.005 mm, as machined"
+    assert c["made_mirror"] == r["made_mirror"] == label == job.but(strategy=BEST).label
+    for k in (0, 1):
+        rep = report["lobes"][k]["image_displacement_px"]["rms"]
+        assert rep > 0.01
+        assert c["image_displacement_px"][k]["rms"] == pytest.approx(rep, rel=0.01)
+        assert r["lobes"][k]["image_displacement_px"]["rms"] == pytest.approx(rep, rel=0.01)
+        for end in ("min", "max"):  # the same zone (JSON carries 1e-6 px)
+            assert r["lobes"][k]["zone_px"][end] == pytest.approx(report["lobes"][k]["zone_px"][end], abs=1e-5)

@@ -120,6 +120,25 @@ def test_every_documented_end_is_accepted_and_beyond_it_refused(k):
         assert k.name.replace("[]", "[0]").split("[")[0] in str(exc.value), (k.name, beyond, str(exc.value))
 
 
+def test_the_data_files_are_generated_from_the_declaration():
+    """lathe_mirror/data/*.toml (what a user reads and copies) are the declaration's text,
+    and read back they are the declared defaults."""
+    import tomllib
+
+    from lathe_mirror.settings.defaults_toml import default_files
+
+    data = Path(__file__).resolve().parents[1] / "lathe_mirror" / "data"
+    files = default_files()
+    assert {p.name for p in data.glob("*.toml")} == set(files), "a data file not generated: run scripts/gen-keys"
+    merged: dict = {}
+    for name, text in files.items():
+        assert (data / name).read_text(encoding="utf-8") == text, f"data/{name} differs: run scripts/gen-keys"
+        for section, value in tomllib.loads(text).items():
+            assert section not in merged
+            merged[section] = value
+    assert merged == declared_defaults()
+
+
 def test_every_key_of_the_defaults_is_declared_and_the_defaults_are_the_declared_ones():
     assert declared_defaults() == BASE
     declared = {k.name for k in KEYS}
@@ -146,7 +165,7 @@ def test_the_readme_table_is_the_generated_one():
     text = README.read_text(encoding="utf-8")
     begin = text.index("<!-- key table:")
     table = text[text.index("\n", begin) + 1:text.index("<!-- end of the key table -->")]
-    assert table == key_table_markdown(), "README's key table differs: run scripts/readme-keys"
+    assert table == key_table_markdown(), "README's key table differs: run scripts/gen-keys"
 
 
 def test_a_dependent_limit_is_stated_in_the_table():
@@ -250,3 +269,47 @@ def _get(cfg: dict, dotted: str):
         m = re.fullmatch(r"(\w+)\[(\d+)\]", p)
         node = node[m.group(1)][int(m.group(2))] if m else node[p]
     return node
+
+
+def test_help_shows_the_declared_default_and_range():
+    """A flag that sets a key shows the key's declared default and range in --help."""
+    import argparse
+
+    from lathe_mirror.cli import build_parser
+    from lathe_mirror.settings.keys import key
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    for command, flag, name in (("toolpath", "--points", "machine.max_points"),
+                                ("render", "--supersample", "render.supersample"),
+                                ("tolerance", "--target-yield", "tolerance.target_yield"),
+                                ("cad", "--stl-tolerance", "cad.stl_tolerance")):
+        action = next(a for a in sub.choices[command]._actions if flag in a.option_strings)
+        k = key(name)
+        assert f"{name}, default {k.help_default().split('default ')[1]}" in action.help
+        assert f"[range {k.text()}]" in action.help, action.help
+    assert "machine.max_points, default 528" in next(
+        a for a in sub.choices["toolpath"]._actions if "--points" in a.option_strings).help
+
+
+def test_a_design_from_specs_gets_the_configs_checks():
+    """lm.checked_mirror(camera, specs), the API's design from a camera and lobe specs: the
+    same DesignError as load() on another camera (a 6 mm lens, 3 um pixels)."""
+    import dataclasses
+
+    import lathe_mirror as lm
+    from lathe_mirror.design import Camera
+
+    settings = lm.load()
+    camera = Camera(f=6.0, t_pixel=0.003, sensor_px=(1008, 1018), f_number=8.0)
+    good = lm.checked_mirror(camera, settings.lobes)  # same lobes behind another lens: h = 6 R_top / (0.003 R_pixel)
+    assert good.inner.r_top == 20.0
+    bad = (dataclasses.replace(settings.lobes[0], alpha_deg=None, e=1e-6), settings.lobes[1])
+    with pytest.raises(lm.DesignError) as exc:
+        lm.checked_mirror(camera, bad)
+    cfg = copy.deepcopy(BASE)
+    cfg["camera"].update(f=6.0, t_pixel=0.003)
+    cfg["lobes"]["inner"].pop("alpha_deg")
+    cfg["lobes"]["inner"]["e"] = 1e-6
+    with pytest.raises(InputError) as from_file:
+        from_config(cfg)
+    assert str(exc.value) == str(from_file.value) and "lobes.inner.e = 1e-06 mm: allowed" in str(exc.value)

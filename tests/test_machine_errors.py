@@ -168,3 +168,42 @@ def test_compensate_recut_on_the_corrected_machine(case, tmp_path):
             break
     assert np.all(got <= perfect + 0.1 * s.machine.resolution), (iteration, got, perfect)
     assert abs(nose_in_table - true_nose) < 0.002 and abs(set_h - true_h) < 0.01
+
+
+def test_monte_carlo_draws_machine_errors(paper_config, paper_mirror):
+    """The Monte Carlo's first-order model of the set-up errors (tolerance.perturb.
+    machine_error_surface) against the full simulation (machined_with_errors) on the same
+    part, and the errors drawn and tabled as every toleranced parameter."""
+    import copy
+
+    from lathe_mirror.enums import Program
+    from lathe_mirror.job import plan
+    from lathe_mirror.settings import from_config
+    from lathe_mirror.tolerance.montecarlo import draw_trials
+    from lathe_mirror.tolerance.perturb import Trials, machine_error_surface
+    from lathe_mirror.tolerance.runs import tolerance_context
+    from lathe_mirror.tolerance.sensitivity import sensitivity_table
+
+    cfg = copy.deepcopy(paper_config)
+    cfg["tolerance"].update(lattice_phases=1, trials=20, nose_step_mm=0.005, programs=["best"])
+    cfg["tolerance"]["machine_errors"].update(centre_height_mm=0.05, nose_radius_error_mm=0.02, squareness_urad=50.0)
+    settings = from_config(cfg)
+    m = paper_mirror
+    ctx = tolerance_context(m, settings, Program.BEST, 0.0)
+    tr = Trials.nominal(1, ctx.nominal_nose_mm, 0.0)
+    tr.nose_error_mm[0], tr.squareness_rad[0] = 0.01, 20e-6
+    tp = plan(m, settings.machine, settings.tool, settings.toolpath.strategy)
+    full = machined_with_errors(tp, MachineErrors(nose_radius_error_mm=0.01, squareness_rad=20e-6))
+    for k in (0, 1):
+        z0, s0 = ctx.bank.trial_surface(k, tr.phase, tr.nose_mm, tr.time_s, tr.tool_z_mm)
+        z, _ = machine_error_surface(ctx.bank, k, (z0, s0), tr)
+        r = ctx.bank.grid(k)
+        lo, hi = (0.5, m.r_junction - 0.5) if k == 0 else (m.r_junction + 0.5, m.r_max - 0.5)
+        sel = (r > lo) & (r < hi)
+        effect = np.abs(full.z(r[sel]) - z0[0, sel])
+        assert effect.max() > 1e-3  # micrometres of change
+        assert np.max(np.abs(z[0, sel] - full.z(r[sel]))) < 0.05 * effect.max()
+    trials = draw_trials(ctx)
+    assert np.std(trials.centre_height_mm) > 0.005 and np.std(trials.nose_error_mm) > 0.002
+    rows = {row["parameter"] for row in sensitivity_table(ctx)["rows"]}
+    assert {"centre_height_mm", "nose_radius_error_mm", "squareness_urad"} <= rows

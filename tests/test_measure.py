@@ -175,6 +175,15 @@ def test_cli_json_and_files(case, tmp_path):
     assert {"nose_radius_error_mm", "centre_height_mm", "x_offset_mm", "backlash_mm"} <= set(out["diagnosis"])
     # a smooth form error is not a set-up error
     assert out["diagnosis"]["centre_height_mm"] == 0.0 and out["diagnosis"]["nose_radius_error_mm"] == 0.0
+    # each lobe judged against the form tolerance `lathe-mirror spec` states for it
+    sp = run_cli("spec", "--json", *(["--config", str(case["cfg"])] if case["cfg"] else []))
+    assert sp.returncode == 0, sp.stderr
+    forms = {lb["name"]: lb["form_tolerance"] for lb in json.loads(sp.stdout)["lobes"]}
+    for lf, v in zip(out["lobes"], out["form_tolerance"]):
+        f = forms[lf["name"]]
+        assert v["name"] == lf["name"] and v["rms_um"] == f["rms_um"]
+        assert v["pass"] == (lf["pv_um"] <= f["pv_um"] and lf["rms_um"] <= f["rms_um"]
+                             and lf["slope_rms_urad"] <= f["slope_urad"])
     assert (tmp_path / "out" / "measure.json").is_file()
     assert (tmp_path / "out" / "measured_minus_design.png").read_bytes()[:4] == b"\x89PNG"
 
@@ -261,3 +270,9 @@ def test_commands_take_measured_surface(case, tmp_path):
     assert (tmp_path / "calib" / "opencv_inner.yaml").is_file()
     p = run_cli("render", "--surface", "measured:", *cfg)
     assert p.returncode == 2 and "measured:FILE" in p.stderr
+
+
+def test_report_surface_takes_only_a_measured_part(tmp_path):
+    p = run_cli("report", "--surface", "paper", "-o", str(tmp_path / "r"))
+    assert p.returncode == 2 and "report takes measured:FILE" in p.stderr
+    assert not (tmp_path / "r").exists()

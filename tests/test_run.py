@@ -28,11 +28,17 @@ def test_run_writes_programs_cad_and_report(tmp_path):
     assert {p.suffix for p in (out / "cad").iterdir()} == {".step", ".dxf"}
     assert {p.name for p in (out / "calib").iterdir()} == set(FILE_NAMES)  # calibration files
     report = json.loads((out / "report.json").read_text())
+    # the optics shop's specification (issue 21): in the report and beside it, with the drawing
+    assert report["spec"]["lobes"][0]["form_tolerance"]["iso10110_5"].startswith("3/")
+    assert "ISO 10110" in (out / "report.html").read_text()
+    assert (out / "mirror_drawing.pdf").read_bytes().startswith(b"%PDF")
+    assert json.loads((out / "mirror_spec.json").read_text())["lobes"][1]["R_mm"] == report["spec"]["lobes"][1]["R_mm"]
     assert report["outputs"]["gcode"] and report["outputs"]["cad"]
     # the programs simulated against the stock: no contact, the operations in order
     assert [p["name"] for p in report["shop"]] == ["mirror_paper", "mirror_arcs"]
     assert all(p["contacts"] == [] for p in report["shop"])
-    assert [op["name"] for op in report["shop"][0]["operations"]] == ["face", "rough", "semi-finish", "finish"]
+    names = [op["name"] for op in report["shop"][0]["operations"]]
+    assert names[:3] == ["face", "rough", "semi-finish"] and names[-1] == "finish"
     assert set(report["stereo"]["at_2_m"]) == {"exact", "paper", "best", "polished"}
     assert report["polishing"]["summary"]["optimum_inside_range"] is True
     html = (out / "report.html").read_text()

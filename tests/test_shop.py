@@ -128,7 +128,9 @@ def test_committed_programs_touch_nothing(tmp_path, paper_mirror, name):
                    gouge_tolerance=OPTIONS.gouge_tolerance)
     assert sim.contacts == ()
     ops = sim.operations
-    assert [op.station for op in ops] == [1, 1, 1, 2]  # face, rough, semi-finish; finish
+    # face, rough, semi-finish; the finishing passes (at most max_finish_depth each) and the contour
+    assert [op.station for op in ops][:3] == [1, 1, 1] and len(ops) >= 5 and {op.station for op in ops[3:]} == {2}
+    assert all(op.max_depth_of_cut_mm <= OPTIONS.max_finish_depth + 1e-6 for op in ops[3:])
     assert all(op.plunge_mm == 0.0 for op in ops)
     assert all(op.max_part_cut_mm <= OPTIONS.gouge_tolerance for op in ops)
     # everything from the bar's face down to the part is gone: pi R^2 (face - Z) - the part's
@@ -312,19 +314,23 @@ def test_semi_finish_follows_the_offset_into_the_corner(arcs_shop, paper_mirror)
         lo, hi = (rs, hi) if rs + 0.35 * nr < 19.65 else (lo, rs)
     z = m.vertex_z - (e + a * math.sqrt(1 + rs * rs / (b * b))) + 0.35 * nz
     assert corner[1] == pytest.approx(z, abs=0.005 + 1e-9)  # rounded up to the lattice
-    # the finishing pass then takes at most allowance + the nose's corner: < 0.45 mm
-    assert arcs_shop.simulation.operations[3].max_depth_of_cut_mm < 0.45
+    # the 0.15 mm the semi-finish leaves (about 0.4 mm deep in the step's inside corner) is
+    # taken in passes of at most toolpath.max_finish_depth_mm each (issue 21)
+    fin = [op for op in arcs_shop.simulation.operations if op.name.startswith("finish")]
+    assert len(fin) >= 2 and fin[-1].name == "finish"
+    assert all(op.max_depth_of_cut_mm <= OPTIONS.max_finish_depth + 1e-6 for op in fin)
 
 
 def test_spring_pass_repeats_the_contour_and_cuts_air(tmp_path, paper_mirror):
     tp = plan_toolpath(paper_mirror, LATHE, TOOL, Strategy.ARCS)
     shop = shop_program(tp, STOCK, dataclasses.replace(OPTIONS, spring_pass=True), setting_costs={})
     names = [op.name for op in shop.simulation.operations]
-    assert names == ["face", "rough", "semi-finish", "finish", "spring pass"]
+    assert names[:3] == ["face", "rough", "semi-finish"] and names[-2:] == ["finish", "spring pass"]
+    assert all(n.startswith("finish ") for n in names[3:-2])  # the finishing passes before the contour
     spring = shop.simulation.operations[-1]
     assert spring.removed_volume_mm3 < 1.0  # the nose's polygon noise, no stock
     out = rs274(tmp_path, format_program(shop.program))
-    assert out.count('COMMENT("spring pass begin")') == 1 and out.count("CHANGE_TOOL(2)") == 2
+    assert out.count('COMMENT("spring pass begin")') == 1 and out.count("CHANGE_TOOL(2)") == len(names) - 3
 
 
 # --------------------------------------------------------------------------------------
@@ -432,4 +438,5 @@ def test_sheet_is_written_beside_the_program(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["part.nc", "part.setup.html"]
     page = (tmp_path / "part.setup.html").read_text()
     assert "Z1.200" in page and "X19.600" in page  # face + 0.2; a 20 mm bore - 0.4
-    assert page.count("data:image/png;base64,") == 4 and "https://" not in page
+    n_ops = 3 + len(re.findall(r"^\((?:FINISH PASS \d|FINISH:)", (tmp_path / "part.nc").read_text(), re.M))  # one picture each
+    assert page.count("data:image/png;base64,") == n_ops and "https://" not in page

@@ -153,3 +153,15 @@ def test_spec_bad_step_is_one_line(tmp_path):
     proc = run_cli("spec", "--json", "--step", "0")
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "--step" in proc.stderr
+
+
+def test_report_section_states_the_spec(case):
+    """The report's section 12 (report.spec_section) shows the command's R, k and tolerances."""
+    from lathe_mirror.report.spec_section import spec_html
+
+    _, _, _, spec = case
+    page = spec_html(spec)
+    for lb in spec["lobes"]:
+        assert f"{lb['R_mm']:.6f}" in page and f"{lb['k']:.8f}" in page
+        assert lb["form_tolerance"]["iso10110_5"].split(";")[0] in page
+    assert "focal distance 2e" in page and page.count("<details>") == 2

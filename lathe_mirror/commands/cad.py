@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_common, load, print_json
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -22,10 +23,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--format", default=None, metavar="step|stl|dxf",
                    help="file format (default: from -o's suffix, else step)")
     p.add_argument("--schema", default=None, metavar="AP214|AP242",
-                   help="STEP protocol (overrides cad.step_schema)")
+                   help=f"STEP protocol ({help_default('cad.step_schema')})")
     p.add_argument("--stl-tolerance", type=float, default=None, metavar="MM",
                    help="STL: largest distance of the facets from the surface, mm "
-                        "(overrides cad.stl_tolerance; 0.001 to 1; smaller is finer and "
+                        f"({help_default('cad.stl_tolerance')}; smaller is finer and "
                         "larger: 0.01 gives ~26 k triangles, 0.001 ~0.24 M)")
     p.set_defaults(func=run)
 

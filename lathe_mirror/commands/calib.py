@@ -58,11 +58,9 @@ def run(args: argparse.Namespace) -> int:
     range_m = DEFAULT_RANGE_MM / 1000.0 if args.range_m is None else args.range_m
     nose = settings.tool.nose_radius if args.nose_radius is None else args.nose_radius
     pose = settings.pose
-    from ..optics.zones import zones as zones_of
+    from ..optics.zones import zones_for
 
-    tol = settings.tolerance
-    zn = zones_of(mirror, nose, float(tol.tolerances.get("nose_radius_mm", 0.0)) if tol is not None and nose > 0 else 0.0,
-                  settings.machine.resolution)
+    zn = zones_for(settings, mirror, nose)  # the zones every command uses, for this nose
     # Before any progress display: a bad name is one line.
     from .common import surface_arg
 
@@ -92,10 +90,13 @@ def run(args: argparse.Namespace) -> int:
                 raise InputError(f"--surface {name.value}: {exc}") from None
             made[name.value] = {"surface": name.value, "made_mirror": surface_label(name, job, nose_radius=nose_k),
                                 "nose_radius_mm": nose_k, **fig}
-            if pose.aligned:  # the image displacement as every command states it (optics.radial)
+            if pose.aligned:  # the image displacement as every command states it (optics.radial), over the zone
+                lobes = radial_figures(surface, mirror, zones=zn)["lobes"]
                 made[name.value]["image_displacement_px"] = [
-                    {"name": lb["name"], **lb["image_displacement_px"]}
-                    for lb in radial_figures(surface, mirror)["lobes"]]
+                    {"name": lb["name"], **lb["image_displacement_px"]} for lb in lobes]
+                made[name.value]["over_zone"] = [
+                    {"name": lb["name"], "image_displacement_px": lb["image_displacement_px"], "zone_px": lb["zone_px"]}
+                    for lb in lobes]
             steps.done()
         steps.start("files")
         from ..export.calib import calibration_texts

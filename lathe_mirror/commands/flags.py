@@ -2,9 +2,9 @@
 before any work and shown by each command's --help (and the README's "Ranges of every
 flag").
 
-A flag that overrides a configuration key (`key`) has that key's range
-(settings.RANGES; a test holds the two equal); the key's cross-checks and cost estimates
-still run when the configuration is loaded. `apply(subparsers)` walks every command's
+A flag that overrides a configuration key (`key`) takes that key's range from its one
+declaration (`_keyed`, settings.keys); the key's cross-checks and cost estimates still
+run when the configuration is loaded. `apply(subparsers)` walks every command's
 argparse flags: each flag whose type is int or float gets a type that parses and checks
 it, and its range appended to its help. A numeric flag missing from the table is a
 programming error that tests/test_reliability.py catches.
@@ -19,6 +19,8 @@ import argparse
 import math
 from dataclasses import dataclass
 from pathlib import Path
+
+from ..settings.keys import key as declared_key
 
 
 @dataclass(frozen=True)
@@ -58,26 +60,35 @@ def _num(x: float) -> str:
 
 _KM_IN_M = 1e6
 
+
+def _keyed(name: str, why: str = "") -> FlagRange:
+    """The range of a flag that sets the key `name`: the key's declared range (closed ends)."""
+    k = declared_key(name)
+    return FlagRange(k.lo, k.hi, k.unit, key=name, why=why)
+
+
 #: Every numeric flag of every command: "command --flag" -> its range.
 FLAGS: dict[str, FlagRange] = {
-    "cad --stl-tolerance": FlagRange(0.001, 1.0, "mm", key="cad.stl_tolerance"),
-    "calib --nose-radius": FlagRange(0.0, 5.0, "mm", key="tool.nose_radius"),
+    "cad --stl-tolerance": _keyed("cad.stl_tolerance"),
+    "calib --nose-radius": _keyed("tool.nose_radius"),
     "calib --range-m": FlagRange(0.05, _KM_IN_M, "m", inf="directions",
                                  why="the nearest range of the stereo (stereo.min_range_m) to 1000 km, "
                                  "beyond which world points are directions to rounding"),
     "compensate --gain": FlagRange(0.01, 1.0, "", why="the share of the residual the re-cut takes off; "
                                    "below 1 % a re-cut changes nothing the lattice holds"),
-    "optimize --workers": FlagRange(1, 64, "", key="optimize.workers"),
-    "render --nose-radius": FlagRange(0.0, 5.0, "mm", key="render.nose_radius"),
-    "render --supersample": FlagRange(1, 8, "", key="render.supersample"),
+    "optimize --workers": _keyed("optimize.workers"),
+    "report --workers": _keyed("compute.workers"),
+    "run --workers": _keyed("compute.workers"),
+    "render --nose-radius": _keyed("render.nose_radius"),
+    "render --supersample": _keyed("render.supersample"),
     "spec --step": FlagRange(0.001, 5.0, "mm", why="the sag table's spacing in r"),
-    "tolerance --trials": FlagRange(1, None, "", key="tolerance.trials",
-                                    why="the Monte Carlo's time estimate bounds it"),
-    "tolerance --seed": FlagRange(0, 2**63 - 1, "", key="tolerance.seed"),
-    "tolerance --target-yield": FlagRange(0.5, 0.999, "", key="tolerance.target_yield"),
-    "toolpath --points": FlagRange(4, 1_000_000, "", key="machine.max_points"),
-    "toolpath --resolution": FlagRange(0.0001, 0.1, "mm", key="machine.resolution"),
-    "toolpath --nose-radius": FlagRange(0.0, 5.0, "mm", key="tool.nose_radius"),
+    "tolerance --trials": _keyed("tolerance.trials", why="the Monte Carlo's time estimate bounds it"),
+    "tolerance --seed": _keyed("tolerance.seed"),
+    "tolerance --target-yield": _keyed("tolerance.target_yield"),
+    "tolerance --workers": _keyed("compute.workers"),
+    "toolpath --points": _keyed("machine.max_points"),
+    "toolpath --resolution": _keyed("machine.resolution"),
+    "toolpath --nose-radius": _keyed("tool.nose_radius"),
 }
 
 

@@ -46,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
     result = measure(args.file, mirror, machine(tp), settings.tool.nose_radius, fmt=args.format,
                      options=FitOptions(conic=args.fit_conic), resolution_mm=settings.machine.resolution)
     out = result.to_dict()
+    out["form_tolerance"] = form_verdicts(settings, out["lobes"])
     if args.output:
         from pathlib import Path
 
@@ -63,6 +64,25 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def form_verdicts(settings, lobes: list[dict]) -> list[dict]:
+    """Each measured lobe against its form tolerance from `lathe-mirror spec`
+    (iso10110.spec_of: PV and RMS over the clear aperture, RMS slope): pass when all three
+    hold. The slope is the residual's over the fit's smoothing band (0.5 mm knots), the
+    spec's per its evaluation length."""
+    from ..iso10110 import spec_of
+
+    spec = spec_of(settings)
+    out = []
+    for lb in lobes:
+        form = spec.lobe(lb["name"]).form
+        checks = {"pv": lb["pv_um"] <= form.pv_um, "rms": lb["rms_um"] <= form.rms_um,
+                  "slope": lb["slope_rms_urad"] <= form.slope_urad}
+        out.append({"name": lb["name"], "iso10110_5": form.iso10110_5, "pv_um": form.pv_um, "rms_um": form.rms_um,
+                    "slope_urad": form.slope_urad, "evaluation_length_mm": form.evaluation_length_mm,
+                    "checks": checks, "pass": all(checks.values())})
+    return out
+
+
 def _print(out: dict) -> None:
     f = out["fit"]
     print(f"{out['source']}: decentre {f['decentre_mm'] * 1e3:+.2f} um, tilt {f['tilt_rad'] * 1e6:+.2f} urad, "
@@ -70,7 +90,9 @@ def _print(out: dict) -> None:
     for lf in out["lobes"]:
         print(f"  {lf['name']:5s} r {lf['aperture_mm'][0]:.2f}..{lf['aperture_mm'][1]:.2f} mm: PV {lf['pv_um']:.3f} um, "
               f"RMS {lf['rms_um']:.3f} um, slope RMS {lf['slope_rms_urad']:.1f} urad")
-    if out.get("form_tolerance") is None:
-        print("  form tolerance: no per-lobe tolerance to judge against (figures only)")
+    for v in out.get("form_tolerance") or ():
+        failed = [k for k, ok in v["checks"].items() if not ok]
+        print(f"  {v['name']:5s} against {v['iso10110_5']}, slope < {v['slope_urad']:g} urad: "
+              + ("PASS" if v["pass"] else f"FAIL ({', '.join(failed)})"))
     for c in out["diagnosis"]["corrections"]:
         print(f"  - {c}")

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_common, load, print_json
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -19,12 +20,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--surface", metavar="NAME", default=None,
                    help="made surface: exact, reference, uniform528, measured:FILE (a measured part), a toolpath strategy "
                    "(paper, best, ...), or polished (the paper program as machined, polished at "
-                   "the polishing optimum); default [render] surface")
+                   "the polishing optimum); " + help_default("render.surface"))
     p.add_argument("--nose-radius", metavar="MM", type=float, default=None,
                    help="trace the as-machined surface of a tool with this nose radius (mm) "
-                   "instead of the programmed contour; default [render] nose_radius")
+                   "instead of the programmed contour; " + help_default("render.nose_radius"))
     p.add_argument("--supersample", metavar="N", type=int, default=None,
-                   help="N x N rays per pixel for the images (N^2 the cost); default [render] supersample")
+                   help="N x N rays per pixel for the images (N^2 the cost); " + help_default("render.supersample"))
     p.add_argument("--image-only", action="store_true",
                    help="render only the made surface's image (no exact image, figures or plots)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
@@ -64,6 +65,13 @@ def run(args: argparse.Namespace) -> int:
     made = named_surface(surface, mirror, settings, nose_radius=float(nose), measured=measured,
                          job=job)
     label = surface_label(surface, job, nose_radius=float(nose))
+    # The zones of the nose that cut this surface (a program's contour: none), as every
+    # command states its figures over them (optics.zones.zones_for).
+    from ..optics.zones import zones_for
+
+    cut_nose = float(nose) if nose > 0 else (job.cutting_nose if surface in (Surface.MADE, Surface.POLISHED) else 0.0)
+    zn = zones_for(dataclasses.replace(settings, tool=dataclasses.replace(settings.tool, nose_radius=cut_nose)),
+                   mirror)
     z_top = float(max(np.max(made.z(np.linspace(0, made.r_max, 2001))), mirror.outer.h))
     scene = scene_for(settings, mirror, mirror_top=z_top + abs(pose.axial_offset))
     _check_sees_mirror(made, mirror, pose)
@@ -90,6 +98,7 @@ def run(args: argparse.Namespace) -> int:
         exact, mirror, scene, pose=pose, supersample=n, progress=progress)
     # Over the lobes' usable annuli, as the distortion figures: the step-vignetted band is
     # black in both images and would only dilute the difference.
+    # (maps.lobe >= 0) & ~maps.blocked is optics.distortion.usable_annulus: the design's own
     diff = image_difference(exact_img, made_img, mask=(maps.lobe >= 0) & ~maps.blocked)
     figures = {
         "surface": surface,
@@ -98,7 +107,8 @@ def run(args: argparse.Namespace) -> int:
         "supersample": n,
         "pose": {"decentre_mm": list(pose.decentre), "axial_offset_mm": pose.axial_offset,
                  "tilt_deg": [math.degrees(t) for t in pose.tilt]},
-        **maps.figures(),
+        **maps.figures(zn),
+        "zones": zn.as_dict(),
         "image_difference": diff,
         "image_radii_px": {k: {"min": v[0], "max": v[1]} for k, v in mirror.image_radii_px.items()},
     }

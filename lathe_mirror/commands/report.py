@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_compute, add_no_progress, compute_options, load, print_json, use_compute
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -13,6 +13,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "report.json and report.html (figures embedded, opens without a network).")
     add_common(p, output_help="output directory (default: out/)")
     p.add_argument("--no-render", action="store_true", help="skip the renders side by side")
+    p.add_argument("--surface", metavar="measured:FILE", default=None,
+                   help="add a measured part (measured:FILE, as `lathe-mirror measure` reads it) to the "
+                        "made mirrors' figures")
+    add_compute(p, "the tolerance trials and the allocation's confirmations")
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -24,15 +28,29 @@ def run(args: argparse.Namespace) -> int:
     from ..report import write_report
     from .common import check_outputs, output_dir
 
+    compute_options(args)  # the flags, before any work
     settings = load(args)
+    use_compute(args, settings)
     mirror = design(settings)
     check_programs(settings, mirror)
     for strategy in (Strategy.PAPER, BEST):  # the programs it machines, polishes and tolerances
         check_program(settings, mirror, strategy)
+    measured = None
+    if args.surface is not None:
+        from ..enums import Surface
+        from ..errors import InputError
+        from ..job import named_surface
+        from .common import surface_arg
+
+        name, path = surface_arg(args.surface)
+        if name is not Surface.MEASURED:
+            raise InputError(f"--surface {args.surface!r}: report takes measured:FILE (the programs' parts "
+                             "are in the report already)")
+        measured = named_surface(name, mirror, settings, measured=path)
     out_dir = args.output or "out"
     check_outputs(out_dir, list(REPORT_FILES))
     output_dir(out_dir)
-    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render)
+    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render, measured=measured)
     paths = write_report(data, out_dir)
     if args.json:
         print_json(data.figures)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 
 from .common import add_common, add_no_progress, load, print_json
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -21,7 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                "points_<surface>.ply and stereo_<surface>.json")
     p.add_argument("--surface", metavar="NAME", default=None,
                    help="the mirror: exact, reference, uniform528, measured:FILE (a measured part), a toolpath strategy (paper, best, "
-                   "...) or polished; default [stereo] surface")
+                   "...) or polished; " + help_default("stereo.surface"))
     add_no_progress(p)
     p.set_defaults(func=run)
 

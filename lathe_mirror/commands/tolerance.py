@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, path_arg, print_json
+from .common import add_common, add_compute, add_no_progress, compute_options, load, path_arg, print_json, use_compute
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -17,30 +18,34 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "tolerance.programs. --allocate: the least-cost tolerances that reach the target "
                        "yield, confirmed by a fresh Monte Carlo.")
     add_common(p, output_help="directory for tolerance.json")
-    p.add_argument("--trials", type=int, default=None, metavar="N", help="override tolerance.trials")
-    p.add_argument("--seed", type=int, default=None, metavar="S", help="override tolerance.seed")
+    p.add_argument("--trials", type=int, default=None, metavar="N", help=f"Monte Carlo trials ({help_default('tolerance.trials')})")
+    p.add_argument("--seed", type=int, default=None, metavar="S", help=f"seed of every draw ({help_default('tolerance.seed')})")
     p.add_argument("--allocate", action="store_true",
                    help="tighten the tolerances at least cost ([tolerance.cost]) to reach the target yield, "
                    "confirmed by a fresh Monte Carlo of as many trials (about the Monte Carlo's time again)")
     p.add_argument("--target-yield", type=float, default=None, metavar="P",
-                   help="the allocation's target yield, 0.5 .. 0.999 (default tolerance.target_yield, 0.95)")
+                   help=f"the allocation's target yield ({help_default('tolerance.target_yield')})")
     p.add_argument("--csv", metavar="FILE", default=None, type=path_arg,
                    help="write one row per trial (drawn parameters, every figure, pass flags) of every "
                    "Monte Carlo run, the allocation's confirming runs included; its directory must exist")
+    add_compute(p, "the Monte Carlo trials, the sensitivity runs and the allocation's confirmations")
     add_no_progress(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
-    from ..job import MachiningJob, check_programs, design, polishing_curve
+    from ..api import nominal_polish_time_s
+    from ..job import MachiningJob, check_programs, design
     from ..tolerance.runs import tolerance_runs
 
     if args.target_yield is not None:
         if not args.allocate:
             raise InputError("--target-yield applies to --allocate (the allocation's target)")
+    compute_options(args)  # the flags, before any work
     settings = load(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed"),
                            ("tolerance.target_yield", args.target_yield, "--target-yield")])
+    use_compute(args, settings)
     mirror = design(settings)
     check_programs(settings, mirror)  # bad input stops here, before the output directory is made
     job = MachiningJob.from_settings(settings, mirror)  # the one machining job, each program a variant
@@ -55,12 +60,10 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         from .common import check_outputs, output_dir
 
-        check_outputs(args.output, ["tolerance.json"])
+        check_outputs(args.output, ["tolerance.json",
+                                    *(f"monte_carlo_{p.value}.png" for p in settings.tolerance.programs)])
         output_dir(args.output)
-    times = {}
-    for program in settings.tolerance.programs:
-        made = job.but(strategy=program.strategy).made()
-        times[program] = polishing_curve(made.profile, mirror, settings.polish).optimum_time_s
+    times = {program: nominal_polish_time_s(settings, program, job=job) for program in settings.tolerance.programs}
     runs = tolerance_runs(mirror, settings, times, progress=not args.no_progress, job=job,
                           allocate=settings.tolerance.programs if args.allocate else ())
     out = runs.figures
@@ -71,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
         from ..report import dumps
 
         write_text(Path(args.output) / "tolerance.json", dumps(out))
+        write_histograms(Path(args.output), out)
     if args.csv:
         from ..export.files import write_text
         from ..tolerance.montecarlo import trials_csv
@@ -81,6 +85,19 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_tolerance(out))
     return 0
+
+
+def write_histograms(directory, out: dict) -> None:
+    """DIR/monte_carlo_<program>.png: each program's trials against the limits (the
+    report's Monte Carlo chart), with the yield and its 95 % interval in the title."""
+    from ..export.files import write_bytes
+    from ..report.plots import monte_carlo_histograms
+
+    for name, t in out["programs"].items():
+        mc = t["monte_carlo"]
+        write_bytes(directory / f"monte_carlo_{name}.png",
+                    monte_carlo_histograms(mc["per_trial"], mc["limits"], calibrated=mc["calibrated"],
+                                           passed=mc["passed"], title=f"{name} program"))
 
 
 def format_tolerance(out: dict) -> str:

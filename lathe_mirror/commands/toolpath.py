@@ -6,6 +6,7 @@ import argparse
 
 from ..path import Arc
 from .common import add_common, load, print_json
+from ..settings.keys import help_default
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -16,14 +17,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         "report the profile errors per lobe.")
     add_common(p, output_help="G-code file, or a directory (gets mirror_<strategy>.ngc/.nc)")
     p.add_argument("--strategy", default=None,
-                   help="paper | lattice | arcs | best (= arcs; default: the config's toolpath.strategy)")
+                   help=f"paper | lattice | arcs | best (= arcs; {help_default('toolpath.strategy')})")
     p.add_argument("--dialect", default="linuxcnc", help="linuxcnc | fanuc (default linuxcnc)")
     p.add_argument("--points", type=int, default=None, metavar="N",
-                   help="point budget of the finishing contour (machine.max_points, default 528)")
+                   help=f"point budget of the finishing contour ({help_default('machine.max_points')})")
     p.add_argument("--resolution", type=float, default=None, metavar="MM",
-                   help="lattice step of r and Z, mm (machine.resolution, default 0.005)")
+                   help=f"lattice step of r and Z, mm ({help_default('machine.resolution')})")
     p.add_argument("--nose-radius", type=float, default=None, metavar="MM",
-                   help="tool nose radius, mm (tool.nose_radius, default 0.2; 0 = sharp)")
+                   help=f"tool nose radius, mm, 0 = sharp ({help_default('tool.nose_radius')})")
     p.add_argument("--check", metavar="PROGRAM",
                    help="simulate an existing G-code program (either dialect) against the configured "
                    "stock and tool instead of planning one; exit 2 naming the first block that touches "
@@ -45,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
         junction_fillet,
     )
     from ..job import check_program, design
-    from ..shop.programs import shop_program
+    from ..shop.programs import inspection_table, shop_program
     from ..shop import options_from_settings
     from ..toolpath import profile_errors, usable_ranges
 
@@ -77,7 +78,8 @@ def run(args: argparse.Namespace) -> int:
     lathe, tool, stock = settings.machine, settings.tool, settings.stock
     opts = options_from_settings(settings.toolpath)
     tp = check_program(settings, mirror, strategy)  # as every command that uses a program
-    shop = shop_program(tp, stock, opts)  # simulated against the stock; refused if it touches
+    # simulated against the stock; refused if it touches
+    shop = shop_program(tp, stock, opts, inspection=inspection_table(settings))
     text = format_program(shop.program, dialect)
     if out is not None:
         from ..export.files import write_text

@@ -85,7 +85,7 @@ def _figure(plt, spec: PartSpec, meridian: Meridian, title: str):
     ax.set_xlim(-R - 16, R + 20)
     ax.set_ylim(zmin - 22, zmax + 28)
     _dimensions(ax, spec, meridian, R, zb, zmax)
-    ax.set_title("SECTION A-A (through the axis), scale 2:1 at A3; dimensions in mm", fontsize=8, loc="left")
+    ax.set_title("SECTION A-A (through the axis), not to scale: the dimensions govern; mm", fontsize=8, loc="left")
 
     # asphere data and indications
     tab = fig.add_axes([0.50, 0.36, 0.48, 0.60])

@@ -15,11 +15,13 @@ speeds and feeds outside their words' formats when the settings are read (one li
 naming the key), the program's planner a program of more blocks; a program LinuxCNC's
 rs274 (or a Fanuc) would reject is never written.
 
-LinuxCNC: `%`, the header comments, `G18 G7 G21 G90 G40 G49 G94`, `G91.1` (I, K relative
-to the arc's start), then per operation `T1 M6 G43`, `G96 D.. S.. M3`, `G95`, `M8`, `F..`
+LinuxCNC: `%`, the header comments, `G18 G7 G21 G90 G40 G49 G94 G54`, `G91.1` (I, K relative
+to the arc's start), `G64 P.. Q..` (the path tolerance, ProgramOptions.path_tolerance), then per operation `T1 M6 G43`, `G96 D.. S.. M3`, `G95`, `M8`, `F..`
 and its moves; `M9`, the way home, `M5`, `M1` before the finishing tool; `M30`, `%`.
 Fanuc: `%`, `O1000 (NAME)`, upper-case comments in parentheses (no `;`), `G21` alone in
-its block, `G18 G40 G97 G99`, per operation `T0101`, `G50 S..` (spindle cap), `G96 S..
+its block, `G18 G40 G97 G99 G54`, a note of the look-ahead accuracy mode for the path
+tolerance, `G28 W0` and `G28 U0` (to the reference position, Z first) before the first tool
+change, per operation `T0101`, `G50 S..` (spindle cap), `G96 S..
 M03`, `M08`, `F..`; `M09`, `M05`, `M01`; `M30`, `%`.
 """
 
@@ -199,13 +201,21 @@ class _Writer:
         c(f"end position: home {self.xz(p.home)}, Z first, before the finishing tool and M30")
 
     def preamble(self) -> None:
-        lathe = self.lathe
+        lathe, tol = self.lathe, self.p.options.path_tolerance
         if self.fanuc:
             self.emit("G21")
-            self.emit("G18 G40 G97 G99")
+            self.emit("G18 G40 G97 G99 G54")
+            self.comment(f"path tolerance {_fixed(tol, 4)} mm: run the contour in the control's look-ahead "
+                         "accuracy mode (AI contour control G05.1 Q1 or G08 P1, as the control has it)")
+            self.comment("to the reference position, Z first, before the first tool change")
+            self.emit("G28 W0")
+            self.emit("G28 U0")
         else:
-            self.emit("G18 " + ("G7" if lathe.diameter_mode else "G8") + " G21 G90 G40 G49 G94")
+            self.emit("G18 " + ("G7" if lathe.diameter_mode else "G8") + " G21 G90 G40 G49 G94 G54")
             self.emit("G91.1")  # I, K relative to the arc's start
+            # path blending within the tolerance (P) and collinear merging within it (Q):
+            # without it LinuxCNC blends the short arcs freely
+            self.emit(f"G64 P{_fixed(tol, 4)} Q{_fixed(tol, 4)}")
 
     def tool_word(self, station: int) -> str:
         return f"T{station:02d}{station:02d}" if self.fanuc else f"T{station}"

@@ -61,7 +61,7 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
                   f"<b>Z{off.z_entry(sheet.face_z):.3f}</b> (the touched face + {rho:g} mm)"),
         _row("X", f"touch {side}, diameter D, and enter <b>X = D {sign} {2 * rho:g}</b> mm "
                   f"(X is the {x_unit}); e.g. D = {d_example:.3f} mm: enter "
-                  f"<b>X{off.x_entry(d_example):.3f}</b>"),
+                  f"<b>X{off.x_entry(d_example):.3f}</b>. " + _x_surface(sheet, off, d_example)),
         _row("tip code", f"LinuxCNC orientation Q{off.linuxcnc_orientation} (nose centre), Fanuc "
                          f"imaginary tip T{off.fanuc_tip} (nose centre); the program uses no nose "
                          "compensation (G40)"),
@@ -100,11 +100,23 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
     out.append(f"<tr><th colspan='12'>total (no tool change, no optional stop)</th>"
                f"<th>{_time(sheet.cycle_time_s)}</th></tr></table>")
     out += [f"<p>{e(n)}</p>" for n in sheet.notes]
+    if sheet.inspection:
+        out += ["<h2>Inspection</h2>",
+                "<p>Probe each lobe at these radii (a stylus trace through the axis or a CMM), Z from "
+                "the datum V1 (Z0, the inner vertex) after fitting the piston; each point must lie within "
+                "the band, the lobe's ISO 10110-5 form tolerance (PV / 2 either side; "
+                "<code>lathe-mirror spec</code> states it). The sag is from the lobe's own vertex.</p>",
+                "<table><tr><th>lobe</th><th>r mm</th><th>Z mm</th><th>sag mm</th><th>slope rad</th>"
+                "<th>band &plusmn;um</th></tr>"]
+        for row in sheet.inspection:
+            out.append(f"<tr><td>{e(row.lobe)}</td><td class='n'>{row.r_mm:.3f}</td><td class='n'>{row.z_mm:.6f}</td>"
+                       f"<td class='n'>{row.sag_mm:.6f}</td><td class='n'>{row.slope_rad:.5f}</td>"
+                       f"<td class='n'>{row.band_um:.2f}</td></tr>")
+        out.append("</table>")
     out.append(f"<p>End position: home X{sheet.home[0] * (2 if sheet.diameter_mode else 1):.3f} "
                f"Z{sheet.home[1]:.3f}, reached Z first.</p>")
     out.append("<h2>The stock after each operation</h2>")
-    for op in sheet.operations:
-        png = _stock_picture(sheet, op)
+    for op, png in zip(sheet.operations, stock_pictures(sheet)):
         out.append(f"<h3>{e(op.name)}</h3><img alt='stock after {e(op.name)}' "
                    f"src='data:image/png;base64,{base64.b64encode(png).decode('ascii')}'>")
     out.append("</body></html>")
@@ -116,6 +128,21 @@ def write_setup_sheet(path: str | Path, sheet: SetupSheet) -> Path:
     from .files import write_text
 
     return write_text(path, setup_sheet_html(sheet))
+
+
+def _x_surface(sheet: SetupSheet, off, d_example: float) -> str:
+    """Which surface the X touch-off uses: one that exists before the program runs."""
+    if off.x_side != "bore":
+        return f"Touch the bar's outside diameter ({sheet.stock['diameter_mm']:g} mm, turned true first)."
+    allow = sheet.stock["face_allowance_mm"]
+    if allow < 0.2:
+        return ("The bar has no bore and too little face allowance for a test recess: set X with the same "
+                "tool in its holder on a scrap bar (a recess bored and measured as below), then mount this bar.")
+    depth = min(0.3, allow / 2)
+    return (f"The bar has no bore: before the program, in MDI, cut a test recess into the face allowance "
+            f"from the axis out to about D = {d_example:g} mm, {depth:g} mm deep (its bottom stays above Z0; "
+            f"the facing removes it), measure its diameter D with a bore gauge or inside caliper and enter "
+            f"X as above.")
 
 
 def _row(head: str, value: str) -> str:
@@ -134,6 +161,22 @@ def _polygons(geom):
     if geom.geom_type == "Polygon":
         return [geom]
     return [g for part in getattr(geom, "geoms", []) for g in _polygons(part)]
+
+
+def stock_pictures(sheet: SetupSheet) -> list[bytes]:
+    """The stock picture of each operation, drawn on the command's executor
+    (lathe_mirror.compute: whole pictures per worker; the same bytes as one by one)."""
+    from ..compute import active
+
+    ex = active()
+    if ex.workers == 1 or len(sheet.operations) < 2:
+        return [_stock_picture(sheet, op) for op in sheet.operations]
+    with ex.bound(sheet) as run:
+        return run.map(_picture_of, list(range(len(sheet.operations))))
+
+
+def _picture_of(sheet: SetupSheet, i: int) -> bytes:
+    return _stock_picture(sheet, sheet.operations[i])
 
 
 def _stock_picture(sheet: SetupSheet, op) -> bytes:

@@ -15,20 +15,18 @@ from .readers import AreaMap, read_measurement
 
 @dataclass(frozen=True)
 class Measurement:
-    """A measured part: the fit (figures per lobe) and the machine's diagnosis. spec: the
-    per-lobe verdicts against a form tolerance, or None when no tolerance is given."""
+    """A measured part: the fit (figures per lobe) and the machine's diagnosis (the verdict
+    against the spec's form tolerance is the command's: iso10110 ranks above measure)."""
 
     fit: TraceFit
     diagnosis: Diagnosis
     areal: bool
-    spec: list | None = None
 
     def to_dict(self) -> dict:
         return {"source": self.fit.trace.source, "areal": self.areal, "fit": self.fit.to_dict(),
                 "lobes": [lf.to_dict() for lf in self.fit.lobes],
                 **({"conic_fit": self.fit.conic_params} if self.fit.conic_params else {}),
-                "diagnosis": self.diagnosis.to_dict(),
-                "form_tolerance": self.spec}
+                "diagnosis": self.diagnosis.to_dict()}
 
 
 def measure(path: str | Path, mirror: Mirror, nominal: Profile, programmed_nose_mm: float, *,

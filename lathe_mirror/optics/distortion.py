@@ -68,11 +68,18 @@ class DistortionMaps:
         """The usable pixels' values of figure `name` for lobe k (1-D)."""
         return getattr(self, name)[(self.lobe == k) & self.usable]
 
-    def figures(self) -> dict:
-        """{"lobes": [{"name", "pixels", ..., "<figure>": {"rms", "max"}}, ...]}, inner first."""
+    def figures(self, zones=None) -> dict:
+        """{"lobes": [{"name", "pixels", ..., "<figure>": {"rms", "max"}}, ...]}, inner first.
+
+        zones (optics.zones.Zones): the figures over each lobe's used zone (the pixels whose
+        image radius lies in its used_px: the ring the nose cannot reach left out), as
+        optics.radial.radial_figures(..., zones=) gives them; "zone_px" states it."""
         lobes = []
         for k, name in enumerate(LOBE_NAMES):
             in_lobe = self.lobe == k
+            if zones is not None:
+                lo, hi = zones.lobes[k].used_px
+                in_lobe = in_lobe & (self.radius_px >= lo) & (self.radius_px <= hi)
             use = in_lobe & self.usable
             clear = use & ~self.blocked
             entry = {
@@ -89,6 +96,9 @@ class DistortionMaps:
             ):
                 entry[key] = _rms_max(arr[clear] * scale)
                 entry["with_vignetted"][key] = _rms_max(arr[use] * scale)
+            if zones is not None:
+                lo, hi = zones.lobes[k].used_px
+                entry["zone_px"] = {"min": float(lo), "max": float(hi)}
             lobes.append(entry)
         return {"lobes": lobes}
 
@@ -121,6 +131,15 @@ def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = No
         hm, he = (trace_pixels(p, camera, xy, pose=pose, progress=progress) for p in (made, exact))
         maps = _figures_of(mirror, camera, hm, he, xy)
     return DistortionMaps(camera=camera, radius_px=np.hypot(u, v), **maps)
+
+
+def usable_annulus(mirror: Mirror, camera: Camera | None = None, *,
+                   pose: CameraPose | None = ALIGNED) -> np.ndarray:
+    """The pixels (H, W bool) of the lobes' usable annuli that the step wall does not
+    vignette: DistortionMaps' (lobe >= 0) & ~blocked, properties of the design alone, so
+    every made mirror (and its rendered image) is judged on the same pixels."""
+    maps = image_displacement(ExactProfile(mirror), mirror, camera, pose=pose)
+    return (maps.lobe >= 0) & ~maps.blocked
 
 
 def distortion_figures(made: Profile, mirror: Mirror, camera: Camera | None = None, *,

@@ -209,14 +209,15 @@ def zones(mirror: Mirror, nose_mm: float, guard_mm: float = 0.0, lattice_mm: flo
     return Zones(float(nose_mm), float(guard_mm), recessed, (inner, outer), shadow)
 
 
-def zones_for(settings: "Settings", mirror: Mirror) -> Zones:
+def zones_for(settings: "Settings", mirror: Mirror, nose_mm: float | None = None) -> Zones:
     """The zones every command uses for `settings`' made mirror: the configured tool's nose,
     guarded by the nose radius's tolerance ([tolerance] nose_radius_mm), the junction by one
     step of the coarsest lattice cut ([machine] resolution + [tolerance.params]
-    resolution_mm)."""
+    resolution_mm). nose_mm: another nose than the [tool]'s (a command's --nose-radius)."""
     tol = settings.tolerance
     tols = tol.tolerances if tol is not None else {}
     guard = float(tols.get("nose_radius_mm", 0.0))
     # the coarsest lattice the analysis cuts (the resolution row re-plans at + its tolerance)
     lattice = float(settings.machine.resolution) + float(tols.get("resolution_mm", 0.0))
-    return zones(mirror, float(settings.tool.nose_radius), guard, lattice)
+    nose = float(settings.tool.nose_radius) if nose_mm is None else float(nose_mm)
+    return zones(mirror, nose, guard if nose > 0 else 0.0, lattice)

@@ -21,7 +21,8 @@ The constraints (CONSTRAINTS, each named by the key that sets it):
              recessed, and the fillet it leaves in the step's corner lies where the
              camera does not see it), tool.approach_angle (the held tool's flanks clear
              the profile),
-             stock.diameter, stock.length and cad.thickness (the bar and the body hold it)
+             stock.diameter, stock.length and cad.thickness (the bar and the body hold it),
+             cad.mount_depth (the body's bore stays cad.min_wall below the face)
 Each violation is normalised by a natural unit (1 mm, 1 deg, 1 px, 1 % of the image,
 0.01 rad) so that they add up into one measure of infeasibility.
 
@@ -38,6 +39,7 @@ import numpy as np
 
 from ..body import BodySpec
 from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
+from ..enums import Mount
 from ..errors import DesignError
 from ..lathe import Stock, Tool
 from ..optics.ranging.resolution import r10
@@ -102,6 +104,7 @@ class Figures:
     reach_margin_deg: float
     hand: str
     r_pixel_outer: float = field(default=0.0)
+    bore_face_mm: float = field(default=0.0)  # the face's depth below the vertex over the mount bore's radius
 
     def objective(self, objective: Objective) -> float:
         """The value of `objective` (larger is better)."""
@@ -209,6 +212,8 @@ CONSTRAINTS: tuple[Constraint, ...] = (
                lambda f, p: (f.depth_mm + p.clearance, p.stock.length)),
     Constraint("cad.thickness", "the mirror's depth plus cad.min_wall", "mm", +1, 1.0,
                lambda f, p: (f.depth_mm + p.body.min_wall, p.body.thickness)),
+    Constraint("cad.mount_depth", "the face's depth over the mount bore plus cad.min_wall and the bore's depth", "mm",
+               +1, 1.0, lambda f, p: (f.bore_face_mm + p.body.min_wall + _bore_depth(p), p.body.thickness)),
 )
 
 
@@ -275,7 +280,25 @@ def measure(mirror: Mirror, problem: Problem, lobes: tuple[LobeSpec, LobeSpec], 
         reach_margin_deg=math.degrees(reach_margin(mirror, problem.tool, hand)),
         hand=hand.value,
         r_pixel_outer=mirror.outer.r_pixel,
+        bore_face_mm=_bore_face(mirror, problem),
     )
+
+
+def _bore_depth(p: Problem) -> float:
+    return p.body.mount_depth if p.body.mount is Mount.BORE else 0.0
+
+
+def _bore_face(mirror: Mirror, p: Problem) -> float:
+    """The face's deepest point below the vertex within the mount bore's radius (mm; the
+    body's bore must stay cad.min_wall below it: body.meridian's check)."""
+    rm = p.body.mount_diameter / 2.0
+    r = np.linspace(0.0, min(rm, mirror.r_max), 64)
+    z = np.where(r <= mirror.r_junction, mirror.inner.z(r), mirror.outer.z(r))
+    zj = mirror.junction_z
+    deepest = float(np.max(z))
+    if rm > mirror.r_junction:
+        deepest = max(deepest, max(zj))
+    return deepest - mirror.vertex_z
 
 
 def violations(fig: Figures, problem: Problem) -> np.ndarray:

@@ -51,6 +51,8 @@ def render_html(data: ReportData) -> str:
     from importlib import resources
     from string import Template
 
+    from .spec_section import spec_html
+
     tpl = Template((resources.files("lathe_mirror.report") / "template.html").read_text(encoding="utf-8"))
     f = data.figures
 
@@ -79,6 +81,7 @@ def render_html(data: ReportData) -> str:
         tolerance_section=_tolerance_html(f, img),
         calibration_table=_calibration_table(f.get("calibration")),
         ranging_section=_ranging_html(f.get("ranging"), img),
+        spec_section=spec_html(f.get("spec")),
         summary=summary_html(f),
         notes="".join(f"<li>{html.escape(n)}</li>" for n in f.get("notes", [])),
     )
@@ -277,6 +280,10 @@ def _polishing_html(p: dict, img) -> str:
                "<th>calibrated stereo residual %</th><th>depth error % (design assumed)</th></tr>" + rows + "</table>")
     proc_rows = ""
     for r in p["processes"]:
+        if "cannot_cut" in r:
+            proc_rows += (f"<tr><th>{html.escape(r['label'])}</th><td>{html.escape(r['program'])}</td>"
+                          f"<td colspan=\"10\">cannot cut this design: {html.escape(r['cannot_cut'])}</td></tr>")
+            continue
         fin = r["finished"]
         proc_rows += (
             f"<tr><th>{html.escape(r['label'])}</th><td>{html.escape(r['program'])}</td>"

@@ -25,7 +25,7 @@ room holding the camera) stay with the stage that has them.
 from __future__ import annotations
 
 from .costs import MEMORY_LIMIT_GIB, MIRRORS_RANGED, TIME_LIMIT_MIN, Cost, check_costs, estimate_costs, limits
-from .design_checks import MIN_SEEN, check_assembly_tolerances, check_design
+from .design_checks import MIN_SEEN, check_assembly_tolerances, check_design, checked_mirror
 from .keys import H_RANGE, MAX_ROUGH_LEVELS, MAX_VERTEX_RADIUS, MIN_VERTEX_RADIUS, RANGES, Range, check_ranges
 from .load import from_config
 from .model import MAX_SUPERSAMPLE, ComputeSettings, RenderSettings, Settings, StereoSettings
@@ -34,5 +34,6 @@ __all__ = [
     "H_RANGE", "MAX_ROUGH_LEVELS", "MAX_SUPERSAMPLE", "MAX_VERTEX_RADIUS", "MEMORY_LIMIT_GIB", "MIN_SEEN",
     "MIN_VERTEX_RADIUS", "MIRRORS_RANGED", "RANGES", "TIME_LIMIT_MIN", "ComputeSettings", "Cost", "Range",
     "RenderSettings", "Settings", "StereoSettings", "check_assembly_tolerances", "check_costs", "check_design",
+    "checked_mirror",
     "check_ranges", "estimate_costs", "from_config", "limits",
 ]

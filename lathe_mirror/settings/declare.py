@@ -172,9 +172,9 @@ class Key:
         return f"| `{name}` | {_default_text(self)} | {self.text()} | {self.help} | {self.note()} |"
 
     def help_default(self) -> str:
-        """`--help` text naming the key, its default and range: "machine.max_points, default
-        528; 4 to 1000000"."""
-        return f"{self.name}, default {_default_text(self).strip('`')}; allowed {self.text()}"
+        """`--help` text naming the key and its default: "machine.max_points, default 528"
+        (the flag's range follows it: commands.flags takes it from the same Key)."""
+        return f"{self.name}, default {_default_text(self).strip('`')}"
 
 
 def _default_text(key: Key) -> str:

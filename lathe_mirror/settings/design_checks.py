@@ -27,9 +27,14 @@ def check_design(settings: Settings) -> Mirror:
     (Eq. 6) within H_RANGE, and its given parameter (alpha_deg, a_over_b or e) where the
     lobe is a proper hyperbola: a DesignError names the parameter's allowed range. A
     mirror whose lobes share no stereo band (Mirror.common_band empty) is refused too."""
-    camera = settings.camera
-    lobes = [_checked_lobe(camera, spec) for spec in settings.lobes]
-    mirror = design_mirror(camera, *lobes)
+    return checked_mirror(settings.camera, settings.lobes)
+
+
+def checked_mirror(camera: Camera, lobes: tuple[LobeSpec, LobeSpec]) -> Mirror:
+    """The mirror of `camera` from the lobes' specs (design.mirror_from_specs) with every
+    check a configuration's design gets (check_design): the same DesignError and message
+    as `load()` for a lobe or a pair of lobes that cannot exist."""
+    mirror = design_mirror(camera, *(_checked_lobe(camera, spec) for spec in lobes))
     lo, hi = mirror.common_band
     if not lo < hi:  # a stereo camera whose lobes see no elevation in common
         (_, top), (bottom, _) = mirror.fov_usable(mirror.inner), mirror.fov_usable(mirror.outer)

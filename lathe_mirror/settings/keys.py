@@ -7,7 +7,13 @@ keys_* modules, one per group of sections) and what comes from it.
   README's table differs) and the reference table with the help text
   (reference_table_markdown, for the docs),
 - the `--help` text of a flag that sets a key (help_default),
-- the embedded defaults (the keys' defaults, which data/*.toml must equal: a test holds them).
+- the embedded defaults (declared_defaults; config.default_config is it, and
+  lathe_mirror/data/*.toml are generated from it: settings.defaults_toml).
+
+To add or change a key: declare it (or edit it) in the keys_* module of its section, give
+its typed field a home in the section's dataclass and its conversion in load.py (and
+dump.py back), then run scripts/gen-keys (README table, data/*.toml). Editing data/*.toml
+by hand changes nothing: the defaults are the declaration's, and a test says so.
 
 A key's own range is checked here; a limit that other keys move (the design, the cost
 estimates, a section's cross-key rule) is declared on the key (`depends`) and checked where
@@ -17,6 +23,7 @@ the key.
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 from .declare import Key
@@ -108,8 +115,7 @@ def reference_table_markdown() -> str:
 
 
 def help_default(name: str) -> str:
-    """A flag's `--help` text for the key it sets: "machine.max_points, default 528;
-    allowed 4 to 1000000"."""
+    """A flag's `--help` text for the key it sets: "machine.max_points, default 528"."""
     return key(name).help_default()
 
 
@@ -128,5 +134,5 @@ def declared_defaults() -> dict[str, Any]:
             parts = name.split(".")
             for p in parts[:-1]:
                 node = node.setdefault(p, {})
-            node[parts[-1]] = k.default
+            node[parts[-1]] = copy.deepcopy(k.default)  # a caller may change its copy
     return out

@@ -10,10 +10,9 @@ before any command does work or writes a file.
 from __future__ import annotations
 
 import math
-import re
 from typing import Any
 
-from ..body import MAX_LENGTH, BodySpec, CadSettings
+from ..body import BodySpec, CadSettings
 from ..design import Camera, LobeSpec
 from ..enums import (
     BEST,
@@ -28,23 +27,20 @@ from ..enums import (
     Surface,
     parse,
 )
-from ..errors import ConfigError, InputError
+from ..errors import ConfigError
 from ..finish import Process
 from ..lathe import Lathe, Stock, Tool
 from ..machine_errors import MachineErrors
 from ..optics.camera import CameraPose
 from ..optics.ranging.match import MatchParams
 from ..optics.ranging.stereo import StereoParams
-from ..optics.scene import BoxSpec, SceneSpec, build_scene
+from ..optics.scene import BoxSpec, SceneSpec
 from ..optimize.spec import Objective, OptimizeSettings, SearchSpace
 from ..polishing import PolishParams
-from ..shop import options_from_settings
-from ..tolerance.spec import MAX_SAMPLE_RAYS, Spec, ToleranceSettings
+from ..tolerance.spec import Spec, ToleranceSettings
 from ..toolpath import ToolpathSettings
-from .costs import check_costs
-from .design_checks import check_design
 from .keys import check_ranges
-from .model import MAX_SUPERSAMPLE, ComputeSettings, RenderSettings, Settings, StereoSettings
+from .model import ComputeSettings, RenderSettings, Settings, StereoSettings
 
 def from_config(cfg: dict[str, Any]) -> Settings:
     """Settings from a merged, key-checked configuration dict (config.load does both).
@@ -204,7 +200,7 @@ def _stereo(sc: dict) -> StereoSettings:
 
 
 def _tolerance(cfg: dict) -> ToleranceSettings:
-    """ToleranceSettings from [tolerance]. (Their bounds against [tool] and [machine] are pipeline.check_programs', where the
+    """ToleranceSettings from [tolerance]. (Their bounds against [tool] and [machine] are job.check_programs', where the
     tolerance analysis runs: `toolpath --nose-radius 0` must not trip over them.)"""
     t = cfg["tolerance"]
     programs = tuple(parse(Program, v, f"tolerance.programs[{i}]") for i, v in enumerate(t["programs"]))

@@ -64,6 +64,14 @@ class ProgramOptions:
     home_r, home_z: the end (and tool change) position, radius and Z of the nose centre;
       the program goes there, Z first, before M30 and before the finishing tool.
     rapid_rate: traverse speed for the cycle-time estimate, mm/min.
+    path_tolerance: the controller's path blending tolerance, mm: LinuxCNC `G64 P.. Q..`
+      (the Fanuc program notes its look-ahead / AI contour mode instead).
+    max_finish_depth: the deepest cut one finishing pass may take, mm: the stock the
+      semi-finish leaves is taken in passes of the finishing tool at offsets
+      rough_allowance (n - k) / n, k = 1 .. n - 1, then the contour (shop.roughing).
+    finish_passes: n (0: the fewest that keep each pass within max_finish_depth on the
+      profile; pipeline.shop_program raises it when the simulation finds a deeper cut,
+      as in an inside corner).
     """
 
     rough_depth: float = 1.0
@@ -76,6 +84,9 @@ class ProgramOptions:
     home_r: float = 50.0
     home_z: float = 50.0
     rapid_rate: float = 5000.0
+    path_tolerance: float = 0.001
+    max_finish_depth: float = 0.1
+    finish_passes: int = 0
 
     def __post_init__(self) -> None:
         # Bounds keep the planning finite (a level per rough_depth, a ramp leg per
@@ -88,6 +99,8 @@ class ProgramOptions:
         _bounded("toolpath.home_r", self.home_r, 0.0, 1000.0, "mm")
         _bounded("toolpath.home_z", self.home_z, 0.0, 1000.0, "mm")
         _bounded("toolpath.rapid_rate", self.rapid_rate, 100.0, 100000.0, "mm/min")
+        _bounded("toolpath.path_tolerance_mm", self.path_tolerance, 1e-4, 0.1, "mm")
+        _bounded("toolpath.max_finish_depth_mm", self.max_finish_depth, 0.005, 2.0, "mm")
         for key in ("spring_pass", "coolant"):
             if not isinstance(getattr(self, key), bool):
                 raise InputError(f"toolpath.{key} = {getattr(self, key)!r}: must be true or false")
@@ -98,7 +111,8 @@ def options_from_settings(t: ToolpathSettings) -> ProgramOptions:
     return ProgramOptions(rough_depth=t.rough_depth, rough_allowance=t.rough_allowance, clearance=t.clearance,
                           gouge_tolerance=t.gouge_tolerance, ramp_angle=t.ramp_angle,
                           spring_pass=t.spring_pass, coolant=t.coolant, home_r=t.home_r, home_z=t.home_z,
-                          rapid_rate=t.rapid_rate)
+                          rapid_rate=t.rapid_rate,
+                          path_tolerance=t.path_tolerance_mm, max_finish_depth=t.max_finish_depth_mm)
 
 
 # --------------------------------------------------------------------------------------

@@ -10,13 +10,16 @@ from typing import TYPE_CHECKING
 
 from ..design import Mirror
 from ..enums import BEST, Strategy
+from ..errors import InputError
+from ..iso10110 import spec_of
 from ..job import MachiningJob
 from ..lathe import Stock
 from ..tolerance.setting import setting_error_costs
 from ..toolpath import Toolpath
 from .plan import plan_program
-from .program import options_from_settings
-from .setup import setup_sheet
+from .program import ProgramOptions, options_from_settings
+from .roughing import finish_allowances
+from .setup import InspectionRow, setup_sheet
 from .stock import simulate_program
 
 if TYPE_CHECKING:
@@ -26,6 +29,9 @@ if TYPE_CHECKING:
     from .setup import SetupSheet
     from .stock import Simulation
 
+
+#: Most finishing passes (the contour and the offset passes before it) a program may take.
+MAX_FINISH_PASSES = 12
 
 #: The setting error whose cost the set-up sheet states, mm.
 SETTING_ERROR_MM = 0.01
@@ -42,17 +48,67 @@ class ShopProgram:
 
 
 def shop_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | None = None, *,
-                 name: str | None = None, setting_costs: dict | None = None) -> ShopProgram:
+                 name: str | None = None, setting_costs: dict | None = None,
+                 inspection: tuple = ()) -> ShopProgram:
     """The whole program around `toolpath` (shop.plan_program), simulated against the stock
     and refused (InputError, one line naming the block) if a rapid or the insert's body
     touches stock or the part, with its set-up sheet. setting_costs: what a setting error
-    costs (tolerance.setting; computed if None)."""
-    program = plan_program(toolpath, stock, options, name=name or f"mirror_{toolpath.strategy.value}")
-    sim = simulate_program(program)
-    sim.check()
+    costs (tolerance.setting; computed if None).
+
+    The finishing passes: as many as keep the deepest cut of each (the simulation's depth
+    of cut) within options.max_finish_depth; an inside corner takes more than the offset
+    step, so the count is raised from the simulated depth (at most MAX_FINISH_PASSES)."""
+    import math
+    from dataclasses import replace
+
+    options = ProgramOptions() if options is None else options
+    while True:
+        program = plan_program(toolpath, stock, options, name=name or f"mirror_{toolpath.strategy.value}")
+        sim = simulate_program(program)
+        sim.check()
+        deepest = max((op.max_depth_of_cut_mm for op in sim.operations if op.name.startswith("finish")),
+                      default=0.0)
+        limit = options.max_finish_depth
+        if deepest <= limit + 1e-6:
+            break
+        n = len(finish_allowances(options)) + 1
+        need = max(n + 1, math.ceil(n * deepest / limit - 1e-9))
+        if need > MAX_FINISH_PASSES:
+            raise InputError(f"toolpath.max_finish_depth_mm = {limit:g} mm: a finishing pass of the "
+                             f"{toolpath.strategy.value} program cuts {deepest:.3f} mm deep with {n} passes; "
+                             f"allowed a depth that {MAX_FINISH_PASSES} passes hold (a larger "
+                             "max_finish_depth_mm or a smaller toolpath.rough_allowance)")
+        options = replace(options, finish_passes=need)
     if setting_costs is None:
         setting_costs = setting_error_costs(toolpath.mirror, SETTING_ERROR_MM)
-    return ShopProgram(program=program, simulation=sim, sheet=setup_sheet(program, sim, setting_costs))
+    return ShopProgram(program=program, simulation=sim,
+                       sheet=setup_sheet(program, sim, setting_costs, inspection=inspection))
+
+
+#: Radii the inspection table probes: every this many mm of each clear aperture, and its ends.
+PROBE_STEP_MM = 2.0
+
+
+def inspection_table(settings: Settings) -> tuple:
+    """The set-up sheet's inspection rows (shop.setup.InspectionRow): each lobe's sag at
+    every PROBE_STEP_MM of its clear aperture and at its ends (inside it, to 0.01 mm), with the band its form
+    tolerance allows (iso10110.spec_of)."""
+    import numpy as np
+
+    if settings.tolerance is None:  # no tolerance spec, no band
+        return ()
+    spec = spec_of(settings)
+    rows = []
+    for lb in spec.lobes:
+        c = lb.conic
+        lo, hi = c.clear_aperture
+        lo, hi = np.ceil(lo * 100 - 1e-9) / 100, np.floor(hi * 100 + 1e-9) / 100  # probe radii in 0.01 mm
+        r = np.arange(np.ceil(lo / PROBE_STEP_MM - 1e-9), np.floor(hi / PROBE_STEP_MM + 1e-9) + 1) * PROBE_STEP_MM
+        r = np.unique(np.concatenate([[lo], r[(r > lo + 0.25) & (r < hi - 0.25)], [hi]]))
+        for rv, s, t in zip(r, c.sag(r), c.slope(r)):
+            rows.append(InspectionRow(lobe=c.name, r_mm=float(rv), z_mm=float(c.vertex_z - s), sag_mm=float(s),
+                                      slope_rad=float(t), band_um=lb.form.pv_um / 2.0))
+    return tuple(rows)
 
 
 def shop_programs(settings: Settings, mirror: Mirror, *,
@@ -62,5 +118,7 @@ def shop_programs(settings: Settings, mirror: Mirror, *,
     costs = setting_error_costs(mirror, SETTING_ERROR_MM)
     options = options_from_settings(settings.toolpath)
     job = MachiningJob.from_settings(settings, mirror)  # polish.precompensate: the polish's allowance
-    return [shop_program(job.but(strategy=strategy).toolpath, settings.stock, options, setting_costs=costs)
+    inspection = inspection_table(settings)
+    return [shop_program(job.but(strategy=strategy).toolpath, settings.stock, options, setting_costs=costs,
+                         inspection=inspection)
             for strategy in strategies]

@@ -6,7 +6,8 @@ relative to the arc's start: LinuxCNC's G91.1, Fanuc's default), G7 / G8 (X as d
 or radius; Fanuc: the machine's setting), G94 / G95 / G99 (feed per minute or per
 revolution), F, T (a new operation per tool call), M and S words (ignored here). Anything
 else that moves the tool (G91 incremental moves, canned cycles, G28, G53, cutter
-compensation) is refused with one line naming the line, since the simulation could not
+compensation) is refused with one line naming the line (but Fanuc's G28 U0 / G28 W0 before
+the first move: to the reference position, from where the program's first rapids start), since the simulation could not
 replay it faithfully.
 
 Each move's label names its block as the operator finds it: "N130 G0 X0.000 Z3.000" or,
@@ -37,7 +38,7 @@ if TYPE_CHECKING:
 _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 #: The words a program may have (the two dialects' and a hand edit's): anything else is
 #: refused rather than ignored.
-ALLOWED_LETTERS = frozenset("GMNTSDFXZIKOHP")
+ALLOWED_LETTERS = frozenset("GMNTSDFXZIKOHPQUW")  # P, Q: G64's tolerances; U, W: only G28 U0 / W0
 #: Largest feed per revolution a program may give (mm/rev; machine.feed_* allow as much).
 MAX_FEED_MM_REV = 500.0
 #: Largest arc centre offset I / K (mm): a lobe's vertex radius is at most 10 000 mm.
@@ -49,7 +50,7 @@ MAX_MOVES = 10_000
 #: Largest program file `toolpath --check` reads (bytes).
 MAX_PROGRAM_BYTES = 2 << 20
 _N = re.compile(r"N\s*(\d{1,9})\b")
-_UNSUPPORTED_G = {"28", "30", "53", "91", "41", "42", "71", "72", "73", "70", "76", "33", "32", "92", "50.1"}
+_UNSUPPORTED_G = {"30", "53", "91", "41", "42", "71", "72", "73", "70", "76", "33", "32", "92", "50.1"}
 
 
 def read_program(text: str, lathe: Lathe, *, source: str = "program") -> list[SimOperation]:
@@ -77,6 +78,19 @@ def read_program(text: str, lathe: Lathe, *, source: str = "program") -> list[Si
         block_no = next((int(float(v)) for w, v in words if w == "N"), None)
         _check_words(words, where, lathe, diameter)
         g = [_g(v) for w, v in words if w == "G"]
+        if "28" in g:
+            # Fanuc's return to the reference position with an incremental zero (U0 / W0: no
+            # intermediate point) before the program knows where the tool is: the program's
+            # first moves start from a position it cannot know anyway (their first rapid
+            # writes one axis); anywhere else it would move through points we cannot know
+            rest = [(w, float(v)) for w, v in words if w not in "NG"]
+            if pos != [None, None] or not rest or any(w not in "UW" or v != 0.0 for w, v in rest):
+                raise InputError(f"{where}: G28 is simulated only as G28 U0 / G28 W0 before the first move "
+                                 "(allowed: G0-G3, G7, G8, G18, G21, G40, G49, G54, G64, G90, G91.1, G94-G99)")
+            continue
+        if any(w in "UW" for w, _ in words):
+            raise InputError(f"{where}: incremental U / W words are not simulated (only G28 U0 / G28 W0 "
+                             "before the first move)")
         for gv in g:
             if gv in _UNSUPPORTED_G:
                 raise InputError(f"{source} line {k}: G{gv} is not simulated (allowed: G0-G3, G7, G8, "

@@ -16,7 +16,10 @@ part). The moves are the nose centre's. What each operation leaves:
   inside corner (the corner point is where the inner lobe's offset meets the wall's),
   up the wall, around the step's top on two tangents, along the outer lobe, and across
   the shoulder at the finished shoulder's height plus the allowance.
-- finish (the finishing tool, after M1): a ramped lead-in onto the contour's start, the
+- finish k/n (the finishing tool, after M1): when the allowance is deeper than
+  max_finish_depth, the semi-finish's path at smaller offsets (finish_allowances), so that
+  no pass takes more than max_finish_depth.
+- finish (the finishing tool): a ramped lead-in onto the contour's start, the
   contour (the toolpath's moves, unchanged), out across the shoulder, up.
 - A design whose OUTER lobe is recessed (toolpath.Hand.OPPOSITE): both tools in
   opposite-hand holders (stations 3 and 4), every pass the mirror image: the semi-finish
@@ -90,6 +93,16 @@ def nose_floor(mirror, r: np.ndarray, clearance: float) -> np.ndarray:
     return out
 
 
+def finish_allowances(options: ProgramOptions) -> list[float]:
+    """The offsets (mm, decreasing, > 0) of the finishing tool's passes before the contour:
+    rough_allowance (n - k) / n for k = 1 .. n - 1, n = finish_passes (0: the fewest passes
+    that keep each at most max_finish_depth deep on the profile, ceil(rough_allowance /
+    max_finish_depth))."""
+    a = options.rough_allowance
+    n = options.finish_passes or max(1, math.ceil(a / options.max_finish_depth - 1e-9))
+    return [round(a * (n - k) / n, 6) for k in range(1, n)]
+
+
 class _Planner:
     def __init__(self, tp: Toolpath, stock: Stock, opts: ProgramOptions) -> None:
         self.tp, self.stock, self.opts = tp, stock, opts
@@ -133,10 +146,17 @@ class _Planner:
             prev = z
         rough.start("semi-finish", f"semi-finish: the profile offset by {o.rough_allowance:g} mm, "
                                    "into the step corner")
-        self.semi_finish(rough)
+        self.semi_finish(rough, o.rough_allowance)
         rough.go_home(stop=True)
         fin = _Ops(self, self.stations[1], "finishing", lathe.feed_finish, pos=self.home)
-        fin.start("finish", "finish: the finishing contour, a fresh edge", first=True)
+        steps = finish_allowances(o)
+        n = len(steps) + 1
+        for k, d in enumerate(steps, start=1):
+            fin.start(f"finish {k}/{n}", f"finish pass {k} of {n}: the profile offset by {d:g} mm "
+                      f"(at most {o.max_finish_depth:g} mm a pass), a fresh edge", first=k == 1)
+            self.semi_finish(fin, d)
+        fin.start("finish", "finish: the finishing contour, a fresh edge"
+                  + (f" (pass {n} of {n})" if n > 1 else ""), first=n == 1)
         self.finish_pass(fin, "finish contour")
         if o.spring_pass:
             fin.start("spring pass", "spring pass: the finishing contour again")
@@ -256,11 +276,13 @@ class _Planner:
     # ----------------------------------------------------------------------------------
     # Semi-finish
 
-    def semi_finish(self, ops: _Ops) -> None:
+    def semi_finish(self, ops: _Ops, allowance: float) -> None:
+        """The profile offset by `allowance` (mm) beyond the part: the semi-finish (the
+        roughing tool, rough_allowance) and the finishing tool's passes before the contour."""
         if self.m.step <= 0:
-            return self.semi_finish_outer_recessed(ops)
-        m, o = self.m, self.opts
-        allow = o.rough_allowance + self.rho
+            return self.semi_finish_outer_recessed(ops, allowance)
+        m = self.m
+        allow = allowance + self.rho
         rj = m.r_junction
         # the inner lobe's offset, from the axis to where it meets the wall's offset
         r_w = self.floor(rj - allow)
@@ -277,15 +299,15 @@ class _Planner:
         z0 = self.ceil(float(outer.z_at_r(r0)))
         s0 = math.tan(float(outer.theta(rj)))
         pts.append((r_w, self.ceil(z0 + (r_w - r0) * s0)))
-        self.semi_finish_outer_lobe(ops, pts, outer, r0)
+        self.semi_finish_outer_lobe(ops, pts, outer, r0, allowance)
 
-    def semi_finish_outer_recessed(self, ops: _Ops) -> None:
+    def semi_finish_outer_recessed(self, ops: _Ops, allowance: float) -> None:
         """The semi-finish when the outer lobe is recessed (the mirror image at the wall):
         the inner lobe's offset to its rim's offset point, out along its end tangent to
         the wall's offset column (r_junction + allowance), down that column to the outer
         lobe's offset, along it to the shoulder; run from the rim in."""
-        m, o = self.m, self.opts
-        allow = o.rough_allowance + self.rho
+        m = self.m
+        allow = allowance + self.rho
         rj = m.r_junction
         inner = Target(m.inner, m.vertex_z, allow, 0.0, rj, n=2001)
         p_end = inner.point(rj)
@@ -304,17 +326,17 @@ class _Planner:
         # down the wall's offset: the outer sheet is highest at the wall's foot, so allow
         # above it there clears the corner
         pts.append((r_w, self.ceil(float(m.vertex_z - m.outer.z(rj)) + allow)))
-        self.semi_finish_outer_lobe(ops, pts, outer, r_w)
+        self.semi_finish_outer_lobe(ops, pts, outer, r_w, allowance)
 
-    def semi_finish_outer_lobe(self, ops: _Ops, pts: list, outer: Target, r0: float) -> None:
+    def semi_finish_outer_lobe(self, ops: _Ops, pts: list, outer: Target, r0: float, allowance: float) -> None:
         """Append the outer lobe's offset (from column r0) down to the shoulder to `pts`
         and cut the whole semi-finish: from the axis out, or from the rim in for the
         opposite hand."""
         m, o = self.m, self.opts
-        allow = o.rough_allowance + self.rho
+        allow = allowance + self.rho
         # the outer lobe's offset to the shoulder: the finished shoulder (the finishing
         # exit's nose bottom) plus the allowance
-        z_sh = self.ceil(self.tp.segments[-1].end[1] + o.rough_allowance)
+        z_sh = self.ceil(self.tp.segments[-1].end[1] + allowance)
         r_end = float(outer.point(m.r_max)[0])
         for c in np.arange(r0, r_end + SEMI_CHORD, SEMI_CHORD):
             c = self.ceil(float(c))
@@ -336,10 +358,26 @@ class _Planner:
             ops.rapid((self.r_out, z_sh))
             for p in pts[::-1]:
                 ops.feed(p)
-            ops.rapid((0.0, self.safe_z))  # up the axis
+            if allowance < o.rough_allowance - 1e-9:
+                # a finishing pass ends on the axis below what the semi-finish left there: a
+                # little past it, as the contour does (past_axis), before going up
+                d = self.past_axis(o.rough_allowance - allowance + 2 * self.rho)
+                if d > 0.0:
+                    ops.feed((ops.pos[0] - d, ops.pos[1]))
+            ops.rapid((ops.pos[0], self.safe_z))  # up the axis
             return
-        ops.rapid((0.0, self.safe_z))
-        ops.feed(pts[0])  # down the axis through air: the facing level left this height
+        if allowance < o.rough_allowance - 1e-9:
+            # a finishing pass: ramped onto its start as the contour is (finish_pass), not
+            # down the axis (the semi-finish left stock there; the nose would rub at r = 0)
+            r_s = self.ceil(pts[0][0] + (o.rough_allowance + 0.02) / self.tan_ramp)
+            z_s = self.ceil(pts[0][1] + (r_s - pts[0][0]) * self.tan_ramp)
+            ops.rapid((r_s, self.safe_z))
+            ops.rapid((r_s, self.ceil(z_s + o.clearance)))
+            ops.feed((r_s, z_s))
+            ops.feed(pts[0])
+        else:
+            ops.rapid((0.0, self.safe_z))
+            ops.feed(pts[0])  # down the axis through air: the facing level left this height
         for p in pts[1:]:
             ops.feed(p)
         ops.feed((self.r_out, z_sh))  # across the shoulder

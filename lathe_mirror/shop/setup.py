@@ -105,6 +105,22 @@ class SetupSheet:
     stock_start: object = field(repr=False)
     part: object = field(repr=False)
     notes: tuple[str, ...] = ()
+    inspection: tuple[InspectionRow, ...] = ()
+
+
+@dataclass(frozen=True)
+class InspectionRow:
+    """One probe point of the inspection table: the lobe, the radius r (mm), the nominal
+    machine Z (mm, from the datum V1: Z0 at the inner vertex), the sag from the lobe's own
+    vertex (mm), the surface's slope there (rad) and the band (+/- um about the nominal,
+    after the best-fit piston) the form tolerance allows."""
+
+    lobe: str
+    r_mm: float
+    z_mm: float
+    sag_mm: float
+    slope_rad: float
+    band_um: float
 
 
 def exposed_arc(tool: Tool) -> tuple[float, float]:
@@ -134,7 +150,8 @@ def insert_designation(tool: Tool) -> str:
     return f"{shape}CGT {size:02d}04{nose}"
 
 
-def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict) -> SetupSheet:
+def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict,
+                inspection: tuple[InspectionRow, ...] = ()) -> SetupSheet:
     """The sheet of a planned, simulated program (see the module doc)."""
     tp, stock, lathe = program.toolpath, program.stock, program.toolpath.lathe
     tool, m = tp.held_tool, tp.mirror  # as the program's hand holds it (toolpath.Hand)
@@ -192,4 +209,5 @@ def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict) -
                    + ("diameters (G7)." if lathe.diameter_mode else "radii (G8).")),
         tools=tuple(tools), face_z=face_z, centre_height_mm=centre_height,
         setting_costs=setting_costs, operations=tuple(ops), cycle_time_s=simulation.cycle_time_s,
-        home=program.home, stock_start=simulation.stock_start, part=simulation.part, notes=notes)
+        home=program.home, stock_start=simulation.stock_start, part=simulation.part, notes=notes,
+        inspection=tuple(inspection))

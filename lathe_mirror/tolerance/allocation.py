@@ -157,7 +157,7 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
     lim = np.array([ctx.limits[c] for c in CRITERIA])
     sur = Surrogate(resp, lim)
     keys = resp.keys
-    base = {k: s.tolerances[k] for k in keys}
+    base = {k: {**s.tolerances, **s.machine_errors}[k] for k in keys}  # the lathe's set-up errors too
     cost = {k: s.cost.get(k, 1.0) for k in keys}
     # Common random numbers: one set of standard draws for every candidate.
     rng = np.random.default_rng(s.seed + 2)

@@ -24,10 +24,12 @@ from .perturb import (
     PixelSample,
     TrialFigures,
     Trials,
+    batch_trials,
     evaluate,
     pixel_sample,
 )
-from .spec import DRAWN, Distribution, Program, ToleranceSettings
+from .calibration import Calibration
+from .spec import DRAWN, MACHINE_DRAWN, Distribution, Program, ToleranceSettings
 from .stats import wilson
 from .surfaces import SurfaceBank, time_nodes
 
@@ -56,6 +58,7 @@ class Context:
     limits: dict[str, float]
     progress: bool = False
     zones: object = None   # optics.zones.Zones: the pixels and radii the criteria judge
+    cut_plus_x: bool = True  # the finishing pass runs in +X (axis -> rim): backlash shifts it
 
     def ensure(self, trials: Trials, progress: bool | None = None) -> None:
         """Cut and polish every nose the trials drew that is not made yet."""
@@ -261,22 +264,74 @@ def draw_trials(ctx: Context, n: int | None = None, seed: int | None = None,
     sx, sy = draw("seat_tilt_deg", deg), draw("seat_tilt_deg", deg)
     # The nose is cut as drawn, rounded to the nose step; never at or below zero.
     nose = ctx.bank.snapped(np.maximum(nose, ctx.bank.nose_step))
+    # the lathe's set-up errors about their configured values (which the bank's parts were
+    # cut with), drawn after the others so that their draws do not change
+    me = {**s.machine_errors, **{k: tolerances[k] for k in MACHINE_DRAWN if tolerances and k in tolerances}}
+    mdraw = {}
+    for key in MACHINE_DRAWN:
+        t = me.get(key, 0.0)
+        mdraw[key] = np.zeros(n) if t == 0 else (rng.normal(0.0, t / 3.0, n) if s.distribution is Distribution.NORMAL
+                                                 else rng.uniform(-t, t, n))
+    backlash = np.abs(mdraw["backlash_mm"]) if ctx.cut_plus_x else np.zeros(n)
     return Trials(phase=phase.astype(np.intp), nose_mm=nose, time_s=time, tool_x_mm=tx,
-                  tool_z_mm=tz, cam_x_mm=cx, cam_y_mm=cy, cam_z_mm=cz, tilt_x=ax, tilt_y=ay, seat_x=sx, seat_y=sy)
+                  tool_z_mm=tz, cam_x_mm=cx, cam_y_mm=cy, cam_z_mm=cz, tilt_x=ax, tilt_y=ay, seat_x=sx, seat_y=sy,
+                  centre_height_mm=mdraw["centre_height_mm"], nose_error_mm=mdraw["nose_radius_error_mm"],
+                  squareness_rad=mdraw["squareness_urad"] * 1e-6, machine_x_mm=mdraw["x_offset_mm"] - backlash)
 
 
 def evaluate_trials(ctx: Context, trials: Trials, *, progress: bool = False, desc: str = "tolerance: trials",
                     ranges_m=None, **kw) -> TrialFigures:
     """Figures of each trial (tolerance.perturb.evaluate) at ranges_m (m; default the
     spec's range), the noses they drew cut first, with a progress bar when asked."""
+    from ..compute import active
+
     ctx.ensure(trials, progress)
     bar = _bar(len(trials), desc, progress)
     ranges = (ctx.settings.spec.depth_range_m,) if ranges_m is None else tuple(ranges_m)
-    fig = evaluate(ctx.mirror, ctx.bank, trials, ctx.samples, ranges_m=ranges, depth_points=ctx.settings.depth_points,
-                   seat_pivot_mm=ctx.settings.seat_pivot_mm, outlier_px=OUTLIER_FACTOR * ctx.limits["image_displacement_px"],
-                   progress=bar, zones=ctx.zones, **kw)
+    args = dict(ranges_m=ranges, depth_points=ctx.settings.depth_points, seat_pivot_mm=ctx.settings.seat_pivot_mm,
+                outlier_px=OUTLIER_FACTOR * ctx.limits["image_displacement_px"], zones=ctx.zones, **kw)
+    ex = active()
+    batch = batch_trials(ctx.samples, kw.get("chunk", 100))
+    n = len(trials)
+    if ex.workers == 1 or n <= batch or kw.get("keep_displacements"):
+        fig = evaluate(ctx.mirror, ctx.bank, trials, ctx.samples, progress=bar, **args)
+    else:
+        # Blocks of whole batches (the serial run's batches: the same figures to the bit),
+        # about three per worker so that they finish together.
+        per = batch * max(1, math.ceil(n / batch / (3 * max(ex.workers, 1))))
+        blocks = [trials.take(slice(a, min(n, a + per))) for a in range(0, n, per)]
+        with ex.bound(_Shared(ctx.mirror, ctx.bank, ctx.samples, args)) as run:
+            fig = _concat(run.map(_evaluate_block, blocks, progress=bar))
     bar.close()
     return fig
+
+
+@dataclass(frozen=True)
+class _Shared:
+    """What every block of trials is evaluated against (held once by each worker)."""
+
+    mirror: Mirror
+    bank: SurfaceBank
+    samples: tuple[PixelSample, PixelSample]
+    args: dict
+
+
+def _evaluate_block(shared: _Shared, trials: Trials) -> TrialFigures:
+    return evaluate(shared.mirror, shared.bank, trials, shared.samples, **shared.args)
+
+
+def _concat(parts: list[TrialFigures]) -> TrialFigures:
+    """The figures of consecutive blocks of trials, as one (no `extra`)."""
+    def cat(get):
+        return np.concatenate([get(p) for p in parts])
+
+    first = parts[0]
+    return TrialFigures({k: cat(lambda p: p.raw[k]) for k in first.raw},
+                        {k: cat(lambda p: p.calibrated[k]) for k in first.calibrated},
+                        cat(lambda p: p.slope_error_rad_rms), cat(lambda p: p.normal_deviation_mm_rms),
+                        cat(lambda p: p.lost_fraction),
+                        Calibration(cat(lambda p: p.calibration.rotation), cat(lambda p: p.calibration.coeffs),
+                                    first.calibration.span), first.ranges_m)
 
 
 def judge(figures: TrialFigures, limits: dict[str, float], calibrated: bool) -> dict[str, np.ndarray]:

@@ -36,6 +36,7 @@ from ..optics.radial import lobe_pixel_radii, used_extent
 from ..optics.ranging.resolution import parallax_per_px, range_error_pct
 from ..optics.stereo import band_elevations, capped_abs_error, stereo_centre_z, triangulate
 from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals
+from .poses import poses
 from .surfaces import OFF_SURFACE_MM, SurfaceBank
 
 #: Newton steps of the 3-D ray-surface intersection (2-3 from the exact sheet's hit).
@@ -65,6 +66,19 @@ class Trials:
     tilt_y: np.ndarray
     seat_x: np.ndarray
     seat_y: np.ndarray
+    # the lathe's set-up errors beyond the configured ones (machine_errors; tolerance.
+    # machine_errors): centre height (mm), nose radius error with the tool set on its tip
+    # (mm), X slide squareness (rad), and the X shift of the finishing pass (X offset plus
+    # the backlash a pass cut in +X loses, mm)
+    centre_height_mm: np.ndarray = None
+    nose_error_mm: np.ndarray = None
+    squareness_rad: np.ndarray = None
+    machine_x_mm: np.ndarray = None
+
+    def __post_init__(self) -> None:
+        for name in ("centre_height_mm", "nose_error_mm", "squareness_rad", "machine_x_mm"):
+            if getattr(self, name) is None:
+                setattr(self, name, np.zeros(self.phase.size))
 
     def __len__(self) -> int:
         return int(self.phase.size)
@@ -183,6 +197,31 @@ def matching_floor_pct(mirror: Mirror, ranges_m, noise_px: float, n_elev: int) -
 
 
 # --------------------------------------------------------------------------------------
+# The lathe's set-up errors on a trial's surface
+
+
+def machine_error_surface(bank: SurfaceBank, k: int, surf: tuple[np.ndarray, np.ndarray], tr: Trials):
+    """(z, slope) of lobe k of each trial on the lobe's grid with the trial's set-up errors
+    (machine_errors' model, to first order in each; camera frame, z up = machine Z down):
+    the centre height h moves every radius r to sqrt(r^2 - h^2) (radii under h are held at
+    the vertex: the pip a pixel or less across); a nose radius error dr, the tool set on its
+    tip, raises the part by dr (1 + z' - sqrt(1 + z'^2)) in machine Z; squareness eps tilts
+    Z by eps r. The X shift is the setting error's (tool_x_mm)."""
+    z, s = surf
+    r = bank.grid(k)
+    h = tr.centre_height_mm[:, None]
+    q = np.sqrt(np.maximum(r[None, :] ** 2 - h ** 2, 0.0))
+    if np.any(h):
+        z = np.stack([np.interp(q[i], r, z[i]) for i in range(z.shape[0])])
+        s = np.stack([np.interp(q[i], r, s[i]) for i in range(s.shape[0])])
+    dr = tr.nose_error_mm[:, None]
+    lift = dr * (1.0 + np.abs(s) - np.sqrt(1.0 + s * s))
+    dlift = np.gradient(lift, r, axis=1) if r.size > 1 else np.zeros_like(lift)
+    eps = tr.squareness_rad[:, None]
+    return z - lift - eps * r[None, :], s - dlift - eps
+
+
+# --------------------------------------------------------------------------------------
 # Evaluation
 
 
@@ -213,12 +252,16 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
     kept: list = []
     sp = stereo_points(mirror, ranges_m, depth_points)
     span = (lobe_span(samples[0].u, samples[0].v), lobe_span(samples[1].u, samples[1].v))
-    chunk = max(1, min(chunk, _BATCH_RAYS // max(samples[0].u.size, samples[1].u.size, 1)))
+    chunk = batch_trials(samples, chunk)
     for a in range(0, n, chunk):
         sl = slice(a, min(n, a + chunk))
         tr = trials.take(sl)
         m = len(tr)
         surf = [bank.trial_surface(k, tr.phase, tr.nose_mm, tr.time_s, tr.tool_z_mm) for k in (0, 1)]
+        if np.any(tr.centre_height_mm) or np.any(tr.nose_error_mm) or np.any(tr.squareness_rad) \
+                or np.any(tr.machine_x_mm):
+            surf = [machine_error_surface(bank, k, surf[k], tr) for k in (0, 1)]
+            tr.tool_x_mm = tr.tool_x_mm + tr.machine_x_mm  # the pass shifted in X, as a setting error
         origin, rotation = poses(tr, seat_pivot_mm)
         traced = [_trace(mirror, bank, k, surf, tr, origin, rotation, samples[k].u, samples[k].v) for k in (0, 1)]
         valid = [t[2] for t in traced]
@@ -267,34 +310,9 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
     return fig
 
 
-def poses(tr: Trials, seat_pivot_mm: float) -> tuple[np.ndarray, np.ndarray]:
-    """The camera's pinhole (trials, 3) and rotation (camera -> mirror frame, (trials, 3, 3))
-    in the mirror's frame.
-
-    The camera is decentred (cam_x, cam_y), moved along the axis (cam_z) and turned about
-    its pinhole by R_c = R_y(tilt_y) R_x(tilt_x); the mirror is turned by S = R_y(seat_y)
-    R_x(seat_x) about the pivot C = (0, 0, seat_pivot_mm). In the mirror's frame the
-    pinhole is S^T (o - C) + C and the rotation S^T R_c: a seat tilt t moves the pinhole
-    sideways by seat_pivot_mm sin t (0.218 mm for 0.1 deg at 125 mm).
-    """
-    o = np.stack([tr.cam_x_mm, tr.cam_y_mm, tr.cam_z_mm], axis=1)
-    rc = _rot_yx(tr.tilt_x, tr.tilt_y)
-    s = _rot_yx(tr.seat_x, tr.seat_y)
-    st = np.transpose(s, (0, 2, 1))
-    c = np.array([0.0, 0.0, seat_pivot_mm])
-    origin = np.einsum("tij,tj->ti", st, o - c) + c
-    return origin, st @ rc
-
-
-def _rot_yx(ax: np.ndarray, ay: np.ndarray) -> np.ndarray:
-    """R_y(ay) R_x(ax) for arrays of angles (rad)."""
-    cx, sx, cy, sy = np.cos(ax), np.sin(ax), np.cos(ay), np.sin(ay)
-    zero, one = np.zeros_like(cx), np.ones_like(cx)
-    rx = np.stack([np.stack([one, zero, zero], -1), np.stack([zero, cx, -sx], -1),
-                   np.stack([zero, sx, cx], -1)], axis=1)
-    ry = np.stack([np.stack([cy, zero, sy], -1), np.stack([zero, one, zero], -1),
-                   np.stack([-sy, zero, cy], -1)], axis=1)
-    return ry @ rx
+def batch_trials(samples: tuple[PixelSample, PixelSample], chunk: int = 100) -> int:
+    """Trials per batch of evaluate; blocks at multiples of it give the serial figures."""
+    return max(1, min(chunk, _BATCH_RAYS // max(samples[0].u.size, samples[1].u.size, 1)))
 
 
 def _wrms(x: np.ndarray, w: np.ndarray) -> np.ndarray:

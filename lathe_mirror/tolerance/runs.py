@@ -11,10 +11,13 @@ from typing import TYPE_CHECKING
 from ..design import Mirror
 from ..enums import Program
 from ..job import MachiningJob, MadeSurface, polishing_curve
+from ..optics.radial import radial_figures
+from ..optics.zones import zones_for
 from .allocation import allocate as allocate_tolerances
 from .allocation import inverse_sensitivity
-from .montecarlo import prepare, run_monte_carlo, stereo_table
-from .sensitivity import resolution_row, responses, sensitivity_table
+from .montecarlo import CRITERIA, evaluate_trials, judge, prepare, run_monte_carlo, stereo_table
+from .perturb import Trials
+from .sensitivity import judged_values, resolution_row, responses, sensitivity_table
 
 if TYPE_CHECKING:
     from ..settings import Settings
@@ -73,7 +76,8 @@ def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Pro
                  "monte_carlo": mc.to_dict(), "sensitivity": sens,
                  "inverse_sensitivity": inverse_sensitivity(resp, ctx.limits),
                  "stereo": stereo_table(ctx, DEPTH_RANGES_M),
-                 "nose_radii_cut": len(ctx.bank.nose_mm)}
+                 "nose_radii_cut": len(ctx.bank.nose_mm),
+                 "nominal_over_zone": nominal_over_zone(mirror, part.but(polish_time_s=ctx.nominal_time_s), ctx)}
         if program in allocate:
             entry["allocation"], confirm = allocate_tolerances(ctx, resp, mc, target=target, progress=progress)
             if confirm is not None:
@@ -81,6 +85,19 @@ def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Pro
         entry["verdict"] = verdict(entry, ts.spec_dict())
         out["programs"][program.value] = entry
     return ToleranceRuns(out, results)
+
+
+def nominal_over_zone(mirror: Mirror, part: MachiningJob, ctx) -> dict:
+    """The nominal part's shared figure, exactly (optics.radial: every pixel centre of the
+    aligned camera) over the zone the criteria judge: the image displacement per lobe (px),
+    the figure `calib` and the report quote for the same made mirror (`part`, polished for
+    the nominal time); the Monte Carlo's sparse 3-D sample estimates it per trial."""
+
+    made = part.made()
+    lobes = radial_figures(made.profile, mirror, zones=ctx.zones)["lobes"]
+    return {"surface": made.source, "zones": ctx.zones.describe(),
+            "lobes": [{"name": lb["name"], "image_displacement_px": lb["image_displacement_px"],
+                       "zone_px": lb["zone_px"]} for lb in lobes]}
 
 
 def monte_carlo(mirror: Mirror, settings: Settings, program: Program, nominal_time_s: float, *,
@@ -107,11 +124,11 @@ def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nomi
             phases[phase] = job.but(phase=phase)
         return phases[phase].but(nose_radius=nose).made()
 
-    from ..optics.zones import zones_for
-
-    return prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
-                   nose0=job.tool.nose_radius, machine_at=machine_at, progress=progress,
-                   zones=zones_for(settings, mirror))
+    ctx = prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
+                  nose0=job.tool.nose_radius, machine_at=machine_at, progress=progress,
+                  zones=zones_for(settings, mirror))
+    ctx.cut_plus_x = mirror.step > 0  # the finishing pass runs axis -> rim (+X): backlash shows
+    return ctx
 
 
 def verdict(t: dict, spec: dict) -> dict:
@@ -140,7 +157,8 @@ def verdict(t: dict, spec: dict) -> dict:
     return out
 
 
-def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False) -> dict:
+def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
+                 polish_time_s: float | None = None) -> dict:
     """The optimiser's winner through the tolerance analysis of the best program with the
     configured tool and default tolerances: the nominal part (lattice phase 0, every
     parameter nominal) judged against the spec, and the Monte Carlo's yield against
@@ -150,16 +168,15 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False) 
     trials less the passing ones'), which `tolerance --allocate` tightens."""
     import numpy as np
 
-    from .montecarlo import CRITERIA, evaluate_trials, judge
-    from .perturb import Trials
-
     ts = settings.tolerance
     job = MachiningJob.from_settings(settings, mirror, strategy=Program.BEST.strategy)
-    time_s = polishing_curve(job.made().profile, mirror, settings.polish).optimum_time_s
+    if polish_time_s is None:  # the best program's polishing curve chooses it, as `tolerance` does
+        time_s = polishing_curve(job.made().profile, mirror, settings.polish).optimum_time_s
+    else:
+        time_s = float(polish_time_s)
     ctx = tolerance_context(mirror, settings, Program.BEST, time_s, progress=progress, job=job)
     nom = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s))
     ok = judge(nom, ctx.limits, ts.spec.calibrated)
-    from .sensitivity import judged_values
 
     vals = judged_values(nom, ts.spec.calibrated)[0]
     nominal = {c: {"value": float(vals[j]), "limit": float(ctx.limits[c]), "pass": bool(ok[c][0])}

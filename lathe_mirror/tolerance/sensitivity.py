@@ -21,7 +21,7 @@ import numpy as np
 
 from .montecarlo import CRITERIA, Context, evaluate_trials, judge
 from .perturb import TrialFigures, Trials
-from .spec import DRAWN, PARAMETERS
+from .spec import DRAWN, MACHINE_DRAWN, PARAMETERS
 
 #: Fractions of a tolerance each parameter is scanned at (both signs).
 SCAN = (0.5, 1.0, 4.0 / 3.0)
@@ -68,6 +68,16 @@ def apply(tr: Trials, i: int, key: str, value: float) -> None:
         tr.tilt_x[i] += value * deg
     elif key == "seat_tilt_deg":
         tr.seat_x[i] += value * deg
+    elif key == "centre_height_mm":
+        tr.centre_height_mm[i] += value
+    elif key == "x_offset_mm":
+        tr.machine_x_mm[i] += value
+    elif key == "nose_radius_error_mm":
+        tr.nose_error_mm[i] += value
+    elif key == "squareness_urad":
+        tr.squareness_rad[i] += value * 1e-6
+    elif key == "backlash_mm":
+        tr.machine_x_mm[i] -= abs(value)  # a pass cut in +X lands short (both signs: the same side)
     else:
         raise KeyError(key)
 
@@ -84,8 +94,8 @@ def judged_values(fig: TrialFigures, calibrated: bool) -> np.ndarray:
 
 def responses(ctx: Context, *, progress: bool = False) -> Responses:
     """Evaluate every parameter at -/+ SCAN x its tolerance and every lattice phase."""
-    tol = ctx.settings.tolerances
-    keys = tuple(k for k in DRAWN if tol.get(k, 0.0) > 0)
+    tol = {**ctx.settings.tolerances, **ctx.settings.machine_errors}
+    keys = tuple(k for k in DRAWN + MACHINE_DRAWN if tol.get(k, 0.0) > 0)
     fr = np.array(sorted([-f for f in SCAN] + [0.0] + list(SCAN)))
     P = len(ctx.bank.phases)
     cases: list[tuple[str, float]] = [("phase", float(p)) for p in range(P)]
@@ -161,7 +171,7 @@ def resolution_row(ctx: Context, polish_params, *, res0: float, machine_at, prog
     d = ctx.settings.tolerances.get("resolution_mm", 0.0)
     if d <= 0:
         return None
-    # res0 > d: checked by pipeline.check_programs
+    # res0 > d: checked by job.check_programs
     out = {"parameter": "resolution_mm", "what": "controller resolution (re-planned program)",
            "tolerance": d, "unit": "mm",
            "note": "not drawn in the Monte Carlo: one controller makes every part"}

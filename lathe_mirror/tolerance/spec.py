@@ -51,11 +51,21 @@ PARAMETERS: dict[str, tuple[str, str]] = {
     "camera_tilt_deg": ("camera axis tilt about its pinhole (x and y)", "deg"),
     "camera_axial_mm": ("lens entrance pupil along the axis", "mm"),
     "seat_tilt_deg": ("mirror seat tilt about the seat pivot (x and y)", "deg"),
+    # the lathe's set-up errors ([tolerance.machine_errors], about [machine.errors])
+    "centre_height_mm": ("lathe: tool centre height (a pip at the vertex, radii moved)", "mm"),
+    "x_offset_mm": ("lathe: tool X zero (the pass moved out in r: an ogive)", "mm"),
+    "nose_radius_error_mm": ("lathe: nose radius against the programmed one, tool set on its tip", "mm"),
+    "squareness_urad": ("lathe: X slide out of square with the spindle", "urad"),
+    "backlash_mm": ("lathe: X backlash (a pass cut in +X lands short)", "mm"),
 }
 
 #: The parameters the Monte Carlo draws and the allocation may tighten, in draw order.
 DRAWN = ("nose_radius_mm", "polish_time_s", "tool_x_mm", "tool_z_mm", "camera_decentre_mm",
          "camera_axial_mm", "camera_tilt_deg", "seat_tilt_deg")
+
+#: The lathe's set-up errors the Monte Carlo draws ([tolerance.machine_errors]), in draw
+#: order, after DRAWN's.
+MACHINE_DRAWN = ("centre_height_mm", "x_offset_mm", "nose_radius_error_mm", "squareness_urad", "backlash_mm")
 
 #: Largest sparse pixel sample per lobe (rays): image-radius bins x azimuths.
 MAX_SAMPLE_RAYS = 200_000
