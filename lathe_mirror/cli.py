@@ -18,6 +18,7 @@ import contextlib
 import importlib
 import os
 import sys
+import threading
 import traceback
 import warnings
 
@@ -60,6 +61,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Set once the command has caught the exception a signal raised (its status is decided):
+#: later signals are only noted, and _watch stops delivering.
+_handled = threading.Event()
+
+
 class Terminated(BaseException):
     """SIGTERM, raised in the main thread like KeyboardInterrupt for SIGINT, so that a
     terminated command cleans up as an interrupted one does."""
@@ -67,6 +73,7 @@ class Terminated(BaseException):
 
 def main(argv: list[str] | None = None) -> int:
     received: list[int] = []  # signals caught: one may surface as another exception
+    _handled.clear()
     # From the start (the commands' modules import while the parser is built): a signal
     # at any point is exit 130 / 143 and one line.
     with _signals_raise(received, _committed, settle=argv is None):
@@ -91,6 +98,7 @@ def _parse_and_run(argv: list[str] | None, received: list[int]) -> int:
     except (KeyboardInterrupt, Terminated, ImportError):
         if not received:
             raise
+        _handled.set()
         print(f"lathe-mirror: {'interrupted' if received[0] == 2 else 'terminated'}", file=sys.stderr)
         return 128 + received[0]
     return _run(args, received)
@@ -124,15 +132,18 @@ def _run(args: argparse.Namespace, received: list[int]) -> int:
             print(f"lathe-mirror {args.command}: error: {_one_line(exc)}", file=sys.stderr)
             return 2
         except KeyboardInterrupt:
+            _handled.set()
             print("lathe-mirror: interrupted", file=sys.stderr)
             return 130
         except Terminated:
+            _handled.set()
             print("lathe-mirror: terminated", file=sys.stderr)
             return 143
         except BrokenPipeError:
             return 0
         except Exception as exc:  # an internal failure: say so, keep the trace on request
             if received:  # e.g. SIGTERM inside an extension module's import: ImportError
+                _handled.set()
                 print(f"lathe-mirror: {'interrupted' if received[0] == 2 else 'terminated'}", file=sys.stderr)
                 return 128 + received[0]
             return _internal(args, exc, debug)
@@ -185,7 +196,7 @@ def _signals_raise(received: list[int], done=lambda: False, *, settle: bool = Fa
         files = sys.modules.get("lathe_mirror.export.files")
         if files is not None and files.defer_signal(signum):  # renaming: raised again after
             return
-        if _raising(threading.main_thread().ident):  # the first one is on its way out
+        if _handled.is_set() or _raising(threading.main_thread().ident):  # the first one is on its way out
             return
         if len(received) == 1:
             _watch(signum, stop)
@@ -227,7 +238,7 @@ def _watch(signum: int, stop) -> None:
 
     def watch():
         while not stop.wait(1.0):
-            if not _raising(main_id):
+            if not (_handled.is_set() or _raising(main_id)):
                 signal.pthread_kill(main_id, signum)
 
     threading.Thread(target=watch, name="lathe-mirror-signal", daemon=True).start()
