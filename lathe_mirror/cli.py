@@ -176,6 +176,8 @@ def _signals_raise(received: list[int], done=lambda: False, *, settle: bool = Fa
         yield
         return
 
+    stop = threading.Event()  # the block has ended: no more re-deliveries
+
     def handler(signum, frame):
         received.append(signum)
         if done():  # after the last rename: the command has succeeded
@@ -183,14 +185,52 @@ def _signals_raise(received: list[int], done=lambda: False, *, settle: bool = Fa
         files = sys.modules.get("lathe_mirror.export.files")
         if files is not None and files.defer_signal(signum):  # renaming: raised again after
             return
+        if _raising(threading.main_thread().ident):  # the first one is on its way out
+            return
+        if len(received) == 1:
+            _watch(signum, stop)
         raise KeyboardInterrupt() if signum == signal.SIGINT else Terminated()
 
+    def unraisable(info):  # the handler's exception swallowed (see _watch): no traceback
+        if not isinstance(info.exc_value, (KeyboardInterrupt, Terminated)):
+            hook(info)
+
+    hook, sys.unraisablehook = sys.unraisablehook, unraisable
     previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
+        stop.set()
         for sig, old in previous.items():
             signal.signal(sig, signal.SIG_IGN if settle else old)
+        sys.unraisablehook = hook
+
+
+def _raising(thread_id: int | None) -> bool:
+    """Whether the thread is handling a KeyboardInterrupt or Terminated (in an except or
+    finally clause on its way out)."""
+    exc = sys._current_exceptions().get(thread_id) if thread_id is not None else None
+    if isinstance(exc, tuple):  # Python 3.11: exc_info
+        exc = exc[1]
+    return isinstance(exc, (KeyboardInterrupt, Terminated))
+
+
+def _watch(signum: int, stop) -> None:
+    """Deliver signum to the main thread again every second until main's block ends, while
+    it is not handling the exception the handler raised: an exception raised where Python
+    swallows it (a weakref callback, a __del__: "Exception ignored in ...") would otherwise
+    lose the signal and the command would run on."""
+    import signal
+    import threading
+
+    main_id = threading.main_thread().ident
+
+    def watch():
+        while not stop.wait(1.0):
+            if not _raising(main_id):
+                signal.pthread_kill(main_id, signum)
+
+    threading.Thread(target=watch, name="lathe-mirror-signal", daemon=True).start()
 
 
 if __name__ == "__main__":
