@@ -35,15 +35,25 @@ from typing import TYPE_CHECKING, Any
 from .compute import active
 from .design import TABLE1_SWAP_NOTE, design_figures
 from .enums import BEST, Program, Strategy
+from .iso10110 import spec_of
 from .job import MachiningJob, design
 from .notes import NOTES
 from .optics.camera_model import calibration_figures
 from .optics.radial import corner_limit_px, used_extent
 from .optics.stereo import depth_error_curve
+from .optics.zones import zones_for
 from .profile import ExactProfile, Profile
 from .progress import Stages
-from .report.analysis import (DEPTH_REPORT_M, MIRRORS, ReportData, mirror_figures, ranging_figures, render_mirrors,
-                              report_curves, strategy_table)
+from .report.analysis import (
+    DEPTH_REPORT_M,
+    MIRRORS,
+    ReportData,
+    mirror_figures,
+    ranging_figures,
+    render_mirrors,
+    report_curves,
+    strategy_table,
+)
 from .report.polishing_study import polishing_study
 from .tolerance.runs import DEPTH_RANGES_M, tolerance_analysis
 
@@ -76,7 +86,6 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     facts = {"r_used": r_used, "rho_used": corner_limit_px(mirror, mirror.r_junction - r_used),
              "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
     out["notes"] += [TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)]
-    from .iso10110 import spec_of
 
     out["spec"] = spec_of(settings).to_dict()  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
     steps.done()
@@ -122,7 +131,6 @@ def _optics_stages(out: dict, made: dict, mirror, settings, steps, renders: bool
     renders, ranging (into `out`); the report's data."""
     steps.start("distortion")
     made["exact"] = ExactProfile(mirror)
-    from .optics.zones import zones_for
 
     zn = zones_for(settings, mirror)
     out["zones"] = {**zn.as_dict(), "text": zn.describe()}

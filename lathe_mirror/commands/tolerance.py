@@ -60,7 +60,8 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         from .common import check_outputs, output_dir
 
-        check_outputs(args.output, ["tolerance.json"])
+        check_outputs(args.output, ["tolerance.json",
+                                    *(f"monte_carlo_{p.value}.png" for p in settings.tolerance.programs)])
         output_dir(args.output)
     times = {program: nominal_polish_time_s(settings, program, job=job) for program in settings.tolerance.programs}
     runs = tolerance_runs(mirror, settings, times, progress=not args.no_progress, job=job,
@@ -73,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
         from ..report import dumps
 
         write_text(Path(args.output) / "tolerance.json", dumps(out))
+        write_histograms(Path(args.output), out)
     if args.csv:
         from ..export.files import write_text
         from ..tolerance.montecarlo import trials_csv
@@ -83,6 +85,19 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_tolerance(out))
     return 0
+
+
+def write_histograms(directory, out: dict) -> None:
+    """DIR/monte_carlo_<program>.png: each program's trials against the limits (the
+    report's Monte Carlo chart), with the yield and its 95 % interval in the title."""
+    from ..export.files import write_bytes
+    from ..report.plots import monte_carlo_histograms
+
+    for name, t in out["programs"].items():
+        mc = t["monte_carlo"]
+        write_bytes(directory / f"monte_carlo_{name}.png",
+                    monte_carlo_histograms(mc["per_trial"], mc["limits"], calibrated=mc["calibrated"],
+                                           passed=mc["passed"], title=f"{name} program"))
 
 
 def format_tolerance(out: dict) -> str:

@@ -224,14 +224,16 @@ def monte_carlo_histograms(per_trial: dict, limits: dict, *, calibrated: bool, p
     axes[1].axvline(limits["disparity_px"], color="red", ls="--", label="limit")
     axes[2].axvline(limits["slope_error_rad"], color="red", ls="--", label="limit")
     which = "calibrated" if calibrated else "raw"
-    axes[0].set_xlabel(f"RMS image displacement, {which} (px, clipped at 5x limit)")
-    axes[1].set_xlabel(f"disparity-equivalent error, {which} (px, clipped at 5x limit)")
+    axes[0].set_xlabel(f"RMS image displacement, {which} (px)")
+    axes[1].set_xlabel(f"disparity error (90 %), {which} (px)")
     axes[2].set_xlabel("RMS slope error (rad)")
     for ax in axes:
         ax.set_ylabel("trials")
         ax.legend(loc="best")
         ax.grid(alpha=0.3)
-    fig.suptitle(f"Monte Carlo{', ' + title if title else ''}: yield {percent_interval(passed, disp.shape[0])}")
+    fig.suptitle(f"Monte Carlo{', ' + title if title else ''}: yield {percent_interval(passed, disp.shape[0])}"
+                 " (image and disparity clipped at 5x their limits)")
+    fig.tight_layout()
     return png(fig)
 
 
@@ -245,6 +247,7 @@ def report_plots(data: ReportData) -> dict[str, bytes]:
     ex = active()
     if ex.workers == 1 or len(names) < 2:
         return {name: draw() for name, draw in plot_jobs(data)}
+    _pyplot()  # imported once here: the forked workers inherit it
     with ex.bound(data) as run:
         return dict(zip(names, run.map(_draw_one, names)))
 
