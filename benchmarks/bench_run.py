@@ -57,10 +57,12 @@ def bench_run(runs: int) -> list[tuple[float, float]]:
     return out
 
 
-def bench_suite(extra: list[str]) -> tuple[float, float, str]:
+def bench_suite(extra: list[str], log: str | None = None) -> tuple[float, float, str]:
     cmd = [sys.executable, "-m", "pytest", "-n", "auto", "--dist", "loadscope", "-q", "-p", "no:cacheprovider", *extra]
     wall, cpu, proc = timed(cmd, cwd=REPO)
     last = (proc.stdout.strip().splitlines() or ["(no output)"])[-1]
+    if log:
+        Path(log).write_text(proc.stdout + proc.stderr)
     if proc.returncode != 0:
         sys.stderr.write(proc.stdout[-4000:])
     return wall, cpu, last
@@ -68,24 +70,26 @@ def bench_suite(extra: list[str]) -> tuple[float, float, str]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=3, help="runs of lathe-mirror run (median)")
+    ap.add_argument("--runs", type=int, default=3, help="runs of lathe-mirror run (median; 0: none)")
     ap.add_argument("--no-suite", action="store_true", help="skip the test suite")
-    ap.add_argument("--suite-args", default="", help="extra pytest arguments (quoted)")
+    ap.add_argument("--suite-args", default="", help="extra pytest arguments (quoted; --suite-args=--durations=25)")
+    ap.add_argument("--suite-log", help="write pytest's output to this file")
     args = ap.parse_args()
-    if args.runs < 1:
-        raise SystemExit("--runs: allowed 1 or more")
+    if args.runs < 0:
+        raise SystemExit("--runs: allowed 0 or more")
 
     rows = []
-    print(f"lathe-mirror run on the paper default, {args.runs} runs ({os.cpu_count()} cores, "
-          f"load {os.getloadavg()[0]:.1f}) ...", file=sys.stderr)
-    runs = bench_run(args.runs)
-    walls = [w for w, _ in runs]
-    cpus = [c for _, c in runs]
-    rows.append((f"lathe-mirror run (median of {args.runs})", statistics.median(walls),
-                 statistics.median(cpus), f"min {min(walls):.1f}, max {max(walls):.1f} s wall; target 20 s"))
+    if args.runs:
+        print(f"lathe-mirror run on the paper default, {args.runs} runs ({os.cpu_count()} cores, "
+              f"load {os.getloadavg()[0]:.1f}) ...", file=sys.stderr)
+        runs = bench_run(args.runs)
+        walls = [w for w, _ in runs]
+        cpus = [c for _, c in runs]
+        rows.append((f"lathe-mirror run (median of {args.runs})", statistics.median(walls),
+                     statistics.median(cpus), f"min {min(walls):.1f}, max {max(walls):.1f} s wall; target 20 s"))
     if not args.no_suite:
-        print("test suite (pytest -n auto) ...", file=sys.stderr)
-        wall, cpu, last = bench_suite(shlex.split(args.suite_args))
+        print(f"test suite (pytest -n auto, load {os.getloadavg()[0]:.1f}) ...", file=sys.stderr)
+        wall, cpu, last = bench_suite(shlex.split(args.suite_args), args.suite_log)
         rows.append(("test suite (pytest -n auto)", wall, cpu, f"{last}; target 180 s"))
 
     print(f"{'what':<36} {'wall s':>8} {'CPU s':>8}  note")

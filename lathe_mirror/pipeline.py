@@ -27,20 +27,33 @@ Millimetres and radians inside (ARCHITECTURE.md).
 
 from __future__ import annotations
 
+import contextlib
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from .compute import active
 from .design import TABLE1_SWAP_NOTE, design_figures
 from .enums import BEST, Program, Strategy
+from .iso10110 import spec_of
 from .job import MachiningJob, design
 from .notes import NOTES
 from .optics.camera_model import calibration_figures
 from .optics.radial import corner_limit_px, used_extent
 from .optics.stereo import depth_error_curve
+from .optics.zones import zones_for
 from .profile import ExactProfile, Profile
 from .progress import Stages
-from .report.analysis import (DEPTH_REPORT_M, MIRRORS, ReportData, mirror_figures, ranging_figures, render_mirrors,
-                              report_curves, strategy_table)
+from .report.analysis import (
+    DEPTH_REPORT_M,
+    MIRRORS,
+    ReportData,
+    mirror_figures,
+    ranging_figures,
+    render_mirrors,
+    report_curves,
+    strategy_table,
+)
 from .report.polishing_study import polishing_study
 from .tolerance.runs import DEPTH_RANGES_M, tolerance_analysis
 
@@ -53,12 +66,17 @@ STAGES = ["design", "toolpaths", "polishing", "distortion", "stereo", "renders",
 
 
 def report_figures(settings: Settings, *, progress: bool = False, renders: bool = True,
-                   tolerance: bool = True, measured: Profile | None = None) -> ReportData:
+                   tolerance: bool = True, alongside: Callable[[], None] | None = None,
+                   measured: Profile | None = None) -> ReportData:
     """Run every analysis stage on the settings: design, the toolpath of each strategy and
     its as-machined surface, polishing, the distortion of each made mirror, stereo depth
     error against range, renders, the tolerance analysis and the verdict. No files.
     measured: a measured part (measure.surface.MeasuredProfile) added to the mirrors'
-    figures as "measured"."""
+    figures as "measured".
+
+    The tolerance analysis needs only the polishing times: it runs in the background
+    (lathe_mirror.compute) beside the stages after polishing and `alongside()` (the
+    caller's own work, e.g. `run`'s programs and CAD), the same figures as in turn."""
     steps = Stages(STAGES, progress)
     out: dict[str, Any] = {"schema": "lathe-mirror report 1", "notes": []}
     steps.start("design")
@@ -68,7 +86,6 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     facts = {"r_used": r_used, "rho_used": corner_limit_px(mirror, mirror.r_junction - r_used),
              "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
     out["notes"] += [TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)]
-    from .iso10110 import spec_of
 
     out["spec"] = spec_of(settings).to_dict()  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
     steps.done()
@@ -83,17 +100,44 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     curve_paper, curve_best = polish_curves["paper"], polish_curves["best"]
     made["polished"] = curve_paper.profiles[curve_paper.optimum_index]
     steps.done()
+    with contextlib.ExitStack() as stack:
+        tol = None
+        if tolerance:  # the tolerance analysis needs only the polishing times: it runs beside the rest
+            times = {Program.PAPER: curve_paper.optimum_time_s, Program.BEST: curve_best.optimum_time_s}
+            tol = stack.enter_context(active().background(_tolerance, (mirror, settings, times, job)))
+        data = _optics_stages(out, made, mirror, settings, steps, renders, curve_paper.optimum_time_s, job,
+                              measured)
+        if alongside is not None:
+            alongside()
+        steps.start("tolerance")
+        if tol is not None:
+            out["tolerance"] = tol.result()
+            out["verdict"] = {name: t["verdict"] for name, t in out["tolerance"]["programs"].items()}
+        steps.done()
+    steps.close()
+    return data
 
+
+def _tolerance(task) -> dict:
+    """The report's tolerance analysis (in the background: no progress bars)."""
+    mirror, settings, times, job = task
+    return tolerance_analysis(mirror, settings, times, progress=False, job=job,
+                              allocate=(Program.BEST,) if Program.BEST in settings.tolerance.programs else ())
+
+
+def _optics_stages(out: dict, made: dict, mirror, settings, steps, renders: bool,
+                   polish_time_s: float, job: MachiningJob, measured: Profile | None = None) -> ReportData:
+    """The stages after polishing but the tolerance: distortion, calibration, stereo,
+    renders, ranging (into `out`); the report's data."""
     steps.start("distortion")
     made["exact"] = ExactProfile(mirror)
-    from .optics.zones import zones_for
 
     zn = zones_for(settings, mirror)
     out["zones"] = {**zn.as_dict(), "text": zn.describe()}
     out["mirrors"] = {name: mirror_figures(made[name], mirror, zn) for name in MIRRORS}
-    out["mirrors"]["polished"]["polish_time_s"] = curve_paper.optimum_time_s
+    out["mirrors"]["polished"]["polish_time_s"] = polish_time_s
     parts = {"paper": job.but(strategy=Strategy.PAPER), "best": job.but(strategy=BEST),
-             "polished": job.but(strategy=Strategy.PAPER, polish_time_s=curve_paper.optimum_time_s)}
+             "polished": job.but(strategy=Strategy.PAPER, polish_time_s=polish_time_s)}
     if measured is not None:  # report --surface measured:FILE: the part that came back
         out["mirrors"]["measured"] = mirror_figures(measured, mirror, zn)
         out["mirrors"]["measured"]["made_mirror"] = f"the measured part: {measured!r}"
@@ -127,25 +171,4 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     if renders:
         out["ranging"], data.curves["range_maps"] = ranging_figures(made, mirror, settings)
     steps.done()
-
-    steps.start("tolerance")
-    if tolerance:
-        times = {Program.PAPER: curve_paper.optimum_time_s, Program.BEST: curve_best.optimum_time_s}
-        out["tolerance"] = tolerance_analysis(mirror, settings, times, progress=progress, job=job,
-                                              allocate=(Program.BEST,) if Program.BEST in settings.tolerance.programs
-                                              else ())
-        out["verdict"] = {name: t["verdict"] for name, t in out["tolerance"]["programs"].items()}
-    steps.done()
-    steps.close()
     return data
-
-
-# Transition (issue 26): the names that moved to job.py, shop/programs.py, tolerance/runs.py
-# and report/, importable from here until every branch in flight has followed them.
-from .job import (  # noqa: E402,F401
-    MadeSurface, ZeroShiftedMirror, cad_model, check_cad, check_program, check_programs, machine,
-    made_surface, named_surface, plan, polishing_curve, process_for, program_target, scene_for)
-from .report.polishing_study import (  # noqa: E402,F401
-    polish_params_dict, polishing_conclusion, precompensation_study, process_table, surface_figures)
-from .shop.programs import SETTING_ERROR_MM, ShopProgram, shop_program, shop_programs  # noqa: E402,F401
-from .tolerance.runs import ToleranceRuns, monte_carlo, tolerance_context, tolerance_runs, verdict  # noqa: E402,F401

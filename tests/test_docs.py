@@ -37,9 +37,12 @@ def test_key_reference_is_generated_from_the_declaration():
 
 def test_runnable_blocks_are_found_and_outputs_replaced(tmp_path):
     page = ("x\n<!-- run -->\n```sh\necho 41; echo 42\n```\n\n<!-- output grep=2 -->\n"
-            "```text\nstale\n```\n")
+            "```text\nstale\n```\n\n<!-- run -->\n```sh\necho 43 > f\n```\n<!-- output -->\n```text\n```\n"
+            "<!-- run -->\n```sh\ncat f\n```\n<!-- output -->\n```text\n```\n")
     got = runnable.execute(page, tmp_path, "page")
     assert "```text\n42\n```" in got and "stale" not in got and "echo 41" in got
+    assert got.endswith("```sh\ncat f\n```\n```text\n43\n```\n")
+    assert [b.kind for b in runnable.blocks(page)] == ["run", "output", "run", "output", "run", "output"]
 
 
 @pytest.fixture(scope="module")

@@ -18,6 +18,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "lathe_mirror"
 #: Rank of each top-level module or package of lathe_mirror, in the order of the data flow.
 RANKS = {
     "errors": 0, "inputs": 0, "enums": 0, "progress": 0, "version": 0,
+    "compute": 0.5,
     "design": 1,
     "path": 2, "profile": 2, "sheet": 2,
     "lathe": 3,
@@ -27,7 +28,7 @@ RANKS = {
     "body": 7,
     "optics": 8, "machine_errors": 5, "measure": 8.5, "job": 8.5,
     "tolerance": 9, "optimize": 9,
-    "iso10110": 9.4, "shop": 9.5,
+    "iso10110": 9.4, "shop": 9.5, "api": 9.5,
     "settings": 10,
     "config": 11,
     "notes": 12,

@@ -34,7 +34,7 @@ TOOLS = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4))
 
 def program(tp, stock, dialect=Dialect.LINUXCNC) -> str:
     """The whole program around a toolpath as text, after the stock simulation passed it
-    (pipeline.shop_program refuses a rapid or the insert's body in stock)."""
+    (shop.programs.shop_program refuses a rapid or the insert's body in stock)."""
     return format_program(shop_program(tp, stock).program, dialect)
 
 

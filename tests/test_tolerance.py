@@ -388,6 +388,11 @@ def test_tolerance_cli_allocate_writes_one_csv_row_per_trial(tmp_path):
     assert len(rows) == 30 * (1 + len(best["allocation"]["rounds"]))
     assert best["allocation"]["target_yield"] == 0.9
     assert "yield" in proc.stdout and "95 % CI" in proc.stdout
+    # the chart beside the JSON: a PNG of the trials against the limits
+    from PIL import Image
+    with Image.open(out / "monte_carlo_best.png") as chart:
+        assert chart.format == "PNG" and chart.size[0] > 600
+    assert sorted(p.name for p in out.iterdir()) == ["monte_carlo_best.png", "tolerance.json"]
 
 
 @pytest.mark.parametrize("args, msg", [

@@ -21,8 +21,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 _BLOCK = re.compile(
-    r"<!-- (?P<kind>run|output)(?P<opts>[^>]*?) -->\s*\n(?P<fence>```+)(?P<lang>[^\n]*)\n(?:(?P<body>.*?)\n)?(?P=fence)",
-    re.S)
+    r"<!-- (?P<kind>run|output)(?P<opts>[^>]*?) -->[ \t]*\n(?P<fence>```+)(?P<lang>[^\n]*)\n"
+    r"(?P<body>(?:(?!(?P=fence))[^\n]*\n)*)(?P=fence)")
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,7 @@ def blocks(markdown: str) -> list[Block]:
     out = []
     for m in _BLOCK.finditer(markdown):
         opts = dict(o.split("=", 1) for o in m.group("opts").split() if "=" in o)
-        out.append(Block(m.group("kind"), opts, m.group("lang").strip(), m.group("body") or "",
+        out.append(Block(m.group("kind"), opts, m.group("lang").strip(), (m.group("body") or "").removesuffix("\n"),
                          m.span()))
     return out
 

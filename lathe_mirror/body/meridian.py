@@ -457,7 +457,7 @@ def _face_min_within(face: Iterable[Segment], r_limit: float) -> float:
 
 @dataclass(frozen=True)
 class CadModel:
-    """The meridians behind every CAD file of one configuration (pipeline.cad_model).
+    """The meridians behind every CAD file of one configuration (job.cad_model).
 
     design: the designed face on the body. programmed: the programmed contour's face on the
     body (None when not asked for). tool_centre: the programmed moves (the nose centre's

@@ -23,6 +23,50 @@ def add_no_progress(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress display on stderr")
 
 
+def add_compute(parser: argparse.ArgumentParser, what: str = "the Monte Carlo trials") -> None:
+    """--workers N and --scheduler ADDRESS: where the heavy trials run (lathe_mirror.compute)."""
+    parser.add_argument("--workers", type=int, default=None, metavar="N",
+                        help=f"processes for {what} (default [compute] workers: all cores; 1 runs them "
+                        "in this process); the same seed gives the same result with any number")
+    parser.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                        help=f"run {what} on the Dask cluster at this scheduler address (tcp://HOST:PORT; "
+                        "default [compute] scheduler)")
+
+
+def compute_options(args: argparse.Namespace, settings=None) -> tuple[int | None, str | None]:
+    """(workers, scheduler) from the flags, else the settings' [compute] (workers 0 or
+    None: all cores; scheduler "" or None: local processes), checked: call it with the
+    flags alone before any work, and again with the settings."""
+    from ..compute import check_scheduler, check_workers
+
+    cfg = getattr(settings, "compute", None)
+    workers = getattr(args, "workers", None)
+    scheduler = getattr(args, "scheduler", None)
+    if workers is not None:
+        check_workers(workers)
+    if scheduler is not None:
+        check_scheduler(scheduler)
+    if workers is None:
+        workers = getattr(cfg, "workers", None)
+    if scheduler is None:
+        scheduler = getattr(cfg, "scheduler", None)
+    return workers or None, scheduler or None
+
+
+def compute_session(args: argparse.Namespace, settings=None):
+    """The command's executor, active for the block (lathe_mirror.compute.session)."""
+    from ..compute import session
+
+    return session(*compute_options(args, settings))
+
+
+def use_compute(args: argparse.Namespace, settings=None):
+    """The command's executor, active until the command ends (cli.main shuts it down)."""
+    from ..compute import activate
+
+    return activate(*compute_options(args, settings))
+
+
 def load(args: argparse.Namespace, overrides: list[tuple[str, Any, str]] | None = None):
     """The command's Settings (defaults + --config + flag overrides (key, value, flag)),
     validated once before any work."""

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_no_progress, compute_options, load, print_json
 from ..settings.keys import help_default
 
 
@@ -19,7 +19,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_common(p, output_help="write the best design as a TOML configuration (and <stem>_pareto.png "
                               "beside it)")
     p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help=f"processes evaluating each generation ({help_default('optimize.workers')})")
+                   help="processes evaluating each generation (default [compute] workers, else "
+                   "optimize.workers when set above 1, else all cores; 1 runs them in this process); "
+                   "the same seed gives the same winner with any number")
+    p.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="evaluate the generations on the Dask cluster at this scheduler address "
+                   "(tcp://HOST:PORT; default [compute] scheduler)")
     p.add_argument("--no-check", action="store_true",
                    help="skip the winner's tolerance check (the best program with the configured tool: the "
                    "nominal part against [tolerance.spec] and the yield against tolerance.target_yield)")
@@ -46,7 +51,14 @@ def run(args: argparse.Namespace) -> int:
     problem = Problem(camera=settings.camera, tool=settings.tool, stock=settings.stock, body=settings.body,
                       clearance=settings.toolpath.clearance, settings=settings.optimize,
                       reference=settings.lobes)
-    result = search(problem, workers=args.workers, progress=not args.no_progress)
+    from ..compute import activate, default_workers
+
+    workers, scheduler = compute_options(args, settings)
+    if workers is None and not scheduler:
+        workers = settings.optimize.workers if settings.optimize.workers > 1 else default_workers()
+    ex = activate(workers, scheduler)  # the search's generations and the winner's Monte Carlo
+    result = search(problem, workers=min(max(ex.workers, 1), 64),  # optimize.workers' range
+                    progress=not args.no_progress)
     best = dataclasses.replace(settings, lobes=result.best)
     check_made(best)
     ref_name = "paper" if _is_paper(settings) else "configured"
@@ -120,8 +132,8 @@ def bound_warnings(result, problem) -> list[str]:
 
 def check_made(settings) -> None:
     """The winner through the checks `run` makes before it writes anything: the junction
-    and the polishing times (pipeline.check_programs), the CAD body (pipeline.check_cad),
-    and both programs planned and simulated against the stock (pipeline.shop_programs:
+    and the polishing times (job.check_programs), the CAD body (job.check_cad),
+    and both programs planned and simulated against the stock (shop.programs.shop_programs:
     gouge, bar, travel, no rapid or insert body in stock). An InputError here names the
     check the winner fails."""
     from ..errors import InputError

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_compute, add_no_progress, compute_options, load, print_json, use_compute
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -16,6 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--surface", metavar="measured:FILE", default=None,
                    help="add a measured part (measured:FILE, as `lathe-mirror measure` reads it) to the "
                         "made mirrors' figures")
+    add_compute(p, "the tolerance trials and the allocation's confirmations")
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -27,7 +28,9 @@ def run(args: argparse.Namespace) -> int:
     from ..report import write_report
     from .common import check_outputs, output_dir
 
+    compute_options(args)  # the flags, before any work
     settings = load(args)
+    use_compute(args, settings)
     mirror = design(settings)
     check_programs(settings, mirror)
     for strategy in (Strategy.PAPER, BEST):  # the programs it machines, polishes and tolerances

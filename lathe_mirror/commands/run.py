@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_compute, add_no_progress, compute_options, load, print_json, use_compute
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -28,6 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--calib-dir", metavar="DIR", help="where the calibration files (OpenCV, Kalibr, "
                    "OCamCalib) go (default: calib/ on the paper default, OUTPUT/calib with --config)")
     p.add_argument("--no-render", action="store_true", help="skip the renders side by side")
+    add_compute(p, "the tolerance trials and the allocation's confirmations")
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -48,7 +49,9 @@ def run(args: argparse.Namespace) -> int:
     from .common import check_outputs, output_dir
     from .report import REPORT_FILES, summary
 
+    compute_options(args)  # the flags, before any work
     settings = load(args)
+    use_compute(args, settings)
     out_dir = Path(args.output or "out")
     default = args.config is None
     gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")
@@ -70,23 +73,29 @@ def run(args: argparse.Namespace) -> int:
         check_program(settings, mirror, strategy)  # as every command that uses a program
     check_cad(settings, mirror)       # the CAD body, checked up front too
     shops = shop_programs(settings, mirror, strategies=strategies)  # plans and simulates both programs: a
-    texts = program_files(shops)      # design no program can cut, a program that touches the stock, stop here
+    # design no program can cut, a program that touches the stock, stop here
     for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir"),
                     (calib_dir, "--calib-dir")):
         output_dir(d, what)  # one that cannot be made takes the ones before it away
     say = (lambda m: None) if args.no_progress else (lambda m: print(m, file=sys.stderr))
-    say("lathe-mirror run: programs")
-    programs = [write_text(gcode_dir / name, text) for name, text in texts.items()]
-    say("lathe-mirror run: CAD")
-    from ..export.cad import write_reference_cad
+    written: dict[str, list] = {}
 
-    cad = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
-    from ..export.calib import write_calibration
+    def programs_and_cad() -> None:
+        """The programs, the CAD and the calibration files: beside the tolerance analysis."""
+        from ..export.cad import write_reference_cad
+        from ..export.calib import write_calibration
+        from ..optics.zones import zones_for
 
-    from ..optics.zones import zones_for
+        say("lathe-mirror run: programs")
+        texts = program_files(shops)
+        written["gcode"] = [write_text(gcode_dir / name, text) for name, text in texts.items()]
+        say("lathe-mirror run: CAD")
+        written["cad"] = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
+        written["calib"] = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
 
-    calib = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
-    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render)
+    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render,
+                          alongside=programs_and_cad)
+    programs, cad, calib = written["gcode"], written["cad"], written["calib"]
     data.figures["shop"] = [{"name": shop.program.name, "setup_sheet": f"{shop.program.name}.setup.html",
                              **shop.simulation.figures(),
                              **({"second_setup": {"name": shop.second.name, **shop.second_simulation.figures()}}

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, path_arg, print_json
+from .common import add_common, add_compute, add_no_progress, compute_options, load, path_arg, print_json, use_compute
 from ..settings.keys import help_default
 
 
@@ -28,6 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--csv", metavar="FILE", default=None, type=path_arg,
                    help="write one row per trial (drawn parameters, every figure, pass flags) of every "
                    "Monte Carlo run, the allocation's confirming runs included; its directory must exist")
+    add_compute(p, "the Monte Carlo trials, the sensitivity runs and the allocation's confirmations")
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -41,8 +42,10 @@ def run(args: argparse.Namespace) -> int:
     if args.target_yield is not None:
         if not args.allocate:
             raise InputError("--target-yield applies to --allocate (the allocation's target)")
+    compute_options(args)  # the flags, before any work
     settings = load(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed"),
                            ("tolerance.target_yield", args.target_yield, "--target-yield")])
+    use_compute(args, settings)
     mirror = design(settings)
     check_programs(settings, mirror)  # bad input stops here, before the output directory is made
     job = MachiningJob.from_settings(settings, mirror)  # the one machining job, each program a variant
@@ -57,7 +60,8 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         from .common import check_outputs, output_dir
 
-        check_outputs(args.output, ["tolerance.json"])
+        check_outputs(args.output, ["tolerance.json",
+                                    *(f"monte_carlo_{p.value}.png" for p in settings.tolerance.programs)])
         output_dir(args.output)
     times = {program: nominal_polish_time_s(settings, program, job=job) for program in settings.tolerance.programs}
     runs = tolerance_runs(mirror, settings, times, progress=not args.no_progress, job=job,
@@ -70,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
         from ..report import dumps
 
         write_text(Path(args.output) / "tolerance.json", dumps(out))
+        write_histograms(Path(args.output), out)
     if args.csv:
         from ..export.files import write_text
         from ..tolerance.montecarlo import trials_csv
@@ -80,6 +85,19 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_tolerance(out))
     return 0
+
+
+def write_histograms(directory, out: dict) -> None:
+    """DIR/monte_carlo_<program>.png: each program's trials against the limits (the
+    report's Monte Carlo chart), with the yield and its 95 % interval in the title."""
+    from ..export.files import write_bytes
+    from ..report.plots import monte_carlo_histograms
+
+    for name, t in out["programs"].items():
+        mc = t["monte_carlo"]
+        write_bytes(directory / f"monte_carlo_{name}.png",
+                    monte_carlo_histograms(mc["per_trial"], mc["limits"], calibrated=mc["calibrated"],
+                                           passed=mc["passed"], title=f"{name} program"))
 
 
 def format_tolerance(out: dict) -> str:

@@ -1,6 +1,6 @@
 """CAD files of a model: meridian -> STEP / STL / DXF bytes -> files, read back and checked.
 
-`export_cad` is what `lathe-mirror cad` calls with the model pipeline.cad_model built;
+`export_cad` is what `lathe-mirror cad` calls with the model job.cad_model built;
 `write_reference_cad` writes the paper mirror's reference files into `cad/` (the main job
 regenerates them; a test checks they are current). Machine frame and mm throughout
 (ARCHITECTURE.md).

@@ -118,8 +118,7 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
     out.append(f"<p>End position: home X{sheet.home[0] * (2 if sheet.diameter_mode else 1):.3f} "
                f"Z{sheet.home[1]:.3f}, reached Z first.</p>")
     out.append("<h2>The stock after each operation</h2>")
-    for op in sheet.operations:
-        png = _stock_picture(sheet, op, sheet.stock_start, sheet.part, sheet.stock["deepest_z_mm"])
+    for op, png in zip(sheet.operations, stock_pictures(sheet)):
         out.append(f"<h3>{e(op.name)}</h3><img alt='stock after {e(op.name)}' "
                    f"src='data:image/png;base64,{base64.b64encode(png).decode('ascii')}'>")
     if sheet.second is not None:
@@ -168,6 +167,27 @@ def _polygons(geom):
     return [g for part in getattr(geom, "geoms", []) for g in _polygons(part)]
 
 
+def stock_pictures(sheet: SetupSheet) -> list[bytes]:
+    """The stock picture of each operation, drawn on the command's executor
+    (lathe_mirror.compute: whole pictures per worker; the same bytes as one by one)."""
+    from ..compute import active
+
+    ex = active()
+    if ex.workers == 1 or len(sheet.operations) < 2:
+        return [_stock_picture(sheet, op) for op in sheet.operations]
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401 - imported once here: the forked workers inherit it
+
+    with ex.bound(sheet) as run:
+        return run.map(_picture_of, list(range(len(sheet.operations))))
+
+
+def _picture_of(sheet: SetupSheet, i: int) -> bytes:
+    return _stock_picture(sheet, sheet.operations[i])
+
+
 def _second_html(sheet: SetupSheet) -> list[str]:
     """The second set-up: programs, work zero, holding, touch-off, tool, operations, pictures."""
     e, sec = html.escape, sheet.second
@@ -195,9 +215,10 @@ def _second_html(sheet: SetupSheet) -> list[str]:
     return out
 
 
-def _stock_picture(sheet: SetupSheet, op, stock_start, part, deepest: float) -> bytes:
+def _stock_picture(sheet: SetupSheet, op, stock_start=None, part=None, deepest: float | None = None) -> bytes:
     """PNG: the bar's section after the operation (grey), what it removed (orange), the
-    designed part's outline (blue); machine (r, Z), mm."""
+    designed part's outline (blue); machine (r, Z), mm. stock_start, part, deepest: the
+    set-up's (default: the first set-up's, on the sheet)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -209,7 +230,9 @@ def _stock_picture(sheet: SetupSheet, op, stock_start, part, deepest: float) -> 
         ax.fill(*poly.exterior.xy, color=colour, linewidth=0)
         for hole in poly.interiors:
             ax.fill(*hole.xy, color="white", linewidth=0)
-    for poly in _polygons(part):
+    stock_start = sheet.stock_start if stock_start is None else stock_start
+    deepest = sheet.stock["deepest_z_mm"] if deepest is None else deepest
+    for poly in _polygons(sheet.part if part is None else part):
         ax.plot(*poly.exterior.xy, color="#1f5fbf", linewidth=0.6)
     x0, z0, x1, z1 = stock_start.bounds
     ax.set_xlim(-1.0, x1 + 2.0)

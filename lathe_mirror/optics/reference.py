@@ -7,7 +7,7 @@
               uniform in r, shared by the lobes in proportion to their arc length, r and z
               rounded to the lathe lattice (0.005 mm), straight segments
 
-The made surfaces (programs, polished) are the pipeline's (pipeline.named_surface).
+The made surfaces (programs, polished) are the machining job's (job.named_surface).
 """
 
 from __future__ import annotations

@@ -15,8 +15,9 @@ Two paths, one answer:
       the vertices' r / z (increasing along a lobe for the same reason h is monotone);
     - any other Profile (arcs, as-machined, polished): bracketed, safeguarded Newton on
       h(r), vectorised, to 1e-12 mm.
-* General (3-D), for a misaligned camera: march along each ray to bracket the first point
-  inside the material (z > Z(r)), then bisect to 1e-12 mm.
+* General (3-D), for a misaligned camera (optics.trace3d): the lobe's quadric in closed
+  form on its mirror's sheet, then safeguarded Newton on a made profile, all rays at once;
+  a march for the few rays near a steep feature.
 
 The step between the lobes is a vertical wall at r_junction. A camera ray that reaches
 r_junction inside the material hits the wall (Fate.WALL: the lost ring of the image); a
@@ -29,33 +30,17 @@ Frames and units: camera frame (pinhole at the origin, +z up the axis), mm.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import IntEnum
 
 import numpy as np
 
 from ..design import Camera, Lobe
-from ..profile import ExactProfile, PolylineProfile, Profile
-
-try:  # the toolpath issue's profiles: tool-nose envelopes and programmed moves
-    from ..profile import PathProfile, TabulatedProfile
-except ImportError:  # pragma: no cover
-    PathProfile = TabulatedProfile = None
+from ..profile import ExactProfile, Profile
 from .camera import ALIGNED, CameraPose, ray_directions
+from .rays import ROOT_TOL_MM, Fate, RayHits, azimuth, polyline_vertices
+from .trace3d import WALL_JUMP_MM, trace_rays
 
-#: Newton / bisection stop: change of r (meridian) or ray length s (3-D) below this, mm.
-ROOT_TOL_MM = 1e-12
-#: A converged 3-D bracket whose ends differ in height gap by more than this straddles the
-#: step wall rather than a smooth root, mm.
-WALL_JUMP_MM = 1e-6
-
-
-class Fate(IntEnum):
-    """Where a camera ray ends on the mirror."""
-
-    INNER = 0  # reflected by the inner lobe
-    OUTER = 1  # reflected by the outer lobe
-    WALL = 2   # hits the step wall between the lobes (lost ring)
-    MISS = 3   # passes the outer rim: sees the mirror's mount, not the mirror
+__all__ = ["ROOT_TOL_MM", "WALL_JUMP_MM", "Fate", "MeridianHits", "RayHits", "meridian_hits",
+           "polyline_vertices", "trace_pixels", "trace_rays"]
 
 
 @dataclass(frozen=True)
@@ -76,26 +61,6 @@ class MeridianHits:
     blocked: np.ndarray
 
 
-@dataclass(frozen=True)
-class RayHits:
-    """Rays meeting the mirror in 3-D, mirror frame, mm.
-
-    fate: Fate codes (...). point: hit point (..., 3). direction: unit reflected direction
-    (..., 3). Both NaN unless the ray met a lobe. blocked: the reflected ray runs into the
-    mirror itself (a lobe hit the camera sees but whose view is vignetted).
-    """
-
-    fate: np.ndarray
-    point: np.ndarray
-    direction: np.ndarray
-    blocked: np.ndarray
-
-    @property
-    def lobe(self) -> np.ndarray:
-        """Lobe index per ray: 0 inner, 1 outer, -1 for the wall or a miss."""
-        return np.where(self.fate <= Fate.OUTER, self.fate, -1).astype(np.int8)
-
-
 # --------------------------------------------------------------------------------------
 # Public entry points
 
@@ -107,8 +72,8 @@ def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None 
 
     pixels_xy: (..., 2) image coordinates (u, v) from the principal point, px (see
     camera.py; pixel centres are half-integers). radii_px: alternatively image radii
-    along +u, px. pose: a misaligned camera uses the general 3-D tracer (slower, about
-    60 profile evaluations per ray); the aligned one the exact meridian tracer.
+    along +u, px. pose: a misaligned camera uses the general 3-D tracer (optics.trace3d); the
+    aligned one the exact meridian tracer.
     progress: a tqdm bar on stderr for the 3-D path (seconds per million rays).
     """
     pose = pose or ALIGNED
@@ -125,7 +90,7 @@ def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None 
     rho = np.hypot(u, v)
     t = rho * (camera.t_pixel / camera.f)
     m = meridian_hits(profile, t)
-    cos, sin = _azimuth(u, v, rho)
+    cos, sin = azimuth(u, v, rho)
     point = np.stack([m.r * cos, m.r * sin, m.z], axis=-1)
     direction = np.stack([m.out_r * cos, m.out_r * sin, m.out_z], axis=-1)
     return RayHits(fate=m.fate, point=point, direction=direction, blocked=m.blocked)
@@ -181,55 +146,8 @@ def meridian_hits(profile: Profile, t: np.ndarray) -> MeridianHits:
     return MeridianHits(t=t, fate=fate, r=r, z=z, out_r=out_r, out_z=out_z, blocked=blocked)
 
 
-def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
-               steps: int = 16, chunk: int = 65536, progress: bool = False) -> RayHits:
-    """General 3-D tracer: rays origin + s * direction (mm, unit directions (..., 3)).
-
-    Marches each ray through the mirror's height range (about 23 mm) in `steps` steps,
-    then refines the first step that enters the material to ROOT_TOL_MM (safeguarded
-    Newton, bisection across the step wall: see _refine). A camera ray
-    near the axis climbs faster than any lobe (dz/dr = 1/t > 3 against slopes < 1.2), so
-    once inside the material it stays there and a few steps suffice; more steps guard a
-    strongly tilted camera. Costs about steps + 15 profile evaluations per ray; `chunk`
-    rays at a time bound the memory.
-    """
-    origin = np.asarray(origin, float)
-    d_all = np.asarray(directions, float)
-    shape = d_all.shape[:-1]
-    d_all = d_all.reshape(-1, 3)
-    n = d_all.shape[0]
-    fate = np.full(n, Fate.MISS, dtype=np.int8)
-    point = np.full((n, 3), np.nan)
-    out = np.full((n, 3), np.nan)
-    blocked = np.zeros(n, dtype=bool)
-    z_lo, z_hi = _height_range(profile)
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=n, unit="ray", unit_scale=True, desc="trace 3-D", leave=False)
-    for a in range(0, n, chunk):
-        sl = slice(a, min(a + chunk, n))
-        f, p, o, b = _trace_chunk(profile, origin, d_all[sl], z_lo, z_hi, steps)
-        fate[sl], point[sl], out[sl], blocked[sl] = f, p, o, b
-        if bar is not None:
-            bar.update(sl.stop - sl.start)
-    if bar is not None:
-        bar.close()
-    return RayHits(fate=fate.reshape(shape), point=point.reshape(*shape, 3),
-                   direction=out.reshape(*shape, 3), blocked=blocked.reshape(shape))
-
-
 # --------------------------------------------------------------------------------------
 # Meridian roots
-
-
-def _azimuth(x: np.ndarray, y: np.ndarray, r: np.ndarray, *,
-             on_axis: tuple[float, float] = (1.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
-    """(cos, sin) of the azimuth of points (x, y) at radius r = hypot(x, y); `on_axis`
-    where r = 0 (any meridian will do there)."""
-    safe = np.where(r > 0, r, 1.0)
-    return np.where(r > 0, x / safe, on_axis[0]), np.where(r > 0, y / safe, on_axis[1])
 
 
 def _meridian_root(profile: Profile, t: np.ndarray, k: int) -> np.ndarray:
@@ -241,24 +159,6 @@ def _meridian_root(profile: Profile, t: np.ndarray, k: int) -> np.ndarray:
     if vertices is not None:
         return _polyline_root(*vertices, t)
     return _newton_root(profile, t, k)
-
-
-def polyline_vertices(profile: Profile, k: int) -> tuple[np.ndarray, np.ndarray] | None:
-    """(r, z) vertices (mm, camera frame) of lobe k if its z is piecewise linear, else None.
-
-    PolylineProfile: its samples. TabulatedProfile: its samples (z interpolated linearly).
-    PathProfile of G1 lines only, end to end: its move ends. Beyond the end vertices the
-    end segments extend, as these profiles evaluate there.
-    """
-    if isinstance(profile, PolylineProfile):
-        s = profile.lobes[k]
-        return s.r, s.z
-    if TabulatedProfile is not None and isinstance(profile, TabulatedProfile):
-        r, z, _ = profile.lobes[k]
-        return r, z
-    if PathProfile is not None and isinstance(profile, PathProfile):
-        return profile.vertices(k)
-    return None
 
 
 def _polyline_root(rs: np.ndarray, zs: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -319,137 +219,3 @@ def _newton_root(profile: Profile, t: np.ndarray, k: int, *, table: int = 2049,
         if active.size == 0:
             break
     return x
-
-
-# --------------------------------------------------------------------------------------
-# 3-D tracing
-
-
-def _height_range(profile: Profile) -> tuple[float, float]:
-    """Heights (mm) just below and above every point of the profile."""
-    r = np.linspace(0.0, profile.r_max, 4097)
-    r = np.concatenate([r, [np.nextafter(profile.r_junction, np.inf)]])
-    z = profile.z(r)
-    return float(z.min()) - 0.5, float(z.max()) + 0.5
-
-
-def _gap(profile: Profile, p: np.ndarray) -> np.ndarray:
-    """z - Z(r) of points (..., 3): > 0 inside the material.
-
-    Beyond the rim the mount continues the rim's height (z_rim), as the black annulus of
-    the POV-Ray scene does, so a ray leaving the rim enters the mount, not the void.
-    """
-    r = np.hypot(p[..., 0], p[..., 1])
-    inside = r <= profile.r_max
-    g = p[..., 2] - float(profile.z(np.array(profile.r_max)))
-    g[inside] = p[..., 2][inside] - profile.z(r[inside])
-    return g
-
-
-def _trace_chunk(profile, origin, d, z_lo, z_hi, steps):
-    n = d.shape[0]
-    fate = np.full(n, Fate.MISS, dtype=np.int8)
-    point = np.full((n, 3), np.nan)
-    out = np.full((n, 3), np.nan)
-    blocked = np.zeros(n, dtype=bool)
-    up = d[:, 2] > 0
-    idx = np.nonzero(up)[0]
-    if idx.size == 0:
-        return fate, point, out, blocked
-    dd = d[idx]
-    s0 = np.maximum((z_lo - origin[2]) / dd[:, 2], 0.0)
-    s1 = np.maximum((z_hi - origin[2]) / dd[:, 2], s0)
-    frac = np.linspace(0.0, 1.0, steps + 1)
-    s = s0[:, None] + (s1 - s0)[:, None] * frac[None, :]
-    g = _gap(profile, origin + s[..., None] * dd[:, None, :])
-    inside = g >= 0
-    has = inside.any(axis=1)
-    first = np.argmax(inside, axis=1)
-    ok = has & (first > 0)
-    idx, dd, first, g = idx[ok], dd[ok], first[ok], g[ok]
-    rows = np.arange(idx.size)
-    sh, on_wall = _refine(profile, origin, dd, s[ok][rows, first - 1], s[ok][rows, first],
-                          g[rows, first - 1], g[rows, first])
-    p = origin + sh[:, None] * dd
-    r = np.hypot(p[:, 0], p[:, 1])
-    k = profile.lobe_index(r)
-    slope = profile.slope(r)
-    cx, cy = _azimuth(p[:, 0], p[:, 1], r, on_axis=(0.0, 0.0))  # on the axis the normal is -z
-    nvec = np.stack([slope * cx, slope * cy, -np.ones_like(r)], axis=-1)
-    nvec /= np.linalg.norm(nvec, axis=-1, keepdims=True)
-    o = dd - 2.0 * np.sum(dd * nvec, axis=-1, keepdims=True) * nvec
-    on_mount = r > profile.r_max
-    fate[idx] = np.where(on_wall, Fate.WALL, np.where(on_mount, Fate.MISS, k)).astype(np.int8)
-    good = ~on_wall & ~on_mount
-    point[idx[good]] = p[good]
-    out[idx[good]] = o[good]
-    inner = good & (k == 0)
-    if inner.any():
-        blocked[idx[inner]] = _reflected_blocked(profile, p[inner], o[inner])
-    return fate, point, out, blocked
-
-
-def _refine(profile: Profile, origin: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-            g_lo: np.ndarray, g_hi: np.ndarray, *, max_iter: int = 200) -> tuple[np.ndarray, np.ndarray]:
-    """Ray lengths s (mm) where rays origin + s d cross the surface inside their brackets
-    [lo, hi] (gap g_lo < 0 <= g_hi), and whether that crossing is the step wall.
-
-    Safeguarded Newton on the gap g(s) = z - Z(r): dg/ds = d_z - Z'(r) dr/ds, dr/ds =
-    (p_xy . d_xy) / r; a step leaving the bracket bisects it instead, so a ray whose
-    crossing is the wall's jump (no smooth root) ends with a bracket narrower than
-    ROOT_TOL_MM around it. A smooth root converges in a handful of steps, against ~45
-    halvings of plain bisection. The wall is where g jumps by more than WALL_JUMP_MM across
-    s +- 2 ROOT_TOL_MM (a smooth root changes g by ~1e-12 mm there).
-    """
-    z_rim = float(profile.z(np.array(profile.r_max)))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        x = np.clip(lo + (hi - lo) * g_lo / (g_lo - g_hi), lo, hi)  # regula falsi start
-    active = np.arange(lo.size)
-    for _ in range(max_iter):
-        xa, da = x[active], d[active]
-        p = origin + xa[:, None] * da
-        r = np.hypot(p[:, 0], p[:, 1])
-        on_lobe = r <= profile.r_max
-        ga = p[:, 2] - z_rim  # the mount beyond the rim: flat at the rim's height
-        ga[on_lobe] = p[on_lobe, 2] - profile.z(r[on_lobe])
-        slope = np.zeros_like(r)
-        slope[on_lobe] = profile.slope(r[on_lobe])
-        dr = _azimuth(p[:, 0], p[:, 1], r, on_axis=(0.0, 0.0))
-        dg = da[:, 2] - slope * (dr[0] * da[:, 0] + dr[1] * da[:, 1])
-        la, ha = lo[active], hi[active]
-        inside = ga >= 0
-        la, ha = np.where(inside, la, xa), np.where(inside, xa, ha)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            nx = xa - ga / dg
-        nx = np.where((nx > la) & (nx < ha) & np.isfinite(nx), nx, 0.5 * (la + ha))
-        lo[active], hi[active], x[active] = la, ha, nx
-        done = (np.abs(nx - xa) <= ROOT_TOL_MM) | (ha - la <= ROOT_TOL_MM)
-        active = active[~done]
-        if active.size == 0:
-            break
-    # A wall ray ends with a bracket of at most 2 ROOT_TOL_MM about x: look a little wider.
-    step = 2 * ROOT_TOL_MM
-    jump = _gap(profile, origin + (x + step)[:, None] * d) - _gap(profile, origin + (x - step)[:, None] * d)
-    return x, jump > WALL_JUMP_MM
-
-
-def _reflected_blocked(profile: Profile, p: np.ndarray, o: np.ndarray, samples: int = 24) -> np.ndarray:
-    """Does the reflected ray p + l o (l > 0) run into the mirror's material? (inner lobe)"""
-    pxy, oxy = p[:, :2], o[:, :2]
-    a = np.sum(oxy * oxy, axis=1)
-    b = 2.0 * np.sum(pxy * oxy, axis=1)
-    hit = np.zeros(p.shape[0], dtype=bool)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        lams = []
-        for radius in (profile.r_junction, profile.r_max):
-            c = np.sum(pxy * pxy, axis=1) - radius**2
-            lams.append((-b + np.sqrt(np.maximum(b * b - 4 * a * c, 0.0))) / (2 * a))
-    lam_j, lam_exit = (np.where(np.isfinite(x) & (x > 0), x, 0.0) for x in lams)
-    # At the junction the outer lobe's material starts at Z(r_junction+): test just past it.
-    q = p + (lam_j * (1 + 1e-12) + 1e-9)[:, None] * o
-    hit |= (lam_j > 0) & (_gap(profile, q) > 0)
-    for frac in np.arange(1, samples + 1) / samples:
-        q = p + (lam_exit * frac)[:, None] * o
-        hit |= (lam_exit > 0) & (_gap(profile, q) > 0)
-    return hit
-

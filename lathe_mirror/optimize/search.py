@@ -130,9 +130,12 @@ def search(problem: Problem, *, workers: int | None = None, progress: bool = Fal
                 popsize=s.popsize, tol=s.tol, mutation=(0.5, 1.0), recombination=0.7, rng=s.seed,
                 polish=False, init="latinhypercube", updating="deferred", workers=batch.map,
                 x0=x0, callback=callback)
-        finally:
+        except BaseException:  # a signal or an error: the workers are killed, not awaited
             pbar.close()
-            batch.close()
+            batch.close(abort=True)
+            raise
+        pbar.close()
+        batch.close()
         generations, converged = state["generations"], bool(res.success)
     seconds = time.perf_counter() - t0
     hist = batch.history()
@@ -163,17 +166,9 @@ def search(problem: Problem, *, workers: int | None = None, progress: bool = Fal
 # Evaluation in batches, in this process or in a pool of workers
 
 
-_PROBLEM: Problem | None = None
-
-
-def _init_worker(problem: Problem) -> None:
-    global _PROBLEM
-    _PROBLEM = problem
-
-
-def _evaluate_chunk(xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(energies, records) of a chunk of full design vectors (in a worker process)."""
-    return _evaluate_all(xs, _PROBLEM)
+def _evaluate_chunk(problem: Problem, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(energies, records) of a chunk of full design vectors (in a worker: compute)."""
+    return _evaluate_all(xs, problem)
 
 
 def _evaluate_all(xs: np.ndarray, problem: Problem) -> tuple[np.ndarray, np.ndarray]:
@@ -182,20 +177,23 @@ def _evaluate_all(xs: np.ndarray, problem: Problem) -> tuple[np.ndarray, np.ndar
 
 
 class _Batch:
-    """DE's map-like `workers`: evaluates a generation's vectors in `workers` chunks (a
-    process pool when workers > 1) and records every candidate in evaluation order."""
+    """DE's map-like `workers`: evaluates a generation's vectors in `workers` chunks (on
+    compute's executor when workers > 1) and records every candidate in evaluation order."""
 
     def __init__(self, problem: Problem, free: np.ndarray, fixed: np.ndarray, workers: int) -> None:
         self.problem, self.free, self.fixed, self.workers = problem, free, fixed, workers
         self._x: list[np.ndarray] = []
         self._e: list[np.ndarray] = []
         self._r: list[np.ndarray] = []
-        self.pool = None
-        if workers > 1:
-            import multiprocessing
+        self._bound = self.run = None
+        if workers > 1:  # compute's executor: the command's session, or local processes of our own
+            from ..compute import active, make
 
-            self.pool = multiprocessing.get_context("fork").Pool(workers, initializer=_init_worker,
-                                                                 initargs=(problem,))
+            ex = active()
+            if ex.kind != "dask" and ex.workers != workers:
+                ex = make(workers)
+            self._bound = ex.bound(problem)
+            self.run = self._bound.__enter__()
 
     def full(self, xs: np.ndarray) -> np.ndarray:
         out = np.tile(self.fixed, (len(xs), 1))
@@ -211,11 +209,11 @@ class _Batch:
 
     def map(self, func, iterable) -> list[float]:
         xs = self.full(np.array(list(iterable), dtype=float))
-        if self.pool is None:
+        if self.run is None:
             e, r = _evaluate_all(xs, self.problem)
         else:
             chunks = np.array_split(xs, self.workers)
-            parts = self.pool.map(_evaluate_chunk, [c for c in chunks if len(c)])
+            parts = self.run.map(_evaluate_chunk, [c for c in chunks if len(c)])
             e = np.concatenate([p[0] for p in parts])
             r = np.concatenate([p[1] for p in parts])
         self.record(xs, e, r)
@@ -229,11 +227,16 @@ class _Batch:
     def history(self) -> History:
         return History(np.concatenate(self._x), np.concatenate(self._e), np.concatenate(self._r))
 
-    def close(self) -> None:
-        if self.pool is not None:
-            self.pool.close()
-            self.pool.join()
-            self.pool = None
+    def close(self, abort: bool = False) -> None:
+        """End the workers: let them finish, or (abort) kill them at once."""
+        if self._bound is not None:
+            bound, self._bound, self.run = self._bound, None, None
+            if abort:
+                import sys
+
+                bound.__exit__(*sys.exc_info())
+            else:
+                bound.__exit__(None, None, None)
 
 
 def _binding_message(hist: History, problem: Problem) -> str:

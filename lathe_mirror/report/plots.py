@@ -224,47 +224,69 @@ def monte_carlo_histograms(per_trial: dict, limits: dict, *, calibrated: bool, p
     axes[1].axvline(limits["disparity_px"], color="red", ls="--", label="limit")
     axes[2].axvline(limits["slope_error_rad"], color="red", ls="--", label="limit")
     which = "calibrated" if calibrated else "raw"
-    axes[0].set_xlabel(f"RMS image displacement, {which} (px, clipped at 5x limit)")
-    axes[1].set_xlabel(f"disparity-equivalent error, {which} (px, clipped at 5x limit)")
+    axes[0].set_xlabel(f"RMS image displacement, {which} (px)")
+    axes[1].set_xlabel(f"disparity error (90 %), {which} (px)")
     axes[2].set_xlabel("RMS slope error (rad)")
     for ax in axes:
         ax.set_ylabel("trials")
         ax.legend(loc="best")
         ax.grid(alpha=0.3)
-    fig.suptitle(f"Monte Carlo{', ' + title if title else ''}: yield {percent_interval(passed, disp.shape[0])}")
+    fig.suptitle(f"Monte Carlo{', ' + title if title else ''}: yield {percent_interval(passed, disp.shape[0])}"
+                 " (image and disparity clipped at 5x their limits)")
+    fig.tight_layout()
     return png(fig)
 
 
 def report_plots(data: ReportData) -> dict[str, bytes]:
-    """Every plot of the report, from what the pipeline handed it (figures, curves, renders)."""
+    """Every plot of the report, from what the pipeline handed it (figures, curves, renders):
+    drawn on the command's executor (lathe_mirror.compute: the plots are independent, each
+    worker draws whole plots), in the order of plot_jobs; the same bytes as one by one."""
+    from ..compute import active
+
+    names = [name for name, _ in plot_jobs(data)]
+    ex = active()
+    if ex.workers == 1 or len(names) < 2:
+        return {name: draw() for name, draw in plot_jobs(data)}
+    _pyplot()  # imported once here: the forked workers inherit it
+    with ex.bound(data) as run:
+        return dict(zip(names, run.map(_draw_one, names)))
+
+
+def _draw_one(data: ReportData, name: str) -> bytes:
+    return dict(plot_jobs(data))[name]()
+
+
+def plot_jobs(data: ReportData) -> list[tuple[str, object]]:
+    """(name, a function of no arguments drawing it) of every plot of the report, in order."""
     out, curves = data.figures, data.curves
-    plots = {}
-    plots["profile_error"] = profile_deviation_plot(curves["profile_error"], curves["r_junction"], curves["used"])
-    plots["displacement"] = displacement_plot(curves["displacement"], curves["lost_ring_px"])
+    jobs = [("profile_error", lambda: profile_deviation_plot(curves["profile_error"], curves["r_junction"],
+                                                             curves["used"])),
+            ("displacement", lambda: displacement_plot(curves["displacement"], curves["lost_ring_px"]))]
     pol = out["polishing"]
-    plots["polishing_paper"] = polishing_curve_plot(pol["paper_program"], "polishing the paper program's mirror")
-    plots["polishing_best"] = polishing_curve_plot(pol["best_program"], "polishing the best program's mirror")
-    plots["polishing_decomposition"] = decomposition_plot(pol["decomposition"])
-    plots["polishing_lap"] = lap_plot(pol["lap_plan"])
-    plots["depth_error"] = depth_error_plot(out["stereo"]["curves"])
+    jobs += [("polishing_paper", lambda: polishing_curve_plot(pol["paper_program"],
+                                                              "polishing the paper program's mirror")),
+             ("polishing_best", lambda: polishing_curve_plot(pol["best_program"], "polishing the best program's mirror")),
+             ("polishing_decomposition", lambda: decomposition_plot(pol["decomposition"])),
+             ("polishing_lap", lambda: lap_plot(pol["lap_plan"])),
+             ("depth_error", lambda: depth_error_plot(out["stereo"]["curves"]))]
     if data.images:
-        plots["images"] = images_side_by_side(data.images)
+        jobs.append(("images", lambda: images_side_by_side(data.images)))
     if "range_maps" in curves:
         from .range_plots import error_vs_range_png, range_maps_png
 
         maps = dict(curves["range_maps"])
         band = maps.pop("band_deg")
-        plots["range_maps"] = range_maps_png(maps, band)
-        plots["range_error"] = error_vs_range_png(
+        jobs.append(("range_maps", lambda: range_maps_png(maps, band)))
+        jobs.append(("range_error", lambda: error_vs_range_png(
             {n: m["error_curve"] for n, m in out["ranging"]["mirrors"].items()},
             title="median |range error| against range, each mirror, with the resolution model",
-            colours=MIRROR_COLOURS)
+            colours=MIRROR_COLOURS)))
     for name, t in out.get("tolerance", {}).get("programs", {}).items():
         mc = t["monte_carlo"]
-        plots[f"monte_carlo_{name}"] = monte_carlo_histograms(mc["per_trial"], mc["limits"],
-                                                              calibrated=mc["calibrated"], passed=mc["passed"],
-                                                              title=f"{name} program")
-    return plots
+        jobs.append((f"monte_carlo_{name}", lambda mc=mc, name=name: monte_carlo_histograms(
+            mc["per_trial"], mc["limits"], calibrated=mc["calibrated"], passed=mc["passed"],
+            title=f"{name} program")))
+    return jobs
 
 
 def pareto_plot(label: str, candidates: dict[str, np.ndarray], fronts: dict[str, np.ndarray],

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..design import Mirror
 from ..enums import Program, Strategy
+from ..errors import InputError
 from ..finish import feed_mark_height, feed_mark_rms
 from ..job import MachiningJob, polishing_curve, process_for
 from ..optics.calibrated_stereo import calibrated_depth_error
@@ -162,9 +163,19 @@ def process_table(settings: Settings, job: MachiningJob, curves: dict[str, Polis
             key = (strategy, proc.nose_radius_mm, proc.resolution_mm)
             if key not in made_cache:
                 tool = dataclasses.replace(job.tool, nose_radius=proc.nose_radius_mm)
-                made_cache[key] = turned_job.but(strategy=strategy, tool=tool,
-                                                 resolution=proc.resolution_mm).made().profile
+                try:
+                    made_cache[key] = turned_job.but(strategy=strategy, tool=tool,
+                                                     resolution=proc.resolution_mm).made().profile
+                except InputError as exc:
+                    # a preset's tool that cannot cut this design (its nose does not reach
+                    # the step): the table says so, the report goes on
+                    made_cache[key] = str(exc)
             surface = made_cache[key]
+            if isinstance(surface, str):
+                rows.append({"name": proc.name, "label": proc.label, "program": strategy.value,
+                             "nose_radius_mm": proc.nose_radius_mm, "feed_mm": proc.feed_mm,
+                             "resolution_mm": proc.resolution_mm, "cannot_cut": surface})
+                continue
         haze = haze_figures(mirror, proc, removal_mm=(lambda k, r, t=t: plan.rate(k, r) * t) if t > 0 else None,
                             compliance_mm=params.compliance_mm, wavelength_mm=params.wavelength_mm,
                             geometry=geometry)

@@ -280,6 +280,10 @@ def _polishing_html(p: dict, img) -> str:
                "<th>calibrated stereo residual %</th><th>depth error % (design assumed)</th></tr>" + rows + "</table>")
     proc_rows = ""
     for r in p["processes"]:
+        if "cannot_cut" in r:
+            proc_rows += (f"<tr><th>{html.escape(r['label'])}</th><td>{html.escape(r['program'])}</td>"
+                          f"<td colspan=\"10\">cannot cut this design: {html.escape(r['cannot_cut'])}</td></tr>")
+            continue
         fin = r["finished"]
         proc_rows += (
             f"<tr><th>{html.escape(r['label'])}</th><td>{html.escape(r['program'])}</td>"

@@ -10,6 +10,11 @@ keys_* modules, one per group of sections) and what comes from it.
 - the embedded defaults (declared_defaults; config.default_config is it, and
   lathe_mirror/data/*.toml are generated from it: settings.defaults_toml).
 
+To add or change a key: declare it (or edit it) in the keys_* module of its section, give
+its typed field a home in the section's dataclass and its conversion in load.py (and
+dump.py back), then run scripts/gen-keys (README table, data/*.toml). Editing data/*.toml
+by hand changes nothing: the defaults are the declaration's, and a test says so.
+
 A key's own range is checked here; a limit that other keys move (the design, the cost
 estimates, a section's cross-key rule) is declared on the key (`depends`) and checked where
 the other keys are known (design_checks, costs, the typed sections), its message naming

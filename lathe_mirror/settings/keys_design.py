@@ -32,7 +32,8 @@ KEYS: tuple[Key, ...] = (
         ("inner", 20.0, 307.555, 13.948, "Table 1, mirror 01"), ("outer", 35.0, 504.0, 0.028, "Table 1, mirror 02"))
       for k in (
         Key(f"lobes.{lobe}.r_top", r_top, "mm", 0.1, 1000.0, depends=f"the design: lobes.{lobe}.alpha_deg inside the rim's range, the outer rim outside the inner; "
-                    "the room (scene.room_height); tolerance.params.camera_tilt_deg (each lobe keeps half its pixels)",
+                    "the room (scene.room_height); tolerance.params.camera_tilt_deg, tolerance.params.camera_decentre_mm, "
+                    "tolerance.params.camera_axial_mm (each lobe keeps half its pixels)",
             lo_depends=True, hi_depends=True, help=f"the rim's radius R_top, mm ({table})"),
         Key(f"lobes.{lobe}.r_pixel", r_pixel, "px", 1.0, 32768.0, why="at most half the sensor's smaller side",
             depends=f"the design: inside the sensor (camera.sensor_px), lobes.{lobe}.alpha_deg inside the rim's "

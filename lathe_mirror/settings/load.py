@@ -202,7 +202,7 @@ def _stereo(sc: dict) -> StereoSettings:
 
 
 def _tolerance(cfg: dict) -> ToleranceSettings:
-    """ToleranceSettings from [tolerance]. (Their bounds against [tool] and [machine] are pipeline.check_programs', where the
+    """ToleranceSettings from [tolerance]. (Their bounds against [tool] and [machine] are job.check_programs', where the
     tolerance analysis runs: `toolpath --nose-radius 0` must not trip over them.)"""
     t = cfg["tolerance"]
     programs = tuple(parse(Program, v, f"tolerance.programs[{i}]") for i, v in enumerate(t["programs"]))

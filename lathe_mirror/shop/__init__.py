@@ -3,7 +3,7 @@ its simulation against the stock, and the set-up sheet's model.
 
 Layer: after nose_envelope (the gouge check) and before polishing and optics; it reads
 the toolpath, the lathe, the tool, the stock and the [toolpath] settings, never the
-config dict. pipeline.shop_program strings it together (plan, simulate, refuse, sheet).
+config dict. shop.programs.shop_program strings it together (plan, simulate, refuse, sheet).
 
 - program.py   ProgramOptions, the program model (Operation, blocks, Program)
 - plan.py      plan_program: the operations, checked (stock, gouge, travel) and numbered

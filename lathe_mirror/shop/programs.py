@@ -11,13 +11,15 @@ from typing import TYPE_CHECKING
 from ..design import Mirror
 from ..enums import BEST, Strategy
 from ..errors import InputError
+from ..iso10110 import spec_of
 from ..job import MachiningJob
 from ..lathe import Stock
 from ..tolerance.setting import setting_error_costs
 from ..toolpath import Toolpath
 from .plan import plan_program
-from .program import options_from_settings
-from .setup import setup_sheet
+from .program import ProgramOptions, options_from_settings
+from .roughing import finish_allowances
+from .setup import InspectionRow, setup_sheet
 from .stock import simulate_program
 
 if TYPE_CHECKING:
@@ -63,9 +65,6 @@ def shop_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
     import math
     from dataclasses import replace
 
-    from .program import ProgramOptions
-    from .roughing import finish_allowances
-
     options = ProgramOptions() if options is None else options
     while True:
         program = plan_program(toolpath, stock, options, name=name or f"mirror_{toolpath.strategy.value}",
@@ -109,9 +108,6 @@ def inspection_table(settings: Settings) -> tuple:
     every PROBE_STEP_MM of its clear aperture and at its ends (inside it, to 0.01 mm), with the band its form
     tolerance allows (iso10110.spec_of)."""
     import numpy as np
-
-    from ..iso10110 import spec_of
-    from .setup import InspectionRow
 
     if settings.tolerance is None:  # no tolerance spec, no band
         return ()

@@ -24,9 +24,11 @@ from .perturb import (
     PixelSample,
     TrialFigures,
     Trials,
+    batch_trials,
     evaluate,
     pixel_sample,
 )
+from .calibration import Calibration
 from .spec import DRAWN, MACHINE_DRAWN, Distribution, Program, ToleranceSettings
 from .stats import wilson
 from .surfaces import SurfaceBank, time_nodes
@@ -281,14 +283,55 @@ def evaluate_trials(ctx: Context, trials: Trials, *, progress: bool = False, des
                     ranges_m=None, **kw) -> TrialFigures:
     """Figures of each trial (tolerance.perturb.evaluate) at ranges_m (m; default the
     spec's range), the noses they drew cut first, with a progress bar when asked."""
+    from ..compute import active
+
     ctx.ensure(trials, progress)
     bar = _bar(len(trials), desc, progress)
     ranges = (ctx.settings.spec.depth_range_m,) if ranges_m is None else tuple(ranges_m)
-    fig = evaluate(ctx.mirror, ctx.bank, trials, ctx.samples, ranges_m=ranges, depth_points=ctx.settings.depth_points,
-                   seat_pivot_mm=ctx.settings.seat_pivot_mm, outlier_px=OUTLIER_FACTOR * ctx.limits["image_displacement_px"],
-                   progress=bar, zones=ctx.zones, **kw)
+    args = dict(ranges_m=ranges, depth_points=ctx.settings.depth_points, seat_pivot_mm=ctx.settings.seat_pivot_mm,
+                outlier_px=OUTLIER_FACTOR * ctx.limits["image_displacement_px"], zones=ctx.zones, **kw)
+    ex = active()
+    batch = batch_trials(ctx.samples, kw.get("chunk", 100))
+    n = len(trials)
+    if ex.workers == 1 or n <= batch or kw.get("keep_displacements"):
+        fig = evaluate(ctx.mirror, ctx.bank, trials, ctx.samples, progress=bar, **args)
+    else:
+        # Blocks of whole batches (the serial run's batches: the same figures to the bit),
+        # about three per worker so that they finish together.
+        per = batch * max(1, math.ceil(n / batch / (3 * max(ex.workers, 1))))
+        blocks = [trials.take(slice(a, min(n, a + per))) for a in range(0, n, per)]
+        with ex.bound(_Shared(ctx.mirror, ctx.bank, ctx.samples, args)) as run:
+            fig = _concat(run.map(_evaluate_block, blocks, progress=bar))
     bar.close()
     return fig
+
+
+@dataclass(frozen=True)
+class _Shared:
+    """What every block of trials is evaluated against (held once by each worker)."""
+
+    mirror: Mirror
+    bank: SurfaceBank
+    samples: tuple[PixelSample, PixelSample]
+    args: dict
+
+
+def _evaluate_block(shared: _Shared, trials: Trials) -> TrialFigures:
+    return evaluate(shared.mirror, shared.bank, trials, shared.samples, **shared.args)
+
+
+def _concat(parts: list[TrialFigures]) -> TrialFigures:
+    """The figures of consecutive blocks of trials, as one (no `extra`)."""
+    def cat(get):
+        return np.concatenate([get(p) for p in parts])
+
+    first = parts[0]
+    return TrialFigures({k: cat(lambda p: p.raw[k]) for k in first.raw},
+                        {k: cat(lambda p: p.calibrated[k]) for k in first.calibrated},
+                        cat(lambda p: p.slope_error_rad_rms), cat(lambda p: p.normal_deviation_mm_rms),
+                        cat(lambda p: p.lost_fraction),
+                        Calibration(cat(lambda p: p.calibration.rotation), cat(lambda p: p.calibration.coeffs),
+                                    first.calibration.span), first.ranges_m)
 
 
 def judge(figures: TrialFigures, limits: dict[str, float], calibrated: bool) -> dict[str, np.ndarray]:

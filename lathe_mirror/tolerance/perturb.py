@@ -36,6 +36,7 @@ from ..optics.radial import lobe_pixel_radii, used_extent
 from ..optics.ranging.resolution import parallax_per_px, range_error_pct
 from ..optics.stereo import band_elevations, capped_abs_error, stereo_centre_z, triangulate
 from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals
+from .poses import poses
 from .surfaces import OFF_SURFACE_MM, SurfaceBank
 
 #: Newton steps of the 3-D ray-surface intersection (2-3 from the exact sheet's hit).
@@ -251,7 +252,7 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
     kept: list = []
     sp = stereo_points(mirror, ranges_m, depth_points)
     span = (lobe_span(samples[0].u, samples[0].v), lobe_span(samples[1].u, samples[1].v))
-    chunk = max(1, min(chunk, _BATCH_RAYS // max(samples[0].u.size, samples[1].u.size, 1)))
+    chunk = batch_trials(samples, chunk)
     for a in range(0, n, chunk):
         sl = slice(a, min(n, a + chunk))
         tr = trials.take(sl)
@@ -309,34 +310,9 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
     return fig
 
 
-def poses(tr: Trials, seat_pivot_mm: float) -> tuple[np.ndarray, np.ndarray]:
-    """The camera's pinhole (trials, 3) and rotation (camera -> mirror frame, (trials, 3, 3))
-    in the mirror's frame.
-
-    The camera is decentred (cam_x, cam_y), moved along the axis (cam_z) and turned about
-    its pinhole by R_c = R_y(tilt_y) R_x(tilt_x); the mirror is turned by S = R_y(seat_y)
-    R_x(seat_x) about the pivot C = (0, 0, seat_pivot_mm). In the mirror's frame the
-    pinhole is S^T (o - C) + C and the rotation S^T R_c: a seat tilt t moves the pinhole
-    sideways by seat_pivot_mm sin t (0.218 mm for 0.1 deg at 125 mm).
-    """
-    o = np.stack([tr.cam_x_mm, tr.cam_y_mm, tr.cam_z_mm], axis=1)
-    rc = _rot_yx(tr.tilt_x, tr.tilt_y)
-    s = _rot_yx(tr.seat_x, tr.seat_y)
-    st = np.transpose(s, (0, 2, 1))
-    c = np.array([0.0, 0.0, seat_pivot_mm])
-    origin = np.einsum("tij,tj->ti", st, o - c) + c
-    return origin, st @ rc
-
-
-def _rot_yx(ax: np.ndarray, ay: np.ndarray) -> np.ndarray:
-    """R_y(ay) R_x(ax) for arrays of angles (rad)."""
-    cx, sx, cy, sy = np.cos(ax), np.sin(ax), np.cos(ay), np.sin(ay)
-    zero, one = np.zeros_like(cx), np.ones_like(cx)
-    rx = np.stack([np.stack([one, zero, zero], -1), np.stack([zero, cx, -sx], -1),
-                   np.stack([zero, sx, cx], -1)], axis=1)
-    ry = np.stack([np.stack([cy, zero, sy], -1), np.stack([zero, one, zero], -1),
-                   np.stack([-sy, zero, cy], -1)], axis=1)
-    return ry @ rx
+def batch_trials(samples: tuple[PixelSample, PixelSample], chunk: int = 100) -> int:
+    """Trials per batch of evaluate; blocks at multiples of it give the serial figures."""
+    return max(1, min(chunk, _BATCH_RAYS // max(samples[0].u.size, samples[1].u.size, 1)))
 
 
 def _wrms(x: np.ndarray, w: np.ndarray) -> np.ndarray:

@@ -11,10 +11,13 @@ from typing import TYPE_CHECKING
 from ..design import Mirror
 from ..enums import Program
 from ..job import MachiningJob, MadeSurface, polishing_curve
+from ..optics.radial import radial_figures
+from ..optics.zones import zones_for
 from .allocation import allocate as allocate_tolerances
 from .allocation import inverse_sensitivity
-from .montecarlo import prepare, run_monte_carlo, stereo_table
-from .sensitivity import resolution_row, responses, sensitivity_table
+from .montecarlo import CRITERIA, evaluate_trials, judge, prepare, run_monte_carlo, stereo_table
+from .perturb import Trials
+from .sensitivity import judged_values, resolution_row, responses, sensitivity_table
 
 if TYPE_CHECKING:
     from ..settings import Settings
@@ -89,7 +92,6 @@ def nominal_over_zone(mirror: Mirror, part: MachiningJob, ctx) -> dict:
     aligned camera) over the zone the criteria judge: the image displacement per lobe (px),
     the figure `calib` and the report quote for the same made mirror (`part`, polished for
     the nominal time); the Monte Carlo's sparse 3-D sample estimates it per trial."""
-    from ..optics.radial import radial_figures
 
     made = part.made()
     lobes = radial_figures(made.profile, mirror, zones=ctx.zones)["lobes"]
@@ -121,8 +123,6 @@ def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nomi
         if phase not in phases:
             phases[phase] = job.but(phase=phase)
         return phases[phase].but(nose_radius=nose).made()
-
-    from ..optics.zones import zones_for
 
     ctx = prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
                   nose0=job.tool.nose_radius, machine_at=machine_at, progress=progress,
@@ -168,9 +168,6 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
     trials less the passing ones'), which `tolerance --allocate` tightens."""
     import numpy as np
 
-    from .montecarlo import CRITERIA, evaluate_trials, judge
-    from .perturb import Trials
-
     ts = settings.tolerance
     job = MachiningJob.from_settings(settings, mirror, strategy=Program.BEST.strategy)
     if polish_time_s is None:  # the best program's polishing curve chooses it, as `tolerance` does
@@ -180,7 +177,6 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
     ctx = tolerance_context(mirror, settings, Program.BEST, time_s, progress=progress, job=job)
     nom = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s))
     ok = judge(nom, ctx.limits, ts.spec.calibrated)
-    from .sensitivity import judged_values
 
     vals = judged_values(nom, ts.spec.calibrated)[0]
     nominal = {c: {"value": float(vals[j]), "limit": float(ctx.limits[c]), "pass": bool(ok[c][0])}

@@ -171,7 +171,7 @@ def resolution_row(ctx: Context, polish_params, *, res0: float, machine_at, prog
     d = ctx.settings.tolerances.get("resolution_mm", 0.0)
     if d <= 0:
         return None
-    # res0 > d: checked by pipeline.check_programs
+    # res0 > d: checked by job.check_programs
     out = {"parameter": "resolution_mm", "what": "controller resolution (re-planned program)",
            "tolerance": d, "unit": "mm",
            "note": "not drawn in the Monte Carlo: one controller makes every part"}

@@ -4,7 +4,7 @@ What varies from part to part in the shop, and how each trial gets its own surfa
 
 - the lattice phase (where the work zero falls on the controller's lattice): one of
   `phases` realisations, each a program planned, cut and polished
-  (pipeline.made_surface, then the polishing snapshots), drawn uniformly;
+  (job.made_surface, then the polishing snapshots), drawn uniformly;
 - the nose radius: the drawn nose, rounded to `nose_step` (mm), is the nose the part is
   cut with: a machining of its own (made when a trial first draws it), not a blend of
   neighbouring surfaces. A nose larger than the program's moves the step's wall into the
@@ -94,15 +94,12 @@ class SurfaceBank:
         self.phase_s = [np.empty((self.phases.size, T, n)) for n in self.n]
         self.source = ""
         self._cut0: list[tuple[np.ndarray, np.ndarray]] = []
-        for p, ph in enumerate(self.phases):
-            made = machine_at(float(ph), self.nose0)
+        for p, (source, cut0, sampled) in enumerate(_on_executor(self, _cut_phase, list(range(self.phases.size)),
+                                                                 progress)):
             if p == 0:
-                self.source = made.source
-                self._cut0 = self._sample(made.profile, polished=False)
-            for k, (z, s) in enumerate(self._sample(made.profile)):
+                self.source, self._cut0 = source, cut0
+            for k, (z, s) in enumerate(sampled):
                 self.phase_z[k][p], self.phase_s[k][p] = z, s
-            if progress is not None:
-                progress.update(1)
         #: nose offset index m (nose = nose0 + m nose_step) -> row of the nose tables
         self._rows: dict[int, int] = {0: 0}
         self._nose_dz = [[np.zeros((T, n))] for n in self.n]
@@ -139,18 +136,16 @@ class SurfaceBank:
     def ensure(self, nose_mm: np.ndarray, progress=None) -> int:
         """Cut (at phase 0) and polish every nose radius (mm, rounded to the step) not cut
         yet; returns how many were cut."""
-        todo = self.missing(nose_mm)
+        todo = [int(m) for m in self.missing(nose_mm)]
         for m in todo:
-            nose = self.nose0 + int(m) * self.nose_step
+            nose = self.nose0 + m * self.nose_step
             if not nose > 0:
                 raise ValueError(f"nose radius {nose:g} mm: a trial drew a nose <= 0")
-            made = self.machine_at(0.0, nose)
-            for k, (z, s) in enumerate(self._polished_nose(made.profile)):
+        for m, polished in zip(todo, _on_executor(self, _cut_nose, todo, progress)):
+            for k, (z, s) in enumerate(polished):
                 self._nose_dz[k].append(z - self.phase_z[k][0])
                 self._nose_ds[k].append(s - self.phase_s[k][0])
-            self._rows[int(m)] = len(self._rows)
-            if progress is not None:
-                progress.update(1)
+            self._rows[m] = len(self._rows)
         return len(todo)
 
     def trial_surface(self, k: int, phase: np.ndarray, nose_mm: np.ndarray, time_s: np.ndarray,
@@ -272,3 +267,32 @@ def _interp_weights(x: np.ndarray, nodes: np.ndarray) -> tuple[np.ndarray, np.nd
     span = nodes[j + 1] - nodes[j]
     w = np.where(span > 0, (x - nodes[j]) / np.where(span > 0, span, 1.0), 0.0)
     return j, w
+
+
+def _on_executor(bank: SurfaceBank, fn, items: list, progress) -> list:
+    """fn(bank, item) for each item, on the command's executor (lathe_mirror.compute:
+    each part cut and polished whole by one worker, the results in item order)."""
+    from ..compute import active
+
+    ex = active()
+    if ex.workers == 1 or len(items) < 2:
+        out = []
+        for item in items:
+            out.append(fn(bank, item))
+            if progress is not None:
+                progress.update(1)
+        return out
+    with ex.bound(bank) as run:
+        return run.map(fn, items, progress=progress)
+
+
+def _cut_phase(bank: SurfaceBank, p: int):
+    """(source, the part as cut, the part polished at every snapshot) of lattice phase p."""
+    made = bank.machine_at(float(bank.phases[p]), bank.nose0)
+    cut0 = bank._sample(made.profile, polished=False) if p == 0 else []
+    return made.source, cut0, bank._sample(made.profile)
+
+
+def _cut_nose(bank: SurfaceBank, m: int):
+    """Nose offset m's part (phase 0), polished at every snapshot."""
+    return bank._polished_nose(bank.machine_at(0.0, bank.nose0 + m * bank.nose_step).profile)

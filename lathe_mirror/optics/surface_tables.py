@@ -1,0 +1,271 @@
+"""Per-profile tables for the 3-D tracer (optics.trace3d), built once per surface: for
+each lobe its quadric of revolution (the closed-form start), its piecewise-linear vertices
+behind an O(1) segment lookup, and bins of r holding the largest |slope| (cumulative from
+the lobe's start) and the lowest height, from which a ray's monotone zone follows.
+Camera frame, mm."""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..design import Lobe
+from ..profile import ExactProfile, Profile
+from .rays import polyline_vertices
+
+try:
+    from ..profile import TabulatedProfile
+except ImportError:  # pragma: no cover
+    TabulatedProfile = None
+
+@dataclass(frozen=True)
+class LobeTable:
+    """One lobe of a profile, tabulated for the fast path (mm)."""
+
+    lo: float                 # first radius of the lobe (outer: just past the junction)
+    hi: float                 # last radius
+    quad: tuple[float, float, float, float]  # p, q, w of z^2 + p z + q r^2 + w = 0; sheet sign
+    exact: Lobe | None        # the design lobe of an exact profile
+    grid: VertexGrid | None  # the piecewise-linear vertices, else None
+    lut: tuple[float, np.ndarray]  # climb -> first steep bin, conservative (_climb_lut)
+    edges: np.ndarray         # bin edges in r (nb + 1)
+    slope_cummax: np.ndarray  # largest |slope| from lo to the end of each bin (nb)
+    z_edge: np.ndarray        # Z at each edge (nb + 1)
+    z_sufmin: np.ndarray      # lowest Z from each bin to hi (nb + 1; last +inf)
+    z_binmin: np.ndarray      # lowest Z in each bin (nb)
+
+
+@dataclass(frozen=True)
+class SurfaceTables:
+    lobes: tuple[LobeTable, LobeTable]
+    z_lo: float               # just below / above every height of the profile
+    z_hi: float
+    z_min: float              # the lowest point of the profile
+    z_rim: float
+    slope_j: float            # the outer lobe's slope at the junction and at the rim
+    slope_rim: float
+
+
+_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def surface_tables(profile: Profile) -> SurfaceTables:
+    try:
+        return _CACHE[profile]
+    except (KeyError, TypeError):
+        pass
+    lobes = tuple(_lobe_table(profile, k) for k in (0, 1))
+    r = np.concatenate([np.linspace(0.0, profile.r_max, 4097), [lobes[1].lo]])
+    z = profile.z(r)
+    out = SurfaceTables(lobes=lobes, z_lo=float(z.min()) - 0.5, z_hi=float(z.max()) + 0.5,
+                  z_min=float(min(z.min(), *(lb.z_edge.min() for lb in lobes))),
+                  z_rim=float(profile.z(np.array(profile.r_max))),
+                  slope_j=float(lobe_zs(profile, lobes[1], np.array([lobes[1].lo]))[1][0]),
+                  slope_rim=float(lobe_zs(profile, lobes[1], np.array([lobes[1].hi]))[1][0]))
+    try:
+        _CACHE[profile] = out
+    except TypeError:  # pragma: no cover - an unhashable profile: no cache
+        pass
+    return out
+
+
+def _lobe_table(profile: Profile, k: int, nb_max: int = 512) -> LobeTable:
+    lo, hi = profile.lobe_range(k)
+    if k == 1:
+        lo = float(np.nextafter(lo, np.inf))
+    exact = profile.mirror.lobes[k] if isinstance(profile, ExactProfile) else None
+    verts = None if exact is not None else polyline_vertices(profile, k)
+    vr = vz = None
+    if verts is not None:
+        vr, vz = (np.asarray(x, float) for x in verts)
+        seg = np.diff(vr)
+        nb = int(np.clip((hi - lo) / max(float(seg.max()), 1e-12), 8, nb_max))
+    else:
+        nb = nb_max // 2
+    edges = np.linspace(lo, hi, nb + 1)
+    if verts is not None:
+        # Each segment's chord slope and lower end bound every bin it overlaps (the end
+        # segments extend beyond the vertices, as the profile evaluates there).
+        with np.errstate(divide="ignore", invalid="ignore"):
+            m = np.abs(np.where(seg > 0, np.diff(vz) / seg, 0.0))
+        r0 = vr[:-1].copy()
+        r1 = vr[1:].copy()
+        r0[0], r1[-1] = min(r0[0], lo), max(r1[-1], hi)
+        zmin_seg = np.minimum(vz[:-1], vz[1:])
+        # a vertical step inside the lobe: its two ends' heights bound the bin
+        b0 = np.clip(np.searchsorted(edges, r0, side="right") - 1, 0, nb - 1)
+        b1 = np.clip(np.searchsorted(edges, r1, side="left") - 1, 0, nb - 1)
+        keep = (r1 >= lo) & (r0 <= hi)
+        smax = np.zeros(nb)
+        zmin = np.full(nb, np.inf)
+        b0, b1, m, zmin_seg = b0[keep], np.maximum(b1[keep], b0[keep]), m[keep], zmin_seg[keep]
+        # the extended end segments: their heights at lo / hi
+        zmin[0] = min(zmin[0], float(_eval_vertices(vr, vz, np.array([lo]))[0][0]))
+        zmin[-1] = min(zmin[-1], float(_eval_vertices(vr, vz, np.array([hi]))[0][0]))
+        for off in range(int(np.max(b1 - b0)) + 1 if b0.size else 0):
+            sel = b0 + off <= b1
+            np.maximum.at(smax, b0[sel] + off, m[sel])
+            np.minimum.at(zmin, b0[sel] + off, zmin_seg[sel])
+        if np.any(seg == 0):  # a vertical step between equal radii: infinitely steep
+            np.maximum.at(smax, np.clip(np.searchsorted(edges, vr[1:][seg == 0], "right") - 1, 0, nb - 1), np.inf)
+        z_edge = _eval_vertices(vr, vz, edges)[0]
+    else:
+        rs = np.linspace(lo, hi, 16 * nb + 1)
+        if exact is not None:
+            z_s, s_s = exact.z(rs), exact.slope(rs)
+        else:
+            z_s, s_s = profile.z(rs), profile.slope(rs)
+        s_abs = np.abs(s_s)
+        # bin b holds samples 16 b .. 16 (b + 1); dilate by a neighbour (what lies between
+        # samples) and a small margin
+        blk = np.lib.stride_tricks.sliding_window_view(s_abs, 17)[::16]
+        zblk = np.lib.stride_tricks.sliding_window_view(z_s, 17)[::16]
+        smax = blk.max(axis=1)
+        zmin = zblk.min(axis=1)
+        if exact is None:
+            smax = np.maximum(smax, np.maximum(np.r_[smax[1:], 0.0], np.r_[0.0, smax[:-1]])) * 1.05 + 1e-9
+            zmin = np.minimum(zmin, np.minimum(np.r_[zmin[1:], np.inf], np.r_[np.inf, zmin[:-1]])) - 1e-6
+        z_edge = z_s[::16]
+    cummax = np.maximum.accumulate(smax)
+    sufmin = np.concatenate([np.minimum.accumulate(zmin[::-1])[::-1], [np.inf]])
+    quad = _quadric(profile, k, exact, lo, hi)
+    tab = None
+    if TabulatedProfile is not None and isinstance(profile, TabulatedProfile):
+        tab = np.asarray(profile.lobes[k][2], float)
+    lut = _climb_lut(cummax)
+    return LobeTable(lo=lo, hi=hi, quad=quad, exact=exact, grid=None if vr is None else VertexGrid(vr, vz, tab),
+                 lut=lut, edges=edges,
+                 slope_cummax=cummax, z_edge=z_edge, z_sufmin=sufmin, z_binmin=zmin)
+
+
+def _climb_lut(cummax: np.ndarray, cells: int = 4096) -> tuple[float, np.ndarray]:
+    """A table from a ray's climb c (dz / dr) to the first bin whose slope bound c does
+    not exceed: cell i covers [i h, (i + 1) h) and holds the bin of its lower end (never
+    later than the exact one, so the monotone zone is never overstated); above the
+    table's range every bin is monotone."""
+    top = float(cummax[-1])
+    if not np.isfinite(top):
+        finite = cummax[np.isfinite(cummax)]
+        top = float(finite[-1]) if finite.size else 1.0
+    h = max(top, 1e-12) * 1.001 / cells
+    b = np.searchsorted(cummax, np.arange(cells + 1) * h, side="left")
+    b[-1] = np.searchsorted(cummax, np.inf, side="left") if not np.isfinite(cummax[-1]) else cummax.size
+    return 1.0 / h, b.astype(np.intp)
+
+
+def first_steep(lobe: LobeTable, climb: np.ndarray) -> np.ndarray:
+    inv_h, b = lobe.lut
+    with np.errstate(invalid="ignore"):
+        c = np.minimum(climb * inv_h, b.size - 1).astype(np.intp)
+    return b[c]
+
+
+def _quadric(profile: Profile, k: int, exact: Lobe | None, lo: float, hi: float):
+    """(p, q, w, sheet) of the quadric z^2 + p z + q r^2 + w = 0 of lobe k: the lobe's own
+    for an exact profile, else a least-squares fit; sheet: the sign of 2z + p on the lobe."""
+    if exact is not None:
+        a, b, e = exact.a, exact.b, exact.e
+        return -2.0 * e, -(a * a) / (b * b), e * e - a * a, 1.0
+    r = np.linspace(lo, hi, 257)
+    z = profile.z(r)
+    zc = float(np.mean(z))
+    # fit in shifted heights for conditioning: y^2 + P y + q r^2 + W = 0, y = z - zc
+    y = z - zc
+    A = np.stack([y, r * r, np.ones_like(r)], axis=1)
+    P, q, W = np.linalg.lstsq(A, -y * y, rcond=None)[0]
+    p = P - 2.0 * zc
+    w = W - P * zc + zc * zc
+    sheet = float(np.sign(np.median(2.0 * z + p))) or 1.0
+    return float(p), float(q), float(w), sheet
+
+
+def _eval_vertices(vr: np.ndarray, vz: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """z and the chord slope of the polyline (vr, vz) at r (end segments extended)."""
+    j = np.clip(np.searchsorted(vr, r, side="right") - 1, 0, vr.size - 2)
+    r0, r1 = vr[j], vr[j + 1]
+    z0 = vz[j]
+    dr = r1 - r0
+    m = np.where(dr > 0, (vz[j + 1] - z0) / np.where(dr > 0, dr, 1.0), 0.0)
+    return z0 + m * (r - r0), m
+
+
+class VertexGrid:
+    """O(1) segment lookup on a polyline: a uniform grid of cells over its radii, each
+    holding the last vertex at or before its start; a few steps forward find the segment
+    (the one np.searchsorted(vr, r, "right") - 1 finds, clipped to the end segments).
+    slope: a TabulatedProfile's slope column at the vertices (interpolated linearly, as
+    the profile does), else None."""
+
+    def __init__(self, vr: np.ndarray, vz: np.ndarray, slope: np.ndarray | None = None):
+        n = vr.size
+        dr = np.diff(vr)
+        pos = dr > 0
+        safe = np.where(pos, dr, 1.0)
+        self.m = np.where(pos, np.diff(vz) / safe, 0.0)
+        self.r0, self.z0 = vr[:-1].copy(), vz[:-1].copy()
+        self.nxt = np.concatenate([vr[1:-1], [np.inf]])  # the next segment's start
+        self.g0 = float(vr[0])
+        span = float(vr[-1] - vr[0]) or 1.0
+        for cells in (2 * n, 8 * n, 32 * n):
+            self.inv_h = cells / span
+            starts = self.g0 + np.arange(cells) / self.inv_h
+            self.start = np.clip(np.searchsorted(vr, starts, side="right") - 1, 0, n - 2).astype(np.intp)
+            per_cell = np.diff(np.concatenate([self.start, [n - 2]]))
+            self.steps = int(per_cell.max()) + 1 if per_cell.size else 1
+            if self.steps <= 3:
+                break
+        self.cells = cells
+        self.vr = vr
+        self.r_ends = (float(vr[0]), float(vr[-1]))
+        self.s0 = self.sm = None
+        if slope is not None:
+            self.s0 = slope[:-1].copy()
+            self.sm = np.where(pos, np.diff(slope) / safe, 0.0)
+
+    def segment(self, r: np.ndarray) -> np.ndarray:
+        if self.steps > 8:  # clustered vertices: a binary search is cheaper
+            return np.clip(np.searchsorted(self.vr, r, side="right") - 1, 0, self.vr.size - 2)
+        c = ((r - self.g0) * self.inv_h).astype(np.intp)
+        np.clip(c, 0, self.cells - 1, out=c)
+        j = self.start[c]
+        for _ in range(self.steps):
+            j += self.nxt[j] <= r
+        return j
+
+    def eval(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        j = self.segment(r)
+        m = self.m[j]
+        return self.z0[j] + m * (r - self.r0[j]), m
+
+    def slope_at(self, r: np.ndarray) -> np.ndarray:
+        """The tabulated slope at r (np.interp's: held at the ends)."""
+        r = np.clip(r, *self.r_ends)
+        j = self.segment(r)
+        return self.s0[j] + self.sm[j] * (r - self.r0[j])
+
+
+def lobe_zs(profile: Profile, lobe: LobeTable, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Z and dZ/dr of one lobe at r (clamped into the lobe): the lobe's closed form, the
+    polyline's chord, or the profile's own."""
+    r = np.clip(r, lobe.lo, lobe.hi)
+    if lobe.exact is not None:
+        lb = lobe.exact
+        root = np.sqrt(1.0 + (r / lb.b) ** 2)
+        return lb.e + lb.a * root, lb.a * r / (lb.b * lb.b * root)
+    if lobe.grid is not None:
+        return lobe.grid.eval(r)
+    return profile.z(r), profile.slope(r)
+
+
+def normal_slope(profile: Profile, lobe: LobeTable, r: np.ndarray) -> np.ndarray:
+    """The slope the reflection uses (the profile's own, as the meridian tracer's)."""
+    r = np.clip(r, lobe.lo, lobe.hi)
+    if lobe.exact is not None:
+        return lobe.exact.slope(r)
+    if lobe.grid is not None and lobe.grid.s0 is not None:  # TabulatedProfile.slope on this lobe
+        return lobe.grid.slope_at(r)
+    return profile.slope(r)
+
+

@@ -1,0 +1,295 @@
+"""The 3-D tracer: camera rays from any pose (tilted, decentred, moved along the axis) off
+a mirror surface of revolution z = Z(r) (any Profile), all rays at once. Mirror frame, mm.
+
+Fast path (every ray, vectorised; no Python loop per ray):
+
+* each lobe is near a quadric of revolution z^2 + p z + q r^2 + w = 0: the lobe's own
+  hyperboloid for an exact profile ((z - e)^2 / a^2 - r^2 / b^2 = 1: p = -2e,
+  q = -a^2 / b^2, w = e^2 - a^2), a least-squares fit to the lobe otherwise. A ray meets it
+  where a quadratic in the ray length s vanishes (the stable root pair); of the two, the
+  one on the mirror's sheet (sign of 2z + p, z > e for a hyperboloid) is kept, never the
+  nearest hit: a ray from the pinhole crosses the other sheet first (ARCHITECTURE.md).
+  On an exact profile that root is the hit, in closed form.
+* on a made profile (polyline, tabulated envelope, programmed moves, spline) the hit is
+  the root of the height gap g(s) = z(s) - Z(r(s)) along the ray: safeguarded Newton (a
+  step leaving the bracket bisects it), all rays at once, from the quadric's hit, with
+  the interpolant's own chord slope on piecewise-linear profiles (exact on a piece), to
+  ROOT_TOL_MM. Two or three steps.
+* which lobe, the wall or a miss, decided without marching: a ray from below climbs
+  faster than the surface where the surface's slope stays below the ray's d_z / |d_xy|
+  (dr/ds <= |d_xy|), so g rises monotonically there and has at most one root. Per lobe,
+  bins of r hold the largest |slope| (cumulative from the lobe's start) and the lowest
+  height (from the bin to the lobe's end); a ray's monotone zone ends at the first bin
+  whose slope bound it cannot out-climb. Where the ray leaves that zone (the cylinder
+  r = r_s) above the surface, the lobe's root lies inside it; below the surface and below
+  every height of the steep rest, the ray never enters that lobe's material; at the
+  junction then, above the outer lobe's start it meets the wall, below it the outer lobe;
+  past the rim, the mount (a miss).
+* blocked (inner lobe): the reflected ray's height over the outer lobe,
+  h(l) = z(l) - Z_outer(r(l)), is concave on a convex lobe; h at the junction and at the
+  rim, and the two tangents' meeting point, bound it. Only an undecided ray is sampled.
+
+Fallback (the few rays the fast path cannot decide: a ray whose monotone zone ends in a
+steep feature it may touch, such as the groove or the fillet a nose leaves at the step;
+an origin above the surface or outside the junction radius): march each ray through the
+mirror's height range and refine the first step inside the material (safeguarded Newton,
+bisection across the step wall), as before this module existed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..profile import Profile
+from .march import WALL_JUMP_MM, march, reflected_blocked
+from .rays import ROOT_TOL_MM, Fate, RayHits
+from .surface_tables import LobeTable, SurfaceTables, first_steep, lobe_zs, normal_slope, surface_tables
+
+__all__ = ["CHUNK", "WALL_JUMP_MM", "trace_rays"]
+#: Rays per vectorised batch (bounds the memory; a batch stays in cache).
+CHUNK = 1 << 15
+#: A ray must out-climb a bin's slope bound by this factor to count as monotone there.
+MONOTONE_MARGIN = 1.02
+#: The steep bins at the inner lobe's rim walked one by one (beyond: the march).
+STEEP_WALK = 32
+
+
+def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
+               chunk: int = CHUNK, progress: bool = False, fast: bool = True,
+               march_steps: int = 16) -> RayHits:
+    """Rays origin + s * direction (mm, unit directions (..., 3)) off the profile.
+
+    fast=False marches every ray (the fallback; for comparison and benchmarks).
+    march_steps: the march's steps through the height range (it misses a sliver of
+    material thinner than a step: more steps, finer). A tqdm bar on stderr when `progress`.
+    """
+    origin = np.asarray(origin, float)
+    d_all = np.asarray(directions, float)
+    shape = d_all.shape[:-1]
+    d_all = d_all.reshape(-1, 3)
+    n = d_all.shape[0]
+    fate = np.full(n, Fate.MISS, dtype=np.int8)
+    point = np.full((n, 3), np.nan)
+    out = np.full((n, 3), np.nan)
+    blocked = np.zeros(n, dtype=bool)
+    tables = surface_tables(profile)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=n, unit="ray", unit_scale=True, desc="trace 3-D", leave=False)
+    rest = [np.arange(n)]
+    if fast:
+        rest = []
+        for a in range(0, n, chunk):
+            sl = slice(a, min(a + chunk, n))
+            rest.append(a + _fast_chunk(profile, tables, origin, d_all[sl], fate[sl], point[sl], out[sl],
+                                        blocked[sl]))
+            if bar is not None:
+                bar.update(sl.stop - sl.start)
+    # the rays the fast path left, marched together (few: near a steep feature)
+    rest = np.concatenate(rest)
+    for a in range(0, rest.size, chunk):
+        ii = rest[a:a + chunk]
+        fate[ii], point[ii], out[ii], blocked[ii] = march(profile, origin, d_all[ii], tables.z_lo, tables.z_hi,
+                                                            steps=march_steps)
+        if bar is not None and not fast:
+            bar.update(ii.size)
+    if bar is not None:
+        bar.close()
+    return RayHits(fate=fate.reshape(shape), point=point.reshape(*shape, 3),
+                   direction=out.reshape(*shape, 3), blocked=blocked.reshape(shape))
+
+
+# --------------------------------------------------------------------------------------
+# Fast path
+
+
+def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> np.ndarray:
+    """Trace the rays the fast path decides (writes into fate, point, out, blocked); the
+    indices of the rest (for the march)."""
+    n = d.shape[0]
+    if not o[2] < tb.z_min:  # the camera must be below the mirror
+        return np.arange(n)
+    ox, oy, oz = (float(x) for x in o)
+    r0sq = ox * ox + oy * oy
+    inner_t, outer_t = tb.lobes
+    dx, dy, dz = np.ascontiguousarray(d.T)
+    # a ray heading down never reaches the mirror above (a miss); one along the axis or
+    # with its origin off the inner lobe's monotone zone goes to the march
+    dxy2 = dx * dx + dy * dy
+    go = (dz > 0) & (dxy2 > 0)
+    idx = np.nonzero(go)[0]
+    undecided = np.zeros(n, dtype=bool)
+    undecided[(dz > 0) & ~go] = True
+    if idx.size < n:
+        dx, dy, dz, dxy2 = dx[idx], dy[idx], dz[idx], dxy2[idx]
+    bxy = ox * dx + oy * dy
+    inv = 1.0 / dxy2
+    bb = bxy * bxy
+    climb = dz * np.sqrt(inv) * (1.0 / MONOTONE_MARGIN)  # the ray's dz / dr, at least
+
+    def exit_s(radius, sel=None):
+        """Ray length where the ray leaves the cylinder r = radius (origin inside it)."""
+        if sel is None:
+            return (np.sqrt(bb + dxy2 * (radius * radius - r0sq)) - bxy) * inv
+        return (np.sqrt(bb[sel] + dxy2[sel] * (radius * radius - r0sq)) - bxy[sel]) * inv[sel]
+
+    # Inner lobe: each ray's monotone zone ends at r_s; above the surface there: a hit.
+    nb0 = inner_t.slope_cummax.size
+    b_s = first_steep(inner_t, climb)
+    r_s = inner_t.edges[b_s]
+    with np.errstate(invalid="ignore"):
+        s_s = exit_s(r_s)
+    z_s = oz + s_s * dz
+    ok = r0sq < r_s * r_s
+    inner = ok & (z_s >= inner_t.z_edge[b_s])
+    # The others: never inside the inner lobe's material, then the wall, the outer lobe
+    # (its monotone zone from the junction) or past the rim.
+    rest = np.nonzero(ok & ~inner)[0]
+    b_r = b_s[rest]
+    s_c = s_s[rest]
+    steep = b_r < nb0
+    if steep.any():
+        s_c[steep] = exit_s(inner_t.hi, rest[steep])
+    z_c = oz + s_c * dz[rest]
+    not_inner = z_c < inner_t.z_sufmin[b_r]
+    # Where that does not settle it, walk the steep bins: the ray below each bin's lowest
+    # point at the bin's outer edge (its highest point there) never enters it.
+    walk = np.nonzero(~not_inner & (b_r >= nb0 - STEEP_WALK) & (b_r < nb0))[0]
+    if walk.size:
+        first = nb0 - STEEP_WALK if nb0 > STEEP_WALK else 0
+        bins = np.arange(first, nb0)
+        sel = rest[walk]
+        with np.errstate(invalid="ignore"):
+            s_e = (np.sqrt(bb[sel, None] + dxy2[sel, None] * (inner_t.edges[bins + 1] ** 2 - r0sq))
+                   - bxy[sel, None]) * inv[sel, None]
+        under = (oz + s_e * dz[sel, None] < inner_t.z_binmin[bins]) | (bins < b_r[walk, None])
+        not_inner[walk] = under.all(axis=1)
+    wall = not_inner & (z_c >= outer_t.z_edge[0])
+    beyond = not_inner & ~wall
+    b1 = first_steep(outer_t, climb[rest])
+    s1 = exit_s(outer_t.edges[b1], rest)
+    z1 = oz + s1 * dz[rest]
+    outer = beyond & (b1 > 0) & (z1 >= outer_t.z_edge[b1])
+    miss = beyond & (b1 == outer_t.slope_cummax.size) & (z1 < outer_t.z_edge[-1])
+    decided = np.zeros(idx.size, dtype=bool)
+    decided[inner] = True
+    decided[rest[wall | outer | miss]] = True
+    undecided[idx[~decided]] = True
+    fate[idx[rest[wall]]] = Fate.WALL
+
+    o_in = np.nonzero(inner)[0]
+    o_out = rest[outer]
+    for k, sel, lo_s, hi_s in ((0, o_in, np.zeros(o_in.size), np.minimum(s_s[o_in], (tb.z_hi - oz) / dz[o_in])),
+                               (1, o_out, s_c[outer], s1[outer])):
+        if sel.size == 0:
+            continue
+        lobe = tb.lobes[k]
+        kx, ky, kz = dx[sel], dy[sel], dz[sel]
+        s = _quadric_hit(lobe, oz, kz, bxy[sel], dxy2[sel], r0sq)
+        if lobe.exact is not None:
+            conv = (s >= lo_s - 1e-9) & (s <= hi_s + 1e-9)  # False for NaN
+        else:
+            s, conv = _newton(profile, lobe, (ox, oy, oz), kx, ky, kz, s, lo_s, hi_s)
+        rows = idx[sel]
+        if not conv.all():
+            undecided[rows[~conv]] = True
+            rows, kx, ky, kz, s = rows[conv], kx[conv], ky[conv], kz[conv], s[conv]
+        px, py, pz = ox + s * kx, oy + s * ky, oz + s * kz
+        r = np.sqrt(px * px + py * py)
+        slope = normal_slope(profile, lobe, r)
+        # unit normal toward the camera: (slope px / r, slope py / r, -1) / sqrt(1 + slope^2)
+        nn = 1.0 / np.sqrt(1.0 + slope * slope)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            kr = np.where(r > 0, slope * nn / r, 0.0)  # on the axis the normal is -z
+        two_dn = 2.0 * (kr * (px * kx + py * ky) - kz * nn)
+        ux, uy, uz = kx - two_dn * kr * px, ky - two_dn * kr * py, kz + two_dn * nn
+        fate[rows] = k
+        for c, (pc, uc) in enumerate(((px, ux), (py, uy), (pz, uz))):
+            point[rows, c] = pc
+            out[rows, c] = uc
+        if k == 0:
+            blocked[rows] = _blocked(profile, tb, px, py, pz, ux, uy, uz)
+    return np.nonzero(undecided)[0]
+
+
+def _quadric_hit(lobe: LobeTable, oz: float, dz: np.ndarray, bxy: np.ndarray, dxy2: np.ndarray,
+                 r0sq: float) -> np.ndarray:
+    """Smallest s > 0 where the rays meet the lobe's quadric on the mirror's sheet (NaN
+    where they do not): A s^2 + 2 B s + C = 0, the stable pair of roots."""
+    p, q, w, sheet = lobe.quad
+    A = dz * dz + q * dxy2
+    B = (oz + 0.5 * p) * dz + q * bxy
+    C = oz * oz + p * oz + q * r0sq + w
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sq = np.sqrt(B * B - A * C)  # NaN where the ray misses the quadric
+        qq = -(B + np.copysign(sq, B))
+        s1, s2 = qq / A, C / qq
+        ok1 = (s1 > 0) & ((2.0 * (oz + s1 * dz) + p) * sheet > 0)
+        ok2 = (s2 > 0) & ((2.0 * (oz + s2 * dz) + p) * sheet > 0)
+        return np.where(ok1 & ok2, np.minimum(s1, s2), np.where(ok1, s1, np.where(ok2, s2, np.nan)))
+
+
+def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, s0, lo, hi, max_iter: int = 60):
+    """Roots of g(s) = z - Z(r) in [lo, hi] (g(lo) < 0 <= g(hi)) from s0 (the quadric's
+    hit): safeguarded Newton, a step leaving the bracket bisects it. s, converged."""
+    ox, oy, oz = o
+    x = np.where((s0 >= lo) & (s0 <= hi), s0, 0.5 * (lo + hi))  # NaN s0: the middle
+    lo, hi = lo.copy(), hi.copy()
+    conv = np.zeros(x.size, dtype=bool)
+    act = np.arange(x.size)
+    ax, ay, az = dx, dy, dz
+    for _ in range(max_iter):
+        xa = x[act]
+        px = ox + xa * ax
+        py = oy + xa * ay
+        r = np.sqrt(px * px + py * py)
+        z, m = lobe_zs(profile, lobe, r)
+        g = oz + xa * az - z
+        with np.errstate(invalid="ignore", divide="ignore"):
+            drds = np.where(r > 0, (px * ax + py * ay) / r, 0.0)
+            nx = xa - g / (az - m * drds)
+        below = g < 0
+        la = np.where(below, xa, lo[act])
+        ha = np.where(below, hi[act], xa)
+        nx = np.where((nx >= la) & (nx <= ha), nx, 0.5 * (la + ha))
+        lo[act], hi[act], x[act] = la, ha, nx
+        done = (np.abs(nx - xa) <= ROOT_TOL_MM) | (g == 0) | (ha - la <= ROOT_TOL_MM)
+        conv[act[done]] = True
+        keep = ~done
+        act = act[keep]
+        if act.size == 0:
+            break
+        ax, ay, az = ax[keep], ay[keep], az[keep]
+    return x, conv
+
+
+def _blocked(profile: Profile, tb: SurfaceTables, px, py, pz, ux, uy, uz) -> np.ndarray:
+    """Does the reflected ray p + l u (l > 0) leaving the inner lobe run into the outer
+    lobe's material (up to the rim)? h(l) = z - Z_outer(r) is concave (convex lobe): its
+    values at the junction and the rim and its tangents there decide; an undecided ray is
+    sampled (march.reflected_blocked)."""
+    oxy2 = ux * ux + uy * uy
+    bxy = px * ux + py * uy
+    rp2 = px * px + py * py
+    outer = tb.lobes[1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        inv = 1.0 / oxy2
+        bb = bxy * bxy
+        lj = (np.sqrt(np.maximum(bb - oxy2 * (rp2 - outer.lo**2), 0.0)) - bxy) * inv
+        lm = (np.sqrt(np.maximum(bb - oxy2 * (rp2 - outer.hi**2), 0.0)) - bxy) * inv
+        hj = pz + lj * uz - outer.z_edge[0]
+        hm = pz + lm * uz - tb.z_rim
+        dj = uz - tb.slope_j * (bxy + lj * oxy2) / outer.lo
+        dm = uz - tb.slope_rim * (bxy + lm * oxy2) / outer.hi
+        cross = (hm - hj + dj * lj - dm * lm) / (dj - dm)
+        bound = hj + dj * (cross - lj)
+        valid = (oxy2 > 0) & (lj > 0)
+        res = valid & ((hj > 0) | (hm > 0))
+        maybe = valid & ~res & (dj > 0) & (dm < 0) & ~(bound <= 0)
+    if maybe.any():
+        p = np.stack([px[maybe], py[maybe], pz[maybe]], axis=-1)
+        u = np.stack([ux[maybe], uy[maybe], uz[maybe]], axis=-1)
+        res[maybe] = reflected_blocked(profile, p, u)
+    return res
