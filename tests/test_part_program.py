@@ -58,7 +58,8 @@ def test_committed_fanuc_programs_set_g54_and_return_before_the_first_tool(name)
     # the replay (toolpath --check) takes the return and simulates the rest
     settings = load()
     ops = read_program((REPO / "gcode" / name).read_text(), settings.machine, source=name)
-    assert [op.station for op in ops][:3] == [1, 1, 1] and ops[-1].station == 2
+    # the finishing tool, then the parting blade (the part-off)
+    assert [op.station for op in ops][:3] == [1, 1, 1] and [op.station for op in ops][-2:] == [2, 5]
 
 
 def test_g28_elsewhere_is_refused():
@@ -81,12 +82,12 @@ def test_recessed_outer_with_its_own_path_tolerance_finish_depth_and_spring_pass
     ops = data["shop"]["operations"]
     assert data["shop"]["contacts"] == []
     names = [op["name"] for op in ops]
-    assert names[:3] == ["face", "rough", "semi-finish"] and names[-2:] == ["finish", "spring pass"]
+    assert names[:3] == ["face", "rough", "semi-finish"] and names[-3:] == ["finish", "spring pass", "part-off"]
     finishing = [op for op in ops if op["name"].startswith("finish")]
     # 0.15 mm of allowance at most 0.05 mm a pass: at least 3 passes, each within the limit
     assert len(finishing) >= 3
     assert all(op["max_depth_of_cut_mm"] <= 0.05 + 1e-6 for op in finishing)
-    assert ops[-1]["removed_volume_mm3"] < 1.0  # the spring pass cuts (nearly) air
+    assert ops[-2]["removed_volume_mm3"] < 1.0  # the spring pass cuts (nearly) air
     ngc = tmp_path / "mirror_arcs.ngc"
     assert "G64 P0.002 Q0.002" in ngc.read_text()
     out = rs274(tmp_path, ngc)
@@ -98,7 +99,9 @@ def test_set_up_sheet_lists_every_operation_the_touch_off_and_the_inspection(tmp
     page = (REPO / "gcode" / "mirror_arcs.setup.html").read_text()
     ops = re.findall(r"<tr><td>([^<]+)</td><td>T\d</td><td>N\d+</td>", page)
     nc = (REPO / "gcode" / "mirror_arcs.nc").read_text()
-    assert len(ops) == 3 + len(re.findall(r"^\((?:FINISH PASS \d|FINISH:)", nc, re.M))
+    # face, rough, semi-finish, the finishing passes, the part-off; the second set-up's face back and bore
+    assert len(ops) == 3 + len(re.findall(r"^\((?:FINISH PASS \d|FINISH:)", nc, re.M)) + 1 + 2
+    assert ops[-3:] == ["part-off", "face back", "bore"]
     assert "test recess" in page  # the X touch-off on a surface the operator cuts first
     rows = re.findall(r"<tr><td>(inner|outer)</td><td class='n'>([\d.]+)</td><td class='n'>(-?[\d.]+)</td>"
                       r"<td class='n'>([\d.]+)</td>", page)
