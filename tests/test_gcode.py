@@ -542,8 +542,11 @@ def test_outer_recessed_step_is_cut_by_the_opposite_hand(tmp_path):
     cfg.write_text(RECESSED_OUTER)
     res = run_cli("toolpath", "--config", str(cfg), "-o", str(tmp_path / "p.ngc"))
     assert res.returncode == 0, res.stderr
-    tools = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4))
-    out = rs274(tmp_path, (tmp_path / "p.ngc").read_text(), tools)
+    out = rs274(tmp_path, (tmp_path / "p.ngc").read_text())
     finishing = len(re.findall(r"^\((?:finish pass \d|finish:)", (tmp_path / "p.ngc").read_text(), re.M))
     assert out.count("CHANGE_TOOL(3)") == 3 and out.count("CHANGE_TOOL(4)") == finishing >= 1
+    assert out.count("CHANGE_TOOL(5)") == 1  # the part-off
     assert "CHANGE_TOOL(1)" not in out and "PROGRAM_END" in out
+    # the second set-up, the back faced and bored with the insert as configured (T1)
+    out2 = rs274(tmp_path, (tmp_path / "p_op2.ngc").read_text())
+    assert out2.count("CHANGE_TOOL(1)") == 2 and "PROGRAM_END" in out2
