@@ -18,6 +18,7 @@ import contextlib
 import importlib
 import os
 import sys
+import threading
 import traceback
 import warnings
 
@@ -60,6 +61,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Set once the command has caught the exception a signal raised (its status is decided):
+#: later signals are only noted, and _watch stops delivering.
+_handled = threading.Event()
+
+
 class Terminated(BaseException):
     """SIGTERM, raised in the main thread like KeyboardInterrupt for SIGINT, so that a
     terminated command cleans up as an interrupted one does."""
@@ -67,6 +73,7 @@ class Terminated(BaseException):
 
 def main(argv: list[str] | None = None) -> int:
     received: list[int] = []  # signals caught: one may surface as another exception
+    _handled.clear()
     # From the start (the commands' modules import while the parser is built): a signal
     # at any point is exit 130 / 143 and one line.
     with _signals_raise(received, _committed, settle=argv is None):
@@ -91,6 +98,7 @@ def _parse_and_run(argv: list[str] | None, received: list[int]) -> int:
     except (KeyboardInterrupt, Terminated, ImportError):
         if not received:
             raise
+        _handled.set()
         print(f"lathe-mirror: {'interrupted' if received[0] == 2 else 'terminated'}", file=sys.stderr)
         return 128 + received[0]
     return _run(args, received)
@@ -124,15 +132,18 @@ def _run(args: argparse.Namespace, received: list[int]) -> int:
             print(f"lathe-mirror {args.command}: error: {_one_line(exc)}", file=sys.stderr)
             return 2
         except KeyboardInterrupt:
+            _handled.set()
             print("lathe-mirror: interrupted", file=sys.stderr)
             return 130
         except Terminated:
+            _handled.set()
             print("lathe-mirror: terminated", file=sys.stderr)
             return 143
         except BrokenPipeError:
             return 0
         except Exception as exc:  # an internal failure: say so, keep the trace on request
             if received:  # e.g. SIGTERM inside an extension module's import: ImportError
+                _handled.set()
                 print(f"lathe-mirror: {'interrupted' if received[0] == 2 else 'terminated'}", file=sys.stderr)
                 return 128 + received[0]
             return _internal(args, exc, debug)
@@ -176,6 +187,8 @@ def _signals_raise(received: list[int], done=lambda: False, *, settle: bool = Fa
         yield
         return
 
+    stop = threading.Event()  # the block has ended: no more re-deliveries
+
     def handler(signum, frame):
         received.append(signum)
         if done():  # after the last rename: the command has succeeded
@@ -183,14 +196,52 @@ def _signals_raise(received: list[int], done=lambda: False, *, settle: bool = Fa
         files = sys.modules.get("lathe_mirror.export.files")
         if files is not None and files.defer_signal(signum):  # renaming: raised again after
             return
+        if _handled.is_set() or _raising(threading.main_thread().ident):  # the first one is on its way out
+            return
+        if len(received) == 1:
+            _watch(signum, stop)
         raise KeyboardInterrupt() if signum == signal.SIGINT else Terminated()
 
+    def unraisable(info):  # the handler's exception swallowed (see _watch): no traceback
+        if not isinstance(info.exc_value, (KeyboardInterrupt, Terminated)):
+            hook(info)
+
+    hook, sys.unraisablehook = sys.unraisablehook, unraisable
     previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
+        stop.set()
         for sig, old in previous.items():
             signal.signal(sig, signal.SIG_IGN if settle else old)
+        sys.unraisablehook = hook
+
+
+def _raising(thread_id: int | None) -> bool:
+    """Whether the thread is handling a KeyboardInterrupt or Terminated (in an except or
+    finally clause on its way out)."""
+    exc = sys._current_exceptions().get(thread_id) if thread_id is not None else None
+    if isinstance(exc, tuple):  # Python 3.11: exc_info
+        exc = exc[1]
+    return isinstance(exc, (KeyboardInterrupt, Terminated))
+
+
+def _watch(signum: int, stop) -> None:
+    """Deliver signum to the main thread again every second until main's block ends, while
+    it is not handling the exception the handler raised: an exception raised where Python
+    swallows it (a weakref callback, a __del__: "Exception ignored in ...") would otherwise
+    lose the signal and the command would run on."""
+    import signal
+    import threading
+
+    main_id = threading.main_thread().ident
+
+    def watch():
+        while not stop.wait(1.0):
+            if not (_handled.is_set() or _raising(main_id)):
+                signal.pthread_kill(main_id, signum)
+
+    threading.Thread(target=watch, name="lathe-mirror-signal", daemon=True).start()
 
 
 if __name__ == "__main__":

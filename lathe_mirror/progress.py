@@ -40,7 +40,10 @@ class Stages:
         if enabled:
             from tqdm import tqdm
 
-            self.bar = tqdm(total=len(names), desc="lathe-mirror", unit="stage", file=sys.stderr)
+            # the bar's last line stays only when every stage is done: a failed or
+            # interrupted run leaves its one error line alone on stderr, even when the bar
+            # is closed by the garbage collector after the line is printed
+            self.bar = tqdm(total=len(names), desc="lathe-mirror", unit="stage", file=sys.stderr, leave=False)
 
     def start(self, name: str) -> None:
         if self.bar is not None:
@@ -49,6 +52,8 @@ class Stages:
     def done(self) -> None:
         if self.bar is not None:
             self.bar.update(1)
+            if self.bar.n >= self.bar.total:
+                self.bar.leave = True
 
     def close(self) -> None:
         if self.bar is not None:

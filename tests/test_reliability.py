@@ -412,3 +412,31 @@ def test_check_refuses_a_special_file_at_once(tmp_path, what):
     (tmp_path / "DIR").mkdir()
     line = refused(tmp_path, "toolpath", "--check", what, within=10)
     assert line.startswith(f"lathe-mirror toolpath: error: --check {what}: is ")
+
+
+def test_a_signal_whose_exception_python_swallows_is_delivered_again():
+    """SIGTERM landing in a weakref callback: Python ignores the exception the handler
+    raises there ("Exception ignored in ..."), and `run` went on for minutes after the
+    signal. The signal is delivered again within about a second; nothing is printed."""
+    import io
+    import time
+    import weakref
+    from contextlib import redirect_stderr
+
+    from lathe_mirror.cli import Terminated, _signals_raise
+
+    class Part:
+        pass
+
+    received: list[int] = []
+    err = io.StringIO()
+    t0 = time.monotonic()
+    with redirect_stderr(err), pytest.raises(Terminated):
+        with _signals_raise(received):
+            part = Part()
+            ref = weakref.ref(part, lambda _: os.kill(os.getpid(), signal.SIGTERM))
+            del part  # the callback runs; the handler raises inside it; Python swallows that
+            while time.monotonic() - t0 < 10:
+                time.sleep(0.01)
+    assert ref() is None and received[:2] == [signal.SIGTERM, signal.SIGTERM]
+    assert time.monotonic() - t0 < 5 and err.getvalue() == ""

@@ -39,7 +39,8 @@ from lathe_mirror.tolerance.montecarlo import (
     run_monte_carlo,
     trials_csv,
 )
-from lathe_mirror.tolerance.perturb import Trials, evaluate, matching_floor_pct, pixel_sample, poses
+from lathe_mirror.tolerance.perturb import Trials, evaluate, poses
+from lathe_mirror.tolerance.samples import matching_floor_pct, pixel_sample
 from lathe_mirror.tolerance.sensitivity import responses, sensitivity_table
 from lathe_mirror.tolerance.stats import wilson, yield_to_show
 from lathe_mirror.tolerance.surfaces import SurfaceBank

@@ -171,6 +171,11 @@ def stock_pictures(sheet: SetupSheet) -> list[bytes]:
     ex = active()
     if ex.workers == 1 or len(sheet.operations) < 2:
         return [_stock_picture(sheet, op) for op in sheet.operations]
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401 - imported once here: the forked workers inherit it
+
     with ex.bound(sheet) as run:
         return run.map(_picture_of, list(range(len(sheet.operations))))
 

@@ -247,6 +247,7 @@ def report_plots(data: ReportData) -> dict[str, bytes]:
     ex = active()
     if ex.workers == 1 or len(names) < 2:
         return {name: draw() for name, draw in plot_jobs(data)}
+    _pyplot()  # imported once here: the forked workers inherit it
     with ex.bound(data) as run:
         return dict(zip(names, run.map(_draw_one, names)))
 
