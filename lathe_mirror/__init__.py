@@ -41,7 +41,7 @@ from .version import __version__
 _API = {
     "load": "config", "Settings": "settings",
     "Camera": "design", "LobeSpec": "design", "mirror_from_specs": "design", "design_mirror": "design",
-    "Mirror": "design", "Lobe": "design", "design_figures": "design",
+    "Mirror": "design", "Lobe": "design", "design_figures": "design_table",
     "Lathe": "lathe", "Tool": "lathe", "Stock": "lathe", "Strategy": "enums",
     "MachiningJob": "job", "plan": "job", "machine": "job", "made_surface": "job", "MadeSurface": "job",
     "polishing_curve": "job", "Program": "shop.program", "shop_program": "shop.programs",

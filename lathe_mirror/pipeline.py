@@ -33,7 +33,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from .compute import active
-from .design import TABLE1_SWAP_NOTE, design_figures
+from .design_table import TABLE1_SWAP_NOTE, design_figures
 from .enums import BEST, Program, Strategy
 from .iso10110 import spec_of
 from .job import MachiningJob, design

@@ -500,21 +500,20 @@ def test_calib_unwritable_output_exit_2(tmp_path):
     assert blocker.read_text() == "not a directory\n"
 
 
-def test_readme_calib_example_runs_as_written(tmp_path, paper_mirror):
-    """The README's calib example (the command, then the Python that loads its file) runs
-    as written, and its pixel is the exact tracer's for that point."""
+def test_calibration_how_to_runs_as_written(tmp_path, paper_mirror):
+    """The docs' calibration how-to (the command, then the Python that loads its file)
+    runs as written, and its pixel is the exact tracer's for that point."""
     import re
     import subprocess
     import sys
 
-    text = (REPO / "README.md").read_text(encoding="utf-8")
-    section = text[text.index("### Camera calibration"):]
-    command = re.search(r"```sh\n\.venv/bin/lathe-mirror (.*?)\s+#", section).group(1).split()
-    assert run_cli(*command, "--no-progress", cwd=tmp_path).returncode == 0
-    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    text = (REPO / "docs" / "how-to" / "calibration.md").read_text(encoding="utf-8")
+    command = re.search(r"```sh\nlathe-mirror (calib .*?) >", text).group(1).split()
+    assert run_cli(*command, cwd=tmp_path).returncode == 0
+    code = re.search(r"python - <<'PY'\n(.*?)\nPY\n", text, re.S).group(1)
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert p.returncode == 0, p.stderr
-    got = np.array([float(x) for x in p.stdout.split("\n")[0].strip("[] ").split()])
+    got = np.array([float(x) for x in p.stdout.split("\n")[0].split(":")[1].split()])
     f1 = paper_mirror.outer.focus_z
     expected = tracer_pixels(paper_mirror, 1, np.array([[1000.0, 500.0, f1 - 200.0]]))[0]
     assert np.abs(got - expected).max() < 1e-6

@@ -9,11 +9,11 @@ import pytest
 
 from lathe_mirror.design import (
     Camera,
-    design_figures,
     design_lobe,
     design_mirror,
     single_viewpoint_error,
 )
+from lathe_mirror.design_table import design_figures
 from lathe_mirror.errors import DesignError
 
 # Table 1 as printed (c, h, a, b to their printed decimals; alpha in degrees).

@@ -45,12 +45,17 @@ def test_runnable_blocks_are_found_and_outputs_replaced(tmp_path):
     assert [b.kind for b in runnable.blocks(page)] == ["run", "output", "run", "output", "run", "output"]
 
 
+#: The examples run on fast settings here (fewer trials, a smaller search): a site
+#: configuration merged under each example's own --config (config.SITE_CONFIG_VAR).
+FAST = {"LATHE_MIRROR_CONFIG": str(ROOT / "tests" / "data" / "docs_fast.toml")}
+
+
 @pytest.fixture(scope="module")
 def site(tmp_path_factory):
     out = tmp_path_factory.mktemp("site")
     proc = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q", "-d", str(out)],
                           cwd=ROOT, capture_output=True, text=True, timeout=900,
-                          env={**runnable.environment(), "NO_MKDOCS_2_WARNING": "1"})
+                          env={**runnable.environment(), **FAST, "NO_MKDOCS_2_WARNING": "1"})
     assert proc.returncode == 0, proc.stderr[-4000:]
     return out
 
@@ -81,4 +86,18 @@ def test_tutorial_shows_its_figures_in_a_browser(site, tmp_path):
 def test_readme_examples_run(tmp_path):
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert runnable.blocks(readme), "the README marks its examples <!-- run -->"
-    runnable.execute(readme, tmp_path, "README.md")
+    import os
+
+    old = {k: os.environ.get(k) for k in FAST}
+    os.environ.update(FAST)
+    try:
+        out = runnable.execute(readme, tmp_path, "README.md")
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+    assert out == readme  # the README quotes no output; its examples ran
+    for name in ("shop/mirror_arcs.ngc", "spec/mirror_drawing.pdf", "calib/opencv_outer.yaml", "mymirror.toml"):
+        assert (tmp_path / name).is_file(), name

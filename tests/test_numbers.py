@@ -85,7 +85,7 @@ def test_last_bit_changes_no_byte(paper_mirror):
     """A design moved by one ulp writes the same calibration files, DXF, STEP and JSON
     (figures recomputed from the nudged floats); the unrounded text would differ."""
     from lathe_mirror.body import BodySpec, design_meridian
-    from lathe_mirror.design import design_figures
+    from lathe_mirror.design_table import design_figures
     from lathe_mirror.export.calib import calibration_texts
     from lathe_mirror.export.dxf import dxf_bytes
     from lathe_mirror.export.files import json_text

@@ -69,6 +69,14 @@ def commands() -> str:
         rows = [r for r in map(_flag_row, cmd._actions) if r]
         if rows:
             out += ["| flag | value | default | what it does |", "|---|---|---|---|", *rows, ""]
+    from lathe_mirror.commands.flags import readme_table
+
+    out += ["## Ranges of every flag", "",
+            "Every numeric flag of every command and what it allows (`lathe_mirror/commands/flags.py`;",
+            "each command's `--help` shows the range beside the flag). A value outside it is refused",
+            "by the parser before any work: one line naming the flag, exit 2. A flag that sets a key",
+            "has the key's range (and the key's further bounds and cost estimates apply).", "",
+            readme_table(), ""]
     return "\n".join(out).rstrip() + "\n"
 
 

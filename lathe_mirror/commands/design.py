@@ -16,7 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..design import TABLE1_SWAP_NOTE, design_figures
+    from ..design_table import TABLE1_SWAP_NOTE, design_figures
     from ..job import design
 
     settings = load(args)

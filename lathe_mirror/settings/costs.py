@@ -19,7 +19,7 @@ from ..enums import Program
 from ..errors import InputError, num
 from ..nose_envelope import GRID
 from ..optics.ranging.rectify import make_grid
-from ..tolerance.perturb import DEPTH_AZIMUTHS
+from ..tolerance.samples import DEPTH_AZIMUTHS
 from .design_checks import check_assembly_tolerances, round_in
 from .keys import MAX_ROUGH_LEVELS
 

@@ -21,13 +21,12 @@ from ..optics.zones import zones as zones_of
 from .perturb import (
     LOBE_FIGURES,
     STEREO_FIGURES,
-    PixelSample,
     TrialFigures,
     Trials,
     batch_trials,
     evaluate,
-    pixel_sample,
 )
+from .samples import PixelSample, pixel_sample
 from .calibration import Calibration
 from .spec import DRAWN, MACHINE_DRAWN, Distribution, Program, ToleranceSettings
 from .stats import wilson
@@ -370,7 +369,7 @@ def stereo_table(ctx: Context, ranges_m) -> dict:
     error (px), the fractions of its points within 5 % and 10 % of their range and seen
     by both lobes, the capped RMS depth error (%), and the depth error (%) that
     matching_noise_px alone gives."""
-    from .perturb import matching_floor_pct
+    from .samples import matching_floor_pct
 
     fig = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s), ranges_m=ranges_m)
     floor = matching_floor_pct(ctx.mirror, ranges_m, ctx.settings.matching_noise_px, ctx.settings.depth_points)
