@@ -9,9 +9,16 @@ config dict. shop.programs.shop_program strings it together (plan, simulate, ref
 - plan.py      plan_program: the operations, checked (stock, gouge, travel) and numbered
 - roughing.py  facing through X0, roughing levels (ramped pockets), semi-finish into the
                step's corner, the finishing pass's lead-in and exit, the way home
-- stock.py     the stock simulation (shapely): stock minus the swept nose and insert body,
-               per-operation removal, depth of cut, chip load, air time, cycle time (G96
-               with the spindle cap); refuses a rapid or the body touching stock
+- partoff.py   the part-off: the parting blade (T5) through the axis at the CAD body's
+               length plus the back's allowance, before the program's end
+- second.py    the second set-up: the parted part reversed in soft jaws, its back faced
+               and the mount (bore, boss) cut, Z0 on the back face
+- stock.py     the stock simulation (shapely): stock minus the swept tool (each station's
+               shape), per-operation removal, depth of cut, chip load, air time, cycle time
+               (G96 with the spindle cap); refuses a rapid or the body touching stock, a
+               part-off that leaves the part on; either set-up (simulate, simulate_setup)
+- tool_shapes.py  the insert (nose, flanks, cutting part) and the parting blade
+- sim_results.py  what the simulation reports (moves, contacts, figures, the parted part)
 - setup.py     the set-up sheet's model: work zero, stock, tools, offsets for the
                nose-centre convention, centre height, times, pictures' geometry
 - replay.py    a G-code program (either dialect) read back into moves the simulation replays
