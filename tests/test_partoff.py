@@ -190,3 +190,24 @@ def test_a_bar_too_short_to_part_off_is_refused(paper_mirror):
     tp = plan_toolpath(paper_mirror, Lathe(), Tool(), Strategy.ARCS)
     with pytest.raises(InputError, match=r"stock.length = 33 mm: .* allowed >= 33.5 mm"):
         plan_program(tp, Stock(length=33.0), body=BodySpec())
+
+
+def test_check_replays_the_second_set_up_against_the_parted_part(tmp_path):
+    """`toolpath --check` knows a second set-up's program by its header and replays it
+    against the part the configured program parts off (reversed): the committed one is
+    clean; its bore's wall moved 0.5 mm out (X19.6 -> X20.6, past the CAD's 20 mm) cuts
+    into the finished part and is refused with one line naming the block."""
+    import json
+
+    from conftest import run_cli
+
+    res = run_cli("toolpath", "--check", str(REPO / "gcode" / "mirror_arcs_op2.nc"), "--json")
+    assert res.returncode == 0, res.stderr
+    data = json.loads(res.stdout)
+    assert data["contacts"] == [] and len(data["operations"]) == 2
+    bad = tmp_path / "bad_op2.ngc"
+    bad.write_text((REPO / "gcode" / "mirror_arcs_op2.ngc").read_text().replace("X19.600", "X20.600"))
+    res = run_cli("toolpath", "--check", str(bad))
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    err = res.stderr.strip().splitlines()
+    assert len(err) == 1 and "cuts into the finished part" in err[0] and "X20.600" in err[0]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 
 from ..path import Arc
 from .common import add_common, load, print_json
@@ -126,7 +127,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def check(args: argparse.Namespace, settings) -> int:
-    """--check PROGRAM: replay a G-code file against the configured stock and tool."""
+    """--check PROGRAM: replay a G-code file against the configured stock and tool (a
+    second set-up's program, named so in its header: against the part the configured
+    program parts off, reversed, shop.second)."""
     from ..errors import InputError
     from ..inputs import read_text
     from ..job import design
@@ -147,6 +150,18 @@ def check(args: argparse.Namespace, settings) -> int:
     from ..shop.tool_shapes import blade_shape
 
     mirror = design(settings)
+    # the back and the mount (the header's first comment says so): against the parted part, reversed
+    if re.search(r"^\(lathe-mirror \S+: second set-up of", text[:2000], re.M | re.I):
+        from ..job import check_program
+        from ..shop import options_from_settings
+        from ..shop.programs import shop_program
+        from ..shop.stock import simulate_setup
+
+        tp = check_program(settings, mirror, t.strategy)
+        su = shop_program(tp, settings.stock, options_from_settings(t), body=settings.body).second.setup
+        sim = simulate_setup(ops, su.shapes, lathe, su.start, su.part, su.chuck, rapid_rate=t.rapid_rate,
+                             gouge_tolerance=t.gouge_tolerance)
+        return _report(args, sim)
     # a part-off (T5) is the parting blade, at the [cad] body's length (shop.partoff)
     parting = None
     if any(op.station == PARTING_STATION for op in ops):
@@ -156,6 +171,11 @@ def check(args: argparse.Namespace, settings) -> int:
     sim = simulate(ops, mirror, Hand.for_mirror(mirror).held(settings.tool), lathe, settings.stock,
                    rapid_rate=t.rapid_rate, gouge_tolerance=t.gouge_tolerance,
                    shapes={PARTING_STATION: blade_shape(t.parting_width_mm)}, parting=parting)
+    return _report(args, sim)
+
+
+def _report(args: argparse.Namespace, sim) -> int:
+    """--check's answer: refused (the first contact) or the figures."""
     sim.check()
     if args.json:
         print_json(sim.figures())
