@@ -19,6 +19,7 @@ from ..toolpath import Toolpath
 from .plan import plan_program
 from .program import ProgramOptions, options_from_settings
 from .roughing import finish_allowances
+from .second import plan_second
 from .setup import InspectionRow, setup_sheet
 from .stock import simulate_program
 
@@ -86,8 +87,6 @@ def shop_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
         options = replace(options, finish_passes=need)
     second = sim2 = None
     if body is not None:
-        from .second import plan_second
-
         second = plan_second(program, sim.parted, body, name=f"{program.name}_op2")
         sim2 = simulate_program(second)
         sim2.check()
