@@ -205,9 +205,9 @@ def test_a_design_with_no_common_band_is_refused(tmp_path):
 
 
 def test_render_checks_every_output_name_first(tmp_path):
-    (tmp_path / "R" / "paper.png").mkdir(parents=True)
+    (tmp_path / "R" / "made.png").mkdir(parents=True)   # render's default surface: the made mirror
     line = refused(tmp_path, None, "render", "-o", "R", "--no-progress", within=3.0)
-    assert "R/paper.png: is a directory" in line
+    assert "R/made.png: is a directory" in line
 
 
 def test_run_checks_every_output_name_first(tmp_path):

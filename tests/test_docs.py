@@ -72,7 +72,7 @@ def test_tutorial_shows_its_figures_in_a_browser(site, tmp_path):
     proc = subprocess.run([chromium, "--headless=new", "--no-sandbox", "--disable-gpu",
                            "--disable-background-networking", "--disable-component-update",
                            "--disable-sync", "--no-first-run", "--allow-file-access-from-files",
-                           f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000",
+                           f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=30000",
                            "--dump-dom", page.as_uri()], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     imgs = re.findall(r"<img[^>]*>", proc.stdout)

@@ -469,8 +469,8 @@ def test_radius_mode_program(tmp_path, paper_mirror):
 
 
 @pytest.mark.parametrize("toml, key", [
-    ("[machine]\nsurface_speed = 1000000.0\n", "machine.surface_speed = 1000000 m/min"),
-    ("[machine]\nfeed_finish = 0.00005\n", "machine.feed_finish = 0.00005 mm/rev"),
+    ("[machine]\nsurface_speed = 1000000.0\n", "machine.surface_speed = 1e+06 m/min"),
+    ("[machine]\nfeed_finish = 0.00005\n", "machine.feed_finish = 5e-05 mm/rev"),
     ("[machine]\nspindle_max_rpm = 9223372036854775807\n",
      "machine.spindle_max_rpm = 9223372036854775807 rev/min"),
 ])

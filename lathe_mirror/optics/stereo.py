@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..design import Mirror
+from ..errors import DesignError
 from ..profile import Profile
 
 #: Elevations closer than this to an edge of the common band (rad) are not used: at
@@ -104,7 +105,11 @@ def band_elevations(mirror: Mirror, n: int = BAND_POINTS) -> np.ndarray:
     lo, hi = mirror.common_band
     lo, hi = lo + BAND_MARGIN, hi - BAND_MARGIN
     if hi <= lo:
-        raise ValueError("the common band is narrower than twice the margin: no stereo")
+        raise DesignError(
+            f"the lobes' common band ({math.degrees(mirror.common_band[0]):.4g} to "
+            f"{math.degrees(mirror.common_band[1]):.4g} deg) is narrower than twice its margin "
+            f"({math.degrees(BAND_MARGIN):.4g} deg): no stereo; widen it with lobes.inner / "
+            "lobes.outer (r_pixel, alpha_deg)")
     return np.linspace(lo, hi, n)
 
 
