@@ -420,8 +420,8 @@ def test_precompensate_puts_the_allowance_into_the_program(tmp_path):
     assert plain.returncode == 0 and comp.returncode == 0, comp.stderr
 
     def finish_entry(text: str) -> float:
-        tail = text[text.index("T2 M6"):]
-        return [float(z) for z in re.findall(r"G0 X0\.\d+ Z(-?\d+\.\d+)", tail) if float(z) < 10][0]
+        tail = text[text.index("(finish: the finishing contour"):]  # the last pass, on the contour
+        return float(re.search(r"G1 X0\.000 Z(-?\d+\.\d+)", tail).group(1))  # the ramp onto the start
 
     allowance = 4e-13 * 30e3 * (3000 * 2 * math.pi / 60) * 0.375 * 14400.0
     assert finish_entry(comp.stdout) - finish_entry(plain.stdout) == pytest.approx(allowance, abs=0.005)
