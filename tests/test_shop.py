@@ -447,8 +447,10 @@ def test_sheet_centre_height_and_setting_costs(arcs_shop, paper_mirror):
 def test_sheet_is_written_beside_the_program(tmp_path):
     res = run_cli("toolpath", "--dialect", "fanuc", "-o", str(tmp_path / "part.nc"))
     assert res.returncode == 0, res.stderr
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["part.nc", "part.setup.html"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["part.nc", "part.setup.html", "part_op2.nc"]  # and the second set-up
     page = (tmp_path / "part.setup.html").read_text()
     assert "Z1.200" in page and "X19.600" in page  # face + 0.2; a 20 mm bore - 0.4
-    n_ops = 3 + len(re.findall(r"^\((?:FINISH PASS \d|FINISH:)", (tmp_path / "part.nc").read_text(), re.M))  # one picture each
+    # one picture for each operation both programs list in their headers (the second set-up's too)
+    n_ops = sum(len(re.search(r"^\(OPERATIONS, RESTART AT THEIR FIRST BLOCK: (.*)\)$", (tmp_path / f).read_text(),
+                              re.M).group(1).split(", ")) for f in ("part.nc", "part_op2.nc"))
     assert page.count("data:image/png;base64,") == n_ops and "https://" not in page

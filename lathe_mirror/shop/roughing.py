@@ -39,10 +39,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..lathe import Stock
-from ..path import Line
 from ..sheet import Target, solve_rs_for_centre_r
-from .program import (Comment, Coolant, Feed, FeedRate, Operation, OptionalStop, ProgramEnd,
-                      ProgramOptions, Rapid, SpindleOn, SpindleStop, ToolCall, stations)
+from .operations import OperationWriter
+from .program import Operation, ProgramOptions, stations
 
 if TYPE_CHECKING:
     from ..toolpath import Toolpath
@@ -128,7 +127,7 @@ class _Planner:
 
     def plan(self) -> Plan:
         lathe, o = self.lathe, self.opts
-        rough = _Ops(self, self.stations[0], "roughing", lathe.feed_rough)
+        rough = OperationWriter(self, self.stations[0], "roughing", lathe.feed_rough)
         levels_face, levels_rough, floor_map = self.levels()
         rough.start("face", f"face: {len(levels_face)} level{'s' if len(levels_face) != 1 else ''} from the stock face, through X0",
                     first=True)
@@ -148,7 +147,7 @@ class _Planner:
                                    "into the step corner")
         self.semi_finish(rough, o.rough_allowance)
         rough.go_home(stop=True)
-        fin = _Ops(self, self.stations[1], "finishing", lathe.feed_finish, pos=self.home)
+        fin = OperationWriter(self, self.stations[1], "finishing", lathe.feed_finish, pos=self.home)
         steps = finish_allowances(o)
         n = len(steps) + 1
         for k, d in enumerate(steps, start=1):
@@ -209,7 +208,7 @@ class _Planner:
                     runs.append((lo, hi))
         return sorted(runs, key=lambda run: -run[0])
 
-    def level(self, ops: _Ops, z: float, runs, top: float, prev: float | None = None) -> None:
+    def level(self, ops: OperationWriter, z: float, runs, top: float, prev: float | None = None) -> None:
         """One level at nose-centre height z below uncut stock up to `top` (machine Z): the
         open run fed from outside the bar toward the axis, then each pocket entered by
         ramps from the level above (prev). The tool goes down outside the bar far enough
@@ -235,7 +234,7 @@ class _Planner:
             else:
                 self.pocket(ops, z, lo, hi, prev)
 
-    def pocket(self, ops: _Ops, z: float, lo: float, hi: float, prev: float) -> None:
+    def pocket(self, ops: OperationWriter, z: float, lo: float, hi: float, prev: float) -> None:
         """A pocket [lo, hi] at level z below the cleared level prev: in over the top,
         zig-zag ramps at ramp_angle down to z, a flat pass each way, up at its inner end
         and out over the top."""
@@ -276,7 +275,7 @@ class _Planner:
     # ----------------------------------------------------------------------------------
     # Semi-finish
 
-    def semi_finish(self, ops: _Ops, allowance: float) -> None:
+    def semi_finish(self, ops: OperationWriter, allowance: float) -> None:
         """The profile offset by `allowance` (mm) beyond the part: the semi-finish (the
         roughing tool, rough_allowance) and the finishing tool's passes before the contour."""
         if self.m.step <= 0:
@@ -301,7 +300,7 @@ class _Planner:
         pts.append((r_w, self.ceil(z0 + (r_w - r0) * s0)))
         self.semi_finish_outer_lobe(ops, pts, outer, r0, allowance)
 
-    def semi_finish_outer_recessed(self, ops: _Ops, allowance: float) -> None:
+    def semi_finish_outer_recessed(self, ops: OperationWriter, allowance: float) -> None:
         """The semi-finish when the outer lobe is recessed (the mirror image at the wall):
         the inner lobe's offset to its rim's offset point, out along its end tangent to
         the wall's offset column (r_junction + allowance), down that column to the outer
@@ -328,7 +327,7 @@ class _Planner:
         pts.append((r_w, self.ceil(float(m.vertex_z - m.outer.z(rj)) + allow)))
         self.semi_finish_outer_lobe(ops, pts, outer, r_w, allowance)
 
-    def semi_finish_outer_lobe(self, ops: _Ops, pts: list, outer: Target, r0: float, allowance: float) -> None:
+    def semi_finish_outer_lobe(self, ops: OperationWriter, pts: list, outer: Target, r0: float, allowance: float) -> None:
         """Append the outer lobe's offset (from column r0) down to the shoulder to `pts`
         and cut the whole semi-finish: from the axis out, or from the rim in for the
         opposite hand."""
@@ -386,7 +385,7 @@ class _Planner:
     # ----------------------------------------------------------------------------------
     # Finishing
 
-    def finish_pass(self, ops: _Ops, marker: str) -> None:
+    def finish_pass(self, ops: OperationWriter, marker: str) -> None:
         """Ramped onto the contour's start from above its allowance, the contour's moves
         exactly, then out across the shoulder at the last point's height and up."""
         o = self.opts
@@ -420,7 +419,7 @@ class _Planner:
         lean = self.tool.flank_directions()[1]  # the flank on the axis side, from +r
         return self.ceil(height / math.tan(lean) + self.res) if lean < math.pi / 2 else 0.0
 
-    def finish_pass_inward(self, ops: _Ops, marker: str) -> None:
+    def finish_pass_inward(self, ops: OperationWriter, marker: str) -> None:
         """The opposite hand's pass: down outside the bar, in across the shoulder at the
         rim's height onto the contour's start (the rim), the contour's moves from the rim
         in (Toolpath.cutting_moves), a little past the axis at the vertex's height
@@ -442,76 +441,3 @@ class _Planner:
         if d > 0.0:
             ops.feed((end[0] - d, end[1]))
         ops.rapid((ops.pos[0], self.safe_z))
-
-
-class _Ops:
-    """Builds one tool's operations: blocks and the current position (machine, mm)."""
-
-    def __init__(self, planner: _Planner, station: int, role: str, feed: float,
-                 pos: tuple[float, float] | None = None) -> None:
-        self.p, self.station, self.role, self.feed_rate = planner, station, role, feed
-        self.pos = pos if pos is not None else planner.home
-        self.ops: list[Operation] = []
-        self.blocks: list = []
-        self.name: str | None = None
-
-    def start(self, name: str, note: str, *, first: bool = False) -> None:
-        """Close the current operation and open `name`: tool call, spindle, coolant,
-        feed (every operation restates them, so a restart at its first block works; its
-        first rapid ends outside the bar or above the stock, so a restart from home is
-        safe). first: begin by going home, Z first (no-ops when the tool is there)."""
-        self.close()
-        p, lathe = self.p, self.p.lathe
-        self.name = name
-        self.blocks = [Comment(note),
-                       ToolCall(station=self.station, role=self.role),
-                       SpindleOn(surface_speed=lathe.surface_speed, max_rpm=lathe.spindle_max_rpm)]
-        if p.opts.coolant:
-            self.blocks.append(Coolant(on=True))
-        self.blocks.append(FeedRate(feed=self.feed_rate))
-        if first:  # from wherever the tool is: home, Z first
-            self.blocks += [Rapid(Line(self.pos, (self.pos[0], p.home[1])), only="Z"),
-                            Rapid(Line((self.pos[0], p.home[1]), p.home), only="X")]
-            self.pos = p.home
-
-    def close(self) -> None:
-        if self.name is not None:
-            self.ops.append(Operation(name=self.name, station=self.station, feed=self.feed_rate,
-                                      blocks=tuple(self.blocks)))
-        self.name, self.blocks = None, []
-
-    def comment(self, text: str) -> None:
-        self.blocks.append(Comment(text))
-
-    def rapid(self, p) -> None:
-        p = (float(p[0]), float(p[1]))
-        if p != self.pos:
-            self.blocks.append(Rapid(Line(self.pos, p)))
-            self.pos = p
-
-    def feed(self, p) -> None:
-        p = (float(p[0]), float(p[1]))
-        if p != self.pos:
-            self.blocks.append(Feed(Line(self.pos, p)))
-            self.pos = p
-
-    def move(self, seg) -> None:
-        """A move of the finishing contour, as planned (it starts where the tool is)."""
-        self.blocks.append(Feed(seg))
-        self.pos = (float(seg.end[0]), float(seg.end[1]))
-
-    def go_home(self, *, stop: bool) -> None:
-        """Coolant off, up to the home Z, across to the home radius, spindle off; then an
-        optional stop (before a new tool) or the program's end."""
-        p = self.p
-        if p.opts.coolant:
-            self.blocks.append(Coolant(on=False))
-        self.rapid((self.pos[0], p.home[1]))
-        self.rapid(p.home)
-        self.blocks.append(SpindleStop())
-        if stop:
-            self.comment("check the part; the finishing tool takes a fresh edge")
-            self.blocks.append(OptionalStop())
-        else:
-            self.blocks.append(ProgramEnd())
-        self.close()
