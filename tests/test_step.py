@@ -267,7 +267,7 @@ def test_committed_program_cuts_the_committed_programmed_step(tmp_path, paper_co
     exe = require_program("rs274")
     program = REPO / "gcode" / "mirror_arcs.ngc"
     # offsets zero: the nose centre (the roughing tool T1, the finishing tool T2)
-    (tmp_path / "tools.tbl").write_text("T1 P1 X0 Z0 D0.4 Q9\nT2 P2 X0 Z0 D0.4 Q9\n")
+    (tmp_path / "tools.tbl").write_text("T1 P1 X0 Z0 D0.4 Q9\nT2 P2 X0 Z0 D0.4 Q9\nT5 P5 X0 Z0 D0 Q9\n")  # T5 parts off
     res = subprocess.run([exe, "-t", str(tmp_path / "tools.tbl"), "-g", str(program)],
                          capture_output=True, text=True, cwd=tmp_path, timeout=60,
                          env=dict(os.environ, HOME=str(tmp_path)))
