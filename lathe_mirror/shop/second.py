@@ -25,13 +25,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 from typing import TYPE_CHECKING
 
 from ..enums import Mount
 from ..errors import InputError
-from ..path import Line
-from .program import (OPPOSITE_ROUGHING_STATION, ROUGHING_STATION, Comment, Coolant, Feed, FeedRate, Operation,
-                      Program, ProgramEnd, Rapid, SpindleOn, SpindleStop, ToolCall)
+from .operations import OperationWriter
+from .program import OPPOSITE_ROUGHING_STATION, ROUGHING_STATION, Program
 
 if TYPE_CHECKING:
     from ..body import BodySpec
@@ -119,7 +119,10 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
     if home[1] < top + opts.clearance + rho:
         raise InputError(f"toolpath.home_z = {opts.home_z:g} mm: the second set-up's end position must be above "
                          f"the parted face (Z{top:.3f}) by the clearance; allowed >= {top + opts.clearance + rho:g} mm")
-    b = _Builder(home, station, lathe, opts)
+    b = OperationWriter(SimpleNamespace(lathe=lathe, opts=opts, home=home), station, "roughing", lathe.feed_rough)
+
+    def begin(name: str, note: str) -> None:  # every operation from home, Z first (a restart is safe)
+        b.start(name, note, first=True)
 
     def up(v: float) -> float:
         return math.ceil(v / res - 1e-9) * res
@@ -135,7 +138,7 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
     r_out = up(R + opts.clearance)
     face_to = body.mount_depth if boss else 0.0
     face = levels(top, face_to)
-    b.start("face back", f"face the back: {len(face)} level{'s' if len(face) != 1 else ''} of at most "
+    begin("face back", f"face the back: {len(face)} level{'s' if len(face) != 1 else ''} of at most "
             f"{opts.rough_depth:g} mm from the parted face Z{top:.3f} to Z{face_to:g}"
             + (", the boss's end" if boss else ", the back face"))
     surface = top
@@ -158,7 +161,7 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
     if body.mount is Mount.BORE:
         wall = down(rm - rho)
         bore = levels(0.0, -body.mount_depth)
-        b.start("bore", f"bore the mount: diameter {body.mount_diameter:g} mm, {body.mount_depth:g} mm deep, "
+        begin("bore", f"bore the mount: diameter {body.mount_diameter:g} mm, {body.mount_depth:g} mm deep, "
                 f"{len(bore)} levels, each out to the wall and up it")
         prev = up(rho)
         for nc in bore:
@@ -171,7 +174,7 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
     elif boss:
         wall = up(rm + rho)
         ring = levels(body.mount_depth, 0.0)
-        b.start("boss", f"turn the boss: diameter {body.mount_diameter:g} mm, {body.mount_depth:g} mm long, "
+        begin("boss", f"turn the boss: diameter {body.mount_diameter:g} mm, {body.mount_depth:g} mm long, "
                 f"{len(ring)} levels from outside in to its wall, and up it")
         safe = up(body.mount_depth + opts.clearance + rho)
         prev = up(body.mount_depth + rho)
@@ -182,61 +185,9 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
             b.feed((wall, nc))
             b.feed((wall, prev))
             prev = nc
-    b.finish()
+    b.go_home(stop=False)
     setup = SecondSetup(shapes={None: insert_shape(tool)}, start=start, part=part, chuck=chuck, thickness=T,
                         top=top, grip=grip, station=station, mount=body.mount, diameter=2 * R)
     return Program(name=name, toolpath=tp, stock=stock, options=opts, operations=numbered(b.ops), home=home,
                    safe_z=up(top + opts.clearance + rho), r_out=r_out, gouge_depth=first.gouge_depth,
                    figures=first.figures, used=first.used, fillet=first.fillet, setup=setup)
-
-
-class _Builder:
-    """One tool's operations of the second set-up (each restarts at its tool call, from
-    home, Z first) and the way home at the end."""
-
-    def __init__(self, home, station: int, lathe, opts) -> None:
-        self.home, self.station, self.lathe, self.opts = home, station, lathe, opts
-        self.pos = home
-        self.ops: list[Operation] = []
-        self.name: str | None = None
-        self.blocks: list = []
-
-    def start(self, name: str, note: str) -> None:
-        self.close()
-        self.name = name
-        self.blocks = [Comment(note), ToolCall(station=self.station, role="roughing"),
-                       SpindleOn(surface_speed=self.lathe.surface_speed, max_rpm=self.lathe.spindle_max_rpm)]
-        if self.opts.coolant:
-            self.blocks.append(Coolant(on=True))
-        self.blocks.append(FeedRate(feed=self.lathe.feed_rough))
-        h = self.home
-        self.blocks += [Rapid(Line(self.pos, (self.pos[0], h[1])), only="Z"),
-                        Rapid(Line((self.pos[0], h[1]), h), only="X")]
-        self.pos = h
-
-    def close(self) -> None:
-        if self.name is not None:
-            self.ops.append(Operation(name=self.name, station=self.station, feed=self.lathe.feed_rough,
-                                      blocks=tuple(self.blocks)))
-        self.name, self.blocks = None, []
-
-    def rapid(self, p) -> None:
-        p = (float(p[0]), float(p[1]))
-        if p != self.pos:
-            self.blocks.append(Rapid(Line(self.pos, p)))
-            self.pos = p
-
-    def feed(self, p) -> None:
-        p = (float(p[0]), float(p[1]))
-        if p != self.pos:
-            self.blocks.append(Feed(Line(self.pos, p)))
-            self.pos = p
-
-    def finish(self) -> None:
-        """Coolant off, up to the home Z, across, spindle off, M30."""
-        if self.opts.coolant:
-            self.blocks.append(Coolant(on=False))
-        self.rapid((self.pos[0], self.home[1]))
-        self.rapid(self.home)
-        self.blocks += [SpindleStop(), ProgramEnd()]
-        self.close()
