@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib.metadata as md
 import os
 import re
+import sys
 import tomllib
 from pathlib import Path
 
@@ -63,7 +64,11 @@ def test_bootstrap_pins_the_locks_uv_with_hashes_and_watches_the_lock():
 @pytest.mark.skipif(bool(os.environ.get("LATHE_MIRROR_LATEST")), reason="scripts/test-latest: newest on purpose")
 def test_environment_holds_exactly_the_locked_versions():
     lock = _lock()
-    installed = {canonicalize_name(d.metadata["Name"]): d.version for d in md.distributions()}
+    # Only what is installed: setuptools puts its vendored copies (setuptools/_vendor, with
+    # their own dist-info) on sys.path once pkg_resources is imported (prysm does), and
+    # those are not the environment's packages.
+    paths = [p for p in sys.path if "_vendor" not in Path(p).parts]
+    installed = {canonicalize_name(d.metadata["Name"]): d.version for d in md.distributions(path=paths)}
     wrong = {}
     for name, entries in lock.items():
         if name == "lathe-mirror":
