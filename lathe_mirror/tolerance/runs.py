@@ -197,6 +197,7 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
     out = {"program": Program.BEST.value, "made_mirror": job.but(polish_time_s=time_s).label,
            "polish_time_s": time_s, "nominal": nominal,
            "nominal_pass": not failing, "yield": y, "target_yield": ts.target_yield, "trials": len(mc.trials),
+           "pass_fraction": {c: float(np.mean(mc.passed[c])) for c in CRITERIA},
            "zones": ctx.zones.describe()}
     if failing:
         out["why"] = ("the nominal part fails " + ", ".join(
