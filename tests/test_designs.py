@@ -8,6 +8,7 @@ reaches the JSON."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 
 import numpy as np
@@ -81,27 +82,48 @@ def _finite(x, path="") -> list[str]:
     return []
 
 
+#: Winners whose nominal part fails at these fast settings, and the criteria it fails: the
+#: 4 mm lens with 1.4 um pixels, polished for the 3-point curve's 8 h (the stereo objective
+#: keeps falling; the form change raises the slope error past 0.02 rad); the paper camera on
+#: a 0.01 mm lattice with a 0.1 mm nose (its facets' disparity, 0.57 > 0.46 px).
+NOMINAL_FAILS = {"lens4_px14_nose01_res0001": ["slope_error_rad"], "paper_nose01_res001": ["disparity_px"]}
+
+
 @pytest.mark.parametrize("name", list(DESIGNS))
 def test_design_through_the_tolerance_check(name, design_settings):
-    """Each winner through the optimiser's tolerance check (the best program, the configured
-    tool, the default tolerances; as machined at these fast settings): nominal PASS, or a message that names exactly the
-    criteria the nominal part fails (and those alone); finite figures only; the zone the
-    criteria judge lies inside the designed annulus, the fillet's pixels counted apart."""
+    """Each winner through the optimiser's tolerance check as `optimize` runs it (the best
+    program, the configured tool, the default tolerances, polished for its polishing
+    curve's time, the part `tolerance` judges): nominal PASS (but NOMINAL_FAILS), and every
+    message names exactly the criteria that fail (those alone): the nominal part's, or the
+    criteria the failing trials break and the tolerance held perfectly that reaches the
+    target (or that none does); finite figures only (strict JSON); the zone the criteria
+    judge lies inside the designed annulus, the fillet's pixels counted apart."""
     s = design_settings[name]
     m = s.mirror()
-    check = winner_check(m, s, polish_time_s=0.0)  # as machined (the curve's choice: the benchmark)
+    check = winner_check(m, s)
     assert _finite(check) == []
+    json.dumps(check, allow_nan=False)
     failing = [c for c in CRITERIA if not check["nominal"][c]["pass"]]
     for c in CRITERIA:  # the verdict is the value against its limit
         assert check["nominal"][c]["pass"] == (check["nominal"][c]["value"] <= check["nominal"][c]["limit"])
+    assert check["nominal_pass"] == (not failing)
+    assert failing == NOMINAL_FAILS.get(name, []), check
+    assert "polished" in check["made_mirror"] or check["polish_time_s"] == 0
+    target = check["target_yield"]
     if failing:
         assert check["why"].startswith("the nominal part fails ")
-        named = [c for c in CRITERIA if f"{c} (" in check["why"]]
-        assert named == failing
-    assert check["nominal_pass"] == (not failing)
-    # the 4 mm lens with 1.4 um pixels: its nominal part fails the disparity limit (the
-    # lattice's facets on an 11 mm mirror); every other winner passes nominal
-    assert check["nominal_pass"] or name == "lens4_px14_nose01_res0001", check
+        assert [c for c in CRITERIA if f"{c} (" in check["why"]] == failing
+    elif check["yield"] < target:
+        broken = [c for c in CRITERIA if check["pass_fraction"][c] < target]
+        clause = check["why"].split("; ")[0]
+        assert [c for c in CRITERIA if f"{c} (pass" in clause] == broken and broken
+        best = max(check["yield_without"], key=check["yield_without"].get)
+        if check["yield_without"][best] >= target:
+            assert f"{best} (tolerance" in check["why"] and "makes the target impossible" in check["why"]
+        else:
+            assert "no single tolerance" in check["why"]
+    else:
+        assert "why" not in check
     zn = zones_for(s, m)
     for lb in zn.lobes:
         assert lb.designed_px[0] - 1e-9 <= lb.used_px[0] <= lb.used_px[1] <= lb.designed_px[1] + 1e-9
@@ -153,3 +175,45 @@ def test_tighter_tolerances_never_lower_the_yield(design_settings):
     assert half.yield_fraction >= full.yield_fraction - 1.0 / n
     for c in CRITERIA:
         assert np.mean(half.passed[c]) >= np.mean(full.passed[c]) - 1.0 / n
+
+
+def _strict(text: str):
+    """JSON text parsed, refusing NaN and Infinity (no non-finite figure reaches an output)."""
+    def refuse(c):
+        raise AssertionError(f"non-finite {c} in a command's JSON")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_one_made_mirror_one_figure_across_commands(tmp_path):
+    """The 6 mm lens with 3 um pixels (outer lobe recessed, 0.4 mm nose): `calib`, `render`,
+    the report and the report's tolerance analysis describe by default one made mirror (the
+    configured job, as machined: the same label in each) and quote its RMS image displacement
+    over the used zone per lobe within 1 % of each other; render's comes from the per-pixel
+    3-D maps (optics.distortion), the others from every pixel centre of the aligned camera
+    (optics.radial). The tolerance analysis states the part it judges (polished for its
+    curve's time) apart. Every JSON is strict (no NaN, no inf)."""
+    from conftest import run_cli
+
+    cfg = tmp_path / "lens6.toml"
+    cfg.write_text(DESIGNS["lens6_px3um_nose04"] + FAST.replace("trials = 24", "trials = 8"))
+    c = run_cli("calib", "--config", str(cfg), "--json", "--no-progress", "-o", str(tmp_path / "calib"))
+    assert c.returncode == 0, c.stderr
+    r = run_cli("render", "--config", str(cfg), "--json", "--no-progress", "--supersample", "1")
+    assert r.returncode == 0, r.stderr
+    p = run_cli("report", "--config", str(cfg), "--json", "--no-progress", "--no-render", "--workers", "1",
+                "-o", str(tmp_path / "out"))
+    assert p.returncode == 0, p.stderr
+    cal, ren, rep = _strict(c.stdout)["made"][0], _strict(r.stdout), _strict(p.stdout)
+    tol = rep["tolerance"]["programs"]["best"]
+    labels = {cal["made_mirror"], ren["made_mirror"], rep["mirrors"]["best"]["made_mirror"],
+              tol["as_machined_over_zone"]["made_mirror"], rep["made_mirror"]["label"]}
+    assert len(labels) == 1 and "as machined" in labels.pop()
+    assert "polished" in tol["made_mirror"]["label"] and tol["made_mirror"]["label"] == tol["nominal_over_zone"]["made_mirror"]
+    quotes = {"calib": [lb["image_displacement_px"]["rms"] for lb in cal["over_zone"]],
+              "render": [lb["image_displacement_px"]["rms"] for lb in ren["lobes"]],
+              "report": [lb["image_displacement_px"]["rms"] for lb in rep["mirrors"]["best"]["lobes"]],
+              "tolerance": [lb["image_displacement_px"]["rms"] for lb in tol["as_machined_over_zone"]["lobes"]]}
+    for k in (0, 1):
+        vals = [q[k] for q in quotes.values()]
+        assert min(vals) > 0 and max(vals) <= 1.01 * min(vals), quotes
