@@ -44,7 +44,8 @@ def run(args: argparse.Namespace) -> int:
         check_outputs(args.output, list(OUTPUTS))
     tp = check_program(settings, mirror, strategy)
     result = measure(args.file, mirror, machine(tp), settings.tool.nose_radius, fmt=args.format,
-                     options=FitOptions(conic=args.fit_conic), resolution_mm=settings.machine.resolution)
+                     options=FitOptions(conic=args.fit_conic), resolution_mm=settings.machine.resolution,
+                     toolpath=tp)
     out = result.to_dict()
     out["form_tolerance"] = form_verdicts(settings, out["lobes"])
     if args.output:
