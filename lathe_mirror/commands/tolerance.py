@@ -16,7 +16,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "judged after what a calibration removes, a sensitivity table, each parameter's "
                        "inverse sensitivity and the yield against the spec, for each program in "
                        "tolerance.programs. --allocate: the least-cost tolerances that reach the target "
-                       "yield, confirmed by a fresh Monte Carlo.")
+                       "yield, confirmed by a fresh Monte Carlo. --surface measured:FILE: a part that exists, as "
+                       "measured: its verdict, and a Monte Carlo of its assembly alone.")
     add_common(p, output_help="directory for tolerance.json")
     p.add_argument("--trials", type=int, default=None, metavar="N", help=f"Monte Carlo trials ({help_default('tolerance.trials')})")
     p.add_argument("--seed", type=int, default=None, metavar="S", help=f"seed of every draw ({help_default('tolerance.seed')})")

@@ -36,11 +36,11 @@ SAMPLE_MM = 0.01
 MIN_SIDE = 0.05
 
 #: What a machinist can do when the part cannot show it.
-TEST_CUT = ("to measure it, clock a dial indicator on the cross slide, approach a position in -X, zero "
-            "it, jog +X and back: the lost motion is the backlash; or cut a test part whose outer lobe "
-            "is cut from the rim in (its moves reversed, -X) after the inner lobe from the axis out "
-            "(+X) and `measure` it: the lobes' offsets differ by the backlash. Enter it in the "
-            "controller's backlash compensation (LinuxCNC [JOINT_0]BACKLASH, Fanuc parameter 1851)")
+TEST_CUT = ("to measure it, put a dial indicator on the cross slide, approach in -X and zero it, then "
+            "step +X: what the controller moves before the indicator does is the backlash; or cut a test "
+            "part whose outer lobe is cut from the rim in (its moves reversed, -X) after the inner lobe "
+            "from the axis out (+X) and `measure` it: the lobes' offsets differ by the backlash. Enter it "
+            "in the controller's backlash compensation (LinuxCNC [JOINT_0]BACKLASH, Fanuc parameter 1851)")
 
 
 def centre_directions(toolpath) -> tuple[np.ndarray, np.ndarray]:
