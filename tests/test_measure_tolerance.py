@@ -127,6 +127,7 @@ def test_cli_names_the_measured_part(case, tmp_path):
     t = out["programs"]["measured"]
     assert t["made_mirror"]["label"] == label
     mc = t["monte_carlo"]
+    assert mc["program"] == "measured"
     for key in ("nose_radius_mm", "polish_time_s", "tool_x_mm", "tool_z_mm"):
         assert mc["tolerances"][key] == 0.0
     assert set(mc["per_trial"]["nose_mm"]) == {case["settings"].tool.nose_radius}

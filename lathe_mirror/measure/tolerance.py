@@ -28,6 +28,13 @@ ASSEMBLY = ("camera_decentre_mm", "camera_axial_mm", "camera_tilt_deg", "seat_ti
 ENTRY = "measured"
 
 
+class MeasuredPart:
+    """What names the part where the Monte Carlo's outputs name a program (its `value`:
+    the JSON's and the CSV's "program")."""
+
+    value = ENTRY
+
+
 def measured_label(path: str) -> str:
     """Which made mirror is judged, in one line."""
     return f"the measured part: {path}"
@@ -36,7 +43,6 @@ def measured_label(path: str) -> str:
 def measured_context(mirror: Mirror, settings, profile: Profile, label: str, *, progress: bool = False):
     """The Monte Carlo's context (tolerance.montecarlo.Context) for `profile` held fixed,
     only the assembly drawn (module doc)."""
-    from ..enums import Program
     from ..optics.zones import zones_for
     from ..tolerance.montecarlo import Context, disparity_limit_px
     from ..tolerance.samples import pixel_sample
@@ -56,7 +62,7 @@ def measured_context(mirror: Mirror, settings, profile: Profile, label: str, *, 
     limits = {"image_displacement_px": sp.image_displacement_px, "outlier_pct": sp.outlier_pct,
               "disparity_px": disparity_limit_px(mirror, sp.depth_error_pct, sp.depth_range_m, ts.depth_points),
               "slope_error_rad": sp.slope_error_rad}
-    ctx = Context(mirror, fixed, bank, samples, nose, 0.0, label, Program.BEST, limits, progress, zn)
+    ctx = Context(mirror, fixed, bank, samples, nose, 0.0, label, MeasuredPart(), limits, progress, zn)
     ctx.cut_plus_x = False  # no machining drawn: no backlash
     return ctx
 
