@@ -80,7 +80,7 @@ def compensation(meas: Measurement, toolpath, nominal: Profile, base_target: Mir
         splines.append(sp)
         if lf is not None:
             pv[lf.name], rms[lf.name] = lf.pv_um, lf.rms_um
-    setup = tuple(c for c in dg.corrections if not c.startswith(("nose radius:", "centre height: no", "X offset: none")))
+    setup = tuple(c for c in dg.corrections if not c.startswith(("nose radius:", "centre height: no", "X offset: none", "backlash:")))
     nose = dg.nose_radius_mm
     big = [n for n in pv if pv[n] * 1e-3 >= resolution_mm]
     if not big:
