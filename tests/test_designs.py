@@ -217,3 +217,39 @@ def test_one_made_mirror_one_figure_across_commands(tmp_path):
     for k in (0, 1):
         vals = [q[k] for q in quotes.values()]
         assert min(vals) > 0 and max(vals) <= 1.01 * min(vals), quotes
+
+
+def test_every_lattice_phase_is_polished_with_its_own_recessed_lobe(design_settings):
+    """The 6 mm lens's outer lobe is recessed (the design: its junction height above the
+    inner's); the lap plans every lattice phase's made part so (the fillet lowers the
+    recessed lobe's edge by ~0.2 mm and the wall's sliver can end the proud lobe's samples:
+    read at the junction, half the phases were polished as if the inner lobe were recessed)."""
+    from lathe_mirror.job import MachiningJob
+    from lathe_mirror.polishing import recessed_lobe
+
+    s = design_settings["lens6_px3um_nose04"]
+    m = s.mirror()
+    zi, zo = m.inner.z(m.r_junction), m.outer.z(m.r_junction)
+    assert zo - zi > 10.0  # outer recessed, by the lobes' own equations
+    job = MachiningJob.from_settings(s, m, strategy=BEST)
+    assert [recessed_lobe(job.but(phase=p / 8).made().profile) for p in range(8)] == [1] * 8
+
+
+def test_the_seat_tilts_about_the_rim_by_default(design_settings):
+    """tolerance.seat_pivot_mm = 0 (the default) puts the seat's pivot on the design's rim
+    (the outer rim's height above the pinhole, from the lobe's equation), so a 0.1 deg seat
+    tilt of the 6 mm lens's 13 mm mirror moves the pinhole rim x sin(0.1 deg) sideways, not
+    the 0.218 mm of the paper's 125 mm; a configured pivot is kept."""
+    from lathe_mirror.tolerance.poses import poses
+    from lathe_mirror.tolerance.perturb import Trials
+
+    s = design_settings["lens6_px3um_nose04"]
+    m = s.mirror()
+    rim = float(m.outer.z(m.r_max))
+    assert s.tolerance.seat_pivot_mm == 0.0 and s.tolerance.pivot_mm(m) == pytest.approx(rim, abs=1e-12)
+    assert dataclasses.replace(s.tolerance, seat_pivot_mm=125.0).pivot_mm(m) == 125.0
+    ctx = tolerance_context(m, s, Program.BEST, 0.0)
+    assert ctx.settings.seat_pivot_mm == pytest.approx(rim, abs=1e-12)
+    tr = dataclasses.replace(Trials.nominal(1, 0.4, 0.0), seat_x=np.array([math.radians(0.1)]))
+    origin = poses(tr, ctx.settings.seat_pivot_mm)[0][0]
+    assert abs(origin[1]) == pytest.approx(rim * math.sin(math.radians(0.1)), rel=1e-9)
