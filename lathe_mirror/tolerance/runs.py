@@ -165,7 +165,7 @@ def verdict(t: dict, spec: dict) -> dict:
 
 
 def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
-                 polish_time_s: float | None = None) -> dict:
+                 polish_time_s: float | None = None, nominal_only: bool = False) -> dict:
     """The optimiser's winner through the tolerance analysis of the best program with the
     configured tool and default tolerances: the nominal part (lattice phase 0, every
     parameter nominal) judged against the spec, and the Monte Carlo's yield against
@@ -175,7 +175,7 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
     tolerance that makes the target impossible (held perfectly, the target is reached) or
     saying that none does alone. The part judged is `tolerance`'s: the best program
     polished for its polishing curve's time (or polish_time_s), its label under
-    "made_mirror"."""
+    "made_mirror". nominal_only: the nominal part alone (no Monte Carlo, no yield)."""
     import numpy as np
 
     ts = settings.tolerance
@@ -192,6 +192,13 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
     nominal = {c: {"value": float(vals[j]), "limit": float(ctx.limits[c]), "pass": bool(ok[c][0])}
                for j, c in enumerate(CRITERIA)}
     failing = [c for c in CRITERIA if not nominal[c]["pass"]]
+    why = ("the nominal part fails " + ", ".join(
+        f"{c} ({nominal[c]['value']:.4g} > {nominal[c]['limit']:.4g})" for c in failing)
+        + ": no tolerance can fix it (the design, the tool or the spec must change)")
+    if nominal_only:
+        return {"program": Program.BEST.value, "made_mirror": job.but(polish_time_s=time_s).label,
+                "polish_time_s": time_s, "nominal": nominal, "nominal_pass": not failing,
+                **({"why": why} if failing else {})}
     mc = run_monte_carlo(ctx, progress=progress)
     y = float(mc.yield_fraction)
     out = {"program": Program.BEST.value, "made_mirror": job.but(polish_time_s=time_s).label,
@@ -200,9 +207,7 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
            "pass_fraction": {c: float(np.mean(mc.passed[c])) for c in CRITERIA},
            "zones": ctx.zones.describe()}
     if failing:
-        out["why"] = ("the nominal part fails " + ", ".join(
-            f"{c} ({nominal[c]['value']:.4g} > {nominal[c]['limit']:.4g})" for c in failing)
-            + ": no tolerance can fix it (the design, the tool or the spec must change)")
+        out["why"] = why
     elif y < ts.target_yield:
         broken = [c for c in CRITERIA if float(np.mean(mc.passed[c])) < ts.target_yield]
         # which tolerance makes the target out of reach: the yield with each drawn
