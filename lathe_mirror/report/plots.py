@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from ..results.optics import DepthCurve
     from .analysis import ReportData
 
 LOBE_COLOURS = {"inner": "tab:blue", "outer": "tab:orange"}
@@ -186,14 +187,14 @@ def lap_plot(plan: dict) -> bytes:
     return png(fig)
 
 
-def depth_error_plot(curves: dict[str, dict]) -> bytes:
+def depth_error_plot(curves: dict[str, DepthCurve]) -> bytes:
     """RMS |depth error| (%, each point capped at 100) over the common band against range (m),
     one line per mirror."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.4))
     for name, c in curves.items():
-        y = np.maximum(np.asarray(c["depth_error_pct"]["rms"]), 1e-12)
-        ax.plot(c["ranges_m"], y, marker=".", label=name, color=MIRROR_COLOURS.get(name))
+        y = np.maximum(np.asarray(c.depth_error_pct.rms), 1e-12)
+        ax.plot(c.ranges_m, y, marker=".", label=name, color=MIRROR_COLOURS.get(name))
     ax.set_xlabel("range (m)")
     ax.set_ylabel("RMS |depth error| (%, each point capped at 100)")
     ax.set_yscale("log")
@@ -258,17 +259,17 @@ def _draw_one(data: ReportData, name: str) -> bytes:
 
 def plot_jobs(data: ReportData) -> list[tuple[str, object]]:
     """(name, a function of no arguments drawing it) of every plot of the report, in order."""
-    out, curves = data.figures, data.curves
+    curves = data.curves
     jobs = [("profile_error", lambda: profile_deviation_plot(curves["profile_error"], curves["r_junction"],
                                                              curves["used"])),
             ("displacement", lambda: displacement_plot(curves["displacement"], curves["lost_ring_px"]))]
-    pol = out["polishing"]
+    pol = data.polishing
     jobs += [("polishing_paper", lambda: polishing_curve_plot(pol["paper_program"],
                                                               "polishing the paper program's mirror")),
              ("polishing_best", lambda: polishing_curve_plot(pol["best_program"], "polishing the best program's mirror")),
              ("polishing_decomposition", lambda: decomposition_plot(pol["decomposition"])),
              ("polishing_lap", lambda: lap_plot(pol["lap_plan"])),
-             ("depth_error", lambda: depth_error_plot(out["stereo"]["curves"]))]
+             ("depth_error", lambda: depth_error_plot(data.stereo.curves))]
     if data.images:
         jobs.append(("images", lambda: images_side_by_side(data.images)))
     if "range_maps" in curves:
@@ -278,10 +279,10 @@ def plot_jobs(data: ReportData) -> list[tuple[str, object]]:
         band = maps.pop("band_deg")
         jobs.append(("range_maps", lambda: range_maps_png(maps, band)))
         jobs.append(("range_error", lambda: error_vs_range_png(
-            {n: m["error_curve"] for n, m in out["ranging"]["mirrors"].items()},
+            {n: m.error_curve.to_dict() for n, m in data.ranging.mirrors.items()},
             title="median |range error| against range, each mirror, with the resolution model",
             colours=MIRROR_COLOURS)))
-    for name, t in out.get("tolerance", {}).get("programs", {}).items():
+    for name, t in (data.tolerance or {}).get("programs", {}).items():
         mc = t["monte_carlo"]
         jobs.append((f"monte_carlo_{name}", lambda mc=mc, name=name: monte_carlo_histograms(
             mc["per_trial"], mc["limits"], calibrated=mc["calibrated"], passed=mc["passed"],

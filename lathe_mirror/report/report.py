@@ -14,9 +14,14 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .analysis import DEPTH_REPORT_M
+from ..results.base import Stat
+from ..results.made import FIVE
+from ..results.optics import DEPTH_REPORT_M
 
 if TYPE_CHECKING:
+    from ..results.design import DesignFigures
+    from ..results.made import MirrorFigures, ToolpathFigures
+    from ..results.optics import CalibrationFigures, RangingFigures, StereoFigures
     from .analysis import ReportData
 
 
@@ -54,7 +59,7 @@ def render_html(data: ReportData) -> str:
     from .spec_section import spec_html
 
     tpl = Template((resources.files("lathe_mirror.report") / "template.html").read_text(encoding="utf-8"))
-    f = data.figures
+    f = data.figures  # the sections not typed yet: polishing, tolerance
 
     def img(key: str, alt: str) -> str:
         if key not in data.plots:
@@ -64,26 +69,26 @@ def render_html(data: ReportData) -> str:
 
     return tpl.substitute(
         title="lathe-mirror report",
-        design_table=_design_table(f["design"]),
-        machine_table=_kv_table({**{f"lathe.{k}": v for k, v in f["machine"]["lathe"].items()},
-                                 **{f"tool.{k}": v for k, v in f["machine"]["tool"].items()}}),
-        toolpath_table=_toolpath_table(f["toolpaths"]),
-        programs_table=_programs_table(f.get("shop")),
-        mirrors_table=_mirrors_table(f["mirrors"]),
+        design_table=_design_table(data.design),
+        machine_table=_kv_table({**{f"lathe.{k}": v for k, v in data.machine.lathe.items()},
+                                 **{f"tool.{k}": v for k, v in data.machine.tool.to_dict().items()}}),
+        toolpath_table=_toolpath_table(data.toolpaths),
+        programs_table=_programs_table(data.shop),
+        mirrors_table=_mirrors_table(data.mirrors),
         profile_plot=img("profile_error", "height error along the meridian"),
         images=img("images", "renders side by side"),
-        renders_table=_kv_table({f"{k}: {m}": v for k, d in f.get("renders", {}).get("against_exact", {}).items()
-                                 for m, v in d.items()}) if f.get("renders") else "",
+        renders_table=_kv_table({f"{k}: {m}": v for k, d in data.renders.against_exact.items()
+                                 for m, v in d.to_dict().items()}) if data.renders else "",
         displacement_plot=img("displacement", "image displacement against image radius"),
         polishing_section=_polishing_html(f["polishing"], img),
-        depth_table=_depth_table(f["stereo"]),
+        depth_table=_depth_table(data.stereo),
         depth_plot=img("depth_error", "depth error against range"),
         tolerance_section=_tolerance_html(f, img),
-        calibration_table=_calibration_table(f.get("calibration")),
-        ranging_section=_ranging_html(f.get("ranging"), img),
-        spec_section=spec_html(f.get("spec")),
+        calibration_table=_calibration_table(data.calibration),
+        ranging_section=_ranging_html(data.ranging, img),
+        spec_section=spec_html(data.spec),
         summary=summary_html(f),
-        notes="".join(f"<li>{html.escape(n)}</li>" for n in f.get("notes", [])),
+        notes="".join(f"<li>{html.escape(n)}</li>" for n in data.notes),
     )
 
 
@@ -97,6 +102,8 @@ def _fmt(v: Any) -> str:
             return f"{v:.4g}"
         # below 1, significant digits (a 0.00345 mm pixel stays 0.00345, not 0.0035)
         return f"{v:.5g}" if abs(v) < 1 else f"{v:.4f}".rstrip("0").rstrip(".")
+    if isinstance(v, Stat):
+        return f"{_fmt(v.rms)} / {_fmt(v.max)}"
     if isinstance(v, dict) and set(v) >= {"rms", "max"}:
         return f"{_fmt(v['rms'])} / {_fmt(v['max'])}"
     return html.escape(str(v))
@@ -107,32 +114,32 @@ def _kv_table(d: dict) -> str:
     return f"<table>{rows}</table>"
 
 
-def _design_table(d: dict) -> str:
+def _design_table(d: DesignFigures) -> str:
     keys = ("r_top", "r_pixel", "f", "t_pixel", "c", "h", "a", "b", "e", "alpha_deg", "vertex_z")
-    head = "<tr><th></th>" + "".join(f"<th>{lb['name']}</th>" for lb in d["lobes"]) + "</tr>"
+    head = "<tr><th></th>" + "".join(f"<th>{lb.name}</th>" for lb in d.lobes) + "</tr>"
     label = {"c": "c = 2e (Table 1: focal distance, not a curvature)"}
     rows = "".join(f"<tr><th>{html.escape(label.get(k, k))}</th>"
-                   + "".join(f"<td>{_fmt(lb[k])}</td>" for lb in d["lobes"]) + "</tr>" for k in keys)
-    j = d["junction"]
-    extra = (f"<p>Junction at r = {_fmt(j['r'])} mm: step {_fmt(j['step_mm'])} mm, {j['recessed']} lobe recessed. "
-             f"Stereo baseline {_fmt(d['baseline_mm'])} mm; common band {_fmt(d['common_band_deg']['min'])} to "
-             f"{_fmt(d['common_band_deg']['max'])} deg elevation.</p>")
+                   + "".join(f"<td>{_fmt(getattr(lb, k))}</td>" for lb in d.lobes) + "</tr>" for k in keys)
+    j = d.junction
+    extra = (f"<p>Junction at r = {_fmt(j.r)} mm: step {_fmt(j.step_mm)} mm, {j.recessed} lobe recessed. "
+             f"Stereo baseline {_fmt(d.baseline_mm)} mm; common band {_fmt(d.common_band_deg.min)} to "
+             f"{_fmt(d.common_band_deg.max)} deg elevation.</p>")
     return f"<table>{head}{rows}</table>{extra}"
 
 
-def _toolpath_table(rows: list) -> str:
+def _toolpath_table(rows: tuple[ToolpathFigures, ...]) -> str:
     head = ("<tr><th>strategy</th><th>points</th><th>G1</th><th>G2/G3</th>"
             "<th>lobe</th><th>programmed slope error rad (RMS / max)</th><th>programmed normal deviation mm</th>"
             "<th>as-machined slope error rad</th><th>as-machined normal deviation mm</th></tr>")
     body = ""
     for r in rows:
         for k in (0, 1):
-            p, a = r["programmed"]["lobes"][k], r["as_machined"]["lobes"][k]
-            name = r["strategy"] + (" (best)" if r["best"] else "")
-            body += (f"<tr><td>{name if k == 0 else ''}</td><td>{r['n_points'] if k == 0 else ''}</td>"
-                     f"<td>{r['moves']['G1'] if k == 0 else ''}</td><td>{r['moves']['G2/G3'] if k == 0 else ''}</td>"
-                     f"<td>{p['name']}</td><td>{_fmt(p['slope_error_rad'])}</td><td>{_fmt(p['normal_deviation_mm'])}</td>"
-                     f"<td>{_fmt(a['slope_error_rad'])}</td><td>{_fmt(a['normal_deviation_mm'])}</td></tr>")
+            p, a = r.programmed.lobes[k], r.as_machined.lobes[k]
+            name = r.strategy + (" (best)" if r.best else "")
+            body += (f"<tr><td>{name if k == 0 else ''}</td><td>{r.n_points if k == 0 else ''}</td>"
+                     f"<td>{r.moves.g1 if k == 0 else ''}</td><td>{r.moves.g2_g3 if k == 0 else ''}</td>"
+                     f"<td>{p.name}</td><td>{_fmt(p.slope_error_rad)}</td><td>{_fmt(p.normal_deviation_mm)}</td>"
+                     f"<td>{_fmt(a.slope_error_rad)}</td><td>{_fmt(a.normal_deviation_mm)}</td></tr>")
     return f"<table>{head}{body}</table>"
 
 
@@ -156,54 +163,51 @@ def _programs_table(programs: list | None) -> str:
             f"operation removes and its time (G96 with the spindle cap).</p><table>{head}{body}</table>")
 
 
-def _mirrors_table(m: dict) -> str:
-    keys = ("slope_error_rad", "normal_deviation_mm", "ray_deviation_deg", "image_displacement_px",
-            "viewpoint_spread_mm")
-    head = "<tr><th>mirror</th><th>lobe</th>" + "".join(f"<th>{k} (RMS / max)</th>" for k in keys) + "</tr>"
+def _mirrors_table(m: dict[str, MirrorFigures]) -> str:
+    head = "<tr><th>mirror</th><th>lobe</th>" + "".join(f"<th>{k} (RMS / max)</th>" for k in FIVE) + "</tr>"
     body = ""
     for name, fig in m.items():
-        for lb in fig["lobes"]:
-            label = f"{name}<br><small>{html.escape(fig['made_mirror'])}</small>" if "made_mirror" in fig else name
-            body += f"<tr><td>{label}</td><td>{lb['name']}</td>" + "".join(
-                f"<td>{_fmt(lb[k])}</td>" for k in keys) + "</tr>"
+        for lb in fig.lobes:
+            label = f"{name}<br><small>{html.escape(fig.made_mirror)}</small>" if fig.made_mirror is not None else name
+            body += f"<tr><td>{label}</td><td>{lb.name}</td>" + "".join(
+                f"<td>{_fmt(getattr(lb, k))}</td>" for k in FIVE) + "</tr>"
     return f"<table>{head}{body}</table>"
 
 
-def _depth_table(st: dict) -> str:
-    key = f"at_{DEPTH_REPORT_M:g}_m"
-    rows = "".join(f"<tr><th>{n}</th><td>{_fmt(v['rms'])}</td><td>{_fmt(v['median'])}</td>"
-                   f"<td>{_fmt(v['max'])}</td><td>{v['failed']} of {v['points']}</td></tr>"
-                   for n, v in st[key].items())
-    return (f"<p>{html.escape(st['definition'])}; baseline {_fmt(st['baseline_mm'])} mm.</p>"
+def _depth_table(st: StereoFigures) -> str:
+    rows = "".join(f"<tr><th>{n}</th><td>{_fmt(v.rms)}</td><td>{_fmt(v.median)}</td>"
+                   f"<td>{_fmt(v.max)}</td><td>{v.failed} of {v.points}</td></tr>"
+                   for n, v in st.at.items())
+    return (f"<p>{html.escape(st.definition)}; baseline {_fmt(st.baseline_mm)} mm.</p>"
             f"<table><tr><th>mirror</th><th>RMS |depth error| at {DEPTH_REPORT_M:g} m (%)</th>"
             f"<th>median (%)</th><th>max (%)</th><th>points failed (|error| &ge; 100 % or not seen)</th></tr>"
             f"{rows}</table>")
 
 
-def _calibration_table(cal: dict | None) -> str:
+def _calibration_table(cal: CalibrationFigures | None) -> str:
     """Each lobe's unified model and, per made mirror, the design model's reprojection error
     and what the refitted model leaves."""
     if not cal:
         return "<p>(calibration not computed)</p>"
     head = ("<tr><th>lobe</th><th>xi</th><th>gamma px</th><th>principal point px</th>"
             "<th>valid annulus px</th></tr>")
-    rows = "".join(f"<tr><td>{lb['name']}</td><td>{lb['xi']:.9f}</td><td>{lb['gamma_px']:.6f}</td>"
-                   f"<td>({_fmt(lb['cx_px'])}, {_fmt(lb['cy_px'])})</td>"
-                   f"<td>{_fmt(lb['annulus_px']['min'])} to {_fmt(lb['annulus_px']['max'])}</td></tr>"
-                   for lb in cal["design"]["lobes"])
-    dz = cal["design"]["t_cn_cnm1_mm"][2]
+    rows = "".join(f"<tr><td>{lb.name}</td><td>{lb.xi:.9f}</td><td>{lb.gamma_px:.6f}</td>"
+                   f"<td>({_fmt(lb.cx_px)}, {_fmt(lb.cy_px)})</td>"
+                   f"<td>{_fmt(lb.annulus_px.min)} to {_fmt(lb.annulus_px.max)}</td></tr>"
+                   for lb in cal.design.lobes)
+    dz = cal.design.t_cn_cnm1_mm[2]
     made_head = ("<tr><th>mirror</th><th>lobe</th><th>design model: reprojection error px (RMS / max)</th>"
                  "<th>refit xi, gamma px, k1, k2</th><th>refit: reprojection error px (RMS / max)</th></tr>")
     made_rows = ""
-    for name, m in cal["made"].items():
-        for lb in m["lobes"]:
-            r = lb["refit"]
-            made_rows += (f"<tr><td>{html.escape(name)}</td><td>{lb['name']}</td>"
-                          f"<td>{_fmt(lb['design']['reprojection_error_px'])}</td>"
-                          f"<td>{r['xi']:.5g}, {r['gamma_px']:.6g}, {r['k1']:.3g}, {r['k2']:.3g}</td>"
-                          f"<td>{_fmt(r['reprojection_error_px'])}</td></tr>")
-    rng = next(iter(cal["made"].values()))["range_m"] if cal["made"] else 0
-    return (f"<p>{html.escape(cal['design']['frame'])}. The design is an exact calibration (unified "
+    for name, m in cal.made.items():
+        for lb in m.lobes:
+            r = lb.refit
+            made_rows += (f"<tr><td>{html.escape(name)}</td><td>{lb.name}</td>"
+                          f"<td>{_fmt(lb.design.reprojection_error_px)}</td>"
+                          f"<td>{r.xi:.5g}, {r.gamma_px:.6g}, {r.k1:.3g}, {r.k2:.3g}</td>"
+                          f"<td>{_fmt(r.reprojection_error_px)}</td></tr>")
+    rng = next(iter(cal.made.values())).range_m if cal.made else 0
+    return (f"<p>{html.escape(cal.design.frame)}. The design is an exact calibration (unified "
             f"model, no distortion); the viewpoints are {_fmt(dz)} mm apart along the axis (Kalibr's "
             f"T_cn_cnm1).</p><table>{head}{rows}</table>"
             f"<p>Made mirrors (as machined, polished): world points on each traced ray {_fmt(rng)} m from "
@@ -212,7 +216,7 @@ def _calibration_table(cal: dict | None) -> str:
             f"<table>{made_head}{made_rows}</table>")
 
 
-def _ranging_html(rg: dict | None, img) -> str:
+def _ranging_html(rg: RangingFigures | None, img) -> str:
     """Range from the image: each mirror's figures per range bin, the maps, error against
     range with the model, and the resolution table."""
     if not rg:
@@ -221,36 +225,37 @@ def _ranging_html(rg: dict | None, img) -> str:
             "<th>median |range error| (%)</th><th>RMS (%)</th><th>signed median (%)</th>"
             "<th>model, 1 px (%)</th><th>model, matcher's precision (%)</th></tr>")
     body = ""
-    for name, m in rg["mirrors"].items():
-        e = m["range_error_pct"]
-        body += (f"<tr><td>{name}</td><td>{_pct(100 * m['valid_fraction'])}</td><td>all</td><td>{m['pixels']}</td>"
-                 f"<td></td><td>{_pct(e['median'])}</td><td>{_pct(e['rms'])}</td><td>{_pct(e['signed_median'])}</td>"
+    for name, m in rg.mirrors.items():
+        e = m.range_error_pct
+        body += (f"<tr><td>{name}</td><td>{_pct(100 * m.valid_fraction)}</td><td>all</td><td>{m.pixels}</td>"
+                 f"<td></td><td>{_pct(e.median)}</td><td>{_pct(e.rms)}</td><td>{_pct(e.signed_median)}</td>"
                  "<td></td><td></td></tr>")
-        for b in m["bins"]:
-            r = b["range_error_pct"]
-            body += (f"<tr><td></td><td></td><td>{b['range_m'][0]:g}-{b['range_m'][1]:g}</td><td>{b['pixels']}</td>"
-                     f"<td>{_pct(100 * b['valid_fraction'])}</td><td>{_pct(r['median'])}</td><td>{_pct(r['rms'])}</td>"
-                     f"<td>{_pct(r['signed_median'])}</td><td>{_pct(b['model_1px_pct'])}</td>"
-                     f"<td>{_pct(b['model_matcher_pct'])}</td></tr>")
-    res = rg["resolution"]
-    els = res["elevations_deg"]
+        for b in m.bins:
+            r = b.range_error_pct
+            body += (f"<tr><td></td><td></td><td>{b.range_m[0]:g}-{b.range_m[1]:g}</td><td>{b.pixels}</td>"
+                     f"<td>{_pct(100 * b.valid_fraction)}</td><td>{_pct(r.median)}</td><td>{_pct(r.rms)}</td>"
+                     f"<td>{_pct(r.signed_median)}</td><td>{_pct(b.model_1px_pct)}</td>"
+                     f"<td>{_pct(b.model_matcher_pct)}</td></tr>")
+    res = rg.resolution
+    els = res.elevations_deg
     rhead = ("<tr><th>range m</th>" + "".join(f"<th>1 px at {e:g} deg (%)</th>" for e in els)
              + "<th>1 px, band median (%)</th>" + "".join(f"<th>matcher at {e:g} deg (%)</th>" for e in els)
              + "<th>matcher, band median (%)</th></tr>")
     rbody = "".join(
-        f"<tr><td>{row['range_m']:g}</td>" + "".join(f"<td>{_pct(v)}</td>" for v in row["one_px_pct"])
-        + f"<td>{_pct(row['one_px_band_median_pct'])}</td>"
-        + "".join(f"<td>{_pct(v)}</td>" for v in row.get("matcher_pct", []))
-        + f"<td>{_pct(row.get('matcher_band_median_pct', math.nan))}</td></tr>" for row in res["rows"])
-    exact = rg["mirrors"]["exact"]
-    starved = ", ".join(f"{k} {_pct(100 * v['valid_fraction'])} %" for k, v in exact["valid_by_surface"].items()
-                        if v["pixels"])
-    return (f"<p>{html.escape(rg['definition'])}. One pixel of disparity (one image pixel in each lobe) stands "
-            f"for {exact['parallax_per_px_deg']:.3f} deg of parallax (band median): R10 = "
-            f"{res['r10_m']:.3f} m. The matcher's precision on the exact mirror (median |disparity error|): "
-            f"{rg['matcher_precision_px']:.3f} panorama px of {exact['grid']['elevation_step_deg']:.4f} deg. Ranged on the exact mirror by "
-            f"surface: {html.escape(starved)} (flat faces whose edges run along the radial epipolar lines give "
-            "the matcher nothing: grey on the maps).</p>"
+        f"<tr><td>{row.range_m:g}</td>" + "".join(f"<td>{_pct(v)}</td>" for v in row.one_px_pct)
+        + f"<td>{_pct(row.one_px_band_median_pct)}</td>"
+        + "".join(f"<td>{_pct(v)}</td>" for v in row.matcher_pct or ())
+        + f"<td>{_pct(math.nan if row.matcher_band_median_pct is None else row.matcher_band_median_pct)}</td></tr>"
+        for row in res.rows)
+    exact = rg.mirrors["exact"]
+    starved = ", ".join(f"{k} {_pct(100 * v.valid_fraction)} %" for k, v in exact.valid_by_surface.items()
+                        if v.pixels)
+    return (f"<p>{html.escape(rg.definition)}. One pixel of disparity (one image pixel in each lobe) stands "
+            f"for {exact.parallax_per_px_deg:.3f} deg of parallax (band median): R10 = "
+            f"{res.r10_m:.3f} m. The matcher's precision on the exact mirror (median |disparity error|): "
+            f"{rg.matcher_precision_px:.3f} panorama px of {exact.grid.elevation_step_deg:.4f} deg. Ranged on the "
+            f"exact mirror by surface: {html.escape(starved)} (flat faces whose edges run along the radial epipolar "
+            "lines give the matcher nothing: grey on the maps).</p>"
             f"<table>{head}{body}</table>"
             + img("range_maps", "range maps of the exact, paper, best and polished mirrors")
             + img("range_error", "range error against range with the resolution model")
