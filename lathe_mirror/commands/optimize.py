@@ -27,7 +27,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "(tcp://HOST:PORT; default [compute] scheduler)")
     p.add_argument("--no-check", action="store_true",
                    help="skip the winner's tolerance check (the best program with the configured tool: the "
-                   "nominal part against [tolerance.spec] and the yield against tolerance.target_yield)")
+                   "nominal part against [tolerance.spec] and the yield against tolerance.target_yield; a winner "
+                   "that fails nominal is replaced by the best runner-up design of the search that passes)")
     add_no_progress(p)
     p.set_defaults(func=run)
 
