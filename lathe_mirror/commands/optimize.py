@@ -232,7 +232,8 @@ def format_result(data: dict) -> str:
     if "check" in data:
         c = data["check"]
         verdict = "PASS" if c["nominal_pass"] else "FAIL"
-        lines.append(f"tolerance check ({c['program']} program, configured tool, default tolerances): nominal "
+        part = f"{c['made_mirror']}, " if "made_mirror" in c else f"{c['program']} program, "
+        lines.append(f"tolerance check ({part}default tolerances): nominal "
                      f"{verdict}, yield {100 * c['yield']:.1f} % of {c['trials']} trials (target "
                      f"{100 * c['target_yield']:g} %)")
         if "replaced" in c:
