@@ -80,8 +80,7 @@ def summary(data: ReportData, paths: dict) -> str:
     from ..tolerance.stats import percent_interval
 
     for name, v in (data.verdict or {}).items():
-        passed = round(v["yield"] * v["trials"])
-        lines.append(f"{name} program: nominal {'PASS' if v['nominal_pass'] else 'FAIL'}, "
-                     f"yield {percent_interval(passed, v['trials'])}"
-                     + (f"; {v['allocation']}" if "allocation" in v else ""))
+        lines.append(f"{name} program: nominal {'PASS' if v.nominal_pass else 'FAIL'}, "
+                     f"yield {percent_interval(v.passed_trials, v.trials)}"
+                     + (f"; {v.allocation}" if v.allocation is not None else ""))
     return "\n".join(lines)

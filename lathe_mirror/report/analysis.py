@@ -26,8 +26,10 @@ from ..results.base import Range, Stat, plain
 from ..results.design import DesignFigures
 from ..results.made import (LobeFigures, MachineFigures, MadeMirror, MirrorFigures, Moves, PixelFigures,
                             SurfaceErrors, ToolFigures, ToolpathFigures, ZoneFigures)
-from ..results.optics import (DEPTH_REPORT_M, CalibrationFigures, ErrorCurve, ImageDifference, RangeFigures,
-                              RangingFigures, RenderFigures, ResolutionTable, StereoFigures)
+from ..results.optics import DEPTH_REPORT_M  # noqa: F401 (re-exported: the report's range)
+from ..results.optics import (CalibrationFigures, ErrorCurve, ImageDifference, RangeFigures, RangingFigures,
+                              RenderFigures, ResolutionTable, StereoFigures)
+from ..results.tolerance import ToleranceAnalysis, Verdict
 from ..toolpath import profile_errors
 
 if TYPE_CHECKING:
@@ -61,7 +63,7 @@ class ReportData:
     stereo: StereoFigures | None = None
     renders: RenderFigures | None = None
     ranging: RangingFigures | None = None
-    tolerance: Any = None
+    tolerance: ToleranceAnalysis | None = None
     #: `lathe-mirror run`'s additions: the programs simulated against the stock, the files written
     shop: list[dict[str, Any]] | None = None
     outputs: dict[str, Any] | None = None
@@ -75,13 +77,9 @@ class ReportData:
                 "calibration", "stereo", "renders", "ranging", "tolerance", "verdict", "shop", "outputs")
 
     @property
-    def verdict(self) -> dict[str, Any] | None:
+    def verdict(self) -> dict[str, Verdict] | None:
         """Each toleranced program's verdict (the tolerance analysis's)."""
-        if self.tolerance is None:
-            return None
-        if isinstance(self.tolerance, dict):
-            return {name: t["verdict"] for name, t in self.tolerance["programs"].items()}
-        return {name: t.verdict for name, t in self.tolerance.programs.items()}
+        return None if self.tolerance is None else self.tolerance.verdicts
 
     @property
     def figures(self) -> dict[str, Any]:

@@ -282,11 +282,10 @@ def plot_jobs(data: ReportData) -> list[tuple[str, object]]:
             {n: m.error_curve.to_dict() for n, m in data.ranging.mirrors.items()},
             title="median |range error| against range, each mirror, with the resolution model",
             colours=MIRROR_COLOURS)))
-    for name, t in (data.tolerance or {}).get("programs", {}).items():
-        mc = t["monte_carlo"]
+    for name, t in (data.tolerance.programs if data.tolerance else {}).items():
+        mc = t.monte_carlo
         jobs.append((f"monte_carlo_{name}", lambda mc=mc, name=name: monte_carlo_histograms(
-            mc["per_trial"], mc["limits"], calibrated=mc["calibrated"], passed=mc["passed"],
-            title=f"{name} program")))
+            mc.per_trial, mc.limits, calibrated=mc.calibrated, passed=mc.passed, title=f"{name} program")))
     return jobs
 
 
