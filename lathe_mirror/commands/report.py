@@ -73,7 +73,7 @@ def summary(data: ReportData, paths: dict) -> str:
     from ..results.optics import DEPTH_REPORT_M
 
     lines = [f"report: {paths['html']} (figures: {paths['json']})",
-             data.polishing["summary"]["statement"]]
+             data.polishing.summary.statement]
     lines.append(f"depth error at {DEPTH_REPORT_M:g} m (RMS / median over the band, each point capped at 100 %): "
                  + ", ".join(f"{k} {v.rms:.3g} / {v.median:.3g} % ({v.failed} of {v.points} points failed)"
                              for k, v in data.stereo.at.items()))

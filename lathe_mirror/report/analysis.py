@@ -29,6 +29,7 @@ from ..results.made import (LobeFigures, MachineFigures, MadeMirror, MirrorFigur
 from ..results.optics import DEPTH_REPORT_M  # noqa: F401 (re-exported: the report's range)
 from ..results.optics import (CalibrationFigures, ErrorCurve, ImageDifference, RangeFigures, RangingFigures,
                               RenderFigures, ResolutionTable, StereoFigures)
+from ..results.polishing import PolishingStudy
 from ..results.tolerance import ToleranceAnalysis, Verdict
 from ..toolpath import profile_errors
 
@@ -55,7 +56,7 @@ class ReportData:
     spec: dict[str, Any] | None = None
     machine: MachineFigures | None = None
     toolpaths: tuple[ToolpathFigures, ...] | None = None
-    polishing: Any = None
+    polishing: PolishingStudy | None = None
     zones: ZoneFigures | None = None
     mirrors: dict[str, MirrorFigures] | None = None
     made_mirror: MadeMirror | None = None

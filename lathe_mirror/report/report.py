@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from ..results.design import DesignFigures
     from ..results.made import MirrorFigures, ToolpathFigures
     from ..results.optics import CalibrationFigures, RangingFigures, StereoFigures
+    from ..results.polishing import PolishingStudy
     from .analysis import ReportData
 
 
@@ -62,7 +63,6 @@ def render_html(data: ReportData) -> str:
     from .spec_section import spec_html
 
     tpl = Template((resources.files("lathe_mirror.report") / "template.html").read_text(encoding="utf-8"))
-    f = data.figures  # the sections not typed yet: polishing, tolerance
 
     def img(key: str, alt: str) -> str:
         if key not in data.plots:
@@ -83,7 +83,7 @@ def render_html(data: ReportData) -> str:
         renders_table=_kv_table({f"{k}: {m}": v for k, d in data.renders.against_exact.items()
                                  for m, v in d.to_dict().items()}) if data.renders else "",
         displacement_plot=img("displacement", "image displacement against image radius"),
-        polishing_section=_polishing_html(f["polishing"], img),
+        polishing_section=_polishing_html(data.polishing, img),
         depth_table=_depth_table(data.stereo),
         depth_plot=img("depth_error", "depth error against range"),
         tolerance_section=tolerance_html(data.tolerance, img),
@@ -249,54 +249,52 @@ def _ranging_html(rg: RangingFigures | None, img) -> str:
             f"precision, against range and elevation.</p><table>{rhead}{rbody}</table>")
 
 
-def _polishing_html(p: dict, img) -> str:
+def _polishing_html(p: PolishingStudy, img) -> str:
     """Section 7: the conclusion, the lap, the curves, form against facets, pre-compensation
     and the processes side by side."""
-    pc = p["precompensation"]
     rows = ""
-    for prog, st in pc.items():
-        for which in ("without", "with"):
-            s = st[which]
+    for prog, st in p.precompensation.items():
+        for which, s in (("without", st.without), ("with", st.with_)):
             rows += (f"<tr><td>{html.escape(prog) if which == 'without' else ''}</td>"
-                     f"<td>{_fmt(st['time_s'] / 60)} min</td><td>{which}</td>"
-                     + "".join(f"<td>{_fmt(lb['form_change_mm']['rms'] * 1e3)}</td>" for lb in s["lobes"])
-                     + f"<td>{_fmt(s['image_displacement_px_rms'])}</td><td>{_fmt(s['stereo_residual_pct'])}</td>"
-                     f"<td>{_fmt(s['depth_error_pct'])}</td></tr>")
+                     f"<td>{_fmt(st.time_s / 60)} min</td><td>{which}</td>"
+                     + "".join(f"<td>{_fmt(lb.form_change_mm.rms * 1e3)}</td>" for lb in s.lobes)
+                     + f"<td>{_fmt(s.image_displacement_px_rms)}</td><td>{_fmt(s.stereo_residual_pct)}</td>"
+                     f"<td>{_fmt(s.depth_error_pct)}</td></tr>")
     precomp = ("<table><tr><th>program</th><th>polished</th><th>pre-compensation</th>"
                "<th>form inner um RMS</th><th>form outer um RMS</th><th>image displacement px RMS</th>"
                "<th>calibrated stereo residual %</th><th>depth error % (design assumed)</th></tr>" + rows + "</table>")
     proc_rows = ""
-    for r in p["processes"]:
-        if "cannot_cut" in r:
-            proc_rows += (f"<tr><th>{html.escape(r['label'])}</th><td>{html.escape(r['program'])}</td>"
-                          f"<td colspan=\"10\">cannot cut this design: {html.escape(r['cannot_cut'])}</td></tr>")
+    for r in p.processes:
+        if r.cannot_cut is not None:
+            proc_rows += (f"<tr><th>{html.escape(r.label)}</th><td>{html.escape(r.program)}</td>"
+                          f"<td colspan=\"10\">cannot cut this design: {html.escape(r.cannot_cut)}</td></tr>")
             continue
-        fin = r["finished"]
+        fin = r.finished
         proc_rows += (
-            f"<tr><th>{html.escape(r['label'])}</th><td>{html.escape(r['program'])}</td>"
-            f"<td>{_fmt(r['nose_radius_mm'])} / {_fmt(r['feed_mm'])} / {_fmt(r['resolution_mm'])}</td>"
-            f"<td>{_fmt(r['feed_mark_pv_nm'])} nm / {_fmt(r['feed_mark_period_um'])} um</td>"
-            f"<td>{_fmt(r['as_turned'][0]['roughness_nm']['rms'])}</td>"
-            f"<td>{_fmt(r['polish_time_s'] / 60)} min</td>"
-            f"<td>{_fmt(fin[0]['roughness_nm']['rms'])}</td>"
-            + "".join(f"<td>{_fmt(100 * lb['haze']['mean'])}</td>" for lb in fin)
-            + f"<td>{_fmt(r['image_displacement_px_rms'])}</td><td>{_fmt(r['stereo_residual_pct'])}</td>"
-            f"<td>{_fmt(r['depth_error_pct'])}</td></tr>")
+            f"<tr><th>{html.escape(r.label)}</th><td>{html.escape(r.program)}</td>"
+            f"<td>{_fmt(r.nose_radius_mm)} / {_fmt(r.feed_mm)} / {_fmt(r.resolution_mm)}</td>"
+            f"<td>{_fmt(r.feed_mark_pv_nm)} nm / {_fmt(r.feed_mark_period_um)} um</td>"
+            f"<td>{_fmt(r.as_turned[0].roughness_nm.rms)}</td>"
+            f"<td>{_fmt(r.polish_time_s / 60)} min</td>"
+            f"<td>{_fmt(fin[0].roughness_nm.rms)}</td>"
+            + "".join(f"<td>{_fmt(100 * lb.haze.mean)}</td>" for lb in fin)
+            + f"<td>{_fmt(r.image_displacement_px_rms)}</td><td>{_fmt(r.stereo_residual_pct)}</td>"
+            f"<td>{_fmt(r.depth_error_pct)}</td></tr>")
     processes = ("<table><tr><th>process</th><th>program</th><th>nose / feed / lattice mm</th>"
                  "<th>feed marks PV / period</th><th>as turned nm RMS</th><th>polished</th>"
                  "<th>finished nm RMS</th><th>haze inner %</th><th>haze outer %</th>"
                  "<th>image displacement px RMS</th><th>calibrated stereo residual %</th>"
                  "<th>depth error % (design assumed)</th></tr>" + proc_rows + "</table>")
-    rng = p["paper_program"].get("range_m", 2.0)
-    return (f"<p><b>{html.escape(p['conclusion'])}</b></p>"
-            f"<p>{html.escape(p['summary']['statement'])}</p><p>{html.escape(p['summary_best']['statement'])}</p>"
+    rng = p.paper_program.range_m
+    return (f"<p><b>{html.escape(p.conclusion)}</b></p>"
+            f"<p>{html.escape(p.summary.statement)}</p><p>{html.escape(p.summary_best.statement)}</p>"
             + img("polishing_lap", "the lap's removal along r")
             + img("polishing_paper", "polishing curve, paper program")
             + img("polishing_best", "polishing curve, best program")
             + "<h3>Form against facets</h3>" + img("polishing_decomposition", "form against facets")
             + "<h3>Pre-compensation</h3><p>The finishing program cut on the design lowered by the lap's "
               "predicted removal (polish.precompensate puts it into the G-code); form over the clear aperture "
-              f"(polish.clear_edge_mm = {_fmt(p['params']['clear_edge_mm'])} mm from each edge).</p>" + precomp
+              f"(polish.clear_edge_mm = {_fmt(p.params['clear_edge_mm'])} mm from each edge).</p>" + precomp
             + f"<h3>Processes side by side</h3><p>Haze: the fraction of light scattered out of the pixel "
               f"(feed-mark orders and roughness), mean over each lobe's pixels at "
-              f"{_fmt(p['params']['wavelength_nm'])} nm; stereo figures at {_fmt(rng)} m.</p>" + processes)
+              f"{_fmt(p.params['wavelength_nm'])} nm; stereo figures at {_fmt(rng)} m.</p>" + processes)
