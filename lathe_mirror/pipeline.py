@@ -172,5 +172,5 @@ def _optics_stages(data: ReportData, made: dict, mirror, settings, steps, render
 
     steps.start("ranging")
     if renders:
-        data.ranging, data.curves["range_maps"] = ranging_figures(made, mirror, settings)
+        data.ranging, data.range_maps = ranging_figures(made, mirror, settings)
     steps.done()

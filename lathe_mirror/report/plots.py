@@ -261,9 +261,8 @@ def _draw_one(data: ReportData, name: str) -> bytes:
 def plot_jobs(data: ReportData) -> list[tuple[str, object]]:
     """(name, a function of no arguments drawing it) of every plot of the report, in order."""
     curves = data.curves
-    jobs = [("profile_error", lambda: profile_deviation_plot(curves["profile_error"], curves["r_junction"],
-                                                             curves["used"])),
-            ("displacement", lambda: displacement_plot(curves["displacement"], curves["lost_ring_px"]))]
+    jobs = [("profile_error", lambda: profile_deviation_plot(curves.profile_error, curves.r_junction, curves.used)),
+            ("displacement", lambda: displacement_plot(curves.displacement, curves.lost_ring_px))]
     pol = data.polishing
     jobs += [("polishing_paper", lambda: polishing_curve_plot(pol.paper_program,
                                                               "polishing the paper program's mirror")),
@@ -273,12 +272,11 @@ def plot_jobs(data: ReportData) -> list[tuple[str, object]]:
              ("depth_error", lambda: depth_error_plot(data.stereo.curves))]
     if data.images:
         jobs.append(("images", lambda: images_side_by_side(data.images)))
-    if "range_maps" in curves:
+    if data.range_maps is not None:
         from .range_plots import error_vs_range_png, range_maps_png
 
-        maps = dict(curves["range_maps"])
-        band = maps.pop("band_deg")
-        jobs.append(("range_maps", lambda: range_maps_png(maps, band)))
+        rm = data.range_maps
+        jobs.append(("range_maps", lambda: range_maps_png(rm.maps, rm.band_deg)))
         jobs.append(("range_error", lambda: error_vs_range_png(
             {n: m.error_curve.to_dict() for n, m in data.ranging.mirrors.items()},
             title="median |range error| against range, each mirror, with the resolution model",
