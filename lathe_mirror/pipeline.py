@@ -58,6 +58,7 @@ from .report.polishing_study import polishing_study
 from .results.design import DesignFigures
 from .results.made import MadeMirror, ZoneFigures
 from .results.optics import DEPTH_REPORT_M, CalibrationFigures, DepthAt, DepthCurve, StereoFigures
+from .results.tolerance import ToleranceAnalysis
 from .tolerance.runs import DEPTH_RANGES_M, tolerance_analysis
 
 if TYPE_CHECKING:
@@ -88,7 +89,7 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
              "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
     data = ReportData(design=DesignFigures.from_dict(design_figures(mirror)),
                       notes=(TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)),
-                      spec=spec_of(settings).to_dict())  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
+                      spec=spec_of(settings))  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
     steps.done()
 
     steps.start("toolpaths")
@@ -111,7 +112,7 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
             alongside()
         steps.start("tolerance")
         if tol is not None:
-            data.tolerance = tol.result()
+            data.tolerance = ToleranceAnalysis.from_dict(tol.result())
         steps.done()
     steps.close()
     return data
@@ -171,5 +172,5 @@ def _optics_stages(data: ReportData, made: dict, mirror, settings, steps, render
 
     steps.start("ranging")
     if renders:
-        data.ranging, data.curves["range_maps"] = ranging_figures(made, mirror, settings)
+        data.ranging, data.range_maps = ranging_figures(made, mirror, settings)
     steps.done()
