@@ -45,7 +45,8 @@ DESIGNS = {
              "[machine]\nresolution = 0.001\n[optimize]\nmax_diameter_mm = 40.0\nmax_depth_mm = 20.0\n"
              "[tolerance.params]\nresolution_mm = 0.0005\n"),
     "paper_nose08": ("the paper camera, nose 0.8 mm, 0.0025 mm lattice",
-                     "[tool]\nnose_radius = 0.8\n[machine]\nresolution = 0.0025\n"),
+                     "[tool]\nnose_radius = 0.8\n[machine]\nresolution = 0.0025\n"
+                     "[tolerance.params]\nresolution_mm = 0.001\n"),  # below the 0.0025 mm lattice
     # docs/reference/guide.md's deep.toml, as written there (the envelope as rim_max_mm)
     "guide_deep": ("the guide's deep.toml (rim_max_mm = 138.6)",
                    "[optimize]\nrim_max_mm = 138.6\n[stock]\nlength = 50.0\n[cad]\nthickness = 45.0\n"),
