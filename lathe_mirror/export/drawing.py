@@ -14,6 +14,7 @@ from __future__ import annotations
 import io
 from pathlib import Path
 from typing import TYPE_CHECKING
+from .files import write_bytes
 
 if TYPE_CHECKING:
     from ..body import Meridian
@@ -46,8 +47,6 @@ def drawing_bytes(spec: PartSpec, meridian: Meridian, *, title: str = "lathe-mir
 def write_drawing(directory: str | Path, spec: PartSpec, meridian: Meridian, *, stem: str = "mirror_drawing",
                   title: str = "lathe-mirror") -> list[Path]:
     """Write <stem>.pdf and <stem>.svg into `directory` (atomically, export.files)."""
-    from .files import write_bytes
-
     data = drawing_bytes(spec, meridian, title=title)
     return [write_bytes(Path(directory) / f"{stem}.{fmt}", data[fmt]) for fmt in ("pdf", "svg")]
 

@@ -11,6 +11,7 @@ import html
 import io
 from pathlib import Path
 from typing import TYPE_CHECKING
+from .files import write_text
 
 if TYPE_CHECKING:
     from ..shop.setup import SetupSheet
@@ -129,8 +130,6 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
 
 def write_setup_sheet(path: str | Path, sheet: SetupSheet) -> Path:
     """Write the sheet atomically."""
-    from .files import write_text
-
     return write_text(path, setup_sheet_html(sheet))
 
 
@@ -170,7 +169,7 @@ def _polygons(geom):
 def stock_pictures(sheet: SetupSheet) -> list[bytes]:
     """The stock picture of each operation, drawn on the command's executor
     (lathe_mirror.compute: whole pictures per worker; the same bytes as one by one)."""
-    from ..compute import active
+    from ..compute import active  # lazy: compute off the CLI's start-up path
 
     ex = active()
     if ex.workers == 1 or len(sheet.operations) < 2:

@@ -14,9 +14,13 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..export.files import json_text, prepare_dir, write_bytes, write_text
 from ..results.base import Stat
 from ..results.made import FIVE
 from ..results.optics import DEPTH_REPORT_M
+from ..tolerance.stats import percent_interval
+from .plots import report_plots
+from .spec_section import spec_html
 
 if TYPE_CHECKING:
     from ..results.design import DesignFigures
@@ -27,11 +31,7 @@ if TYPE_CHECKING:
 
 def write_report(data: ReportData, out_dir: str | Path) -> dict[str, Path]:
     """report.json and report.html (self-contained) into out_dir, atomically each."""
-    from ..export.files import prepare_dir, write_bytes, write_text
-
     if not data.plots:
-        from .plots import report_plots
-
         data.plots = report_plots(data)
     d = prepare_dir(out_dir)
     paths = {"json": d / "report.json", "html": d / "report.html"}
@@ -42,8 +42,6 @@ def write_report(data: ReportData, out_dir: str | Path) -> dict[str, Path]:
 
 def dumps(figures: dict) -> str:
     """The report's JSON: finite numbers only (NaN / inf -> null), stable key order."""
-    from ..export.files import json_text
-
     return json_text(figures, indent=1)
 
 
@@ -55,8 +53,6 @@ def render_html(data: ReportData) -> str:
     """The self-contained page (template.html filled in; figures as data: URIs)."""
     from importlib import resources
     from string import Template
-
-    from .spec_section import spec_html
 
     tpl = Template((resources.files("lathe_mirror.report") / "template.html").read_text(encoding="utf-8"))
     f = data.figures  # the sections not typed yet: polishing, tolerance
@@ -323,7 +319,6 @@ def _polishing_html(p: dict, img) -> str:
 def _tolerance_html(f: dict, img) -> str:
     if "tolerance" not in f:
         return "<p>(tolerance analysis not run)</p>"
-    from ..tolerance.stats import percent_interval
 
     tol = f["tolerance"]
     spec = tol["spec"]
@@ -388,7 +383,6 @@ def summary_html(f: dict) -> str:
     yield with its Wilson interval and what to tighten."""
     if "tolerance" not in f:
         return ""
-    from ..tolerance.stats import percent_interval
 
     rows = []
     spec = f["tolerance"]["spec"]
