@@ -58,6 +58,7 @@ from .report.polishing_study import polishing_study
 from .results.design import DesignFigures
 from .results.made import MadeMirror, ZoneFigures
 from .results.optics import DEPTH_REPORT_M, CalibrationFigures, DepthAt, DepthCurve, StereoFigures
+from .results.tolerance import ToleranceAnalysis
 from .tolerance.runs import DEPTH_RANGES_M, tolerance_analysis
 
 if TYPE_CHECKING:
@@ -111,7 +112,7 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
             alongside()
         steps.start("tolerance")
         if tol is not None:
-            data.tolerance = tol.result()
+            data.tolerance = ToleranceAnalysis.from_dict(tol.result())
         steps.done()
     steps.close()
     return data
@@ -171,5 +172,5 @@ def _optics_stages(data: ReportData, made: dict, mirror, settings, steps, render
 
     steps.start("ranging")
     if renders:
-        data.ranging, data.curves["range_maps"] = ranging_figures(made, mirror, settings)
+        data.ranging, data.range_maps = ranging_figures(made, mirror, settings)
     steps.done()

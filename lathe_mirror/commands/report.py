@@ -73,15 +73,14 @@ def summary(data: ReportData, paths: dict) -> str:
     from ..results.optics import DEPTH_REPORT_M
 
     lines = [f"report: {paths['html']} (figures: {paths['json']})",
-             data.polishing["summary"]["statement"]]
+             data.polishing.summary.statement]
     lines.append(f"depth error at {DEPTH_REPORT_M:g} m (RMS / median over the band, each point capped at 100 %): "
                  + ", ".join(f"{k} {v.rms:.3g} / {v.median:.3g} % ({v.failed} of {v.points} points failed)"
                              for k, v in data.stereo.at.items()))
     from ..tolerance.stats import percent_interval
 
     for name, v in (data.verdict or {}).items():
-        passed = round(v["yield"] * v["trials"])
-        lines.append(f"{name} program: nominal {'PASS' if v['nominal_pass'] else 'FAIL'}, "
-                     f"yield {percent_interval(passed, v['trials'])}"
-                     + (f"; {v['allocation']}" if "allocation" in v else ""))
+        lines.append(f"{name} program: nominal {'PASS' if v.nominal_pass else 'FAIL'}, "
+                     f"yield {percent_interval(v.passed_trials, v.trials)}"
+                     + (f"; {v.allocation}" if v.allocation is not None else ""))
     return "\n".join(lines)

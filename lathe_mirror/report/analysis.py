@@ -26,8 +26,11 @@ from ..results.base import Range, Stat, plain
 from ..results.design import DesignFigures
 from ..results.made import (LobeFigures, MachineFigures, MadeMirror, MirrorFigures, Moves, PixelFigures,
                             SurfaceErrors, ToolFigures, ToolpathFigures, ZoneFigures)
-from ..results.optics import (DEPTH_REPORT_M, CalibrationFigures, ErrorCurve, ImageDifference, RangeFigures,
-                              RangingFigures, RenderFigures, ResolutionTable, StereoFigures)
+from ..results.optics import DEPTH_REPORT_M  # noqa: F401 (re-exported: the report's range)
+from ..results.optics import (CalibrationFigures, ErrorCurve, ImageDifference, RangeFigures, RangingFigures,
+                              RenderFigures, ResolutionTable, StereoFigures)
+from ..results.polishing import PolishingStudy
+from ..results.tolerance import ToleranceAnalysis, Verdict
 from ..toolpath import profile_errors
 
 if TYPE_CHECKING:
@@ -42,6 +45,27 @@ RESOLUTION_RANGES_M = (0.5, 1.0, 1.5, 2.0, 3.0)
 RESOLUTION_ELEVATIONS_DEG = (-20.0, -10.0, 0.0)
 
 
+@dataclass(frozen=True, slots=True)
+class ReportCurves:
+    """The curves the plots draw (arrays, not in the JSON): each made mirror's height error
+    along the meridian (r mm, dz mm; `used` marks the radii the image uses) and its radial
+    image displacement against image radius (rho px, d px; NaN breaks the line)."""
+
+    profile_error: dict[str, tuple[np.ndarray, np.ndarray]]
+    used: np.ndarray
+    r_junction: float
+    displacement: dict[str, tuple[np.ndarray, np.ndarray]]
+    lost_ring_px: tuple[float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class RangeMaps:
+    """Each mirror's range map (m; NaN where not ranged) over the common band (deg)."""
+
+    maps: dict[str, np.ndarray]
+    band_deg: tuple[float, float]
+
+
 @dataclass
 class ReportData:
     """What the report shows: each stage's typed result (lathe_mirror.results; `figures`
@@ -53,7 +77,7 @@ class ReportData:
     spec: dict[str, Any] | None = None
     machine: MachineFigures | None = None
     toolpaths: tuple[ToolpathFigures, ...] | None = None
-    polishing: Any = None
+    polishing: PolishingStudy | None = None
     zones: ZoneFigures | None = None
     mirrors: dict[str, MirrorFigures] | None = None
     made_mirror: MadeMirror | None = None
@@ -61,13 +85,14 @@ class ReportData:
     stereo: StereoFigures | None = None
     renders: RenderFigures | None = None
     ranging: RangingFigures | None = None
-    tolerance: Any = None
+    tolerance: ToleranceAnalysis | None = None
     #: `lathe-mirror run`'s additions: the programs simulated against the stock, the files written
     shop: list[dict[str, Any]] | None = None
     outputs: dict[str, Any] | None = None
     made: dict[str, Profile] = dataclasses.field(default_factory=dict)
     images: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
-    curves: dict[str, Any] = dataclasses.field(default_factory=dict)
+    curves: ReportCurves | None = None
+    range_maps: RangeMaps | None = None
     plots: dict[str, bytes] = dataclasses.field(default_factory=dict)
 
     #: report.json's sections, in order (None: not computed, left out)
@@ -75,13 +100,9 @@ class ReportData:
                 "calibration", "stereo", "renders", "ranging", "tolerance", "verdict", "shop", "outputs")
 
     @property
-    def verdict(self) -> dict[str, Any] | None:
+    def verdict(self) -> dict[str, Verdict] | None:
         """Each toleranced program's verdict (the tolerance analysis's)."""
-        if self.tolerance is None:
-            return None
-        if isinstance(self.tolerance, dict):
-            return {name: t["verdict"] for name, t in self.tolerance["programs"].items()}
-        return {name: t.verdict for name, t in self.tolerance.programs.items()}
+        return None if self.tolerance is None else self.tolerance.verdicts
 
     @property
     def figures(self) -> dict[str, Any]:
@@ -122,7 +143,7 @@ def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> MirrorFigure
     return MirrorFigures(lobes=tuple(lobes))
 
 
-def report_curves(made: dict[str, Profile], mirror: Mirror) -> dict[str, Any]:
+def report_curves(made: dict[str, Profile], mirror: Mirror) -> ReportCurves:
     """The report's curves as arrays: each made mirror's height error along the meridian
     (mm; r mm; `used` marks the radii the image uses) and its radial image displacement
     against image radius (px; NaN breaks the line where a lobe has no usable pixel)."""
@@ -144,8 +165,8 @@ def report_curves(made: dict[str, Profile], mirror: Mirror) -> dict[str, Any]:
             rho += [r_k, [np.nan]]
             d += [d_k, [np.nan]]
         displacement[name] = (np.concatenate(rho), np.concatenate(d))
-    return {"profile_error": profile_error, "used": used, "r_junction": mirror.r_junction,
-            "displacement": displacement, "lost_ring_px": tuple(mirror.image_radii_px["lost_ring"])}
+    return ReportCurves(profile_error=profile_error, used=used, r_junction=mirror.r_junction,
+                        displacement=displacement, lost_ring_px=tuple(mirror.image_radii_px["lost_ring"]))
 
 
 def strategy_table(job: MachiningJob):
@@ -186,7 +207,7 @@ def render_mirrors(made: dict, mirror: Mirror, settings: Settings):
     return images, RenderFigures(against_exact=stats)
 
 
-def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings) -> tuple[RangingFigures, dict]:
+def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings) -> tuple[RangingFigures, RangeMaps]:
     """Range from the image for each of MIRRORS (optics.ranging, the [stereo] settings,
     aligned camera): figures per mirror against the room's true range, the resolution
     table at the exact mirror's achieved disparity precision, and the range maps (m,
@@ -219,6 +240,5 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
         resolution=ResolutionTable.from_dict(table),
         mirrors=mirrors,
     )
-    maps["band_deg"] = tuple(math.degrees(x) for x in grid.band)
-    return figures, maps
+    return figures, RangeMaps(maps=maps, band_deg=tuple(math.degrees(x) for x in grid.band))
 

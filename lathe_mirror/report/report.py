@@ -12,26 +12,30 @@ import base64
 import html
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from ..export.files import json_text, prepare_dir, write_bytes, write_text
-from ..results.base import Stat
 from ..results.made import FIVE
 from ..results.optics import DEPTH_REPORT_M
-from ..tolerance.stats import percent_interval
-from .plots import report_plots
-from .spec_section import spec_html
+from .cells import fmt as _fmt
+from .cells import pct as _pct
+from .cells import table as _table
+from .tolerance_section import summary_html, tolerance_html
 
 if TYPE_CHECKING:
     from ..results.design import DesignFigures
     from ..results.made import MirrorFigures, ToolpathFigures
     from ..results.optics import CalibrationFigures, RangingFigures, StereoFigures
+    from ..results.polishing import PolishingStudy
     from .analysis import ReportData
 
 
 def write_report(data: ReportData, out_dir: str | Path) -> dict[str, Path]:
     """report.json and report.html (self-contained) into out_dir, atomically each."""
+    from ..export.files import prepare_dir, write_bytes, write_text
+
     if not data.plots:
+        from .plots import report_plots
+
         data.plots = report_plots(data)
     d = prepare_dir(out_dir)
     paths = {"json": d / "report.json", "html": d / "report.html"}
@@ -42,6 +46,8 @@ def write_report(data: ReportData, out_dir: str | Path) -> dict[str, Path]:
 
 def dumps(figures: dict) -> str:
     """The report's JSON: finite numbers only (NaN / inf -> null), stable key order."""
+    from ..export.files import json_text
+
     return json_text(figures, indent=1)
 
 
@@ -54,8 +60,9 @@ def render_html(data: ReportData) -> str:
     from importlib import resources
     from string import Template
 
+    from .spec_section import spec_html
+
     tpl = Template((resources.files("lathe_mirror.report") / "template.html").read_text(encoding="utf-8"))
-    f = data.figures  # the sections not typed yet: polishing, tolerance
 
     def img(key: str, alt: str) -> str:
         if key not in data.plots:
@@ -76,33 +83,16 @@ def render_html(data: ReportData) -> str:
         renders_table=_kv_table({f"{k}: {m}": v for k, d in data.renders.against_exact.items()
                                  for m, v in d.to_dict().items()}) if data.renders else "",
         displacement_plot=img("displacement", "image displacement against image radius"),
-        polishing_section=_polishing_html(f["polishing"], img),
+        polishing_section=_polishing_html(data.polishing, img),
         depth_table=_depth_table(data.stereo),
         depth_plot=img("depth_error", "depth error against range"),
-        tolerance_section=_tolerance_html(f, img),
+        tolerance_section=tolerance_html(data.tolerance, img),
         calibration_table=_calibration_table(data.calibration),
         ranging_section=_ranging_html(data.ranging, img),
         spec_section=spec_html(data.spec),
-        summary=summary_html(f),
+        summary=summary_html(data.tolerance),
         notes="".join(f"<li>{html.escape(n)}</li>" for n in data.notes),
     )
-
-
-def _fmt(v: Any) -> str:
-    if isinstance(v, bool):
-        return "yes" if v else "no"
-    if isinstance(v, float):
-        if v == 0 or not math.isfinite(v):
-            return str(v)
-        if abs(v) < 1e-3 or abs(v) >= 1e5:
-            return f"{v:.4g}"
-        # below 1, significant digits (a 0.00345 mm pixel stays 0.00345, not 0.0035)
-        return f"{v:.5g}" if abs(v) < 1 else f"{v:.4f}".rstrip("0").rstrip(".")
-    if isinstance(v, Stat):
-        return f"{_fmt(v.rms)} / {_fmt(v.max)}"
-    if isinstance(v, dict) and set(v) >= {"rms", "max"}:
-        return f"{_fmt(v['rms'])} / {_fmt(v['max'])}"
-    return html.escape(str(v))
 
 
 def _kv_table(d: dict) -> str:
@@ -259,220 +249,52 @@ def _ranging_html(rg: RangingFigures | None, img) -> str:
             f"precision, against range and elevation.</p><table>{rhead}{rbody}</table>")
 
 
-def _pct(v: float) -> str:
-    """A percentage (or any figure read to two decimals); n/a where not finite."""
-    return f"{v:.2f}" if isinstance(v, (int, float)) and math.isfinite(v) else "n/a"
-
-def _polishing_html(p: dict, img) -> str:
+def _polishing_html(p: PolishingStudy, img) -> str:
     """Section 7: the conclusion, the lap, the curves, form against facets, pre-compensation
     and the processes side by side."""
-    pc = p["precompensation"]
     rows = ""
-    for prog, st in pc.items():
-        for which in ("without", "with"):
-            s = st[which]
+    for prog, st in p.precompensation.items():
+        for which, s in (("without", st.without), ("with", st.with_)):
             rows += (f"<tr><td>{html.escape(prog) if which == 'without' else ''}</td>"
-                     f"<td>{_fmt(st['time_s'] / 60)} min</td><td>{which}</td>"
-                     + "".join(f"<td>{_fmt(lb['form_change_mm']['rms'] * 1e3)}</td>" for lb in s["lobes"])
-                     + f"<td>{_fmt(s['image_displacement_px_rms'])}</td><td>{_fmt(s['stereo_residual_pct'])}</td>"
-                     f"<td>{_fmt(s['depth_error_pct'])}</td></tr>")
+                     f"<td>{_fmt(st.time_s / 60)} min</td><td>{which}</td>"
+                     + "".join(f"<td>{_fmt(lb.form_change_mm.rms * 1e3)}</td>" for lb in s.lobes)
+                     + f"<td>{_fmt(s.image_displacement_px_rms)}</td><td>{_fmt(s.stereo_residual_pct)}</td>"
+                     f"<td>{_fmt(s.depth_error_pct)}</td></tr>")
     precomp = ("<table><tr><th>program</th><th>polished</th><th>pre-compensation</th>"
                "<th>form inner um RMS</th><th>form outer um RMS</th><th>image displacement px RMS</th>"
                "<th>calibrated stereo residual %</th><th>depth error % (design assumed)</th></tr>" + rows + "</table>")
     proc_rows = ""
-    for r in p["processes"]:
-        if "cannot_cut" in r:
-            proc_rows += (f"<tr><th>{html.escape(r['label'])}</th><td>{html.escape(r['program'])}</td>"
-                          f"<td colspan=\"10\">cannot cut this design: {html.escape(r['cannot_cut'])}</td></tr>")
+    for r in p.processes:
+        if r.cannot_cut is not None:
+            proc_rows += (f"<tr><th>{html.escape(r.label)}</th><td>{html.escape(r.program)}</td>"
+                          f"<td colspan=\"10\">cannot cut this design: {html.escape(r.cannot_cut)}</td></tr>")
             continue
-        fin = r["finished"]
+        fin = r.finished
         proc_rows += (
-            f"<tr><th>{html.escape(r['label'])}</th><td>{html.escape(r['program'])}</td>"
-            f"<td>{_fmt(r['nose_radius_mm'])} / {_fmt(r['feed_mm'])} / {_fmt(r['resolution_mm'])}</td>"
-            f"<td>{_fmt(r['feed_mark_pv_nm'])} nm / {_fmt(r['feed_mark_period_um'])} um</td>"
-            f"<td>{_fmt(r['as_turned'][0]['roughness_nm']['rms'])}</td>"
-            f"<td>{_fmt(r['polish_time_s'] / 60)} min</td>"
-            f"<td>{_fmt(fin[0]['roughness_nm']['rms'])}</td>"
-            + "".join(f"<td>{_fmt(100 * lb['haze']['mean'])}</td>" for lb in fin)
-            + f"<td>{_fmt(r['image_displacement_px_rms'])}</td><td>{_fmt(r['stereo_residual_pct'])}</td>"
-            f"<td>{_fmt(r['depth_error_pct'])}</td></tr>")
+            f"<tr><th>{html.escape(r.label)}</th><td>{html.escape(r.program)}</td>"
+            f"<td>{_fmt(r.nose_radius_mm)} / {_fmt(r.feed_mm)} / {_fmt(r.resolution_mm)}</td>"
+            f"<td>{_fmt(r.feed_mark_pv_nm)} nm / {_fmt(r.feed_mark_period_um)} um</td>"
+            f"<td>{_fmt(r.as_turned[0].roughness_nm.rms)}</td>"
+            f"<td>{_fmt(r.polish_time_s / 60)} min</td>"
+            f"<td>{_fmt(fin[0].roughness_nm.rms)}</td>"
+            + "".join(f"<td>{_fmt(100 * lb.haze.mean)}</td>" for lb in fin)
+            + f"<td>{_fmt(r.image_displacement_px_rms)}</td><td>{_fmt(r.stereo_residual_pct)}</td>"
+            f"<td>{_fmt(r.depth_error_pct)}</td></tr>")
     processes = ("<table><tr><th>process</th><th>program</th><th>nose / feed / lattice mm</th>"
                  "<th>feed marks PV / period</th><th>as turned nm RMS</th><th>polished</th>"
                  "<th>finished nm RMS</th><th>haze inner %</th><th>haze outer %</th>"
                  "<th>image displacement px RMS</th><th>calibrated stereo residual %</th>"
                  "<th>depth error % (design assumed)</th></tr>" + proc_rows + "</table>")
-    rng = p["paper_program"].get("range_m", 2.0)
-    return (f"<p><b>{html.escape(p['conclusion'])}</b></p>"
-            f"<p>{html.escape(p['summary']['statement'])}</p><p>{html.escape(p['summary_best']['statement'])}</p>"
+    rng = p.paper_program.range_m
+    return (f"<p><b>{html.escape(p.conclusion)}</b></p>"
+            f"<p>{html.escape(p.summary.statement)}</p><p>{html.escape(p.summary_best.statement)}</p>"
             + img("polishing_lap", "the lap's removal along r")
             + img("polishing_paper", "polishing curve, paper program")
             + img("polishing_best", "polishing curve, best program")
             + "<h3>Form against facets</h3>" + img("polishing_decomposition", "form against facets")
             + "<h3>Pre-compensation</h3><p>The finishing program cut on the design lowered by the lap's "
               "predicted removal (polish.precompensate puts it into the G-code); form over the clear aperture "
-              f"(polish.clear_edge_mm = {_fmt(p['params']['clear_edge_mm'])} mm from each edge).</p>" + precomp
+              f"(polish.clear_edge_mm = {_fmt(p.params['clear_edge_mm'])} mm from each edge).</p>" + precomp
             + f"<h3>Processes side by side</h3><p>Haze: the fraction of light scattered out of the pixel "
               f"(feed-mark orders and roughness), mean over each lobe's pixels at "
-              f"{_fmt(p['params']['wavelength_nm'])} nm; stereo figures at {_fmt(rng)} m.</p>" + processes)
-
-
-def _tolerance_html(f: dict, img) -> str:
-    if "tolerance" not in f:
-        return "<p>(tolerance analysis not run)</p>"
-
-    tol = f["tolerance"]
-    spec = tol["spec"]
-    which = "after calibration" if spec["calibrated"] else "raw (against the design's own model)"
-    first = next(iter(tol["programs"].values()), None)
-    lim = first["limits"] if first else {}
-    spec_rows = [
-        ("image displacement", f"RMS over each lobe's pixels but its outliers, {which}",
-         f"{_fmt(spec['image_displacement_px'])} px"),
-        ("outlier pixels", f"share of each lobe's pixels displaced more than 5 x the image limit, {which}",
-         f"{_fmt(spec['outlier_pct'])} %"),
-        ("stereo", f"90th percentile over the common band at {_fmt(spec['depth_range_m'])} m of the "
-                   f"disparity-equivalent error, {which}",
-         f"{_fmt(lim.get('disparity_px', float('nan')))} px (= {_fmt(spec['depth_error_pct'])} % depth error)"),
-        ("slope error", "RMS over the radii each lobe's image uses", f"{_fmt(spec['slope_error_rad'])} rad"),
-    ]
-    parts = ["<h3>Spec</h3>" + _table(("criterion", "figure judged", "limit"), spec_rows),
-             f"<p>Calibrated: a calibration of the made camera fits its rotation and a smooth radial mapping of "
-             f"each lobe (tolerance/calibration.py); the figures judged are what it cannot remove. "
-             f"Disparity-equivalent error: the stereo parallax error in pixels of image position in each lobe "
-             f"(the matcher's unit); {_fmt(spec['depth_error_pct'])} % at {_fmt(spec['depth_range_m'])} m is "
-             f"{_fmt(lim.get('disparity_px', float('nan')))} px at the band's median elevation.</p>"]
-    cost = tol.get("cost", {})
-    trows = [(k, _fmt(v), ("3-sigma bound" if tol["distribution"] == "normal" else "+/- bound"), _fmt(cost.get(k, "")))
-             for k, v in tol["tolerances"].items()]
-    parts.append("<h3>Tolerances</h3>" + _table(("parameter", "tolerance", "read as", "relative cost"), trows)
-                 + f"<p>{tol['trials']} trials per Monte Carlo, seed {tol['seed']}; {tol['lattice_phases']} lattice "
-                 f"phases drawn uniformly; each trial's nose cut as drawn (to {_fmt(tol['nose_step_mm'])} mm); "
-                 f"the seat tilts about a point {_fmt(tol['seat_pivot_mm'])} mm above the pinhole.</p>")
-    for name, t in tol["programs"].items():
-        v, mc = t["verdict"], t["monte_carlo"]
-        checks = [(k, _fmt(c["limit"]), _fmt(c["nominal"]), _verdict_cell(c["pass"]),
-                   f"{100 * mc['pass_fraction'][k]:.1f} % ({100 * mc['pass_fraction_wilson95'][k][0]:.1f}-"
-                   f"{100 * mc['pass_fraction_wilson95'][k][1]:.1f} %)") for k, c in v["checks"].items()]
-        block = [f"<h3>{html.escape(name)} program</h3>",
-                 f"<p class='yield'>Yield <b>{percent_interval(mc['passed'], mc['trials'])}</b>; "
-                 f"nominal part {'passes' if v['nominal_pass'] else 'fails'}.</p>"]
-        if "allocation" in t:
-            block.append(f"<p class='answer'>{html.escape(t['allocation']['statement'])}</p>")
-        block.append(f"<p>Surfaces: {html.escape(t['surfaces'])}; polished {_fmt(t['nominal_polish_time_s'] / 60)} "
-                     f"min nominal.</p>")
-        block.append(_table(("criterion", "limit", "nominal part", "", "trials passing (95 % CI)"), checks, raw=True))
-        if "allocation" in t:
-            block.append(_allocation_html(t["allocation"]))
-        block.append(img(f"monte_carlo_{name}", f"Monte Carlo histograms, {name} program"))
-        block.append(_stereo_html(t["stereo"], spec))
-        block.append(_sensitivity_html(t["sensitivity"]))
-        inv = [(r["parameter"], f"{_fmt(r['tolerance'])} {r['unit']}",
-                "none: " + r["no_margin_why"] if r["no_margin"] else
-                f"{_fmt(r['largest'])} {r['unit']}" + ("" if r["limited_by"] else " or more"),
-                r["limited_by"] or "-") for r in t["inverse_sensitivity"]]
-        block.append("<p>Inverse sensitivity: the largest +/- value of each parameter that alone keeps every "
-                     "criterion within its share of the margin (limit&sup2; - worst phase&sup2;, split evenly among "
-                     "the parameters).</p>"
-                     + _table(("parameter", "tolerance", "largest alone", "set by"), inv))
-        parts.append("".join(block))
-    return "".join(parts)
-
-
-def summary_html(f: dict) -> str:
-    """The answer first: per toleranced program the verdict, the headline figures, the
-    yield with its Wilson interval and what to tighten."""
-    if "tolerance" not in f:
-        return ""
-
-    rows = []
-    spec = f["tolerance"]["spec"]
-    for name, t in f["tolerance"]["programs"].items():
-        v, mc = t["verdict"], t["monte_carlo"]
-        c = v["checks"]
-        st = t["stereo"]
-        i = st["ranges_m"].index(spec["depth_range_m"]) if spec["depth_range_m"] in st["ranges_m"] else None
-        label = "calibrated" if spec["calibrated"] else "raw"
-        within = f"; {100 * st[label]['within_10_pct'][i]:.0f} % of the band within 10 %" if i is not None else ""
-        head = (f"image displacement {_fmt(c['image_displacement_px']['nominal'])} px RMS; disparity "
-                f"{_fmt(c['disparity_px']['nominal'])} px (90 % of the band) at {_fmt(spec['depth_range_m'])} m"
-                f"{within}; slope error {_fmt(c['slope_error_rad']['nominal'])} rad")
-        todo = t["allocation"]["statement"] if "allocation" in t else "(no allocation run for this program)"
-        rows.append((f"{name} program", _verdict_cell(v["nominal_pass"]), html.escape(head),
-                     percent_interval(mc["passed"], mc["trials"]), html.escape(todo)))
-    return ("<div class='summary'><h2>The answer</h2>"
-            + _table(("", "nominal part", f"headline figures ({'after calibration' if spec['calibrated'] else 'raw'})",
-                      "Monte Carlo yield (95 % CI)", f"to reach {100 * f['tolerance']['target_yield']:g} %"),
-                     rows, raw=True) + "</div>")
-
-
-def _verdict_cell(ok: bool) -> str:
-    return f"<span class='{'pass' if ok else 'fail'}'>{'PASS' if ok else 'FAIL'}</span>"
-
-
-def _table(head, rows, *, raw: bool = False) -> str:
-    """An HTML table; cells are escaped unless raw (already HTML)."""
-    h = "".join(f"<th>{html.escape(str(x))}</th>" for x in head)
-    body = "".join("<tr>" + "".join(f"<td>{x if raw else html.escape(str(x))}</td>" for x in r) + "</tr>"
-                   for r in rows)
-    return f"<table><tr>{h}</tr>{body}</table>"
-
-
-def _allocation_html(a: dict) -> str:
-    rows = [(r["parameter"], f"{_fmt(r['tolerance'])} {r['unit']}", f"{_fmt(r['allocated'])} {r['unit']}",
-             "tighten" if r["tighten"] else "keep", _fmt(r["cost"])) for r in a["tolerances"]]
-    rounds = [(h["round"], f"{100 * h['aim']:.1f} %", f"{100 * h['surrogate_yield']:.1f} %",
-               f"{100 * h['yield']:.1f} % ({100 * h['yield_wilson95'][0]:.1f}-{100 * h['yield_wilson95'][1]:.1f} %)",
-               h["seed"]) for h in a["rounds"]]
-    sur = a["surrogate"]
-    out = (f"<p>Allocation to {100 * a['target_yield']:g} % at least cost (relative cost "
-           f"{_fmt(a['cost_ratio'])} x the configured tolerances'):</p>"
-           + _table(("parameter", "configured", "allocated", "", "relative cost"), rows))
-    if rounds:
-        out += _table(("round", "surrogate aim", "surrogate yield", f"confirmed yield, {a['trials']} trials (95 % CI)",
-                       "seed"), rounds)
-    out += (f"<p>Surrogate (each parameter's response alone, added in squares; {sur['draws']} draws): "
-            f"{100 * sur['yield_on_monte_carlo_trials']:.1f} % on the Monte Carlo's own trials against their traced "
-            f"{100 * sur['monte_carlo_yield']:.1f} %; it agrees with the traced pass / fail on "
-            f"{100 * sur['agreement']:.1f} % of them.</p>")
-    return out
-
-
-def _stereo_html(st: dict, spec: dict) -> str:
-    rows = []
-    for i, r in enumerate(st["ranges_m"]):
-        row = [_fmt(r)]
-        for label in ("raw", "calibrated"):
-            d = st[label]
-            row += [_fmt(d["disparity_px_median"][i]), _fmt(d["disparity_px_p90"][i]),
-                    f"{100 * d['within_5_pct'][i]:.0f} %", f"{100 * d['within_10_pct'][i]:.0f} %",
-                    f"{100 * d['seen_fraction'][i]:.0f} %", _fmt(d["depth_error_pct_rms"][i])]
-        row.append(_fmt(st["matching_floor_pct"][i]))
-        rows.append(row)
-    head = ["range (m)"]
-    for label in ("raw", "calibrated"):
-        head += [f"{label}: disparity median (px)", "p90 (px)", "within 5 %", "within 10 %", "seen",
-                 "capped RMS depth error (%)"]
-    head.append(f"matching floor, {_fmt(st['matching_noise_px'])} px (%)")
-    return ("<p>Stereo figures of the nominal part (the band's points at each range; disparity limit "
-            f"{_fmt(st['disparity_limit_px'])} px):</p>" + _table(head, rows))
-
-
-def _sensitivity_html(sens: dict) -> str:
-    rows = []
-    for r in sens["rows"]:
-        for which in ("minus", "plus"):
-            c = r[which]
-            first = which == "minus"
-            rows.append([r["parameter"] if first else "", (f"{_fmt(r['tolerance'])} {r['unit']}") if first else "",
-                         which]
-                        + [_fmt(x) for x in c["raw"]["image_displacement_px_rms"]]
-                        + [_fmt(x) for x in c["calibrated"]["image_displacement_px_rms"]]
-                        + [_fmt(c["raw"]["disparity_px_p90"]), _fmt(c["calibrated"]["disparity_px_p90"]),
-                           _fmt(c["raw"]["depth_error_pct_rms"]), _fmt(c["calibrated"]["depth_error_pct_rms"])]
-                        + [_fmt(x) for x in c["slope_error_rad_rms"]] + [_verdict_cell(c["pass"])])
-    head = ("parameter", "tolerance", "", "raw disp. inner px", "raw disp. outer px", "cal. disp. inner px",
-            "cal. disp. outer px", "raw disparity p90 px", "cal. disparity p90 px", "raw depth err %",
-            "cal. depth err %", "slope inner rad", "slope outer rad", "spec")
-    return ("<p>Sensitivity: each parameter at -/+ its tolerance, the others nominal.</p>"
-            + _table(head, [[x if i == len(r) - 1 else html.escape(str(x)) for i, x in enumerate(r)] for r in rows],
-                     raw=True))
+              f"{_fmt(p.params['wavelength_nm'])} nm; stereo figures at {_fmt(rng)} m.</p>" + processes)
