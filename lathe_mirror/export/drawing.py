@@ -14,6 +14,7 @@ from __future__ import annotations
 import io
 from pathlib import Path
 from typing import TYPE_CHECKING
+
 from .files import write_bytes
 
 if TYPE_CHECKING:

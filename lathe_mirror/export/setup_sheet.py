@@ -11,6 +11,7 @@ import html
 import io
 from pathlib import Path
 from typing import TYPE_CHECKING
+
 from .files import write_text
 
 if TYPE_CHECKING:
