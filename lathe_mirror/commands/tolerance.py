@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         write_histograms(Path(args.output), out)
     if args.csv:
         from ..export.files import write_text
-        from ..tolerance.montecarlo import trials_csv
+        from ..export.trials import trials_csv
 
         write_text(args.csv, trials_csv(runs.results), "--csv")
     if args.json:
