@@ -27,6 +27,13 @@ Tolerance: `monte_carlo` (trials=, seed=, the polishing time chosen as the comma
 chooses it unless given), `ProgramName` (which program a toleranced part is cut from).
 The shop and the inspection room: `spec_of` / `PartSpec` (ISO 10110), `measure` /
 `Measurement` (a measured profile fitted and diagnosed), `measured_profile`.
+The report's analysis: `report_figures` (every stage, no files) gives a `ReportData` of
+typed results, frozen dataclasses with `to_dict()` (report.json's sections) and, where
+they are tables, `table()` (numpy structured arrays): `DesignFigures`,
+`ToolpathFigures`, `MirrorFigures` (each made mirror's five figures per lobe),
+`StereoFigures`, `CalibrationFigures`, `RenderFigures`, `RangingFigures`,
+`PolishingStudy` / `PolishCurveFigures`, `ToleranceAnalysis` / `MonteCarloFigures`
+(`table()`: one row per trial) / `Verdict`.
 Errors: `Error`, the one family, of kinds input (`InputError`), design (`DesignError`)
 and internal (`InternalError`); `lm.Settings(...)` or `dataclasses.replace(settings, ...)`
 to a design that cannot exist raises the message `load()` gives for the same values.
@@ -56,6 +63,11 @@ _API = {
     "spec_of": "iso10110", "PartSpec": "iso10110",
     "measure": "measure.result", "Measurement": "measure.result", "measured_profile": "measure.surface",
     "checked_mirror": "settings",
+    "report_figures": "pipeline", "ReportData": "report.analysis",
+    "DesignFigures": "results", "ToolpathFigures": "results", "MirrorFigures": "results",
+    "StereoFigures": "results", "CalibrationFigures": "results", "RenderFigures": "results",
+    "RangingFigures": "results", "PolishingStudy": "results", "PolishCurveFigures": "results",
+    "ToleranceAnalysis": "results", "MonteCarloFigures": "results", "Verdict": "results",
     "Error": "errors", "InputError": "errors", "DesignError": "errors", "InternalError": "errors",
 }
 

@@ -141,6 +141,11 @@ class Mirror:
         return (self.inner, self.outer)
 
     @property
+    def design(self) -> Mirror:
+        """The designed mirror this surface realises: itself (cut_surface's protocol)."""
+        return self
+
+    @property
     def r_junction(self) -> float:
         """Radius of the step between the lobes (mm)."""
         return self.inner.r_top

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .body import MAX_LENGTH, CadModel, design_meridian, programmed_parts
+from .cut_surface import CompensatedMirror, ZeroShiftedMirror
 from .design import Mirror
 from .enums import BEST, Mount, Program, Strategy, Surface
 from .errors import InputError
@@ -45,7 +46,7 @@ def design(settings: Settings) -> Mirror:
 
 
 def plan(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
-         max_deviation: float = 0.01, phase: float = 0.0, target: Mirror | None = None) -> Toolpath:
+         max_deviation: float = 0.01, phase: float = 0.0, target: CompensatedMirror | None = None) -> Toolpath:
     """Mirror -> Toolpath on the lathe's lattice (toolpath.plan_toolpath).
 
     phase: where the part's Z work zero falls on the lattice, in lattice steps (0 <= phase
@@ -53,11 +54,11 @@ def plan(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
     different, equally likely realisation of the rounding (the tolerance analysis draws
     it). X stays on a lattice through the axis (its error is the tool_x tolerance).
     target: the surface the program cuts, when it is not the design: the design lowered by
-    a polishing allowance (polishing.compensated_mirror; see program_target).
+    a polishing allowance (polishing.compensated_mirror; see program_target). The lattice
+    phase holds the surface and moves its zero (cut_surface.ZeroShiftedMirror).
     """
-    base = mirror if target is None else target
-    planned = base if phase == 0.0 else ZeroShiftedMirror(base.camera, base.inner, base.outer,
-                                                          zero_shift=phase * lathe.resolution)
+    base: Mirror | CompensatedMirror = mirror if target is None else target
+    planned = base if phase == 0.0 else ZeroShiftedMirror(base, zero_shift=phase * lathe.resolution)
     return plan_toolpath(planned, lathe, tool, strategy, max_deviation=max_deviation)
 
 
@@ -85,7 +86,7 @@ def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = 
                  nose_radius: float | None = None, phase: float = 0.0,
                  polish_params: PolishParams | None = None, polish_time_s: float = 0.0,
                  max_deviation: float = 0.01, toolpath: Toolpath | None = None,
-                 target: Mirror | None = None, errors: MachineErrors | None = None) -> MadeSurface:
+                 target: CompensatedMirror | None = None, errors: MachineErrors | None = None) -> MadeSurface:
     """The one made-surface builder: plan -> machine -> (polish).
 
     The program is planned for `tool` (its nose offset) at lattice `phase` (steps), on
@@ -130,7 +131,7 @@ def process_for(settings: Settings, name: str = "conventional") -> Process:
                                                   resolution_mm=settings.machine.resolution)
 
 
-def program_target(settings: Settings, mirror: Mirror) -> Mirror:
+def program_target(settings: Settings, mirror: Mirror) -> Mirror | CompensatedMirror:
     """The surface the finishing programs cut: the design, or with polish.precompensate the
     design lowered by the removal a polish of polish.time_s takes (polishing.
     compensated_mirror), so that the polished part lands on the design."""
@@ -222,19 +223,6 @@ def cad_model(settings: Settings, mirror: Mirror, *, programmed: bool,
 
 
 
-@dataclasses.dataclass(frozen=True)
-class ZeroShiftedMirror(Mirror):
-    """The design with its machine zero moved zero_shift (mm) along the axis: the planner
-    puts machine Z = 0 at mirror.vertex_z, so this is the same surface cut with the work
-    zero that far off the lattice."""
-
-    zero_shift: float = 0.0
-
-    @property
-    def vertex_z(self) -> float:  # type: ignore[override]
-        return self.inner.vertex_z + self.zero_shift
-
-
 def check_programs(settings: Settings, mirror: Mirror, *, tolerance: bool = True) -> None:
     """What the stages from the programs on need, checked before any file or progress
     display: a junction the toolpath can cut (an inner lobe recessed, a nose that reaches
@@ -267,7 +255,7 @@ def check_cad(settings: Settings, mirror: Mirror) -> None:
 
 
 def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surface | Program, *,
-                  tool: Tool | None = None, target: Mirror | None = None) -> Toolpath | None:
+                  tool: Tool | None = None, target: CompensatedMirror | None = None) -> Toolpath | None:
     """The program of `strategy` checked the same way by every command that uses one
     (toolpath, cad, render, polish, tolerance, calib, stereo, report, run), before any work
     or file: MachiningJob.check on the configured job with that program (and tool: default
@@ -317,7 +305,7 @@ class MachiningJob:
     strategy: Strategy = BEST
     max_deviation: float = 0.01
     gouge_tolerance: float = 0.005
-    target: Mirror | None = None
+    target: CompensatedMirror | None = None
     nose_radius: float | None = None
     phase: float = 0.0
     polish: PolishParams | None = None

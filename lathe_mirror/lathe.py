@@ -13,15 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .declared import SLACK, check as check_declared, key as declared_key
 from .errors import InputError
 
 #: Finest lattice step (mm) a program can carry: G-code words with 4 decimals.
 _FINEST = 0.0001
-#: Largest S word (G96 m/min, the spindle cap rev/min): 5 digits (Fanuc's format).
-MAX_S_WORD = 99999
-#: F words (mm/rev): 4 decimals, up to 500 mm/rev.
+#: F words (mm/rev): 4 decimals (their range, up to 500 mm/rev, is machine.feed_*'s).
 FEED_STEP = 0.0001
-MAX_FEED = 500.0
 
 
 @dataclass(frozen=True)
@@ -51,33 +49,20 @@ class Lathe:
     arc_radius_tolerance: float = 0.0002
 
     def __post_init__(self) -> None:
-        _positive("machine.resolution", self.resolution, "mm")
-        # Every lattice value must be written exactly in a G-code word: a whole number of
-        # 0.0001 mm (the finest increment LinuxCNC's rs274 reports, 4 decimals).
-        steps = self.resolution / _FINEST
-        if not (_FINEST - 1e-12 <= self.resolution <= 0.1 and abs(steps - round(steps)) < 1e-6):
-            raise InputError(
-                f"machine.resolution = {self.resolution:g} mm: allowed a multiple of {_FINEST:g} mm "
-                f"from {_FINEST:g} to 0.1 mm (G-code words carry at most 4 decimals)"
-            )
-        if isinstance(self.max_points, bool) or int(self.max_points) != self.max_points or self.max_points < 4:
-            raise InputError(f"machine.max_points = {self.max_points!r}: must be an integer >= 4")
-        _positive("machine.travel_x", self.travel_x, "mm")
-        if not self.travel_z_min < 0.0 < self.travel_z_max:
-            raise InputError(
-                f"machine.travel_z_min = {self.travel_z_min:g}, travel_z_max = {self.travel_z_max:g} mm: "
-                "need travel_z_min < 0 < travel_z_max (Z = 0 is the vertex)"
-            )
-        # Speeds and feeds are G-code words too, written fixed-point: S (G96 m/min) and the
-        # spindle cap (D / G50 S) whole numbers of at most 5 digits, F 4 decimals.
-        _word("machine.spindle_max_rpm", self.spindle_max_rpm, "rev/min", 1, MAX_S_WORD, 1,
+        # Each field within its key's declaration (machine.<field>): the line load() gives.
+        for name in ("resolution", "max_points", "travel_x", "travel_z_min", "travel_z_max", "spindle_max_rpm",
+                     "surface_speed", "feed_rough", "feed_finish", "arc_radius_tolerance"):
+            check_declared(f"machine.{name}", getattr(self, name))
+        # What the ranges do not say: every value a G-code word carries is written exactly,
+        # a lattice value a whole number of 0.0001 mm (the finest increment LinuxCNC's rs274
+        # reports, 4 decimals), S (G96 m/min) and the spindle cap (D / G50 S) whole numbers,
+        # F 4 decimals.
+        _word("machine.resolution", self.resolution, "mm", _FINEST, "G-code words carry at most 4 decimals")
+        _word("machine.spindle_max_rpm", self.spindle_max_rpm, "rev/min", 1,
               "the spindle cap's word (D, G50 S) carries a whole number")
-        _word("machine.surface_speed", self.surface_speed, "m/min", 1, MAX_S_WORD, 1,
-              "an S word carries a whole number")
+        _word("machine.surface_speed", self.surface_speed, "m/min", 1, "an S word carries a whole number")
         for key in ("feed_rough", "feed_finish"):
-            _word(f"machine.{key}", getattr(self, key), "mm/rev", FEED_STEP, MAX_FEED, FEED_STEP,
-                  "an F word carries 4 decimals")
-        _positive("machine.arc_radius_tolerance", self.arc_radius_tolerance, "mm")
+            _word(f"machine.{key}", getattr(self, key), "mm/rev", FEED_STEP, "an F word carries 4 decimals")
 
     # The lattice: integer multiples of the resolution. Working in integer lattice units
     # keeps "on the lattice" exact instead of a float comparison.
@@ -126,16 +111,10 @@ class Tool:
     approach_angle: float = math.radians(3.0)
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.nose_radius) and self.nose_radius >= 0.0):
-            raise InputError(f"tool.nose_radius = {self.nose_radius!r} mm must be >= 0")
-        if not 0.0 < self.included_angle < math.pi:
-            raise InputError(
-                f"tool.included_angle = {math.degrees(self.included_angle):g} deg: allowed 0 < angle < 180"
-            )
-        if not -math.pi / 2 < self.approach_angle < math.pi / 2:
-            raise InputError(
-                f"tool.approach_angle = {math.degrees(self.approach_angle):g} deg: allowed -90 < angle < 90"
-            )
+        # Each within its key's declaration, the angles in the file's degrees: load()'s line.
+        check_declared("tool.nose_radius", self.nose_radius)
+        check_declared("tool.included_angle", _degrees(self.included_angle), slack=SLACK)
+        check_declared("tool.approach_angle", _degrees(self.approach_angle), slack=SLACK)
 
     def flank_directions(self) -> tuple[float, float]:
         """Directions (rad, in the (r, Z) plane from +r toward +Z) of the two flanks."""
@@ -180,10 +159,8 @@ class Stock:
     length: float = 40.0
 
     def __post_init__(self) -> None:
-        _positive("stock.diameter", self.diameter, "mm")
-        if not (math.isfinite(self.face_allowance) and self.face_allowance >= 0):
-            raise InputError(f"stock.face_allowance = {self.face_allowance!r} mm must be >= 0")
-        _positive("stock.length", self.length, "mm")
+        for name in ("diameter", "face_allowance", "length"):
+            check_declared(f"stock.{name}", getattr(self, name))
 
     @property
     def radius(self) -> float:
@@ -191,15 +168,20 @@ class Stock:
         return self.diameter / 2.0
 
 
-def _word(key: str, value, unit: str, lo: float, hi: float, step: float, why: str) -> None:
-    """A value a G-code word carries: a finite multiple of `step` from lo to hi."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(f"{key} = {value!r} must be a finite number ({unit})")
+def _word(key: str, value, unit: str, step: float, why: str) -> None:
+    """A value a G-code word carries (already within its declared range): a multiple of
+    `step`."""
     k = value / step
-    if not (lo - 1e-12 <= value <= hi and abs(k - round(k)) < 1e-6):
-        allowed = (f"a whole number from {lo:g} to {hi:g}" if step == 1 else
-                   f"multiples of {step:g} from {lo:g} to {hi:g}")
-        raise InputError(f"{key} = {_plain(value)} {unit}: {why}; allowed {allowed} {unit}")
+    if abs(k - round(k)) >= 1e-6:
+        allowed = "a whole number" if step == 1 else f"a multiple of {step:g} {unit}"
+        raise InputError(f"{key} = {_plain(value)} {unit}: {why}; allowed {allowed} within "
+                         f"{declared_key(key).text()}")
+
+
+def _degrees(angle) -> object:
+    """An angle (rad) in the file's degrees; anything else as it is (the check refuses it)."""
+    ok = isinstance(angle, (int, float)) and not isinstance(angle, bool)
+    return math.degrees(angle) if ok else angle
 
 
 def _plain(v) -> str:
@@ -208,10 +190,3 @@ def _plain(v) -> str:
         return str(v)
     s = f"{v:.12f}".rstrip("0").rstrip(".")
     return s if len(s) <= 24 else f"{v:.6e}"
-
-
-def _positive(key: str, value: float, unit: str) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(f"{key} = {value!r} must be a finite number ({unit})")
-    if value <= 0:
-        raise InputError(f"{key} = {value:g} {unit}: must be > 0")

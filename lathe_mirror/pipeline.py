@@ -28,9 +28,10 @@ Millimetres and radians inside (ARCHITECTURE.md).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from .compute import active
 from .design_table import TABLE1_SWAP_NOTE, design_figures
@@ -45,7 +46,6 @@ from .optics.zones import zones_for
 from .profile import ExactProfile, Profile
 from .progress import Stages
 from .report.analysis import (
-    DEPTH_REPORT_M,
     MIRRORS,
     ReportData,
     mirror_figures,
@@ -55,6 +55,10 @@ from .report.analysis import (
     strategy_table,
 )
 from .report.polishing_study import polishing_study
+from .results.design import DesignFigures
+from .results.made import MadeMirror, ZoneFigures
+from .results.optics import DEPTH_REPORT_M, CalibrationFigures, DepthAt, DepthCurve, StereoFigures
+from .results.tolerance import ToleranceAnalysis
 from .tolerance.runs import DEPTH_RANGES_M, tolerance_analysis
 
 if TYPE_CHECKING:
@@ -78,25 +82,23 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
     (lathe_mirror.compute) beside the stages after polishing and `alongside()` (the
     caller's own work, e.g. `run`'s programs and CAD), the same figures as in turn."""
     steps = Stages(STAGES, progress)
-    out: dict[str, Any] = {"schema": "lathe-mirror report 1", "notes": []}
     steps.start("design")
     mirror = design(settings)
-    out["design"] = design_figures(mirror)
     r_used = used_extent(mirror, 0)[1]
     facts = {"r_used": r_used, "rho_used": corner_limit_px(mirror, mirror.r_junction - r_used),
              "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
-    out["notes"] += [TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)]
-
-    out["spec"] = spec_of(settings).to_dict()  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
+    data = ReportData(design=DesignFigures.from_dict(design_figures(mirror)),
+                      notes=(TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)),
+                      spec=spec_of(settings))  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
     steps.done()
 
     steps.start("toolpaths")
     job = MachiningJob.from_settings(settings, mirror)  # the one machining job every stage takes
-    made, out["machine"], out["toolpaths"] = strategy_table(job)
+    made, data.machine, data.toolpaths = strategy_table(job)
     steps.done()
 
     steps.start("polishing")
-    out["polishing"], polish_curves = polishing_study(settings, job, made, progress=progress)
+    data.polishing, polish_curves = polishing_study(settings, job, made, progress=progress)
     curve_paper, curve_best = polish_curves["paper"], polish_curves["best"]
     made["polished"] = curve_paper.profiles[curve_paper.optimum_index]
     steps.done()
@@ -105,14 +107,12 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
         if tolerance:  # the tolerance analysis needs only the polishing times: it runs beside the rest
             times = {Program.PAPER: curve_paper.optimum_time_s, Program.BEST: curve_best.optimum_time_s}
             tol = stack.enter_context(active().background(_tolerance, (mirror, settings, times, job)))
-        data = _optics_stages(out, made, mirror, settings, steps, renders, curve_paper.optimum_time_s, job,
-                              measured)
+        _optics_stages(data, made, mirror, settings, steps, renders, curve_paper.optimum_time_s, job, measured)
         if alongside is not None:
             alongside()
         steps.start("tolerance")
         if tol is not None:
-            out["tolerance"] = tol.result()
-            out["verdict"] = {name: t["verdict"] for name, t in out["tolerance"]["programs"].items()}
+            data.tolerance = ToleranceAnalysis.from_dict(tol.result())
         steps.done()
     steps.close()
     return data
@@ -125,50 +125,52 @@ def _tolerance(task) -> dict:
                               allocate=(Program.BEST,) if Program.BEST in settings.tolerance.programs else ())
 
 
-def _optics_stages(out: dict, made: dict, mirror, settings, steps, renders: bool,
-                   polish_time_s: float, job: MachiningJob, measured: Profile | None = None) -> ReportData:
+def _optics_stages(data: ReportData, made: dict, mirror, settings, steps, renders: bool,
+                   polish_time_s: float, job: MachiningJob, measured: Profile | None = None) -> None:
     """The stages after polishing but the tolerance: distortion, calibration, stereo,
-    renders, ranging (into `out`); the report's data."""
+    renders, ranging (into `data`)."""
     steps.start("distortion")
     made["exact"] = ExactProfile(mirror)
 
     zn = zones_for(settings, mirror)
-    out["zones"] = {**zn.as_dict(), "text": zn.describe()}
-    out["mirrors"] = {name: mirror_figures(made[name], mirror, zn) for name in MIRRORS}
-    out["mirrors"]["polished"]["polish_time_s"] = polish_time_s
-    parts = {"paper": job.but(strategy=Strategy.PAPER), "best": job.but(strategy=BEST),
+    data.zones = ZoneFigures.from_dict({**zn.as_dict(), "text": zn.describe()})
+    parts = {"exact": None, "paper": job.but(strategy=Strategy.PAPER), "best": job.but(strategy=BEST),
              "polished": job.but(strategy=Strategy.PAPER, polish_time_s=polish_time_s)}
+    data.mirrors = {}
+    for name in MIRRORS:  # which part each mirror is
+        fig = mirror_figures(made[name], mirror, zn)
+        data.mirrors[name] = dataclasses.replace(
+            fig, polish_time_s=polish_time_s if name == "polished" else None,
+            made_mirror="the exact design" if parts[name] is None else parts[name].label)
     if measured is not None:  # report --surface measured:FILE: the part that came back
-        out["mirrors"]["measured"] = mirror_figures(measured, mirror, zn)
-        out["mirrors"]["measured"]["made_mirror"] = f"the measured part: {measured!r}"
-    out["made_mirror"] = job.to_dict()  # the made mirror every command describes by default
-    out["mirrors"]["exact"]["made_mirror"] = "the exact design"
-    for name, part in parts.items():  # which part each mirror is
-        out["mirrors"][name]["made_mirror"] = part.label
-    out["calibration"] = calibration_figures(mirror, {n: made[n] for n in ("paper", "best", "polished")}, zones=zn)
+        data.mirrors["measured"] = dataclasses.replace(mirror_figures(measured, mirror, zn),
+                                                       made_mirror=f"the measured part: {measured!r}")
+    data.made_mirror = MadeMirror.from_dict(job.to_dict())  # the made mirror every command describes by default
+    data.calibration = CalibrationFigures.from_dict(
+        calibration_figures(mirror, {n: made[n] for n in ("paper", "best", "polished")}, zones=zn))
     steps.done()
 
     steps.start("stereo")
     depth = {name: depth_error_curve(made[name], mirror, DEPTH_RANGES_M) for name in MIRRORS}
-    out["stereo"] = {
-        "definition": "depth error = 100 (R_made - R) / R, R from the stereo centre (midway between "
-                      "the viewpoints), points across the common band; RMS, median and max over the band "
-                      "of |depth error| capped at 100 % per point (a point not seen by both lobes counts "
-                      "100 %); failed: points at the cap",
-        "baseline_mm": mirror.baseline,
-        "curves": {name: c.to_dict() for name, c in depth.items()},
-        f"at_{DEPTH_REPORT_M:g}_m": {name: c.at(DEPTH_REPORT_M) for name, c in depth.items()},
-    }
+    data.stereo = StereoFigures(
+        definition="depth error = 100 (R_made - R) / R, R from the stereo centre (midway between "
+                   "the viewpoints), points across the common band; RMS, median and max over the band "
+                   "of |depth error| capped at 100 % per point (a point not seen by both lobes counts "
+                   "100 %); failed: points at the cap",
+        baseline_mm=mirror.baseline,
+        curves={name: DepthCurve.from_dict(c.to_dict()) for name, c in depth.items()},
+        at={name: DepthAt.from_dict(c.at(DEPTH_REPORT_M)) for name, c in depth.items()},
+    )
     steps.done()
 
-    data = ReportData(out, made=made, curves=report_curves(made, mirror))
+    data.made = made
+    data.curves = report_curves(made, mirror)
     steps.start("renders")
     if renders:
-        data.images, out["renders"] = render_mirrors(made, mirror, settings)
+        data.images, data.renders = render_mirrors(made, mirror, settings)
     steps.done()
 
     steps.start("ranging")
     if renders:
-        out["ranging"], data.curves["range_maps"] = ranging_figures(made, mirror, settings)
+        data.ranging, data.range_maps = ranging_figures(made, mirror, settings)
     steps.done()
-    return data

@@ -46,7 +46,7 @@ def _dzm(lobe: Lobe, r):
 
 def _d2zm(lobe: Lobe, r):
     # The lobe's own second derivative: a target lobe (a sheet offset by a polishing
-    # allowance, polishing.CompensatedLobe) is not a hyperbola.
+    # allowance, cut_surface.CompensatedLobe) is not a hyperbola.
     return -lobe.second_derivative(r)
 
 

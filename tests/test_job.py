@@ -50,9 +50,9 @@ def test_the_configured_deviation_holds_in_every_stage(tmp_path):
     job = MachiningJob.from_settings(settings, mirror)
     assert job.max_deviation == 0.05 and job.gouge_tolerance == 0.1
     made, _, table = strategy_table(job)  # the report's toolpaths and made mirrors
-    rows = {row["strategy"]: row for row in table}
+    rows = {row.strategy: row for row in table}
     for name, n in n_cli.items():
-        assert rows[name]["n_points"] == n <= 22
+        assert rows[name].n_points == n <= 22
     ctx = tolerance_context(mirror, settings, Program.BEST, 600.0, job=job)  # every lattice phase cut
     assert ctx.nominal_time_s == 600.0
     assert check_program(settings, mirror, Surface.BEST).n_points == n_cli["arcs"]
@@ -137,9 +137,9 @@ def test_calib_render_and_report_quote_one_image_displacement(tmp_path):
     label = "arcs program (best), nose 0.4 mm, lattice 0.005 mm, as machined"
     assert c["made_mirror"] == r["made_mirror"] == label == job.but(strategy=BEST).label
     for k in (0, 1):
-        rep = report["lobes"][k]["image_displacement_px"]["rms"]
+        rep = report.lobes[k].image_displacement_px.rms
         assert rep > 0.01
         assert c["image_displacement_px"][k]["rms"] == pytest.approx(rep, rel=0.01)
         assert r["lobes"][k]["image_displacement_px"]["rms"] == pytest.approx(rep, rel=0.01)
         for end in ("min", "max"):  # the same zone (JSON carries 1e-6 px)
-            assert r["lobes"][k]["zone_px"][end] == pytest.approx(report["lobes"][k]["zone_px"][end], abs=1e-5)
+            assert r["lobes"][k]["zone_px"][end] == pytest.approx(getattr(report.lobes[k].zone_px, end), abs=1e-5)

@@ -19,7 +19,7 @@ import pytest
 from lathe_mirror.config import default_config
 from lathe_mirror.errors import InputError
 from lathe_mirror.settings import from_config
-from lathe_mirror.settings.declare import Key
+from lathe_mirror.declared import Key
 from lathe_mirror.settings.keys import KEYS, declared_defaults, find, key_table_markdown
 
 BASE = default_config()

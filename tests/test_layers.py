@@ -18,8 +18,9 @@ PACKAGE = Path(__file__).resolve().parents[1] / "lathe_mirror"
 #: Rank of each top-level module or package of lathe_mirror, in the order of the data flow.
 RANKS = {
     "errors": 0, "inputs": 0, "enums": 0, "progress": 0, "version": 0,
-    "compute": 0.5,
-    "design": 1, "design_table": 1.5,
+    "declared": 0.2,
+    "compute": 0.5, "results": 0.5,
+    "design": 1, "cut_surface": 1.2, "design_table": 1.5,
     "path": 2, "profile": 2, "sheet": 2,
     "lathe": 3,
     "toolpath": 4,

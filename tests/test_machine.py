@@ -44,7 +44,7 @@ def test_lattice_arithmetic():
     ({"travel_z_min": 1.0}, "travel_z_min"),
     ({"spindle_max_rpm": 0}, "machine.spindle_max_rpm"),
     # a G-code word carries 4 decimals: finer or odd steps cannot be written exactly
-    ({"resolution": 1e-7}, "allowed a multiple of 0.0001 mm"),
+    ({"resolution": 1e-7}, "a multiple of 0.0001 mm"),
     ({"resolution": 0.00333}, "allowed a multiple of 0.0001 mm"),
     ({"resolution": 0.2}, "machine.resolution = 0.2"),
 ])

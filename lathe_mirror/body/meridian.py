@@ -20,6 +20,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from ..declared import check as check_declared, key as declared_key
 from ..design import Lobe, Mirror
 from ..enums import Mount, StepSchema
 from ..errors import InputError
@@ -178,6 +179,12 @@ class BodySpec:
     mount_depth: float = 6.0
     min_wall: float = 2.0
 
+    def __post_init__(self) -> None:
+        # Each length within its key's declaration (cad.<field>): the line load() gives;
+        # what the mirror asks of them (close_body) is checked with the mirror.
+        for name in ("blank_diameter", "thickness", "mount_diameter", "mount_depth", "min_wall"):
+            check_declared(f"cad.{name}", getattr(self, name))
+
 
 @dataclass(frozen=True)
 class Meridian:
@@ -214,16 +221,13 @@ class Meridian:
 #: Allowed STL tolerances (mm). Finer than 0.001 mm the mesh passes 0.24 M triangles
 #: (12 MB, growing as 1 / tolerance: viewers and slicers suffer); coarser than 1 mm the
 #: facets no longer resolve the 1.8 mm step between the lobes.
-STL_TOLERANCE_RANGE = (0.001, 1.0)
+STL_TOLERANCE_RANGE = (declared_key("cad.stl_tolerance").lo, declared_key("cad.stl_tolerance").hi)
 
 
 def check_stl_tolerance(tolerance: Any, key: str = "cad.stl_tolerance") -> float:
-    """The tolerance (mm) as a float if within STL_TOLERANCE_RANGE (InputError naming
-    `key` otherwise)."""
-    lo, hi = STL_TOLERANCE_RANGE
-    ok = isinstance(tolerance, (int, float)) and not isinstance(tolerance, bool)
-    if not (ok and lo <= tolerance <= hi):
-        raise InputError(f"{key} = {tolerance!r} mm: allowed {lo:g} to {hi:g} mm")
+    """The tolerance (mm) as a float if within cad.stl_tolerance's declared range
+    (ConfigError naming `key` otherwise, the line load() gives)."""
+    check_declared("cad.stl_tolerance", tolerance, where=key)
     return float(tolerance)
 
 

@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     tp = check_program(settings, mirror, strategy)
     nominal = machine(tp)
     meas = measure(args.file, mirror, nominal, settings.tool.nose_radius, fmt=args.format,
-                   options=FitOptions(), resolution_mm=settings.machine.resolution)
+                   options=FitOptions(), resolution_mm=settings.machine.resolution, toolpath=tp)
     comp = compensation(meas, tp, nominal, program_target(settings, mirror),
                         resolution_mm=settings.machine.resolution, gain=gain)
     tool = dataclasses.replace(settings.tool, nose_radius=round(comp.nose_radius_mm, 3))  # as a tool table takes it

@@ -18,7 +18,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         ".dat/.datx; the areal formats surfalize reads), fit it against the design (decentre, tilt, "
         "piston; R and k with --fit-conic), report per lobe over its clear aperture the residual's PV, RMS "
         "and slope RMS, and the lathe's set-up errors (tool centre height, X offset, nose radius, "
-        "squareness) as corrections. The trace is in the machine frame, the part face up.")
+        "squareness; backlash where the program's finishing moves reverse X, else why the part cannot show it) "
+        "as corrections. The trace is in the machine frame, the part face up.")
     p.add_argument("file", metavar="FILE", help="the measured profile or map")
     add_common(p, output_help="directory for measure.json and measured_minus_design.png")
     p.add_argument("--format", metavar="FMT", default=None,
@@ -44,7 +45,8 @@ def run(args: argparse.Namespace) -> int:
         check_outputs(args.output, list(OUTPUTS))
     tp = check_program(settings, mirror, strategy)
     result = measure(args.file, mirror, machine(tp), settings.tool.nose_radius, fmt=args.format,
-                     options=FitOptions(conic=args.fit_conic), resolution_mm=settings.machine.resolution)
+                     options=FitOptions(conic=args.fit_conic), resolution_mm=settings.machine.resolution,
+                     toolpath=tp)
     out = result.to_dict()
     out["form_tolerance"] = form_verdicts(settings, out["lobes"])
     if args.output:

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from .common import add_common, add_compute, add_no_progress, compute_options, load, print_json, use_compute
+
+if TYPE_CHECKING:
+    from ..report.analysis import ReportData
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -55,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(data.figures)
     else:
-        print(summary(data.figures, paths))
+        print(summary(data, paths))
     return 0
 
 
@@ -63,18 +67,20 @@ def run(args: argparse.Namespace) -> int:
 REPORT_FILES = ("report.json", "report.html")
 
 
-def summary(fig: dict, paths: dict) -> str:
+def summary(data: ReportData, paths: dict) -> str:
+    """The command's answer on the terminal: the polishing statement, the depth error at
+    DEPTH_REPORT_M, each toleranced program's verdict."""
+    from ..results.optics import DEPTH_REPORT_M
+
     lines = [f"report: {paths['html']} (figures: {paths['json']})",
-             fig["polishing"]["summary"]["statement"]]
-    at = fig["stereo"]["at_2_m"]
-    lines.append("depth error at 2 m (RMS / median over the band, each point capped at 100 %): " + ", ".join(
-        f"{k} {v['rms']:.3g} / {v['median']:.3g} % ({v['failed']} of {v['points']} points failed)"
-        for k, v in at.items()))
+             data.polishing.summary.statement]
+    lines.append(f"depth error at {DEPTH_REPORT_M:g} m (RMS / median over the band, each point capped at 100 %): "
+                 + ", ".join(f"{k} {v.rms:.3g} / {v.median:.3g} % ({v.failed} of {v.points} points failed)"
+                             for k, v in data.stereo.at.items()))
     from ..tolerance.stats import percent_interval
 
-    for name, v in fig.get("verdict", {}).items():
-        passed = round(v["yield"] * v["trials"])
-        lines.append(f"{name} program: nominal {'PASS' if v['nominal_pass'] else 'FAIL'}, "
-                     f"yield {percent_interval(passed, v['trials'])}"
-                     + (f"; {v['allocation']}" if "allocation" in v else ""))
+    for name, v in (data.verdict or {}).items():
+        lines.append(f"{name} program: nominal {'PASS' if v.nominal_pass else 'FAIL'}, "
+                     f"yield {percent_interval(v.passed_trials, v.trials)}"
+                     + (f"; {v.allocation}" if v.allocation is not None else ""))
     return "\n".join(lines)

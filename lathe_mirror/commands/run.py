@@ -99,12 +99,12 @@ def run(args: argparse.Namespace) -> int:
         data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render,
                               alongside=programs_and_cad)
     programs, cad, calib = written["gcode"], written["cad"], written["calib"]
-    data.figures["shop"] = [{"name": shop.program.name, "setup_sheet": f"{shop.program.name}.setup.html",
-                             **shop.simulation.figures(),
-                             **({"second_setup": {"name": shop.second.name, **shop.second_simulation.figures()}}
-                                if shop.second is not None else {})} for shop in shops]
-    data.figures["outputs"] = {kind: [{"path": str(p), "sha256": _sha256(p)} for p in paths]
-                               for kind, paths in (("gcode", programs), ("cad", cad), ("calib", calib))}
+    data.shop = [{"name": shop.program.name, "setup_sheet": f"{shop.program.name}.setup.html",
+                  **shop.simulation.figures(),
+                  **({"second_setup": {"name": shop.second.name, **shop.second_simulation.figures()}}
+                     if shop.second is not None else {})} for shop in shops]
+    data.outputs = {kind: [{"path": str(p), "sha256": _sha256(p)} for p in paths]
+                    for kind, paths in (("gcode", programs), ("cad", cad), ("calib", calib))}
     paths = write_report(data, out_dir)
     from ..iso10110 import spec_of
 
@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(data.figures)
     else:
-        print(summary(data.figures, paths))
+        print(summary(data, paths))
         print("programs: " + ", ".join(str(p) for p in programs))
         print("CAD: " + ", ".join(str(p) for p in cad))
         print("calibration: " + ", ".join(str(p) for p in calib))

@@ -16,7 +16,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "judged after what a calibration removes, a sensitivity table, each parameter's "
                        "inverse sensitivity and the yield against the spec, for each program in "
                        "tolerance.programs. --allocate: the least-cost tolerances that reach the target "
-                       "yield, confirmed by a fresh Monte Carlo.")
+                       "yield, confirmed by a fresh Monte Carlo. --surface measured:FILE: a part that exists, as "
+                       "measured: its verdict, and a Monte Carlo of its assembly alone.")
     add_common(p, output_help="directory for tolerance.json")
     p.add_argument("--trials", type=int, default=None, metavar="N", help=f"Monte Carlo trials ({help_default('tolerance.trials')})")
     p.add_argument("--seed", type=int, default=None, metavar="S", help=f"seed of every draw ({help_default('tolerance.seed')})")
@@ -28,6 +29,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--csv", metavar="FILE", default=None, type=path_arg,
                    help="write one row per trial (drawn parameters, every figure, pass flags) of every "
                    "Monte Carlo run, the allocation's confirming runs included; its directory must exist")
+    p.add_argument("--surface", metavar="measured:FILE", default=None,
+                   help="judge a part that exists: the measured part (measured:FILE, as `lathe-mirror measure` "
+                   "reads it; the design plus the fitted, axisymmetric residual), its nominal verdict over the "
+                   "zones every command uses and a Monte Carlo of its assembly only (camera pose, seat tilt): "
+                   "a made part has no machining tolerance left")
     add_compute(p, "the Monte Carlo trials, the sensitivity runs and the allocation's confirmations")
     add_no_progress(p)
     p.set_defaults(func=run)
@@ -47,6 +53,8 @@ def run(args: argparse.Namespace) -> int:
                            ("tolerance.target_yield", args.target_yield, "--target-yield")])
     use_compute(args, settings)
     mirror = design(settings)
+    if args.surface is not None:
+        return run_measured(args, settings, mirror)
     check_programs(settings, mirror)  # bad input stops here, before the output directory is made
     job = MachiningJob.from_settings(settings, mirror)  # the one machining job, each program a variant
     for program in settings.tolerance.programs:
@@ -66,7 +74,43 @@ def run(args: argparse.Namespace) -> int:
     times = {program: nominal_polish_time_s(settings, program, job=job) for program in settings.tolerance.programs}
     runs = tolerance_runs(mirror, settings, times, progress=not args.no_progress, job=job,
                           allocate=settings.tolerance.programs if args.allocate else ())
-    out = runs.figures
+    _write(args, runs.figures, runs.results)
+    return 0
+
+
+def run_measured(args: argparse.Namespace, settings, mirror) -> int:
+    """tolerance --surface measured:FILE (measure.tolerance): the file read and fitted
+    before any output is made (a bad file: one line, exit 2)."""
+    from ..enums import Surface
+    from ..errors import InputError
+    from ..measure.surface import measured_profile
+    from ..measure.tolerance import ENTRY, measured_tolerance
+    from .common import surface_arg
+
+    kind, path = surface_arg(args.surface)
+    if kind is not Surface.MEASURED:
+        raise InputError(f"--surface {args.surface!r}: tolerance takes measured:FILE (the programs' parts are "
+                         "toleranced without --surface)")
+    profile = measured_profile(path, mirror, nose_radius_mm=settings.tool.nose_radius)
+    if args.csv:
+        from ..export.files import check_writable
+        from .flags import check_suffix
+
+        check_suffix(args.csv, "CSV", "--csv")
+        check_writable(args.csv, "--csv")
+    if args.output:
+        from .common import check_outputs, output_dir
+
+        check_outputs(args.output, ["tolerance.json", f"monte_carlo_{ENTRY}.png"])
+        output_dir(args.output)
+    out, results = measured_tolerance(mirror, settings, profile, path, progress=not args.no_progress,
+                                      allocate=args.allocate)
+    _write(args, out, results)
+    return 0
+
+
+def _write(args: argparse.Namespace, out: dict, results: list) -> None:
+    """tolerance.json and the histograms (-o), the per-trial CSV (--csv), the figures."""
     if args.output:
         from pathlib import Path
 
@@ -79,12 +123,11 @@ def run(args: argparse.Namespace) -> int:
         from ..export.files import write_text
         from ..export.trials import trials_csv
 
-        write_text(args.csv, trials_csv(runs.results), "--csv")
+        write_text(args.csv, trials_csv(results), "--csv")
     if args.json:
         print_json(out)
     else:
         print(format_tolerance(out))
-    return 0
 
 
 def write_histograms(directory, out: dict) -> None:
@@ -97,7 +140,9 @@ def write_histograms(directory, out: dict) -> None:
         mc = t["monte_carlo"]
         write_bytes(directory / f"monte_carlo_{name}.png",
                     monte_carlo_histograms(mc["per_trial"], mc["limits"], calibrated=mc["calibrated"],
-                                           passed=mc["passed"], title=f"{name} program"))
+                                           passed=mc["passed"],
+                                           title=t["made_mirror"]["label"] if "measured_part" in out
+                                           else f"{name} program"))
 
 
 def format_tolerance(out: dict) -> str:
@@ -110,6 +155,9 @@ def format_tolerance(out: dict) -> str:
              f"{spec['image_displacement_px']:g} px per lobe, depth error <= {spec['depth_error_pct']:g} % at "
              f"{spec['depth_range_m']:g} m (as disparity, 90 % of the band), RMS slope error <= "
              f"{spec['slope_error_rad']:g} rad; {out['trials']} trials, seed {out['seed']}"]
+    if "measured_part" in out:
+        mp = out["measured_part"]
+        lines.append(f"judged: {mp['made_mirror']} ({mp['note']})")
     zn = next((t["monte_carlo"].get("zones") for t in out["programs"].values()), None)
     if zn is not None:
         from ..optics.zones import describe_dict
@@ -117,8 +165,9 @@ def format_tolerance(out: dict) -> str:
         lines.append(describe_dict(zn))
     for name, t in out["programs"].items():
         v, mc = t["verdict"], t["monte_carlo"]
-        lines.append(f"{name} program ({t['made_mirror']['label']} nominal): "
-                     f"nominal {'PASS' if v['nominal_pass'] else 'FAIL'}, yield "
+        what = t["made_mirror"]["label"] if "measured_part" in out else \
+            f"{name} program ({t['made_mirror']['label']} nominal)"
+        lines.append(f"{what}: nominal {'PASS' if v['nominal_pass'] else 'FAIL'}, yield "
                      f"{percent_interval(mc['passed'], mc['trials'])}")
         if "allocation" in t:
             lines.append(f"  {t['allocation']['statement']}")

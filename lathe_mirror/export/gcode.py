@@ -164,7 +164,7 @@ class _Writer:
         c(f"lathe-mirror {p.name}: double-lobed hyperbolic mirror, {self.dialect.value} dialect")
         c("work zero: Z0 at the mirror's vertex, part in -Z; X0 on the spindle axis; X = "
           + ("diameter" if lathe.diameter_mode else "radius") + "; mm")
-        for lobe in m.lobes:
+        for lobe in m.design.lobes:  # the designed constants (a cut target is not a hyperbola)
             c(f"design {lobe.name}: r_top {lobe.r_top:g} a {lobe.a:.4f} b {lobe.b:.4f} e {lobe.e:.4f} "
               f"2e (Table 1 c) {lobe.focus_z:.4f} h {lobe.h:.4f} mm alpha {math.degrees(lobe.alpha):.3f} deg")
         c(f"junction r {m.r_junction:g} mm, step {abs(m.step):.4f} mm, {m.recessed} lobe recessed")

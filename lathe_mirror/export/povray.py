@@ -121,8 +121,8 @@ def _mirror(profile: Profile, mirror: Mirror) -> list[str]:
     r_out0 = np.nextafter(rj, np.inf)
     zi_j, zo_j, z_rim = (float(profile.z(np.array(x))) for x in (rj, r_out0, r_max))
     out = []
-    if isinstance(profile, ExactProfile):
-        for k, lobe in enumerate(mirror.lobes):
+    if isinstance(profile, ExactProfile) and isinstance(profile.mirror, Mirror):  # a design: quadrics
+        for k, lobe in enumerate(profile.mirror.lobes):
             a2, b2, e = lobe.a**2, lobe.b**2, lobe.e
             # (y - e)^2 / a^2 - (x^2 + z^2) / b^2 - 1 = 0 in POV-Ray's frame.
             # quadric coefficients (1/mm^2, 1/mm, 1): 12 significant digits (export.numbers)

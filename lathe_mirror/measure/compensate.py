@@ -9,7 +9,7 @@
    the fit's spline) is subtracted from the program's target with a gain (GAIN: a smaller
    step than the whole error, since a measured residual carries the instrument's error
    too), along the normal by way of the planner: the target is each lobe's sheet less a
-   smooth offset (polishing.CompensatedLobe, as the polishing allowance is), and the
+   smooth offset (cut_surface.CompensatedLobe, as the polishing allowance is), and the
    planner offsets it by the nose as every program.
 3. A residual the lattice cannot express (its PV under the controller's increment) is not
    re-cut: turning cannot place the surface finer than the lattice; polish it instead.
@@ -17,10 +17,11 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
+from ..cut_surface import CompensatedLobe, CompensatedMirror
 from ..design import Mirror
 from ..machine_errors import machined_with_errors
 from ..profile import ExactProfile, Profile
@@ -46,7 +47,7 @@ class Compensation:
     residual_pv_um: dict
     residual_rms_um: dict
     recut: bool
-    target: Mirror | None
+    target: CompensatedMirror | None
     gain: float
     message: str
 
@@ -64,8 +65,6 @@ def compensation(meas: Measurement, toolpath, nominal: Profile, base_target: Mir
     the controller's increment."""
     from scipy.interpolate import make_lsq_spline
 
-    from ..polishing import CompensatedLobe
-
     fit, dg = meas.fit, meas.diagnosis
     m = fit.mirror
     exact = ExactProfile(m)
@@ -81,7 +80,7 @@ def compensation(meas: Measurement, toolpath, nominal: Profile, base_target: Mir
         splines.append(sp)
         if lf is not None:
             pv[lf.name], rms[lf.name] = lf.pv_um, lf.rms_um
-    setup = tuple(c for c in dg.corrections if not c.startswith(("nose radius:", "centre height: no", "X offset: none")))
+    setup = tuple(c for c in dg.corrections if not c.startswith(("nose radius:", "centre height: no", "X offset: none", "backlash:")))
     nose = dg.nose_radius_mm
     big = [n for n in pv if pv[n] * 1e-3 >= resolution_mm]
     if not big:
@@ -101,10 +100,9 @@ def compensation(meas: Measurement, toolpath, nominal: Profile, base_target: Mir
         n_in = max(int(round((hi - lo) / KNOT_MM)) - 1, 0)
         t = np.concatenate([[grid[0]] * 4, np.linspace(grid[0], grid[-1], n_in + 2)[1:-1], [grid[-1]] * 4])
         spline = make_lsq_spline(grid, off, t, k=3)
-        fields = {f: getattr(m.lobes[k], f) for f in ("name", "r_top", "r_pixel", "h", "a", "b", "e")}
-        lobes.append(CompensatedLobe(**fields, offset_knots=tuple(float(v) for v in spline.t),
+        lobes.append(CompensatedLobe(m.lobes[k], offset_knots=tuple(float(v) for v in spline.t),
                                      offset_coef=tuple(float(v) for v in spline.c)))
-    target = replace(m, inner=lobes[0], outer=lobes[1])
+    target = CompensatedMirror(m, lobes[0], lobes[1])
     msg = (f"re-cut with {gain:g} of the residual the set-up errors leave subtracted "
            f"({', '.join(f'{n} PV {pv[n]:.2f} um' for n in pv)}), smoothed over {fit.options.smooth_mm:g} mm")
     return Compensation(nose, setup, pv, rms, True, target, gain, msg)

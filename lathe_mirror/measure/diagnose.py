@@ -16,9 +16,10 @@ arcs, the nose's fillet), folded about the fitted axis. In it:
                         offset dr (cos t + sin t - 1) at the normal's angle t)
     squareness eps:     eps r
     a piston per lobe   (the fit's piston; the step's height)
-- backlash: a single-direction finishing pass (every program here) moves as a whole, so lost
-  motion shows only as part of the X offset; it is observable at a reversal of X within
-  the pass, which these programs do not have: reported as not observable.
+    backlash b:         -z'(r) b where the program cut r in +X (measure.backlash: only
+                        where the finishing moves reverse X over the trace; a pass all in
+                        +X moves as a whole, b is then part of the X offset; one all in -X
+                        is untouched by it)
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import numpy as np
 
 from ..machine_errors import MachineErrors
 from ..profile import ExactProfile, Profile
+from .backlash import directions_at, note, observability
 from .fit import TraceFit, design_z
 
 #: Radius (mm) about the axis searched for the centre pip.
@@ -58,19 +60,22 @@ class Diagnosis:
     sigma: dict
     corrections: tuple[str, ...]
     programmed_nose_mm: float
+    backlash_mm: float | None = None
+    backlash_state: str = "unknown"
 
     def errors(self) -> MachineErrors:
         """The machine errors found, as the simulation takes them."""
         return MachineErrors(centre_height_mm=self.centre_height_mm, x_offset_mm=self.x_offset_mm,
-                             nose_radius_error_mm=self.nose_radius_error_mm, squareness_rad=self.squareness_rad)
+                             nose_radius_error_mm=self.nose_radius_error_mm, squareness_rad=self.squareness_rad,
+                             backlash_mm=max(self.backlash_mm or 0.0, 0.0))
 
     def to_dict(self) -> dict:
         return {"nose_radius_error_mm": self.nose_radius_error_mm, "nose_radius_mm": self.nose_radius_mm,
                 "programmed_nose_radius_mm": self.programmed_nose_mm,
                 "centre_height_mm": self.centre_height_mm, "centre_pip": self.centre_pip,
                 "pip_height_um": self.pip_height_um, "x_offset_mm": self.x_offset_mm,
-                "squareness_rad": self.squareness_rad, "backlash_mm": None,
-                "backlash_note": "not observable: the finishing pass never reverses X (it would show as X offset)",
+                "squareness_rad": self.squareness_rad, "backlash_mm": self.backlash_mm,
+                "backlash": self.backlash_state, "backlash_note": note(self.backlash_state),
                 "sigma": self.sigma, "corrections": list(self.corrections)}
 
 
@@ -82,11 +87,12 @@ def nose_signature(slope: np.ndarray) -> np.ndarray:
 
 
 def diagnose(fit: TraceFit, nominal: Profile, programmed_nose_mm: float, *,
-             resolution_mm: float = 0.005) -> Diagnosis:
+             resolution_mm: float = 0.005, toolpath=None) -> Diagnosis:
     """The set-up errors in `fit` against the program's nominal as-machined surface
     `nominal` (camera frame) cut with a nose of programmed_nose_mm (module doc).
     resolution_mm: the controller's increment, below which a correction is not worth
-    entering."""
+    entering. toolpath: the program the part was cut with (its finishing moves' X
+    directions: the backlash; None: not judged)."""
     from scipy.optimize import least_squares
 
     m = fit.mirror
@@ -110,7 +116,12 @@ def diagnose(fit: TraceFit, nominal: Profile, programmed_nose_mm: float, *,
     if not np.any(~inner):
         cols = np.delete(cols, 1, axis=1)
     names = ["p_in", "p_out", "dx", "eps", "dr"] if np.any(~inner) else ["p_in", "dx", "eps", "dr"]
-    scale = np.array([1e-3 if n.startswith("p") or n in ("dx", "dr") else 1e-6 for n in names])
+    plus = None if toolpath is None else directions_at(toolpath, rs, slope) > 0
+    state = observability(plus)
+    if state == "fitted":  # the +X part moved in by b against the -X part
+        cols = np.concatenate([cols, (-slope * plus)[:, None]], axis=1)
+        names.append("bl")
+    scale = np.array([1e-3 if n.startswith("p") or n in ("dx", "dr", "bl") else 1e-6 for n in names])
     A = cols * scale
     q0 = np.linalg.lstsq(A, ds, rcond=None)[0]
     r0 = ds - A @ q0
@@ -133,20 +144,42 @@ def diagnose(fit: TraceFit, nominal: Profile, programmed_nose_mm: float, *,
     pist = [n for n in names if n.startswith("p")]
     form = ds - cols[:, :len(pist)] @ q[:len(pist)]
     total = float(np.sqrt(np.mean(form ** 2))) or 1e-12
-    share = {n: float(np.sqrt(np.mean((cols[:, names.index(n)] * got[n]) ** 2))) / total for n in ("dx", "dr", "eps")}
+    fitted = [n for n in ("dx", "dr", "eps", "bl") if n in names]
+    share = {n: float(np.sqrt(np.mean((cols[:, names.index(n)] * got[n]) ** 2))) / total for n in fitted}
     explained = 1.0 - float(np.sqrt(np.mean(res ** 2))) / total
     keep = {n: share[n] >= MIN_SHARE and explained >= MIN_EXPLAINED for n in share}
     dx, dr, eps = (dx if keep["dx"] else 0.0), (dr if keep["dr"] else 0.0), (eps if keep["eps"] else 0.0)
+    bl, sigma["backlash_mm"] = None, None
+    if "bl" in names:
+        bl = float(got["bl"]) if keep["bl"] else 0.0
+        sigma["backlash_mm"] = float(sd[names.index("bl")])
     sigma["explained_fraction"] = explained
-    sigma["share_of_residual"] = {"x_offset": share["dx"], "nose_radius_error": share["dr"], "squareness": share["eps"]}
+    sigma["share_of_residual"] = {"x_offset": share["dx"], "nose_radius_error": share["dr"], "squareness": share["eps"],
+                                  **({"backlash": share["bl"]} if "bl" in share else {})}
     corrections = _corrections(h, kind, dx, dr, eps, programmed_nose_mm, resolution_mm, sigma)
+    corrections.append(_backlash_line(bl, state, sigma, resolution_mm))
     if explained < MIN_EXPLAINED:
         corrections.append(f"the set-up signatures explain {100 * max(explained, 0):.0f} % of the residual: it is "
                            "the part's form (compensate or polish), not a set-up error")
     return Diagnosis(centre_height_mm=h if kind != "stub" else -h, centre_pip=kind, pip_height_um=H * 1e3,
                      x_offset_mm=dx, nose_radius_error_mm=dr, nose_radius_mm=programmed_nose_mm + dr,
                      squareness_rad=eps, sigma=sigma, corrections=tuple(corrections),
-                     programmed_nose_mm=programmed_nose_mm)
+                     programmed_nose_mm=programmed_nose_mm, backlash_mm=bl, backlash_state=state)
+
+
+def _backlash_line(bl: float | None, state: str, sigma: dict, res: float) -> str:
+    """The backlash's line: a correction when fitted and significant, else what the part
+    can and cannot tell (measure.backlash.note)."""
+    if state != "fitted":
+        return note(state)
+    lim = max(3 * sigma["backlash_mm"], res / 2)
+    if bl is not None and abs(bl) >= lim:
+        if bl < 0:
+            return (f"backlash {bl:+.4f} mm (+/- {sigma['backlash_mm']:.2g}): the +X moves land past the -X "
+                    "ones, not short: the zero was not set approaching in -X; re-set it so")
+        return (f"backlash {bl:.4f} mm (+/- {sigma['backlash_mm']:.2g}): enter it in the controller's backlash "
+                "compensation (LinuxCNC [JOINT_0]BACKLASH, Fanuc parameter 1851)")
+    return f"backlash: none beyond +/- {lim:.4f} mm (the finishing moves reverse X: fitted {bl or 0.0:+.4f} mm)"
 
 
 def centre_pip(fit: TraceFit) -> tuple[float, str | None, float]:

@@ -24,7 +24,6 @@ carry the depth error.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -36,6 +35,7 @@ from ..finish import Process
 from ..polishing import LapPlan, PolishParams, lap_plan, polish_series
 from ..profile import LobeSamples, Profile, SampledProfile
 from ..progress import bar as progress_bar
+from ..toolpath.metrics import slope_error
 
 #: Width (px) of the image-radius bins over which the curve evaluates the image figures: a
 #: facet of the paper program images ~1 px wide, so ten samples per pixel resolve it, at a
@@ -122,7 +122,7 @@ def clear_surface_errors(profile: Profile, mirror: Mirror, *, edge_mm: float = 0
     for k, lobe in enumerate(mirror.lobes):
         r = _radii(*clear_aperture(mirror, k, edge_mm), n, k)
         s_exact = lobe.slope(r)
-        slope = np.abs(np.arctan(profile.slope(r)) - np.arctan(s_exact))
+        slope = np.abs(slope_error(profile.slope(r), s_exact))
         dev = np.abs(profile.z(r) - lobe.z(r)) / np.hypot(1.0, s_exact)
         out.append({"name": lobe.name,
                     "slope_error_rad": {"rms": float(np.sqrt(np.mean(slope**2))), "max": float(np.max(slope))},
@@ -227,7 +227,7 @@ def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams,
     params.objective_range_m (m).
     """
     from .calibrated_stereo import calibrated_depth_error, fit_calibration
-    from .radial import lobe_pixel_radii, radial_displacement, trace_lobe
+    from .radial import lobe_pixel_radii, pooled_rms, radial_displacement, trace_lobe, weighted_stats
     from .scatter import haze_figures, lobe_geometry
     from .stereo import band_elevations, depth_error_curve
 
@@ -261,31 +261,27 @@ def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams,
             haze = haze_figures(mirror, process, removal_mm=lambda k, r, t=t: plan.rate(k, r) * t,
                                 compliance_mm=params.compliance_mm, wavelength_mm=params.wavelength_mm,
                                 geometry=geometry)
-        sq = cnt = slope_sq = 0.0
-        disp = []
+        disp, pooled_disp, pooled_slope = [], [], []
         for k in (0, 1):
             d = radial_displacement(prof, mirror, k, px[k].radius_px)
             disp.append(d)
             w = px[k].count
-            ok = np.isfinite(d)
-            sq += float(np.sum(w[ok] * d[ok] ** 2))
-            cnt += float(np.sum(w[ok]))
+            shown = weighted_stats(d, w)  # over the pixels the made lobe still images
+            pooled_disp.append((shown["rms"], float(np.sum(w[np.isfinite(d)]))))
             lo_c, hi_c = clear_aperture(mirror, k, edge)
-            slope_sq += surf["lobes"][k]["slope_error_rad"]["rms"] ** 2 * (hi_c - lo_c)
+            pooled_slope.append((surf["lobes"][k]["slope_error_rad"]["rms"], hi_c - lo_c))
             figs = {"slope_error_rad": surf["lobes"][k]["slope_error_rad"],
                     "normal_deviation_mm": surf["lobes"][k]["normal_deviation_mm"],
                     "form_change_mm": form["lobes"][k]["form_change_mm"],
-                    "image_displacement_px": {"rms": float(np.sqrt(np.sum(w[ok] * d[ok] ** 2) / np.sum(w[ok]))),
-                                              "max": float(np.max(np.abs(d[ok])))}}
+                    "image_displacement_px": shown}
             if haze is not None:
                 figs.update({key: haze["lobes"][k][key] for key in ("roughness_nm", "tis", "haze")})
             for key in keys:
                 slot = lobes[k].setdefault(key, {s: [] for s in figs[key]})
                 for s, v in figs[key].items():
                     slot[s].append(v)
-        span = sum(hi - lo for lo, hi in (clear_aperture(mirror, k, edge) for k in (0, 1)))
-        combined["image_displacement_px"].append(math.sqrt(sq / cnt))
-        combined["slope_error_rad"].append(math.sqrt(slope_sq / span))
+        combined["image_displacement_px"].append(pooled_rms(pooled_disp))
+        combined["slope_error_rad"].append(pooled_rms(pooled_slope))
         cal = fit_calibration(prof, mirror, params.calibration_knot_px, displacements=[
             (px[k].radius_px[in_clear[k]], px[k].count[in_clear[k]], disp[k][in_clear[k]]) for k in (0, 1)])
         combined["stereo_residual_pct"].append(

@@ -75,7 +75,9 @@ def _lobe_table(profile: Profile, k: int, nb_max: int = 512) -> LobeTable:
     lo, hi = profile.lobe_range(k)
     if k == 1:
         lo = float(np.nextafter(lo, np.inf))
-    exact = profile.mirror.lobes[k] if isinstance(profile, ExactProfile) else None
+    # the closed form only for a design lobe (a pre-compensated target's sheet is not a hyperbola)
+    sheet = profile.mirror.lobes[k] if isinstance(profile, ExactProfile) else None
+    exact = sheet if isinstance(sheet, Lobe) else None
     verts = None if exact is not None else polyline_vertices(profile, k)
     vr = vz = None
     if verts is not None:

@@ -152,8 +152,8 @@ def meridian_hits(profile: Profile, t: np.ndarray) -> MeridianHits:
 
 def _meridian_root(profile: Profile, t: np.ndarray, k: int) -> np.ndarray:
     """Radius (mm) where rays r = t z meet lobe k of the profile (the root exists)."""
-    if isinstance(profile, ExactProfile):
-        lobe = profile.mirror.lobes[k]
+    lobe = profile.mirror.lobes[k] if isinstance(profile, ExactProfile) else None
+    if isinstance(lobe, Lobe):  # a design lobe: closed form (a compensated sheet is not a hyperbola)
         return t * _sheet_height(lobe, t)
     vertices = polyline_vertices(profile, k)
     if vertices is not None:

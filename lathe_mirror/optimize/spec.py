@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, field
 from enum import Enum
 
+from ..declared import check as check_declared
 from ..errors import InputError
 
 #: Names of the searched parameters, in the order of a design vector (see search.py).
@@ -127,34 +128,19 @@ class OptimizeSettings:
     search: SearchSpace = field(default_factory=SearchSpace)
 
     def __post_init__(self) -> None:
-        _int_in("optimize.seed", self.seed, 0, 2**32 - 1)
-        _int_in("optimize.workers", self.workers, 1, MAX_WORKERS)
-        _int_in("optimize.popsize", self.popsize, 5, MAX_POPSIZE)
-        _int_in("optimize.maxiter", self.maxiter, 1, MAX_GENERATIONS)
-        if not (math.isfinite(self.tol) and 0.0 < self.tol < 1.0):
-            raise InputError(f"optimize.tol = {self.tol!r}: allowed 0 < tol < 1")
-        if not (math.isfinite(self.r_max_mm) and 0.0 < self.r_max_mm <= 10000.0):
-            raise InputError(f"optimize.r_max_mm = {self.r_max_mm!r} mm: allowed > 0 and <= 10000 mm")
-        if not (math.isfinite(self.vertex_min_mm) and self.vertex_min_mm > 0.0):
-            raise InputError(f"optimize.vertex_min_mm = {self.vertex_min_mm!r} mm: must be > 0 (the "
-                             "vertex lies above the pinhole)")
-        if not (math.isfinite(self.rim_max_mm) and self.rim_max_mm > self.vertex_min_mm):
+        # Each field within its key's declaration (optimize.<field>): the line load() gives.
+        for name in ("seed", "workers", "popsize", "maxiter", "tol", "r_max_mm", "vertex_min_mm", "rim_max_mm",
+                     "band_deg", "band_width_min_deg", "rim_margin_px", "usable_min", "blur_max_px",
+                     "focus_range_m", "max_diameter_mm", "max_depth_mm", "blur_limit_um", "bound_margin"):
+            check_declared(f"optimize.{name}", getattr(self, name))
+        # What the ranges do not say (each key's `depends`):
+        if not self.rim_max_mm > self.vertex_min_mm:
             raise InputError(f"optimize.rim_max_mm = {self.rim_max_mm!r} mm: must exceed "
                              f"optimize.vertex_min_mm = {self.vertex_min_mm:g} mm")
         lo, hi = self.band_deg
-        if not (math.isfinite(lo) and math.isfinite(hi) and -90.0 <= lo < hi <= 90.0):
+        if not lo < hi:
             raise InputError(f"optimize.band_deg = [{lo!r}, {hi!r}]: need lowest < highest elevation, "
                              "within -90 .. 90 deg")
-        if not (math.isfinite(self.band_width_min_deg) and 0.0 <= self.band_width_min_deg < 180.0):
-            raise InputError(f"optimize.band_width_min_deg = {self.band_width_min_deg!r}: allowed 0 .. 180 deg")
-        if not (math.isfinite(self.rim_margin_px) and self.rim_margin_px >= 0.0):
-            raise InputError(f"optimize.rim_margin_px = {self.rim_margin_px!r} px: must be >= 0")
-        if not (math.isfinite(self.usable_min) and 0.0 <= self.usable_min <= 1.0):
-            raise InputError(f"optimize.usable_min = {self.usable_min!r}: a share, allowed 0 .. 1")
-        if not (math.isfinite(self.blur_max_px) and self.blur_max_px > 0.0):
-            raise InputError(f"optimize.blur_max_px = {self.blur_max_px!r} px: must be > 0")
-        if not (math.isfinite(self.focus_range_m) and 0.05 <= self.focus_range_m <= 1e6):
-            raise InputError(f"optimize.focus_range_m = {self.focus_range_m!r} m: allowed 0.05 .. 1e6 m")
 
     @property
     def band(self) -> tuple[float, float]:
@@ -202,8 +188,3 @@ class OptimizeSettings:
             top = hi if name in ENVELOPE_FRACTIONS and hi >= 1.0 else hi - m
             out.append((lo + m, top))
         return out
-
-
-def _int_in(key: str, value: int, lo: int, hi: int) -> None:
-    if isinstance(value, bool) or int(value) != value or not lo <= value <= hi:
-        raise InputError(f"{key} = {value!r}: allowed an integer {lo} .. {hi}")

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..enums import Dwell, Lap, PolishObjective
+from ..declared import check as check_declared
 from ..errors import InputError
 from ..finish import DEFAULT_PROCESSES, Process
 
@@ -38,6 +39,12 @@ COMPENSATION_ITERATIONS = 2
 #: The first polishing model's process (a lap held still over the whole lobe, the part at
 #: 300 rev/min, 20 kPa), for comparison: dataclasses.replace(params, **FIRST_MODEL).
 FIRST_MODEL = {"lap": Lap.FIXED, "spindle_rpm": 300.0, "pressure_kpa": 20.0, "step_edge_mm": 0.0}
+
+#: The fields declared as keys of their own name, polish.<field> (lathe_mirror.declared).
+DECLARED = ("preston_coefficient", "pressure_kpa", "pad_size_mm", "compliance_mm", "spindle_rpm", "lap_radius_mm",
+            "lap_rpm", "stroke_mm", "overhang", "stroke_points", "time_s", "grid_step_mm", "curve_max_s",
+            "curve_points", "form_degree", "corner_mm", "step_edge_mm", "clear_edge_mm", "objective_range_m",
+            "objective_tolerance", "calibration_knot_px", "wavelength_nm")
 
 
 @dataclass(frozen=True)
@@ -102,39 +109,9 @@ class PolishParams:
     processes: tuple[Process, ...] = field(default=DEFAULT_PROCESSES)
 
     def __post_init__(self) -> None:
-        for key in ("preston_coefficient", "pressure_kpa", "pad_size_mm", "compliance_mm",
-                    "spindle_rpm", "grid_step_mm", "curve_max_s", "lap_radius_mm", "stroke_mm", "wavelength_nm",
-                    "objective_range_m"):
-            v = getattr(self, key)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise InputError(f"polish.{key} = {v!r} must be a finite number > 0")
-        if not (math.isfinite(self.lap_rpm) and abs(self.lap_rpm) <= 1e5):
-            raise InputError(f"polish.lap_rpm = {self.lap_rpm!r} must be a finite number of rev/min "
-                             "(negative: against the part), |lap_rpm| <= 100000")
-        if not (math.isfinite(self.overhang) and 0 <= self.overhang <= 0.5):
-            raise InputError(f"polish.overhang = {self.overhang!r} must be 0 .. 0.5 (of the lap's radius)")
-        if not 2 <= self.stroke_points <= 200:
-            raise InputError(f"polish.stroke_points = {self.stroke_points} must be 2 .. 200")
-        for key in ("corner_mm", "step_edge_mm", "clear_edge_mm"):
-            v = getattr(self, key)
-            if not (math.isfinite(v) and 0 <= v <= 5):
-                raise InputError(f"polish.{key} = {v!r} must be 0 .. 5 mm")
-        if not (math.isfinite(self.time_s) and self.time_s >= 0):
-            raise InputError(f"polish.time_s = {self.time_s!r} must be a finite number >= 0 s")
-        # Each point of the curve keeps its polished surface (~0.1 MB on the default grid).
-        if not 3 <= self.curve_points <= 1000:
-            raise InputError(f"polish.curve_points = {self.curve_points} must be 3 .. 1000")
-        if self.grid_step_mm < 0.0005:
-            raise InputError(f"polish.grid_step_mm = {self.grid_step_mm:g} mm must be at least 0.0005 mm "
-                             f"(70 000 points over 35 mm; the cost grows linearly as it shrinks)")
-        if not 0 <= self.form_degree <= 12:
-            raise InputError(f"polish.form_degree = {self.form_degree} must be 0..12")
-        if not (math.isfinite(self.calibration_knot_px) and 4 <= self.calibration_knot_px <= 500):
-            raise InputError(f"polish.calibration_knot_px = {self.calibration_knot_px!r} must be 4 .. 500 px")
-        if not (math.isfinite(self.objective_tolerance) and 0 <= self.objective_tolerance <= 1):
-            raise InputError(f"polish.objective_tolerance = {self.objective_tolerance!r} must be 0 .. 1")
-        if not 0.2 <= self.objective_range_m <= 100:
-            raise InputError(f"polish.objective_range_m = {self.objective_range_m!r} must be 0.2 .. 100 m")
+        # Each field within its key's declaration (polish.<field>): the line load() gives.
+        for name in DECLARED:
+            check_declared(f"polish.{name}", getattr(self, name))
         if self.grid_step_mm * 8 > self.pad_size_mm:
             raise InputError(
                 f"polish.grid_step_mm = {self.grid_step_mm:g} mm must be at most pad_size_mm / 8 "

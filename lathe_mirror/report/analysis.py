@@ -22,13 +22,23 @@ from ..optics.ranging.truth import true_range
 from ..optics.render import image_difference, render_image
 from ..path import Arc, Line
 from ..profile import ExactProfile, Profile
+from ..results.base import Range, Stat, plain
+from ..results.design import DesignFigures
+from ..results.made import (LobeFigures, MachineFigures, MadeMirror, MirrorFigures, Moves, PixelFigures,
+                            SurfaceErrors, ToolFigures, ToolpathFigures, ZoneFigures)
+from ..results.optics import DEPTH_REPORT_M  # noqa: F401 (re-exported: the report's range)
+from ..results.optics import (CalibrationFigures, ErrorCurve, ImageDifference, RangeFigures, RangingFigures,
+                              RenderFigures, ResolutionTable, StereoFigures)
+from ..results.polishing import PolishingStudy
+from ..results.tolerance import ToleranceAnalysis, Verdict
 from ..toolpath import profile_errors
 
 if TYPE_CHECKING:
+    from ..iso10110 import PartSpec
     from ..settings import Settings
 
-#: The range (m) at which the report states the depth error of every mirror.
-DEPTH_REPORT_M = 2.0
+#: report.json's schema
+SCHEMA = "lathe-mirror report 1"
 #: The mirrors compared throughout the report, in order.
 MIRRORS = ("exact", "paper", "best", "polished")
 #: Ranges (m) and elevations (deg) of the report's resolution table.
@@ -36,26 +46,84 @@ RESOLUTION_RANGES_M = (0.5, 1.0, 1.5, 2.0, 3.0)
 RESOLUTION_ELEVATIONS_DEG = (-20.0, -10.0, 0.0)
 
 
+@dataclass(frozen=True, slots=True)
+class ReportCurves:
+    """The curves the plots draw (arrays, not in the JSON): each made mirror's height error
+    along the meridian (r mm, dz mm; `used` marks the radii the image uses) and its radial
+    image displacement against image radius (rho px, d px; NaN breaks the line)."""
+
+    profile_error: dict[str, tuple[np.ndarray, np.ndarray]]
+    used: np.ndarray
+    r_junction: float
+    displacement: dict[str, tuple[np.ndarray, np.ndarray]]
+    lost_ring_px: tuple[float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class RangeMaps:
+    """Each mirror's range map (m; NaN where not ranged) over the common band (deg)."""
+
+    maps: dict[str, np.ndarray]
+    band_deg: tuple[float, float]
+
+
 @dataclass
 class ReportData:
-    """What the report shows: JSON-ready figures, the profiles compared (camera frame),
-    renders (arrays) and plots (PNG bytes, filled by report.plots)."""
+    """What the report shows: each stage's typed result (lathe_mirror.results; `figures`
+    is their JSON, the report.json), the profiles compared (camera frame), renders
+    (arrays) and plots (PNG bytes, filled by report.plots). None: a stage not run."""
 
-    figures: dict[str, Any]
+    design: DesignFigures
+    notes: tuple[str, ...] = ()
+    spec: PartSpec | None = None
+    machine: MachineFigures | None = None
+    toolpaths: tuple[ToolpathFigures, ...] | None = None
+    polishing: PolishingStudy | None = None
+    zones: ZoneFigures | None = None
+    mirrors: dict[str, MirrorFigures] | None = None
+    made_mirror: MadeMirror | None = None
+    calibration: CalibrationFigures | None = None
+    stereo: StereoFigures | None = None
+    renders: RenderFigures | None = None
+    ranging: RangingFigures | None = None
+    tolerance: ToleranceAnalysis | None = None
+    #: `lathe-mirror run`'s additions: the programs simulated against the stock, the files written
+    shop: list[dict[str, Any]] | None = None
+    outputs: dict[str, Any] | None = None
     made: dict[str, Profile] = dataclasses.field(default_factory=dict)
     images: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
-    curves: dict[str, Any] = dataclasses.field(default_factory=dict)
+    curves: ReportCurves | None = None
+    range_maps: RangeMaps | None = None
     plots: dict[str, bytes] = dataclasses.field(default_factory=dict)
 
+    #: report.json's sections, in order (None: not computed, left out)
+    SECTIONS = ("notes", "design", "spec", "machine", "toolpaths", "polishing", "zones", "mirrors", "made_mirror",
+                "calibration", "stereo", "renders", "ranging", "tolerance", "verdict", "shop", "outputs")
 
-def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> dict:
+    @property
+    def verdict(self) -> dict[str, Verdict] | None:
+        """Each toleranced program's verdict (the tolerance analysis's)."""
+        return None if self.tolerance is None else self.tolerance.verdicts
+
+    @property
+    def figures(self) -> dict[str, Any]:
+        """Every figure, JSON-ready (report.json): each result's to_dict()."""
+        out: dict[str, Any] = {"schema": SCHEMA}
+        for name in self.SECTIONS:
+            v = getattr(self, name)
+            if v is not None:
+                out[name] = plain(v)
+        return out
+
+
+def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> MirrorFigures:
     """The five figures per lobe (ARCHITECTURE.md), surface and optics.
 
     Surface figures: toolpath.profile_errors. Optical figures: over the pixels each lobe
     images unobstructed on the exact design (optics.radial: every pixel centre, aligned
     camera; equal to optics.distortion's per-pixel figures over the usable annulus, which
     the tests check); those per-pixel figures (with the pixels the step wall vignettes
-    counted too under "with_vignetted") are kept alongside under "optics_distortion".
+    counted too under "with_vignetted") are kept alongside (`optics_distortion`).
     zones (optics.zones.Zones): the optical figures over each lobe's used zone (the ring
     the nose cannot reach left out), its image radii under "zone_px".
     """
@@ -64,18 +132,19 @@ def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> dict:
     full = image_displacement(profile, mirror).figures(zones)  # over the same zones as the radial figures
     lobes = []
     for s, o, f in zip(surf["lobes"], rad["lobes"], full["lobes"]):
-        lobes.append({"name": s["name"], "slope_error_rad": s["slope_error_rad"],
-                      "normal_deviation_mm": s["normal_deviation_mm"],
-                      "ray_deviation_deg": o["ray_deviation_deg"],
-                      "image_displacement_px": o["image_displacement_px"],
-                      "viewpoint_spread_mm": o["viewpoint_spread_mm"],
-                      "pixels": o["pixels"], "pixels_excluded": o["pixels_excluded"],
-                      **({"zone_px": o["zone_px"]} if "zone_px" in o else {}),
-                      "optics_distortion": f})
-    return {"lobes": lobes}
+        lobes.append(LobeFigures(
+            name=s["name"], slope_error_rad=Stat.from_dict(s["slope_error_rad"]),
+            normal_deviation_mm=Stat.from_dict(s["normal_deviation_mm"]),
+            ray_deviation_deg=Stat.from_dict(o["ray_deviation_deg"]),
+            image_displacement_px=Stat.from_dict(o["image_displacement_px"]),
+            viewpoint_spread_mm=Stat.from_dict(o["viewpoint_spread_mm"]),
+            pixels=o["pixels"], pixels_excluded=o["pixels_excluded"],
+            zone_px=Range.from_dict(o["zone_px"]) if "zone_px" in o else None,
+            optics_distortion=PixelFigures.from_dict(f)))
+    return MirrorFigures(lobes=tuple(lobes))
 
 
-def report_curves(made: dict[str, Profile], mirror: Mirror) -> dict[str, Any]:
+def report_curves(made: dict[str, Profile], mirror: Mirror) -> ReportCurves:
     """The report's curves as arrays: each made mirror's height error along the meridian
     (mm; r mm; `used` marks the radii the image uses) and its radial image displacement
     against image radius (px; NaN breaks the line where a lobe has no usable pixel)."""
@@ -97,8 +166,8 @@ def report_curves(made: dict[str, Profile], mirror: Mirror) -> dict[str, Any]:
             rho += [r_k, [np.nan]]
             d += [d_k, [np.nan]]
         displacement[name] = (np.concatenate(rho), np.concatenate(d))
-    return {"profile_error": profile_error, "used": used, "r_junction": mirror.r_junction,
-            "displacement": displacement, "lost_ring_px": tuple(mirror.image_radii_px["lost_ring"])}
+    return ReportCurves(profile_error=profile_error, used=used, r_junction=mirror.r_junction,
+                        displacement=displacement, lost_ring_px=tuple(mirror.image_radii_px["lost_ring"]))
 
 
 def strategy_table(job: MachiningJob):
@@ -106,24 +175,25 @@ def strategy_table(job: MachiningJob):
     polish.precompensate the programs' parts); machine/tool table; toolpath figures per strategy."""
     mirror = job.mirror
     lathe, tool = job.lathe, job.tool
-    machine_table = {"lathe": dict(lathe.__dict__),
-                     "tool": {"nose_radius": tool.nose_radius,
-                              "included_angle_deg": math.degrees(tool.included_angle),
-                              "approach_angle_deg": math.degrees(tool.approach_angle)}}
+    machine_table = MachineFigures(lathe=dict(lathe.__dict__),
+                                   tool=ToolFigures(nose_radius=tool.nose_radius,
+                                                    included_angle_deg=math.degrees(tool.included_angle),
+                                                    approach_angle_deg=math.degrees(tool.approach_angle)))
     made, table = {}, []
     for strategy in Strategy:
         m = job.but(strategy=strategy).made()
         tp = m.toolpath
-        table.append({"strategy": strategy.value, "best": strategy is BEST, "n_points": int(tp.n_points),
-                      "moves": {"G1": sum(1 for s in tp.segments if isinstance(s, Line)),
-                                "G2/G3": sum(1 for s in tp.segments if isinstance(s, Arc))},
-                      "programmed": profile_errors(contour_profile(tp), mirror),
-                      "as_machined": profile_errors(m.profile, mirror)})
+        table.append(ToolpathFigures(
+            strategy=strategy.value, best=strategy is BEST, n_points=int(tp.n_points),
+            moves=Moves(g1=sum(1 for s in tp.segments if isinstance(s, Line)),
+                        g2_g3=sum(1 for s in tp.segments if isinstance(s, Arc))),
+            programmed=SurfaceErrors.from_dict(profile_errors(contour_profile(tp), mirror)),
+            as_machined=SurfaceErrors.from_dict(profile_errors(m.profile, mirror))))
         if strategy is Strategy.PAPER:
             made["paper"] = m.profile
         if strategy is BEST:
             made["best"] = m.profile
-    return made, machine_table, table
+    return made, machine_table, tuple(table)
 
 
 def render_mirrors(made: dict, mirror: Mirror, settings: Settings):
@@ -133,11 +203,12 @@ def render_mirrors(made: dict, mirror: Mirror, settings: Settings):
     # Over the lobes' usable annuli, as `lathe-mirror render` states it (the one definition):
     # the step-vignetted band and the frame outside the mirror only dilute the difference.
     mask = usable_annulus(mirror)
-    stats = {name: image_difference(images["exact"], images[name], mask=mask) for name in MIRRORS if name != "exact"}
-    return images, {"against_exact": stats}
+    stats = {name: ImageDifference.from_dict(image_difference(images["exact"], images[name], mask=mask))
+             for name in MIRRORS if name != "exact"}
+    return images, RenderFigures(against_exact=stats)
 
 
-def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings) -> tuple[dict, dict]:
+def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings) -> tuple[RangingFigures, RangeMaps]:
     """Range from the image for each of MIRRORS (optics.ranging, the [stereo] settings,
     aligned camera): figures per mirror against the room's true range, the resolution
     table at the exact mirror's achieved disparity precision, and the range maps (m,
@@ -152,23 +223,23 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
     for name in MIRRORS:  # exact first: its disparity error is the matcher's precision
         image = render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask)
         result = stereo_range(image, mirror, st.params)
-        fig = range_figures(result, truth, mirror, precision_px=None if name == "exact" else precision)
+        fig = RangeFigures.from_dict(range_figures(result, truth, mirror,
+                                                   precision_px=None if name == "exact" else precision))
         if name == "exact":
-            precision = fig["disparity_error_px"]["precision"]
-        fig["error_curve"] = {**error_curve(result, truth, mirror, precision), "precision_px": precision}
-        mirrors[name] = fig
+            precision = fig.disparity_error_px.precision
+        curve = ErrorCurve.from_dict({**error_curve(result, truth, mirror, precision), "precision_px": precision})
+        mirrors[name] = dataclasses.replace(fig, error_curve=curve)
         maps[name] = result.range_map.range_mm / 1e3
     table = resolution_table(mirror, RESOLUTION_RANGES_M, RESOLUTION_ELEVATIONS_DEG, precision * grid.step)
-    figures = {
-        "definition": "range error = 100 (R - R_true) / R_true, R from the stereo centre triangulated from "
-                      "StereoSGBM disparities of the two lobes' panoramas (rendered at supersample "
-                      f"{st.supersample}), R_true the room along the outer lobe's pixel ray; over the common "
-                      "band's pixels with a range (valid_fraction of them)",
-        "supersample": st.supersample,
-        "matcher_precision_px": precision,
-        "resolution": table,
-        "mirrors": mirrors,
-    }
-    maps["band_deg"] = tuple(math.degrees(x) for x in grid.band)
-    return figures, maps
+    figures = RangingFigures(
+        definition="range error = 100 (R - R_true) / R_true, R from the stereo centre triangulated from "
+                   "StereoSGBM disparities of the two lobes' panoramas (rendered at supersample "
+                   f"{st.supersample}), R_true the room along the outer lobe's pixel ray; over the common "
+                   "band's pixels with a range (valid_fraction of them)",
+        supersample=st.supersample,
+        matcher_precision_px=precision,
+        resolution=ResolutionTable.from_dict(table),
+        mirrors=mirrors,
+    )
+    return figures, RangeMaps(maps=maps, band_deg=tuple(math.degrees(x) for x in grid.band))
 

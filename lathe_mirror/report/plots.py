@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from ..results.optics import DepthCurve
+    from ..results.polishing import Decomposition, LapPlan, PolishCurveFigures
     from .analysis import ReportData
 
 LOBE_COLOURS = {"inner": "tab:blue", "outer": "tab:orange"}
@@ -99,31 +101,31 @@ def displacement_plot(curves: dict[str, tuple[np.ndarray, np.ndarray]], lost_rin
     return png(fig)
 
 
-def polishing_curve_plot(curve: dict, title: str) -> bytes:
+def polishing_curve_plot(curve: PolishCurveFigures, title: str) -> bytes:
     """Against polishing time: image displacement, the calibrated stereo residual and the
     depth error, slope error over the clear aperture, roughness and haze; a dashed line at
     the time each objective chooses (the curve's own in purple)."""
     plt = _pyplot()
-    t = np.asarray(curve["times_s"]) / 60.0
+    t = np.asarray(curve.times_s) / 60.0
     fig, axes = plt.subplots(2, 2, figsize=(11, 6.4))
     ax_d, ax_s, ax_sl, ax_r = axes.ravel()
-    comb = curve["combined"]
-    for lb in curve["lobes"]:
-        c = LOBE_COLOURS[lb["name"]]
-        ax_d.plot(t, lb["image_displacement_px"]["rms"], color=c, label=f"{lb['name']} RMS")
-        ax_sl.plot(t, lb["slope_error_rad"]["rms"], color=c, label=lb["name"])
-        if "roughness_nm" in lb:
-            ax_r.plot(t, lb["roughness_nm"]["rms"], color=c, label=f"{lb['name']} roughness (nm RMS)")
-            ax_r.plot(t, 100.0 * np.asarray(lb["haze"]["mean"]), color=c, ls=":", label=f"{lb['name']} haze (%)")
-    ax_d.plot(t, comb["image_displacement_px"], color="black", label="both lobes")
-    rng = curve.get("range_m", 2.0)
-    ax_s.plot(t, np.maximum(comb["stereo_residual_pct"], 1e-3), color="tab:purple",
+    comb = curve.combined
+    for lb in curve.lobes:
+        c = LOBE_COLOURS[lb.name]
+        ax_d.plot(t, lb.image_displacement_px.rms, color=c, label=f"{lb.name} RMS")
+        ax_sl.plot(t, lb.slope_error_rad.rms, color=c, label=lb.name)
+        if lb.roughness_nm is not None:
+            ax_r.plot(t, lb.roughness_nm.rms, color=c, label=f"{lb.name} roughness (nm RMS)")
+            ax_r.plot(t, 100.0 * np.asarray(lb.haze.mean), color=c, ls=":", label=f"{lb.name} haze (%)")
+    ax_d.plot(t, comb.image_displacement_px, color="black", label="both lobes")
+    rng = curve.range_m
+    ax_s.plot(t, np.maximum(comb.stereo_residual_pct, 1e-3), color="tab:purple",
               label=f"calibrated stereo residual at {rng:g} m")
-    ax_s.plot(t, np.maximum(comb["depth_error_pct"], 1e-3), color="grey", label=f"depth error at {rng:g} m (design assumed)")
+    ax_s.plot(t, np.maximum(comb.depth_error_pct, 1e-3), color="grey", label=f"depth error at {rng:g} m (design assumed)")
     styles = {"stereo": "tab:purple", "image_displacement": "black", "slope_error": "tab:green"}
     for ax in axes.ravel():
-        for obj, ts in curve["chosen_time_s"].items():
-            ax.axvline(ts / 60.0, color=styles.get(obj, "grey"), ls="--", lw=1.2 if obj == curve["objective"] else 0.6)
+        for obj, ts in curve.chosen_time_s.items():
+            ax.axvline(ts / 60.0, color=styles.get(obj, "grey"), ls="--", lw=1.2 if obj == curve.objective else 0.6)
         ax.set_xlabel("polishing time per lobe (min)")
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=7)
@@ -139,7 +141,7 @@ def polishing_curve_plot(curve: dict, title: str) -> bytes:
     return png(fig)
 
 
-def decomposition_plot(decomposition: dict) -> bytes:
+def decomposition_plot(decomposition: dict[str, Decomposition]) -> bytes:
     """Depth error (RMS over the band, %) of a polished mirror, of the design carrying only its
     form, only its facets, and only the lap's removal: uncalibrated and calibrated, for each
     polishing in the decomposition (first model, this plan)."""
@@ -152,8 +154,8 @@ def decomposition_plot(decomposition: dict) -> bytes:
     for ax, name in zip(axes[0], names):
         d = decomposition[name]
         x = np.arange(len(parts))
-        raw = [max(d["depth_error_pct"][p]["rms"], 1e-3) for p in parts]
-        cal = [max(d["stereo_residual_pct"][p]["rms"], 1e-3) for p in parts]
+        raw = [max(d.depth_error_pct[p].rms, 1e-3) for p in parts]
+        cal = [max(d.stereo_residual_pct[p].rms, 1e-3) for p in parts]
         ax.bar(x - 0.2, raw, 0.4, color="tab:red", label="design assumed")
         ax.bar(x + 0.2, cal, 0.4, color="tab:purple", label="calibrated")
         for xi, v in zip(x, raw):
@@ -162,9 +164,9 @@ def decomposition_plot(decomposition: dict) -> bytes:
             ax.text(xi + 0.2, v, f"{v:.2g}", ha="center", va="bottom", fontsize=7)
         ax.set_xticks(x, [labels[p] for p in parts], rotation=15, fontsize=8)
         ax.set_yscale("log")
-        ax.set_ylabel(f"RMS |depth error| at {d['range_m']:g} m (%)")
-        what = "first model: fixed lap" if name == "first_model" else f"this plan: {d['lap']} lap"
-        ax.set_title(f"{what}, {d['time_s'] / 60:.0f} min")
+        ax.set_ylabel(f"RMS |depth error| at {d.range_m:g} m (%)")
+        what = "first model: fixed lap" if name == "first_model" else f"this plan: {d.lap} lap"
+        ax.set_title(f"{what}, {d.time_s / 60:.0f} min")
         ax.grid(alpha=0.3, axis="y")
         ax.legend(loc="best", fontsize=7)
     fig.suptitle("Form against facets: the depth error of each part of the polished paper mirror alone")
@@ -172,12 +174,12 @@ def decomposition_plot(decomposition: dict) -> bytes:
     return png(fig)
 
 
-def lap_plot(plan: dict) -> bytes:
+def lap_plot(plan: LapPlan) -> bytes:
     """The lap's removal rate (um/h) along r on a smooth surface, per lobe."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 2.8))
-    for lb, name in zip(plan["lobes"], ("inner", "outer")):
-        ax.plot(lb["r_mm"], lb["removal_rate_um_per_h"], color=LOBE_COLOURS[name], label=f"{name} lobe")
+    for lb, name in zip(plan.lobes, ("inner", "outer")):
+        ax.plot(lb.r_mm, lb.removal_rate_um_per_h, color=LOBE_COLOURS[name], label=f"{name} lobe")
     ax.set_xlabel("r (mm)")
     ax.set_ylabel("removal rate (um/h)")
     ax.set_title("the lap's removal along r (dwell-time profile included; zero where the pad does not reach)")
@@ -186,14 +188,14 @@ def lap_plot(plan: dict) -> bytes:
     return png(fig)
 
 
-def depth_error_plot(curves: dict[str, dict]) -> bytes:
+def depth_error_plot(curves: dict[str, DepthCurve]) -> bytes:
     """RMS |depth error| (%, each point capped at 100) over the common band against range (m),
     one line per mirror."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.4))
     for name, c in curves.items():
-        y = np.maximum(np.asarray(c["depth_error_pct"]["rms"]), 1e-12)
-        ax.plot(c["ranges_m"], y, marker=".", label=name, color=MIRROR_COLOURS.get(name))
+        y = np.maximum(np.asarray(c.depth_error_pct.rms), 1e-12)
+        ax.plot(c.ranges_m, y, marker=".", label=name, color=MIRROR_COLOURS.get(name))
     ax.set_xlabel("range (m)")
     ax.set_ylabel("RMS |depth error| (%, each point capped at 100)")
     ax.set_yscale("log")
@@ -258,34 +260,31 @@ def _draw_one(data: ReportData, name: str) -> bytes:
 
 def plot_jobs(data: ReportData) -> list[tuple[str, object]]:
     """(name, a function of no arguments drawing it) of every plot of the report, in order."""
-    out, curves = data.figures, data.curves
-    jobs = [("profile_error", lambda: profile_deviation_plot(curves["profile_error"], curves["r_junction"],
-                                                             curves["used"])),
-            ("displacement", lambda: displacement_plot(curves["displacement"], curves["lost_ring_px"]))]
-    pol = out["polishing"]
-    jobs += [("polishing_paper", lambda: polishing_curve_plot(pol["paper_program"],
+    curves = data.curves
+    jobs = [("profile_error", lambda: profile_deviation_plot(curves.profile_error, curves.r_junction, curves.used)),
+            ("displacement", lambda: displacement_plot(curves.displacement, curves.lost_ring_px))]
+    pol = data.polishing
+    jobs += [("polishing_paper", lambda: polishing_curve_plot(pol.paper_program,
                                                               "polishing the paper program's mirror")),
-             ("polishing_best", lambda: polishing_curve_plot(pol["best_program"], "polishing the best program's mirror")),
-             ("polishing_decomposition", lambda: decomposition_plot(pol["decomposition"])),
-             ("polishing_lap", lambda: lap_plot(pol["lap_plan"])),
-             ("depth_error", lambda: depth_error_plot(out["stereo"]["curves"]))]
+             ("polishing_best", lambda: polishing_curve_plot(pol.best_program, "polishing the best program's mirror")),
+             ("polishing_decomposition", lambda: decomposition_plot(pol.decomposition)),
+             ("polishing_lap", lambda: lap_plot(pol.lap_plan)),
+             ("depth_error", lambda: depth_error_plot(data.stereo.curves))]
     if data.images:
         jobs.append(("images", lambda: images_side_by_side(data.images)))
-    if "range_maps" in curves:
+    if data.range_maps is not None:
         from .range_plots import error_vs_range_png, range_maps_png
 
-        maps = dict(curves["range_maps"])
-        band = maps.pop("band_deg")
-        jobs.append(("range_maps", lambda: range_maps_png(maps, band)))
+        rm = data.range_maps
+        jobs.append(("range_maps", lambda: range_maps_png(rm.maps, rm.band_deg)))
         jobs.append(("range_error", lambda: error_vs_range_png(
-            {n: m["error_curve"] for n, m in out["ranging"]["mirrors"].items()},
+            {n: m.error_curve.to_dict() for n, m in data.ranging.mirrors.items()},
             title="median |range error| against range, each mirror, with the resolution model",
             colours=MIRROR_COLOURS)))
-    for name, t in out.get("tolerance", {}).get("programs", {}).items():
-        mc = t["monte_carlo"]
+    for name, t in (data.tolerance.programs if data.tolerance else {}).items():
+        mc = t.monte_carlo
         jobs.append((f"monte_carlo_{name}", lambda mc=mc, name=name: monte_carlo_histograms(
-            mc["per_trial"], mc["limits"], calibrated=mc["calibrated"], passed=mc["passed"],
-            title=f"{name} program")))
+            mc.per_trial, mc.limits, calibrated=mc.calibrated, passed=mc.passed, title=f"{name} program")))
     return jobs
 
 

@@ -4,7 +4,6 @@ pre-compensation, the process presets side by side."""
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -17,11 +16,12 @@ from ..job import MachiningJob, polishing_curve, process_for
 from ..optics.calibrated_stereo import calibrated_depth_error
 from ..optics.polishing_curve import (CURVE_BIN_PX, PolishCurve, clear_surface_errors, form_change,
                                      form_facet_decomposition, polish_summary)
-from ..optics.radial import radial_figures
+from ..optics.radial import pooled_rms, radial_figures
 from ..optics.scatter import haze_figures, lobe_geometry
 from ..optics.stereo import depth_error_curve
 from ..polishing import FIRST_MODEL, PolishParams, compensated_mirror, lap_plan, polish, polished_design
 from ..profile import Profile
+from ..results.polishing import PolishingStudy, PolishSummary
 
 if TYPE_CHECKING:
     from ..settings import Settings
@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 
 
 def polishing_study(settings: Settings, job: MachiningJob, made: dict[str, Profile], *,
-                    progress: bool = False) -> tuple[dict, dict[str, PolishCurve]]:
+                    progress: bool = False) -> tuple[PolishingStudy, dict[str, PolishCurve]]:
     """The report's polishing section: both programs' polishing curves (the conventional
     process's finish on them) and the time polish.objective chooses; the form / facet
     decomposition of the polished paper mirror (and of the first model's: a fixed lap, 60
@@ -37,7 +37,7 @@ def polishing_study(settings: Settings, job: MachiningJob, made: dict[str, Profi
 
     job: the machining job; made: its as-machined "paper" and "best" parts (with
     polish.precompensate, the parts its programs cut from the pre-compensated target).
-    Returns (JSON-ready dict, {"paper": curve, "best": curve}).
+    Returns (results.polishing.PolishingStudy, {"paper": curve, "best": curve}).
     """
     mirror = job.mirror
     params = settings.polish
@@ -78,9 +78,10 @@ def polishing_study(settings: Settings, job: MachiningJob, made: dict[str, Profi
         "precompensation": precomp,
         "processes": process_table(settings, job, curves),
         "precompensated_programs": job.target is not None,
+        "conclusion": "",
     }
-    out["conclusion"] = polishing_conclusion(out)
-    return out, curves
+    study = PolishingStudy.from_dict(out)
+    return dataclasses.replace(study, conclusion=polishing_conclusion(study)), curves
 
 
 def polish_params_dict(params: PolishParams) -> dict:
@@ -112,7 +113,7 @@ def surface_figures(profile: Profile, mirror: Mirror, params: PolishParams) -> d
                    "slope_error_rad": s_["slope_error_rad"], "normal_deviation_mm": s_["normal_deviation_mm"],
                    "image_displacement_px": r_["image_displacement_px"]}
                   for f, s_, r_ in zip(form["lobes"], surf["lobes"], rad["lobes"])],
-        "image_displacement_px_rms": math.sqrt(sum(p * d * d for p, d in zip(pix, disp)) / sum(pix)),
+        "image_displacement_px_rms": pooled_rms(zip(disp, pix)),
         "stereo_residual_pct": calibrated_depth_error(profile, mirror, [rng], knot_px=params.calibration_knot_px,
                                                       clear_edge_mm=params.clear_edge_mm,
                                                       bin_px=CURVE_BIN_PX).at(rng)["rms"],
@@ -197,44 +198,44 @@ def process_table(settings: Settings, job: MachiningJob, curves: dict[str, Polis
     return rows
 
 
-def polishing_conclusion(p: dict) -> str:
+def polishing_conclusion(p: PolishingStudy) -> str:
     """The polishing section's conclusion, from its figures (form against facets, the
     objective's time against image displacement's, pre-compensation)."""
-    first = p["decomposition"]["first_model"]
-    d1 = first["depth_error_pct"]
-    rng = first["range_m"]
-    s = p["summary"]
-    comp = p["precompensation"]["paper"]
-    chosen = s["chosen_time_s"]
-    form_without = max(lb["form_change_mm"]["rms"] for lb in comp["without"]["lobes"]) * 1e3
-    form_with = max(lb["form_change_mm"]["rms"] for lb in comp["with"]["lobes"]) * 1e3
+    first = p.decomposition["first_model"]
+    d1, cal = first.depth_error_pct, first.stereo_residual_pct
+    rng = first.range_m
+    s = p.summary
+    comp = p.precompensation["paper"]
+    chosen = s.chosen_time_s
+    form_without = max(lb.form_change_mm.rms for lb in comp.without.lobes) * 1e3
+    form_with = max(lb.form_change_mm.rms for lb in comp.with_.lobes) * 1e3
     return (
         f"Facets, not form, carry the depth error. The first model's polished paper mirror (a fixed lap, "
-        f"60 min) has {d1['made']['rms']:.1f} % RMS depth error at {rng:g} m; the design carrying only its "
-        f"degree-{first['form_degree']} form has {d1['form']['rms']:.1f} %, the design carrying only the "
-        f"facets left after the form is taken out {d1['facets']['rms']:.1f} %, the lap's removal on the "
-        f"design alone {d1['removal_only']['rms']:.1f} %. The form tilts both lobes' rays alike and barely "
+        f"60 min) has {d1['made'].rms:.1f} % RMS depth error at {rng:g} m; the design carrying only its "
+        f"degree-{first.form_degree} form has {d1['form'].rms:.1f} %, the design carrying only the "
+        f"facets left after the form is taken out {d1['facets'].rms:.1f} %, the lap's removal on the "
+        f"design alone {d1['removal_only'].rms:.1f} %. The form tilts both lobes' rays alike and barely "
         f"moves the parallax; the facets survive where the removal is slow, about one pixel apart in the "
         f"image, and no calibration removes them (calibrated: facets "
-        f"{first['stereo_residual_pct']['facets']['rms']:.1f} %, form {first['stereo_residual_pct']['form']['rms']:.2f} %). "
-        f"So the time is chosen by {p['objective'].replace('_', ' ')} "
-        f"({'the calibrated stereo residual' if p['objective'] == 'stereo' else 'as configured'}): "
-        f"{chosen[p['objective']] / 60:.0f} min for the paper program, where image displacement would stop at "
+        f"{cal['facets'].rms:.1f} %, form {cal['form'].rms:.2f} %). "
+        f"So the time is chosen by {p.objective.replace('_', ' ')} "
+        f"({'the calibrated stereo residual' if p.objective == 'stereo' else 'as configured'}): "
+        f"{chosen[p.objective] / 60:.0f} min for the paper program, where image displacement would stop at "
         f"{chosen['image_displacement'] / 60:.0f} min (calibrated stereo residual "
-        f"{s['stereo_residual_pct']['before']:.1f} -> {s['stereo_residual_pct']['at_optimum']:.2f} %). "
+        f"{s.stereo_residual_pct.before:.1f} -> {s.stereo_residual_pct.at_optimum:.2f} %). "
         f"The lap's even removal is predictable: programmed on the design lowered by it, the polished paper part "
         f"lands within {form_with:.2f} um RMS of the design's form (without: {form_without:.1f} um). "
         + _trade(s)
     )
 
 
-def _trade(s: dict) -> str:
+def _trade(s: PolishSummary) -> str:
     """The recommendation's assumption and the figure it trades (as `polish` says it)."""
-    if s.get("assumption") == "calibrated":
-        d = s["depth_error_pct"]
+    if s.assumption == "calibrated":
+        d = s.depth_error_pct
         return (f"The recommended time assumes a calibrated camera; uncalibrated, its depth error at "
-                f"{s.get('range_m', 2.0):g} m goes {d['before']:.3g} -> {d['at_optimum']:.3g} %.")
-    d = s["stereo_residual_pct"]
+                f"{s.range_m:g} m goes {d.before:.3g} -> {d.at_optimum:.3g} %.")
+    d = s.stereo_residual_pct
     return (f"The recommended time assumes an uncalibrated camera; calibrated, its stereo residual goes "
-            f"{d['before']:.3g} -> {d['at_optimum']:.3g} %.")
+            f"{d.before:.3g} -> {d.at_optimum:.3g} %.")
 

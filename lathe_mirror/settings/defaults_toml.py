@@ -9,7 +9,7 @@ import json
 import textwrap
 from typing import Any
 
-from .declare import Key
+from ..declared import Key
 from .keys import KEYS
 
 #: Each data file: its header comment and the sections it holds, in order.

@@ -1,5 +1,5 @@
-"""Every configuration key, declared once: KEYS (settings.declare.Key, gathered from the
-keys_* modules, one per group of sections) and what comes from it.
+"""Every configuration key, declared once: KEYS (declared.Key, gathered by lathe_mirror.declared
+from its keys_* modules, one per group of sections) and what comes from it.
 
 - the check of a merged configuration dict (check_ranges: each value against its key's
   range, one ConfigError line naming the key and what is allowed),
@@ -10,7 +10,7 @@ keys_* modules, one per group of sections) and what comes from it.
 - the embedded defaults (declared_defaults; config.default_config is it, and
   lathe_mirror/data/*.toml are generated from it: settings.defaults_toml).
 
-To add or change a key: declare it (or edit it) in the keys_* module of its section, give
+To add or change a key: declare it (or edit it) in lathe_mirror/declared/keys_* for its section, give
 its typed field a home in the section's dataclass and its conversion in load.py (and
 dump.py back), then run scripts/gen-keys (README table, data/*.toml). Editing data/*.toml
 by hand changes nothing: the defaults are the declaration's, and a test says so.
@@ -26,13 +26,7 @@ from __future__ import annotations
 import copy
 from typing import Any
 
-from .declare import Key
-from .keys_design import KEYS as DESIGN_KEYS
-from .keys_machine import KEYS as MACHINE_KEYS
-from .keys_optics import KEYS as OPTICS_KEYS
-from .keys_optimize import KEYS as OPTIMIZE_KEYS
-from .keys_polish import KEYS as POLISH_KEYS
-from .keys_tolerance import KEYS as TOLERANCE_KEYS
+from ..declared import KEYS, RANGES, Key, key
 
 #: Largest rim height above the camera h (mm) a design may have, and the smallest.
 H_RANGE = (0.1, 10_000.0)
@@ -45,27 +39,13 @@ MAX_VERTEX_RADIUS = 10_000.0
 #: Most roughing levels (Z passes) one program may have: ~100 bytes of G-code each.
 MAX_ROUGH_LEVELS = 20_000
 
-#: Every key of the configuration, in the README table's order. `lobes.*.` stands for each
-#: lobe, `scene.boxes[].` for each box, `polish.process.*` for each process preset.
-KEYS: tuple[Key, ...] = (DESIGN_KEYS + MACHINE_KEYS + POLISH_KEYS + OPTICS_KEYS
-                         + TOLERANCE_KEYS + OPTIMIZE_KEYS)
-
-#: Each key by its dotted name (the name kept from issue 14's table of ranges; a Key has
-#: the `text()`, `why` and `allows()` that table's Range had).
-RANGES: dict[str, Key] = {k.name: k for k in KEYS}
+#: (KEYS, RANGES, key: the declarations, lathe_mirror.declared.) Range: the name kept from
+#: issue 14's table of ranges (a Key has the `text()`, `why` and `allows()` its Range had).
 Range = Key
 
-
-def key(name: str) -> Key:
-    """The declared key of a dotted name (`lobes.inner.r_top` finds `lobes.*.r_top`)."""
-    if name in RANGES:
-        return RANGES[name]
-    parts = name.split(".")
-    for pattern, k in RANGES.items():
-        p = pattern.split(".")
-        if len(p) == len(parts) and all(a == b or a == "*" for a, b in zip(p, parts)):
-            return k
-    raise KeyError(name)
+__all__ = ["H_RANGE", "KEYS", "MAX_ROUGH_LEVELS", "MAX_VERTEX_RADIUS", "MIN_VERTEX_RADIUS", "RANGES", "Range",
+           "check_ranges", "declared_defaults", "find", "help_default", "key", "key_table_markdown",
+           "reference_table_markdown"]
 
 
 def check_ranges(cfg: dict[str, Any], slack: float = 0.0) -> None:

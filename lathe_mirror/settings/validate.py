@@ -14,6 +14,7 @@ from __future__ import annotations
 import re
 from typing import TYPE_CHECKING
 
+from ..declared import SLACK
 from ..design import Mirror
 from ..errors import InputError, num
 from ..optics.scene import build_scene
@@ -27,9 +28,6 @@ from .keys import check_ranges
 if TYPE_CHECKING:
     from .model import Settings
 
-#: Relative slack of a range check on values converted back to the file's units (radians
-#: to degrees and back move the last bit; a documented end must stay accepted).
-SLACK = 1e-9
 
 
 def validate(settings: Settings) -> Mirror:

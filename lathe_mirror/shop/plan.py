@@ -66,7 +66,7 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
     ops = numbered(ops_list)
     prog = Program(name=name, toolpath=toolpath, stock=stock, options=options, operations=ops,
                    home=plan.home, safe_z=plan.safe_z, r_out=plan.r_out, gouge_depth=depth,
-                   figures=profile_errors(made, m), used=profile_errors(made, m, r_ranges=usable_ranges(m)),
+                   figures=profile_errors(made, m), used=profile_errors(made, m, r_ranges=usable_ranges(m.design)),
                    fillet=junction_fillet(toolpath), parting=parting)
     check_travel(prog.points(), lathe, what="the program")
     return prog

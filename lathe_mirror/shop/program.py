@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 
+from ..declared import SLACK, check as check_declared
 from ..errors import InputError
 from ..lathe import Stock
 from ..path import Arc, Line, Move
@@ -98,20 +99,10 @@ class ProgramOptions:
 
     def __post_init__(self) -> None:
         # Bounds keep the planning finite (a level per rough_depth, a ramp leg per
-        # ramp_angle) and the program meaningful; each message names the key.
-        _bounded("toolpath.rough_depth", self.rough_depth, 0.05, 10.0, "mm")
-        _bounded("toolpath.rough_allowance", self.rough_allowance, 0.02, 2.0, "mm")
-        _bounded("toolpath.clearance", self.clearance, 0.2, 20.0, "mm")
-        _bounded("toolpath.gouge_tolerance", self.gouge_tolerance, 1e-4, 1.0, "mm")
-        _bounded("toolpath.ramp_angle", math.degrees(self.ramp_angle), 1.0, 45.0, "deg")
-        _bounded("toolpath.home_r", self.home_r, 0.0, 1000.0, "mm")
-        _bounded("toolpath.home_z", self.home_z, 0.0, 1000.0, "mm")
-        _bounded("toolpath.rapid_rate", self.rapid_rate, 100.0, 100000.0, "mm/min")
-        _bounded("toolpath.path_tolerance_mm", self.path_tolerance, 1e-4, 0.1, "mm")
-        _bounded("toolpath.max_finish_depth_mm", self.max_finish_depth, 0.005, 2.0, "mm")
-        _bounded("toolpath.parting_width_mm", self.parting_width, 0.5, 10.0, "mm")
-        _bounded("toolpath.parting_feed", self.parting_feed, 0.005, 0.5, "mm/rev")
-        _bounded("toolpath.back_allowance_mm", self.back_allowance, 0.1, 5.0, "mm")
+        # ramp_angle) and the program meaningful: each within its key's declaration
+        # (toolpath.<key>, the angle in the file's degrees), the line load() gives.
+        for key, value in _declared_values(self):
+            check_declared(f"toolpath.{key}", value, slack=SLACK if key == "ramp_angle" else 0.0)
         for key in ("spring_pass", "coolant"):
             if not isinstance(getattr(self, key), bool):
                 raise InputError(f"toolpath.{key} = {getattr(self, key)!r}: must be true or false")
@@ -295,8 +286,11 @@ class Program:
         return text
 
 
-def _bounded(key: str, value, lo: float, hi: float, unit: str) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(f"{key} = {value!r}: must be a finite number ({unit})")
-    if not lo <= value <= hi:
-        raise InputError(f"{key} = {value:g} {unit}: allowed {lo:g} to {hi:g} {unit}")
+def _declared_values(o: ProgramOptions) -> tuple[tuple[str, object], ...]:
+    """(key under [toolpath], value in the file's unit) of each declared field."""
+    ramp = math.degrees(o.ramp_angle) if isinstance(o.ramp_angle, (int, float)) else o.ramp_angle
+    return (("rough_depth", o.rough_depth), ("rough_allowance", o.rough_allowance), ("clearance", o.clearance),
+            ("gouge_tolerance", o.gouge_tolerance), ("ramp_angle", ramp), ("home_r", o.home_r),
+            ("home_z", o.home_z), ("rapid_rate", o.rapid_rate), ("path_tolerance_mm", o.path_tolerance),
+            ("max_finish_depth_mm", o.max_finish_depth), ("parting_width_mm", o.parting_width),
+            ("parting_feed", o.parting_feed), ("back_allowance_mm", o.back_allowance))

@@ -91,7 +91,7 @@ def shop_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
         sim2 = simulate_program(second)
         sim2.check()
     if setting_costs is None:
-        setting_costs = setting_error_costs(toolpath.mirror, SETTING_ERROR_MM)
+        setting_costs = setting_error_costs(toolpath.mirror.design, SETTING_ERROR_MM)
     return ShopProgram(program=program, simulation=sim,
                        sheet=setup_sheet(program, sim, setting_costs, inspection=inspection,
                                          second=second, second_simulation=sim2),

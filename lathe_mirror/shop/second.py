@@ -105,7 +105,7 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
     start = reverse(parted, T)
     top = float(start.bounds[3])
     R = float(start.bounds[2])
-    part = reverse(shapely.Polygon(design_meridian(m, body).polyline(1e-3)).buffer(0), T)
+    part = reverse(shapely.Polygon(design_meridian(m.design, body).polyline(1e-3)).buffer(0), T)
     shoulder = -float(m.vertex_z - m.outer.z(m.r_max)) - T  # the shoulder beyond the rim, reversed
     grip = (round(shoulder, 6), -JAW_GAP)
     if grip[1] - grip[0] < MIN_GRIP:

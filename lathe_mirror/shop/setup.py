@@ -214,7 +214,7 @@ def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict,
                                   figures=fig.figures(), stock_after=fig.stock_after, removed=fig.removed))
     # a tool off centre by h cannot cut r < h: a pip of radius h at the vertex; keep it
     # inside the one pixel the vertex images to (t_pixel z / f on the mirror)
-    cam = m.camera
+    cam = m.design.camera
     centre_height = cam.t_pixel * m.vertex_z / cam.f
     deepest = float(program.points()[:, 1].min())
     notes = (

@@ -68,11 +68,10 @@ def corner_nose(mirror: Mirror, nose_radius: float) -> tuple[float, float]:
     rj = mirror.r_junction
     zi, zo = mirror.junction_z
     lobe, column = (mirror.inner, rj - rho) if zi > zo else (mirror.outer, rj + rho)
-    a, b = lobe.a, lobe.b
 
     def slope(r: float) -> tuple[float, float]:
-        q = math.sqrt(1.0 + (r / b) ** 2)
-        return a * r / (b * b * q), a / (b * b * q**3)  # dz/dr, d2z/dr2
+        # the sheet's own (a pre-compensated target's is not the design's hyperbola)
+        return float(lobe.slope(r)), float(lobe.second_derivative(r))  # dz/dr, d2z/dr2
 
     rs = column
     for _ in range(30):

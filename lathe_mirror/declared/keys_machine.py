@@ -1,12 +1,12 @@
 """The lathe's keys: the machine and its set-up errors, the tool, the stock, the program, the CAD body, where heavy work runs.
 
-Declared once here (settings.declare.Key): type (from the default), unit, default, range,
-the reason for the limit, help text. keys.py gathers every module's KEYS.
+Declared once here (declared.key.Key): type (from the default), unit, default, range,
+the reason for the limit, help text. lathe_mirror.declared gathers every module's KEYS.
 """
 
 from __future__ import annotations
 
-from .declare import Key
+from .key import Key
 
 #: Sections declared here: machine, machine.errors, tool, stock, toolpath, cad, compute.
 KEYS: tuple[Key, ...] = (

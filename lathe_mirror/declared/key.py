@@ -1,7 +1,7 @@
 """What a declared key is: `Key`, one configuration key with its type, unit, default,
 range (each end open or closed), the reason for the limit and its help text; from it come
 the check of a value, the one-line message that refuses one, and the key's row in the
-README's table (keys.py gathers every Key).
+README's table (the package, lathe_mirror.declared, gathers every Key).
 
 A limit of a key that other keys move (a design that must exist, an estimate of the
 work) is declared too: `depends` names what else bounds the key, the table prints it

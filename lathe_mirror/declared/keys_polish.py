@@ -1,12 +1,12 @@
 """The polishing keys: Preston's law, the lap, the time, the objective, the process presets.
 
-Declared once here (settings.declare.Key): type (from the default), unit, default, range,
-the reason for the limit, help text. keys.py gathers every module's KEYS.
+Declared once here (declared.key.Key): type (from the default), unit, default, range,
+the reason for the limit, help text. lathe_mirror.declared gathers every module's KEYS.
 """
 
 from __future__ import annotations
 
-from .declare import Key
+from .key import Key
 
 #: Sections declared here: polish.
 KEYS: tuple[Key, ...] = (

@@ -1,0 +1,137 @@
+"""The typed results' machinery: a frozen dataclass per result, its JSON by `to_dict()`.
+
+A result's fields are its JSON's keys, in the JSON's order; `to_dict()` gives that JSON
+(the report writes it), `from_dict()` reads it back (strict: an unknown or missing key
+is an error, so a stage that grows a figure grows its type). Field options:
+
+- `key("G2/G3")`   the JSON key where it is not a Python name;
+- `omitted()`      a figure present only for some results (omitted from the JSON when None);
+
+Containers inside a result are tuples (JSON lists) and dicts keyed by name (a mirror, a
+program, a parameter). A result that is a table also has `table()`: a numpy structured
+array, one row per entry.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import types
+import typing
+from typing import Any
+
+import numpy as np
+
+#: dataclass options of every result: immutable, no per-instance dict, keywords only
+#: (an optional figure may sit between required ones, as in the JSON).
+RESULT = dict(frozen=True, slots=True, kw_only=True)
+
+
+def key(name: str, **kw) -> Any:
+    """A field written under the JSON key `name`."""
+    return dataclasses.field(metadata={"key": name}, **kw)
+
+
+def omitted(name: str | None = None) -> Any:
+    """A field that only some results carry: None, and then absent from the JSON."""
+    return dataclasses.field(default=None, metadata={"omit": True, **({"key": name} if name else {})})
+
+
+class Result:
+    """Base of the typed results: `to_dict()` (the JSON, key order kept) and `from_dict()`."""
+
+    __slots__ = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if v is None and f.metadata.get("omit"):
+                continue
+            out[f.metadata.get("key", f.name)] = plain(v)
+        return out
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]):
+        """The result from its JSON-ready dict (as `to_dict()` gives it)."""
+        if not isinstance(d, dict):
+            raise TypeError(f"{cls.__name__}: expected a dict, got {type(d).__name__}")
+        hints = _hints(cls)
+        names = {f.metadata.get("key", f.name): f for f in dataclasses.fields(cls)}
+        unknown = [k for k in d if k not in names]
+        if unknown:
+            raise KeyError(f"{cls.__name__}: figures it does not declare: {unknown}")
+        kw = {names[k].name: _convert(hints[names[k].name], v) for k, v in d.items()}
+        return cls(**kw)
+
+
+@functools.cache
+def _hints(cls) -> dict[str, Any]:
+    return typing.get_type_hints(cls)
+
+
+def _convert(tp: Any, v: Any) -> Any:
+    """v (plain JSON-ready data) as the annotated type tp."""
+    if v is None:
+        return None
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        for a in args:  # a result where the data is a dict, else the first that fits
+            if isinstance(a, type) and issubclass(a, Result):
+                if isinstance(v, dict):
+                    return a.from_dict(v)
+                continue
+            return _convert(a, v)
+        return v
+    if isinstance(tp, type) and issubclass(tp, Result):
+        return tp.from_dict(v)
+    if origin is tuple and isinstance(v, (list, tuple)):
+        args = typing.get_args(tp)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_convert(args[0], x) for x in v)
+        if args and len(args) == len(v):
+            return tuple(_convert(a, x) for a, x in zip(args, v))
+        return tuple(v)
+    if origin is dict and isinstance(v, dict):
+        _, vt = typing.get_args(tp) or (Any, Any)
+        return {k: _convert(vt, x) for k, x in v.items()}
+    return v
+
+
+def plain(v: Any) -> Any:
+    """v as plain JSON-ready data: results (and another room's typed objects with a
+    to_dict(), e.g. iso10110.PartSpec) as their dicts, tuples as lists."""
+    if isinstance(v, Result):
+        return v.to_dict()
+    if callable(getattr(v, "to_dict", None)) and not isinstance(v, type):
+        return plain(v.to_dict())
+    if isinstance(v, (tuple, list)):
+        return [plain(x) for x in v]
+    if isinstance(v, dict):
+        return {k: plain(x) for k, x in v.items()}
+    return v
+
+
+def structured(rows: list[tuple], columns: list[tuple[str, Any]]) -> np.ndarray:
+    """A numpy structured array of rows (tuples in the columns' order)."""
+    return np.array(rows, dtype=np.dtype(columns))
+
+
+@dataclasses.dataclass(**RESULT)
+class Range(Result):
+    """An interval: JSON {"min": .., "max": ..}."""
+
+    min: float
+    max: float
+
+    def __iter__(self):
+        return iter((self.min, self.max))
+
+
+@dataclasses.dataclass(**RESULT)
+class Stat(Result):
+    """An RMS and a maximum over pixels or points: JSON {"rms": .., "max": ..}."""
+
+    rms: float
+    max: float

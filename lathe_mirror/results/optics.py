@@ -1,0 +1,277 @@
+"""The optics' results in the report: stereo depth error, the calibration (unified model
+per lobe, made mirrors' reprojection), the renders' differences, range from the image."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .base import RESULT, Range, Result, Stat, key, omitted, structured
+from .made import ZoneFigures
+
+#: The range (m) at which the report states the depth error of every mirror.
+DEPTH_REPORT_M = 2.0
+#: its JSON key in the stereo section
+AT_KEY = f"at_{DEPTH_REPORT_M:g}_m"
+
+
+# -- stereo ----------------------------------------------------------------------------
+
+
+@dataclass(**RESULT)
+class DepthAt(Result):
+    """|Depth error| (%) over the band at one range, each point capped at 100 % (optics.stereo)."""
+
+    rms: float
+    max: float
+    median: float
+    failed: int
+    lost: int
+    points: int
+
+
+@dataclass(**RESULT)
+class DepthStats(Result):
+    """Per range: RMS, max, median |depth error| (%), points failed, points lost."""
+
+    rms: tuple[float, ...]
+    max: tuple[float, ...]
+    median: tuple[float, ...]
+    failed: tuple[int, ...]
+    lost: tuple[int, ...]
+
+
+@dataclass(**RESULT)
+class DepthCurve(Result):
+    """Depth error against range (optics.stereo.DepthErrorCurve.to_dict); `table()`: per range."""
+
+    ranges_m: tuple[float, ...]
+    elevations_deg: tuple[float, ...]
+    depth_error_pct: DepthStats
+    signed_error_pct: tuple[tuple[float, ...], ...]
+
+    def table(self) -> np.ndarray:
+        d = self.depth_error_pct
+        return structured(list(zip(self.ranges_m, d.rms, d.max, d.median, d.failed, d.lost)),
+                          [("range_m", "f8"), ("rms_pct", "f8"), ("max_pct", "f8"), ("median_pct", "f8"),
+                           ("failed", "i8"), ("lost", "i8")])
+
+
+@dataclass(**RESULT)
+class StereoFigures(Result):
+    """Each made mirror's depth error against range, and at DEPTH_REPORT_M."""
+
+    definition: str
+    baseline_mm: float
+    curves: dict[str, DepthCurve]
+    at: dict[str, DepthAt] = key(AT_KEY)
+
+
+# -- calibration -----------------------------------------------------------------------
+
+
+@dataclass(**RESULT)
+class LobeModel(Result):
+    """A lobe's design model (unified, Kalibr's omni-radtan; px)."""
+
+    name: str
+    xi: float
+    gamma_px: float
+    fu_px: float
+    fv_px: float
+    cx_px: float
+    cy_px: float
+    k1: float
+    k2: float
+    annulus_px: Range
+    viewpoint_z_mm: float
+    image_size_px: tuple[int, int]
+
+
+@dataclass(**RESULT)
+class DesignCalibration(Result):
+    frame: str
+    lobes: tuple[LobeModel, ...]
+    t_cn_cnm1_mm: tuple[float, float, float]
+
+
+@dataclass(**RESULT)
+class Reprojection(Result):
+    reprojection_error_px: Stat
+
+
+@dataclass(**RESULT)
+class Refit(Result):
+    xi: float
+    gamma_px: float
+    fu_px: float
+    fv_px: float
+    cx_px: float
+    cy_px: float
+    k1: float
+    k2: float
+    principal_point: str
+    reprojection_error_px: Stat
+
+
+@dataclass(**RESULT)
+class LobeCalibration(Result):
+    name: str
+    pixels: int
+    pixels_excluded: int
+    design: Reprojection
+    refit: Refit
+
+
+@dataclass(**RESULT)
+class MadeCalibration(Result):
+    range_m: float
+    lobes: tuple[LobeCalibration, ...]
+    zones: ZoneFigures
+
+
+@dataclass(**RESULT)
+class CalibrationFigures(Result):
+    """The design's unified models and, per made mirror, the design model's reprojection
+    error and what a refitted model leaves (optics.camera_model.calibration_figures)."""
+
+    design: DesignCalibration
+    made: dict[str, MadeCalibration]
+
+
+# -- renders ---------------------------------------------------------------------------
+
+
+@dataclass(**RESULT)
+class ImageDifference(Result):
+    """A made mirror's render against the exact one's (optics.render.image_difference)."""
+
+    rms: float
+    ssim: float
+
+
+@dataclass(**RESULT)
+class RenderFigures(Result):
+    against_exact: dict[str, ImageDifference]
+
+
+# -- range from the image --------------------------------------------------------------
+
+
+@dataclass(**RESULT)
+class ResolutionRow(Result):
+    range_m: float
+    one_px_pct: tuple[float, ...]
+    one_px_band_median_pct: float
+    matcher_pct: tuple[float, ...] | None = omitted()
+    matcher_band_median_pct: float | None = omitted()
+
+
+@dataclass(**RESULT)
+class ResolutionTable(Result):
+    """The range error one pixel of disparity causes, and the matcher's precision, by
+    range and elevation (optics.ranging.resolution)."""
+
+    elevations_deg: tuple[float, ...]
+    parallax_per_px_deg: tuple[float, ...]
+    matcher_precision_deg: float
+    rows: tuple[ResolutionRow, ...]
+    r10_m: float
+
+    def table(self) -> np.ndarray:
+        n = len(self.elevations_deg)
+        nan = (np.nan,) * n
+        return structured([(r.range_m, *r.one_px_pct, r.one_px_band_median_pct, *(r.matcher_pct or nan),
+                            np.nan if r.matcher_band_median_pct is None else r.matcher_band_median_pct)
+                           for r in self.rows],
+                          [("range_m", "f8"), *((f"one_px_pct_{i}", "f8") for i in range(n)),
+                           ("one_px_band_median_pct", "f8"), *((f"matcher_pct_{i}", "f8") for i in range(n)),
+                           ("matcher_band_median_pct", "f8")])
+
+
+@dataclass(**RESULT)
+class RangeGrid(Result):
+    n_elevation: int
+    n_azimuth: int
+    elevation_step_deg: float
+    band_deg: Range
+
+
+@dataclass(**RESULT)
+class SurfaceRanged(Result):
+    pixels: int
+    valid_fraction: float | None
+
+
+@dataclass(**RESULT)
+class RangeError(Result):
+    median: float
+    rms: float
+    signed_median: float
+
+
+@dataclass(**RESULT)
+class DisparityError(Result):
+    median: float
+    rms: float
+    signed_median: float
+    precision: float
+
+
+@dataclass(**RESULT)
+class RangeBin(Result):
+    range_m: tuple[float, float]
+    pixels: int
+    valid_fraction: float
+    range_error_pct: RangeError
+    model_1px_pct: float
+    model_matcher_pct: float
+
+
+@dataclass(**RESULT)
+class ErrorCurve(Result):
+    range_m: tuple[float, ...]
+    measured_pct: tuple[float, ...]
+    model_1px_pct: tuple[float, ...]
+    model_matcher_pct: tuple[float, ...]
+    pixels: tuple[int, ...]
+    precision_px: float
+
+
+@dataclass(**RESULT)
+class RangeFigures(Result):
+    """One mirror's range from the image against the room's true range; `table()`: its bins."""
+
+    grid: RangeGrid
+    matcher: dict[str, Any]
+    baseline_mm: float
+    r10_m: float
+    parallax_per_px_deg: float
+    pixels: int
+    valid_fraction: float
+    valid_by_surface: dict[str, SurfaceRanged]
+    true_range_m: Range
+    range_error_pct: RangeError
+    disparity_error_px: DisparityError
+    model_precision_px: float | None
+    bins: tuple[RangeBin, ...]
+    error_curve: ErrorCurve | None = omitted()
+
+    def table(self) -> np.ndarray:
+        return structured([(b.range_m[0], b.range_m[1], b.pixels, b.valid_fraction, b.range_error_pct.median,
+                            b.range_error_pct.rms, b.range_error_pct.signed_median, b.model_1px_pct,
+                            b.model_matcher_pct) for b in self.bins],
+                          [("range_min_m", "f8"), ("range_max_m", "f8"), ("pixels", "i8"), ("valid_fraction", "f8"),
+                           ("median_pct", "f8"), ("rms_pct", "f8"), ("signed_median_pct", "f8"),
+                           ("model_1px_pct", "f8"), ("model_matcher_pct", "f8")])
+
+
+@dataclass(**RESULT)
+class RangingFigures(Result):
+    definition: str
+    supersample: int
+    matcher_precision_px: float
+    resolution: ResolutionTable
+    mirrors: dict[str, RangeFigures]
