@@ -171,6 +171,11 @@ def format_tolerance(out: dict) -> str:
                      f"{percent_interval(mc['passed'], mc['trials'])}")
         if "allocation" in t:
             lines.append(f"  {t['allocation']['statement']}")
+        for key, what in (("nominal_over_zone", "judged"), ("as_machined_over_zone", "as machined")):
+            if key in t:  # the shared figure of the judged part and of the part calib and the report describe
+                z = t[key]
+                lines.append(f"  image displacement over the used zone ({what}: {z['made_mirror']}), px RMS "
+                             + " / ".join(f"{lb['name']} {lb['image_displacement_px']['rms']:.4g}" for lb in z["lobes"]))
         for k, c in v["checks"].items():
             lines.append(f"  nominal {k}: {c['nominal']:.4g} (limit {c['limit']:.4g}) {'PASS' if c['pass'] else 'FAIL'}; "
                          f"pass fraction {100 * mc['pass_fraction'][k]:.1f} %")
