@@ -79,12 +79,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def run_measured(args: argparse.Namespace, settings, mirror) -> int:
-    """tolerance --surface measured:FILE (measure.tolerance): the file read and fitted
+    """tolerance --surface measured:FILE (tolerance.measured): the file read and fitted
     before any output is made (a bad file: one line, exit 2)."""
     from ..enums import Surface
     from ..errors import InputError
     from ..measure.surface import measured_profile
-    from ..measure.tolerance import ENTRY, measured_tolerance
+    from ..tolerance.measured import ENTRY, measured_tolerance
     from .common import surface_arg
 
     kind, path = surface_arg(args.surface)
