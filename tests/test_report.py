@@ -174,6 +174,12 @@ def test_typed_tolerance_and_polishing_are_the_json(report, tmp_path):
         assert written["verdict"][name] == written["tolerance"]["programs"][name]["verdict"]
         with pytest.raises(dataclasses.FrozenInstanceError):
             v.nominal_pass = not v.nominal_pass
+    best = report.tolerance.programs["best"]
+    alloc = best.allocation.table()
+    assert list(alloc["parameter"]) == [t.parameter for t in best.allocation.tolerances]
+    assert np.allclose(alloc["allocated"], alloc["tolerance"] * alloc["factor"], rtol=1e-12)
+    sens = best.sensitivity.table()
+    assert len(sens) == 2 * len(best.sensitivity.rows) and set(sens["side"]) == {"minus", "plus"}
     curve = report.polishing.paper_program
     assert curve.table()["time_s"].tolist() == list(curve.times_s)
     assert report.polishing.summary.optimum_time_s == curve.optimum.time_s
