@@ -3,11 +3,14 @@ user runs it, in fresh processes, and the figures each command quotes for the sa
 mirror and zone.
 
 Per design: `optimize -o best.toml` (with its tolerance check), `run --config best.toml`,
-`toolpath --check` on the arcs program `run` wrote, `calib`, `stereo`, `tolerance
---allocate`, `polish`; every exit status, the winner, the nominal verdict and the yield of
-the best program, and the image displacement (RMS per lobe, px) of the as-machined best
-program over the used zone as `calib`, `tolerance` (its nominal part, raw figures: the
-sparse pixel sample) and the report quote it.
+`toolpath --check` on the arcs program `run` wrote, `calib`, `render`, `stereo`, `tolerance
+--allocate`, `polish`; every exit status and CPU time, the winner, the nominal verdict and
+the yield of the best program (optimize's check and tolerance's), and the image
+displacement (RMS per lobe, px) over the used zone of the made mirror every command
+describes by default (the best program as machined with the configured nose) as `calib`,
+`render`, `tolerance` (its as_machined_over_zone) and the report quote it, with the
+spread between them; beside it the figure of the part tolerance judges (polished for the
+polishing curve's time).
 
 Run: .venv/bin/python benchmarks/bench_designs.py [--only NAME ...] [--markdown] [--keep DIR]
 Prints a table (--markdown: the README's). Writes only into a temporary directory (or
@@ -18,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import resource
 import subprocess
 import sys
 import tempfile
@@ -42,56 +46,74 @@ DESIGNS = {
              "[tolerance.params]\nresolution_mm = 0.0005\n"),
     "paper_nose08": ("the paper camera, nose 0.8 mm, 0.0025 mm lattice",
                      "[tool]\nnose_radius = 0.8\n[machine]\nresolution = 0.0025\n"),
+    # docs/reference/guide.md's deep.toml, as written there (the envelope as rim_max_mm)
+    "guide_deep": ("the guide's deep.toml (rim_max_mm = 138.6)",
+                   "[optimize]\nrim_max_mm = 138.6\n[stock]\nlength = 50.0\n[cad]\nthickness = 45.0\n"),
 }
 
 
-def cli(args: list[str], cwd: Path) -> tuple[int, str, str, float]:
-    t0 = time.perf_counter()
+#: processes for optimize and tolerance (--workers); 1 on a shared machine
+WORKERS = ["--workers", "1"]
+
+
+def cli(args: list[str], cwd: Path) -> tuple[int, str, str, float, float]:
+    """(exit status, stdout, stderr, wall s, CPU s of the child: user + system)."""
+    t0, r0 = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
     p = subprocess.run([sys.executable, "-m", "lathe_mirror", *args], capture_output=True, text=True, cwd=cwd)
-    return p.returncode, p.stdout, p.stderr, time.perf_counter() - t0
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+    return p.returncode, p.stdout, p.stderr, time.perf_counter() - t0, cpu
 
 
 def one(name: str, text: str, root: Path) -> dict:
     d = root / name
     d.mkdir(parents=True, exist_ok=True)
     (d / "design.toml").write_text(text)
-    row: dict = {"design": name, "status": {}, "seconds": {}}
+    row: dict = {"design": name, "status": {}, "seconds": {}, "cpu_seconds": {}}
 
     def step(label: str, args: list[str]) -> str | None:
-        rc, out, err, s = cli(args, d)
-        row["status"][label], row["seconds"][label] = rc, round(s, 1)
+        rc, out, err, s, cpu = cli(args, d)
+        row["status"][label], row["seconds"][label], row["cpu_seconds"][label] = rc, round(s, 1), round(cpu, 1)
         if rc != 0:
             row.setdefault("errors", {})[label] = err.strip().splitlines()[-1:] if err.strip() else []
             return None
         return out
 
     out = step("optimize", ["optimize", "--config", "design.toml", "-o", "best.toml", "--json", "--no-progress",
-                            "--workers", "2"])
+                            *WORKERS])
     if out is None:
         return row
     opt = json.loads(out)
     row["winner"] = {lb["name"]: {k: lb[k] for k in ("r_top", "r_pixel", "alpha_deg")} for lb in opt["best"]["lobes"]}
     row["r10_m"] = opt["best"]["r10_m"]
     row["check"] = {k: opt["check"][k] for k in ("nominal_pass", "yield", "target_yield")} | (
-        {"why": opt["check"]["why"]} if "why" in opt["check"] else {})
+        {"why": opt["check"]["why"]} if "why" in opt["check"] else {}) | {
+        "failing": [k for k, v in opt["check"]["nominal"].items() if not v["pass"]]}
     row["warnings"] = len(opt["warnings"])
     step("run", ["run", "--config", "best.toml", "-o", "out", "--no-render", "--no-progress"])
     step("toolpath --check", ["toolpath", "--config", "best.toml", "--check", "out/gcode/mirror_arcs.ngc"])
     cal = step("calib", ["calib", "--config", "best.toml", "--surface", "best", "-o", "calib", "--json",
                          "--no-progress"])
+    ren = step("render", ["render", "--config", "best.toml", "--json", "--no-progress", "--supersample", "1"])
     step("stereo", ["stereo", "--config", "best.toml", "--json", "--no-progress"])
     tol = step("tolerance --allocate", ["tolerance", "--config", "best.toml", "--allocate", "--json",
-                                        "--no-progress"])
+                                        "--no-progress", *WORKERS])
     step("polish", ["polish", "--config", "best.toml", "--json", "--no-progress"])
     quotes = {}
     if cal:
         c = json.loads(cal)["made"][0]
         quotes["calib"] = [lb["image_displacement_px"]["rms"] for lb in c["over_zone"]]
+    if ren:
+        quotes["render"] = [lb["image_displacement_px"]["rms"] for lb in json.loads(ren)["lobes"]]
     if tol:
         t = json.loads(tol)["programs"]["best"]
         row["tolerance"] = {"nominal_pass": t["verdict"]["nominal_pass"], "yield": t["monte_carlo"]["yield"],
-                            "allocation": t.get("allocation", {}).get("statement", "")}
-        quotes["tolerance"] = [lb["image_displacement_px"]["rms"] for lb in t["nominal_over_zone"]["lobes"]]
+                            "allocation": t.get("allocation", {}).get("statement", ""),
+                            "judged": t["made_mirror"]["label"],
+                            "failing": [k for k, c in t["verdict"]["checks"].items() if not c["pass"]]}
+        # the made mirror the other commands describe (as machined), and the judged (polished) part
+        quotes["tolerance"] = [lb["image_displacement_px"]["rms"] for lb in t["as_machined_over_zone"]["lobes"]]
+        row["tolerance_judged_px_rms"] = [lb["image_displacement_px"]["rms"] for lb in t["nominal_over_zone"]["lobes"]]
         row["tolerance_sparse_estimate"] = t["sensitivity"]["nominal"]["raw"]["image_displacement_px_rms"]
     rep = d / "out" / "report.json"
     if rep.exists():
@@ -102,20 +124,37 @@ def one(name: str, text: str, root: Path) -> dict:
 
 
 def markdown(rows: list[dict]) -> str:
-    head = ("| design | winner r_top in/out mm | R10 m | all exit 0 | nominal | yield (target 95 %) | "
-            "image disp. px RMS in/out: calib / tolerance / report |\n|---|---|---|---|---|---|---|")
+    head = ("| design | winner r_top in/out mm | R10 m | all exit 0 | nominal: optimize / tolerance | "
+            "yield: optimize / tolerance (target 95 %) | image disp. px RMS in, out (as machined): calib / render / "
+            "tolerance / report | spread | judged (polished) px RMS in, out | CPU s |\n"
+            "|---|---|---|---|---|---|---|---|---|---|")
     lines = [head]
     for r in rows:
         w = r.get("winner", {})
         rt = f"{w['inner']['r_top']:.2f} / {w['outer']['r_top']:.2f}" if w else "-"
         ok = "yes" if r["status"] and all(v == 0 for v in r["status"].values()) else \
             "no: " + ", ".join(k for k, v in r["status"].items() if v != 0)
-        t = r.get("tolerance", r.get("check", {}))
-        nominal = "PASS" if t.get("nominal_pass") else "FAIL"
-        y = f"{100 * t['yield']:.1f} %" if "yield" in t else "-"
+        c, t = r.get("check", {}), r.get("tolerance", {})
+
+        def verdict(d: dict) -> str:
+            return "-" if "nominal_pass" not in d else ("PASS" if d["nominal_pass"] else
+                                                         "FAIL " + ", ".join(d.get("failing", [])))
+
+        def yld(d: dict) -> str:
+            return f"{100 * d['yield']:.1f} %" if "yield" in d else "-"
+
         q = r.get("image_displacement_px_rms", {})
-        quote = " / ".join(f"{v[0]:.3f}, {v[1]:.3f}" for k, v in q.items()) if q else "-"
-        lines.append(f"| {r['design']} | {rt} | {r.get('r10_m', float('nan')):.4f} | {ok} | {nominal} | {y} | {quote} |")
+        quote = " / ".join(f"{v[0]:.3f}, {v[1]:.3f}" for v in q.values()) if q else "-"
+        spread = "-"
+        if len(q) > 1:
+            vals = list(q.values())
+            spread = " , ".join(f"{100 * (max(v[k] for v in vals) / min(v[k] for v in vals) - 1):.2f} %"
+                                for k in (0, 1))
+        judged = r.get("tolerance_judged_px_rms")
+        judged = f"{judged[0]:.3f}, {judged[1]:.3f}" if judged else "-"
+        cpu = sum(r.get("cpu_seconds", {}).values())
+        lines.append(f"| {r['design']} | {rt} | {r.get('r10_m', float('nan')):.4f} | {ok} | {verdict(c)} / "
+                     f"{verdict(t)} | {yld(c)} / {yld(t)} | {quote} | {spread} | {judged} | {cpu:.0f} |")
     return "\n".join(lines)
 
 

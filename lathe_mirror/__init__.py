@@ -31,7 +31,9 @@ The report's analysis: `report_figures` (every stage, no files) gives a `ReportD
 typed results, frozen dataclasses with `to_dict()` (report.json's sections) and, where
 they are tables, `table()` (numpy structured arrays): `DesignFigures`,
 `ToolpathFigures`, `MirrorFigures` (each made mirror's five figures per lobe),
-`StereoFigures`, `CalibrationFigures`, `RenderFigures`, `RangingFigures`.
+`StereoFigures`, `CalibrationFigures`, `RenderFigures`, `RangingFigures`,
+`PolishingStudy` / `PolishCurveFigures`, `ToleranceAnalysis` / `MonteCarloFigures`
+(`table()`: one row per trial) / `Verdict`.
 Errors: `Error`, the one family, of kinds input (`InputError`), design (`DesignError`)
 and internal (`InternalError`); `lm.Settings(...)` or `dataclasses.replace(settings, ...)`
 to a design that cannot exist raises the message `load()` gives for the same values.
@@ -64,7 +66,8 @@ _API = {
     "report_figures": "pipeline", "ReportData": "report.analysis",
     "DesignFigures": "results", "ToolpathFigures": "results", "MirrorFigures": "results",
     "StereoFigures": "results", "CalibrationFigures": "results", "RenderFigures": "results",
-    "RangingFigures": "results",
+    "RangingFigures": "results", "PolishingStudy": "results", "PolishCurveFigures": "results",
+    "ToleranceAnalysis": "results", "MonteCarloFigures": "results", "Verdict": "results",
     "Error": "errors", "InputError": "errors", "DesignError": "errors", "InternalError": "errors",
 }
 

@@ -89,7 +89,7 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
              "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
     data = ReportData(design=DesignFigures.from_dict(design_figures(mirror)),
                       notes=(TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)),
-                      spec=spec_of(settings).to_dict())  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
+                      spec=spec_of(settings))  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
     steps.done()
 
     steps.start("toolpaths")

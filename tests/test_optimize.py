@@ -339,3 +339,27 @@ def test_bad_workers_and_bad_keys(tmp_path):
     cfg.write_text("[optimize]\nobjective = \"speed\"\n")
     proc = run_cli("optimize", "--config", str(cfg), "--no-progress")
     assert proc.returncode == 2 and "optimize.objective = 'speed': allowed r10, baseline" in proc.stderr
+
+
+def test_the_second_set_ups_grip_is_a_constraint():
+    """The winner must leave the second set-up's soft jaws their grip below the rim's
+    shoulder (shop.second refuses a body whose side below the shoulder is shorter than the
+    jaw gap plus the least grip, 3 + 3 mm): the 6 mm lens design with its outer rim 24 mm
+    below the vertex meets it in a 30 mm body (by 0) and breaks it in a 29 mm one by the
+    hand-computed 1 mm."""
+    from lathe_mirror.optimize.evaluate import CONSTRAINTS, measure, violations
+
+    s = load()
+    cam = dataclasses.replace(s.camera, f=6.0, t_pixel=0.003, sensor_px=(1280, 1024))
+    lobes = (LobeSpec("inner", r_top=5.143250067202264, r_pixel=354.34622080440613, alpha_deg=0.16491580636968806),
+             LobeSpec("outer", r_top=12.962773350532286, r_pixel=511.82075923486775, alpha_deg=0.14021089596690714))
+    m = mirror_from_specs(cam, lobes)
+    rim_depth = float(m.outer.z(m.r_max)) - m.vertex_z  # the outer rim's depth below the vertex, by hand
+    j = [i for i, c in enumerate(CONSTRAINTS) if "second set-up" in c.what]
+    assert len(j) == 1 and CONSTRAINTS[j[0]].key == "cad.thickness"
+    for thickness in (rim_depth + 6.0 + 0.5, rim_depth + 6.0 - 1.0):
+        body = dataclasses.replace(s.body, thickness=thickness)
+        problem = Problem(camera=cam, tool=dataclasses.replace(s.tool, nose_radius=0.4), stock=s.stock, body=body,
+                          clearance=s.toolpath.clearance, settings=s.optimize, reference=s.lobes)
+        v = violations(measure(m, problem, lobes, with_r10=False), problem)[j[0]]
+        assert v == pytest.approx(max(0.0, rim_depth + 6.0 - thickness), abs=1e-9)

@@ -145,6 +145,46 @@ def test_tolerance_section(report):
     assert max(row["minus"]["raw"]["image_displacement_px_rms"]) < max(row["plus"]["raw"]["image_displacement_px_rms"])
 
 
+def test_typed_tolerance_and_polishing_are_the_json(report, tmp_path):
+    """The tolerance analysis and the polishing study as typed results (issue 26): their
+    to_dict() is what report.json holds; the Monte Carlo's table() is its trials; the
+    verdict's interval is Wilson's score interval, worked out here from its closed form."""
+    import dataclasses
+    import math
+
+    from lathe_mirror.export.files import json_text
+    from lathe_mirror.results import PolishingStudy, ToleranceAnalysis
+
+    written = json.loads(write_report(report, tmp_path)["json"].read_text())
+    for name, typ in (("tolerance", ToleranceAnalysis), ("polishing", PolishingStudy)):
+        result = getattr(report, name)
+        assert isinstance(result, typ)
+        assert json.loads(json_text({"x": result.to_dict()}))["x"] == written[name]
+        assert typ.from_dict(result.to_dict()).to_dict() == result.to_dict()
+    z = 1.959963984540054
+    for name, prog in report.tolerance.programs.items():
+        mc, v = prog.monte_carlo, prog.verdict
+        table = mc.table()
+        assert len(table) == mc.trials and int(table["pass"].sum()) == mc.passed
+        assert table["image_displacement_px_rms_inner"].tolist() == [r[0] for r in mc.per_trial["image_displacement_px_rms"]]
+        n, p = v.trials, v.yield_
+        centre, half = p + z * z / (2 * n), z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+        assert v.yield_wilson95 == pytest.approx(((centre - half) / (1 + z * z / n),
+                                                   (centre + half) / (1 + z * z / n)), abs=1e-9)
+        assert written["verdict"][name] == written["tolerance"]["programs"][name]["verdict"]
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            v.nominal_pass = not v.nominal_pass
+    best = report.tolerance.programs["best"]
+    alloc = best.allocation.table()
+    assert list(alloc["parameter"]) == [t.parameter for t in best.allocation.tolerances]
+    assert np.allclose(alloc["allocated"], alloc["tolerance"] * alloc["factor"], rtol=1e-12)
+    sens = best.sensitivity.table()
+    assert len(sens) == 2 * len(best.sensitivity.rows) and set(sens["side"]) == {"minus", "plus"}
+    curve = report.polishing.paper_program
+    assert curve.table()["time_s"].tolist() == list(curve.times_s)
+    assert report.polishing.summary.optimum_time_s == curve.optimum.time_s
+
+
 def test_page_renders_in_chromium_and_its_figures_decode(report, tmp_path):
     """The report opened by a real browser (headless Chromium): the page parses and
     renders (its DOM dump holds the answer and the tolerance tables), and every embedded

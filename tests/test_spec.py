@@ -157,10 +157,11 @@ def test_spec_bad_step_is_one_line(tmp_path):
 
 def test_report_section_states_the_spec(case):
     """The report's section 12 (report.spec_section) shows the command's R, k and tolerances."""
+    from lathe_mirror.iso10110 import spec_of
     from lathe_mirror.report.spec_section import spec_html
 
-    _, _, _, spec = case
-    page = spec_html(spec)
+    _, _, settings, spec = case
+    page = spec_html(spec_of(settings))  # the typed spec; the command's JSON to check it against
     for lb in spec["lobes"]:
         assert f"{lb['R_mm']:.6f}" in page and f"{lb['k']:.8f}" in page
         assert lb["form_tolerance"]["iso10110_5"].split(";")[0] in page

@@ -98,8 +98,8 @@ def run(args: argparse.Namespace) -> int:
         exact, mirror, scene, pose=pose, supersample=n, progress=progress)
     # Over the lobes' usable annuli, as the distortion figures: the step-vignetted band is
     # black in both images and would only dilute the difference.
-    # (maps.lobe >= 0) & ~maps.blocked is optics.distortion.usable_annulus: the design's own
-    diff = image_difference(exact_img, made_img, mask=(maps.lobe >= 0) & ~maps.blocked)
+    # maps.annulus: the design's own pixels (optics.distortion.usable_annulus, the report's)
+    diff = image_difference(exact_img, made_img, mask=maps.annulus)
     figures = {
         "surface": surface,
         "made_mirror": label,

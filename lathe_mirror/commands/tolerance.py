@@ -79,12 +79,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def run_measured(args: argparse.Namespace, settings, mirror) -> int:
-    """tolerance --surface measured:FILE (measure.tolerance): the file read and fitted
+    """tolerance --surface measured:FILE (tolerance.measured): the file read and fitted
     before any output is made (a bad file: one line, exit 2)."""
     from ..enums import Surface
     from ..errors import InputError
     from ..measure.surface import measured_profile
-    from ..measure.tolerance import ENTRY, measured_tolerance
+    from ..tolerance.measured import ENTRY, measured_tolerance
     from .common import surface_arg
 
     kind, path = surface_arg(args.surface)
@@ -121,7 +121,7 @@ def _write(args: argparse.Namespace, out: dict, results: list) -> None:
         write_histograms(Path(args.output), out)
     if args.csv:
         from ..export.files import write_text
-        from ..tolerance.montecarlo import trials_csv
+        from ..export.trials import trials_csv
 
         write_text(args.csv, trials_csv(results), "--csv")
     if args.json:
@@ -171,6 +171,11 @@ def format_tolerance(out: dict) -> str:
                      f"{percent_interval(mc['passed'], mc['trials'])}")
         if "allocation" in t:
             lines.append(f"  {t['allocation']['statement']}")
+        for key, what in (("nominal_over_zone", "judged"), ("as_machined_over_zone", "as machined")):
+            if key in t:  # the shared figure of the judged part and of the part calib and the report describe
+                z = t[key]
+                lines.append(f"  image displacement over the used zone ({what}: {z['made_mirror']}), px RMS "
+                             + " / ".join(f"{lb['name']} {lb['image_displacement_px']['rms']:.4g}" for lb in z["lobes"]))
         for k, c in v["checks"].items():
             lines.append(f"  nominal {k}: {c['nominal']:.4g} (limit {c['limit']:.4g}) {'PASS' if c['pass'] else 'FAIL'}; "
                          f"pass fraction {100 * mc['pass_fraction'][k]:.1f} %")

@@ -42,9 +42,10 @@ KEYS: tuple[Key, ...] = (
               ' per distinct nose drawn, ~0.1-0.3 s)'),
         lo_depends=True,
         depends="the tolerance analysis' estimate (tolerance.lattice_phases + noses: tolerance.params.nose_radius_mm / tolerance.nose_step_mm)"),
-    Key('tolerance.seat_pivot_mm', 125.0, 'mm', -1000.0, 1000.0,
+    Key('tolerance.seat_pivot_mm', 0.0, 'mm', -1000.0, 1000.0,
         help=("height above the camera's pinhole of the point about which the mirror's seat tilts it (its mounting "
-              'face), mm')),
+              "face), mm; 0: the design's rim, its farthest point from the pinhole (the shoulder it seats on: "
+              '123.457 mm on the paper\'s design), so that the lever scales with the mirror')),
     Key('tolerance.matching_noise_px', 0.1, 'px', 0.0, 10.0,
         help="the stereo matcher's sub-pixel noise, px: the depth error's floor"),
     Key('tolerance.target_yield', 0.95, "", 0.5, 0.999,

@@ -49,9 +49,10 @@ class DistortionMaps:
     usable: the made mirror sends the pixel to the same lobe. radius_px: image radius of
     the pixel centre, px. ray_deviation_rad: rad. image_displacement_px: magnitude, px.
     radial_px: signed radial component of the displacement, px (+ outward).
-    viewpoint_spread_mm: mm. blocked: the pixel is vignetted by the mirror itself (the
+    viewpoint_spread_mm: mm. vignetted: the pixel is vignetted by the mirror itself (the
     EXACT mirror's reflected ray runs into the step: a property of the design, so every
-    made surface is judged on the same usable pixels). Figures are NaN where not usable.
+    made surface is judged on the same usable pixels); blocked: the vignetted pixels the
+    made mirror still sends to their lobe. Figures are NaN where not usable.
     """
 
     camera: Camera
@@ -63,6 +64,14 @@ class DistortionMaps:
     radial_px: np.ndarray
     viewpoint_spread_mm: np.ndarray
     blocked: np.ndarray
+    vignetted: np.ndarray
+
+    @property
+    def annulus(self) -> np.ndarray:
+        """The pixels (H, W bool) of the lobes' usable annuli that the step wall does not
+        vignette, on the exact design: the pixels every image figure and image difference
+        is taken over (the one definition; usable_annulus for the design alone)."""
+        return (self.lobe >= 0) & ~self.vignetted
 
     def lobe_values(self, k: int, name: str) -> np.ndarray:
         """The usable pixels' values of figure `name` for lobe k (1-D)."""
@@ -136,10 +145,9 @@ def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = No
 def usable_annulus(mirror: Mirror, camera: Camera | None = None, *,
                    pose: CameraPose | None = ALIGNED) -> np.ndarray:
     """The pixels (H, W bool) of the lobes' usable annuli that the step wall does not
-    vignette: DistortionMaps' (lobe >= 0) & ~blocked, properties of the design alone, so
-    every made mirror (and its rendered image) is judged on the same pixels."""
-    maps = image_displacement(ExactProfile(mirror), mirror, camera, pose=pose)
-    return (maps.lobe >= 0) & ~maps.blocked
+    vignette: DistortionMaps.annulus, properties of the design alone, so every made mirror
+    (and its rendered image) is judged on the same pixels."""
+    return image_displacement(ExactProfile(mirror), mirror, camera, pose=pose).annulus
 
 
 def distortion_figures(made: Profile, mirror: Mirror, camera: Camera | None = None, *,
@@ -201,7 +209,7 @@ def _figures_of(mirror: Mirror, camera: Camera, hm: RayHits, he: RayHits, xy: np
     deviation = np.where(usable, deviation, np.nan)
     return {"lobe": lobe, "usable": usable, "ray_deviation_rad": deviation,
             "image_displacement_px": disp, "radial_px": radial,
-            "viewpoint_spread_mm": spread, "blocked": he.blocked & usable}
+            "viewpoint_spread_mm": spread, "blocked": he.blocked & usable, "vignetted": he.blocked}
 
 
 def _rms_max(x: np.ndarray) -> dict:

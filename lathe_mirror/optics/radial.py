@@ -22,6 +22,7 @@ import numpy as np
 
 from ..design import Camera, Lobe, Mirror
 from ..profile import Profile
+from ..toolpath.metrics import slope_error
 
 #: Fixed-point iterations of the ray-surface intersection; each contracts the error by
 #: |tan(theta) * slope| <= 0.22 on the paper mirror, so 60 reach machine precision for
@@ -262,12 +263,20 @@ def surface_errors(profile: Profile, mirror: Mirror, *, n: int = 4001, used: boo
         if k == 1:
             r[0] = np.nextafter(lo, hi)
         s_exact = lobe.slope(r)
-        slope_err = np.abs(np.arctan(profile.slope(r)) - np.arctan(s_exact))
+        slope_err = np.abs(slope_error(profile.slope(r), s_exact))
         normal_dev = np.abs(profile.z(r) - lobe.z(r)) / np.hypot(1.0, s_exact)
         w = np.ones_like(r)
         out.append({"name": lobe.name, "slope_error_rad": weighted_stats(slope_err, w),
                     "normal_deviation_mm": weighted_stats(normal_dev, w)})
     return {"lobes": out}
+
+
+def pooled_rms(parts) -> float:
+    """The RMS over several sets from each one's (RMS, weight): the image displacement over
+    both lobes' pixels (weights: pixel counts), the slope error over both lobes' clear
+    apertures (weights: their widths, mm). The polishing curve and section use it."""
+    parts = [(float(r), float(n)) for r, n in parts]
+    return math.sqrt(sum(r**2 * n for r, n in parts) / sum(n for _, n in parts))
 
 
 def weighted_stats(values: np.ndarray, weights: np.ndarray) -> dict:

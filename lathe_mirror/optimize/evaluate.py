@@ -21,7 +21,8 @@ The constraints (CONSTRAINTS, each named by the key that sets it):
              recessed, and the fillet it leaves in the step's corner lies where the
              camera does not see it), tool.approach_angle (the held tool's flanks clear
              the profile),
-             stock.diameter, stock.length and cad.thickness (the bar and the body hold it),
+             stock.diameter, stock.length and cad.thickness (the bar and the body hold it;
+             the second set-up's soft jaws grip the body's side below the rim's shoulder),
              cad.mount_depth (the body's bore stays cad.min_wall below the face)
 Each violation is normalised by a natural unit (1 mm, 1 deg, 1 px, 1 % of the image,
 0.01 rad) so that they add up into one measure of infeasibility.
@@ -105,6 +106,7 @@ class Figures:
     hand: str
     r_pixel_outer: float = field(default=0.0)
     bore_face_mm: float = field(default=0.0)  # the face's depth below the vertex over the mount bore's radius
+    rim_depth_mm: float = field(default=0.0)  # the outer rim's depth below the vertex (the shoulder)
 
     def objective(self, objective: Objective) -> float:
         """The value of `objective` (larger is better)."""
@@ -212,6 +214,8 @@ CONSTRAINTS: tuple[Constraint, ...] = (
                lambda f, p: (f.depth_mm + p.clearance, p.stock.length)),
     Constraint("cad.thickness", "the mirror's depth plus cad.min_wall", "mm", +1, 1.0,
                lambda f, p: (f.depth_mm + p.body.min_wall, p.body.thickness)),
+    Constraint("cad.thickness", "the outer rim's depth plus the second set-up's grip (jaw gap and least grip)",
+               "mm", +1, 1.0, lambda f, p: (f.rim_depth_mm + _grip_mm(), p.body.thickness)),
     Constraint("cad.mount_depth", "the face's depth over the mount bore plus cad.min_wall and the bore's depth", "mm",
                +1, 1.0, lambda f, p: (f.bore_face_mm + p.body.min_wall + _bore_depth(p), p.body.thickness)),
 )
@@ -281,7 +285,16 @@ def measure(mirror: Mirror, problem: Problem, lobes: tuple[LobeSpec, LobeSpec], 
         hand=hand.value,
         r_pixel_outer=mirror.outer.r_pixel,
         bore_face_mm=_bore_face(mirror, problem),
+        rim_depth_mm=float(mirror.outer.z(mirror.r_max)) - vertex,
     )
+
+
+def _grip_mm() -> float:
+    """What the second set-up's soft jaws need of the body's side below the shoulder (mm):
+    shop.second's gap at the back plus its least grip (plan_second refuses less)."""
+    from ..shop.second import JAW_GAP, MIN_GRIP
+
+    return JAW_GAP + MIN_GRIP
 
 
 def _bore_depth(p: Problem) -> float:

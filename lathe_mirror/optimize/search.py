@@ -263,3 +263,25 @@ def _binding_message(hist: History, problem: Problem) -> str:
 
 def _fmt(v: float) -> str:
     return f"{v:.4g}" if math.isfinite(v) else str(v)
+
+
+def alternates(result: SearchResult, problem: Problem, n: int = 4, spacing: float = 0.05) -> list[tuple]:
+    """Up to n runner-up designs (LobeSpecs), best objective first: feasible candidates of
+    the search, each at least `spacing` (a fraction of every searched range, in the largest
+    coordinate) from the winner and from one another, so that each is a different design
+    and not the winner's neighbour on the same ridge. For a winner that fails a check the
+    search does not model (the tolerance verdict on the made part)."""
+    h = result.history
+    bounds = np.array(problem.settings.margin_bounds(), dtype=float)
+    span = np.where(bounds[:, 1] > bounds[:, 0], bounds[:, 1] - bounds[:, 0], 1.0)
+    order = np.argsort(h.energy, kind="stable")
+    picked = [vector_of(result.best, problem) / span]
+    out = []
+    for i in order:
+        if h.energy[i] >= INFEASIBLE or len(out) >= n:
+            break
+        x = h.x[i] / span
+        if all(np.max(np.abs(x - p)) >= spacing for p in picked):
+            picked.append(x)
+            out.append(design_of(h.x[i], problem))
+    return out

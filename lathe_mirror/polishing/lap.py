@@ -208,9 +208,20 @@ def recessed_lobe(frame: Profile | Mirror) -> int:
     rj = frame.r_junction
     if isinstance(frame, Mirror):
         return 0 if frame.recessed == "inner" else 1
-    z_in = float(frame.z(np.array([rj]))[0])
-    z_out = float(frame.z(np.array([np.nextafter(rj, np.inf)]))[0])
-    return 0 if z_in > z_out else 1
+    # Each lobe's height at the junction extrapolated (quadratic) from three of its points
+    # 1 mm apart (closer on a narrow lobe), not read at the junction itself: a made part's
+    # fillet (as deep as the nose, as wide) lowers the recessed lobe's edge and a sliver of
+    # the step's wall can end the proud lobe's samples, which flips the comparison for some
+    # lattice phases (an outer-recessed part polished as if its inner lobe were recessed).
+    d = min(1.0, rj / 4.0, (frame.r_max - rj) / 4.0)
+    if d <= 0:
+        return 0 if float(frame.z(np.array([rj]))[0]) > float(frame.z(np.array([np.nextafter(rj, np.inf)]))[0]) else 1
+    u = np.array([1.0, 2.0, 3.0])
+    z_in = frame.z(rj - d * u)
+    z_out = frame.z(rj + d * u)
+    # the quadratic through the three values at u = 1, 2, 3, at u = 0: 3 f1 - 3 f2 + f3
+    at = np.array([3.0, -3.0, 1.0])
+    return 0 if float(at @ z_in) > float(at @ z_out) else 1
 
 
 def reach(frame: Profile | Mirror, k: int, params: PolishParams) -> tuple[float, float]:

@@ -34,6 +34,7 @@ from ..results.tolerance import ToleranceAnalysis, Verdict
 from ..toolpath import profile_errors
 
 if TYPE_CHECKING:
+    from ..iso10110 import PartSpec
     from ..settings import Settings
 
 #: report.json's schema
@@ -74,7 +75,7 @@ class ReportData:
 
     design: DesignFigures
     notes: tuple[str, ...] = ()
-    spec: dict[str, Any] | None = None
+    spec: PartSpec | None = None
     machine: MachineFigures | None = None
     toolpaths: tuple[ToolpathFigures, ...] | None = None
     polishing: PolishingStudy | None = None

@@ -4,7 +4,6 @@ pre-compensation, the process presets side by side."""
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -17,7 +16,7 @@ from ..job import MachiningJob, polishing_curve, process_for
 from ..optics.calibrated_stereo import calibrated_depth_error
 from ..optics.polishing_curve import (CURVE_BIN_PX, PolishCurve, clear_surface_errors, form_change,
                                      form_facet_decomposition, polish_summary)
-from ..optics.radial import radial_figures
+from ..optics.radial import pooled_rms, radial_figures
 from ..optics.scatter import haze_figures, lobe_geometry
 from ..optics.stereo import depth_error_curve
 from ..polishing import FIRST_MODEL, PolishParams, compensated_mirror, lap_plan, polish, polished_design
@@ -114,7 +113,7 @@ def surface_figures(profile: Profile, mirror: Mirror, params: PolishParams) -> d
                    "slope_error_rad": s_["slope_error_rad"], "normal_deviation_mm": s_["normal_deviation_mm"],
                    "image_displacement_px": r_["image_displacement_px"]}
                   for f, s_, r_ in zip(form["lobes"], surf["lobes"], rad["lobes"])],
-        "image_displacement_px_rms": math.sqrt(sum(p * d * d for p, d in zip(pix, disp)) / sum(pix)),
+        "image_displacement_px_rms": pooled_rms(zip(disp, pix)),
         "stereo_residual_pct": calibrated_depth_error(profile, mirror, [rng], knot_px=params.calibration_knot_px,
                                                       clear_edge_mm=params.clear_edge_mm,
                                                       bin_px=CURVE_BIN_PX).at(rng)["rms"],

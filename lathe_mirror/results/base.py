@@ -100,9 +100,12 @@ def _convert(tp: Any, v: Any) -> Any:
 
 
 def plain(v: Any) -> Any:
-    """v as plain JSON-ready data: results as their dicts, tuples as lists."""
+    """v as plain JSON-ready data: results (and another room's typed objects with a
+    to_dict(), e.g. iso10110.PartSpec) as their dicts, tuples as lists."""
     if isinstance(v, Result):
         return v.to_dict()
+    if callable(getattr(v, "to_dict", None)) and not isinstance(v, type):
+        return plain(v.to_dict())
     if isinstance(v, (tuple, list)):
         return [plain(x) for x in v]
     if isinstance(v, dict):

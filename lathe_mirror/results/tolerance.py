@@ -198,9 +198,30 @@ class SensitivityRow(Result):
 
 @dataclass(**RESULT)
 class Sensitivity(Result):
+    """Each parameter at -/+ its tolerance; `table()`: one row per parameter and side."""
+
     nominal: SensitivityCase
     rows: tuple[SensitivityRow, ...]
     nominal_values: dict[str, float]
+
+    def table(self) -> np.ndarray:
+        out = []
+        for r in self.rows:
+            for side in ("minus", "plus"):
+                c = getattr(r, side)
+                out.append((r.parameter, side, *c.raw.image_displacement_px_rms,
+                            *c.calibrated.image_displacement_px_rms, c.raw.disparity_px_p90,
+                            c.calibrated.disparity_px_p90, c.raw.depth_error_pct_rms,
+                            c.calibrated.depth_error_pct_rms, *c.slope_error_rad_rms, c.passed))
+        return structured(out, [("parameter", "U32"), ("side", "U5"),
+                                ("raw_image_displacement_px_rms_inner", "f8"),
+                                ("raw_image_displacement_px_rms_outer", "f8"),
+                                ("calibrated_image_displacement_px_rms_inner", "f8"),
+                                ("calibrated_image_displacement_px_rms_outer", "f8"),
+                                ("raw_disparity_px_p90", "f8"), ("calibrated_disparity_px_p90", "f8"),
+                                ("raw_depth_error_pct_rms", "f8"), ("calibrated_depth_error_pct_rms", "f8"),
+                                ("slope_error_rad_rms_inner", "f8"), ("slope_error_rad_rms_outer", "f8"),
+                                ("pass", "?")])
 
 
 @dataclass(**RESULT)
@@ -316,6 +337,13 @@ class Allocation(Result):
     surrogate: Surrogate
     unreachable: str
     statement: str
+
+    def table(self) -> np.ndarray:
+        """One row per parameter: configured, allocated, factor, relative cost, tighten."""
+        return structured([(t.parameter, t.unit, t.tolerance, t.allocated, t.factor, t.cost, t.tighten)
+                           for t in self.tolerances],
+                          [("parameter", "U32"), ("unit", "U8"), ("tolerance", "f8"), ("allocated", "f8"),
+                           ("factor", "f8"), ("cost", "f8"), ("tighten", "?")])
 
 
 @dataclass(**RESULT)

@@ -376,26 +376,6 @@ def stereo_table(ctx: Context, ranges_m) -> dict:
         out[label] = {key: [float(x) for x in d[key][0]] for key in STEREO_FIGURES}
     return out
 
-
-def trials_csv(results: list[tuple[str, MonteCarloResult]]) -> str:
-    """CSV text (RFC 4180, "," separated, a header line): one row per trial of each
-    (run name, result), every drawn parameter and figure; numbers as repr (17 digits)."""
-    import csv
-    import io
-
-    buf = io.StringIO()
-    writer = csv.writer(buf, lineterminator="\n")
-    header_written = None
-    for run, res in results:
-        header, rows = res.csv_rows(run)
-        if header_written is None:
-            writer.writerow(header)
-            header_written = header
-        for row in rows:
-            writer.writerow([repr(v) if isinstance(v, float) else v for v in row])
-    return buf.getvalue()
-
-
 def _rotation_angle(r: np.ndarray) -> np.ndarray:
     """Angle (rad) of each rotation matrix (trials, 3, 3)."""
     c = (np.trace(r, axis1=1, axis2=2) - 1.0) / 2.0

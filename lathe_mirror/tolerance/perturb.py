@@ -33,6 +33,7 @@ import numpy as np
 from ..design import Mirror
 from ..optics.radial import used_extent
 from ..optics.stereo import capped_abs_error, triangulate
+from ..toolpath.metrics import slope_error
 from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals
 from .poses import poses
 from .samples import PixelSample, StereoPoints, stereo_points
@@ -388,7 +389,7 @@ def _surface_errors(mirror: Mirror, bank: SurfaceBank, k: int, surf, tr: Trials,
     z = _lookup(bank, k, surf[0], rows, q)
     s = _lookup(bank, k, surf[1], rows, q) * np.sign(np.where(q_raw == 0, 1.0, q_raw))
     s_ex = lobe.slope(r)[None, :]
-    slope_err = np.arctan(s) - np.arctan(s_ex)
+    slope_err = slope_error(s, s_ex)
     ndev = (z - lobe.z(r)[None, :]) / np.sqrt(1.0 + s_ex**2)
     # A point in a grid cell with a sample off the lobe's surface (_trace's rule: the wall
     # moved into the lobe, the groove's flank) is no slope of the lobe; its pixels are lost.

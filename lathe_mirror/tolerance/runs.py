@@ -5,6 +5,7 @@ sensitivity, allocation and the verdict against the spec.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -17,6 +18,7 @@ from .allocation import allocate as allocate_tolerances
 from .allocation import inverse_sensitivity
 from .montecarlo import CRITERIA, evaluate_trials, judge, prepare, run_monte_carlo, stereo_table
 from .perturb import Trials
+from .spec import DRAWN
 from .sensitivity import judged_values, resolution_row, responses, sensitivity_table
 
 if TYPE_CHECKING:
@@ -58,7 +60,7 @@ def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Pro
     target = ts.target_yield if target_yield is None else target_yield
     out = {"spec": ts.spec_dict(), "distribution": ts.distribution.value, "tolerances": ts.tolerances,
            "cost": ts.cost, "seed": ts.seed, "trials": ts.trials, "target_yield": target,
-           "seat_pivot_mm": ts.seat_pivot_mm, "lattice_phases": ts.lattice_phases,
+           "seat_pivot_mm": ts.pivot_mm(mirror), "lattice_phases": ts.lattice_phases,
            "nose_step_mm": ts.nose_step_mm, "programs": {}}
     results = []
     for program in ts.programs:
@@ -77,7 +79,10 @@ def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Pro
                  "inverse_sensitivity": inverse_sensitivity(resp, ctx.limits),
                  "stereo": stereo_table(ctx, DEPTH_RANGES_M),
                  "nose_radii_cut": len(ctx.bank.nose_mm),
-                 "nominal_over_zone": nominal_over_zone(mirror, part.but(polish_time_s=ctx.nominal_time_s), ctx)}
+                 "nominal_over_zone": nominal_over_zone(mirror, part.but(polish_time_s=ctx.nominal_time_s), ctx),
+                 # the same figure of the part as machined: the made mirror calib, render and the
+                 # report describe by default (job.MachiningJob, not polished), over the same zone
+                 "as_machined_over_zone": nominal_over_zone(mirror, part.but(polish_time_s=0.0), ctx)}
         if program in allocate:
             entry["allocation"], confirm = allocate_tolerances(ctx, resp, mc, target=target, progress=progress)
             if confirm is not None:
@@ -95,7 +100,7 @@ def nominal_over_zone(mirror: Mirror, part: MachiningJob, ctx) -> dict:
 
     made = part.made()
     lobes = radial_figures(made.profile, mirror, zones=ctx.zones)["lobes"]
-    return {"surface": made.source, "zones": ctx.zones.describe(),
+    return {"surface": made.source, "made_mirror": part.label, "zones": ctx.zones.describe(),
             "lobes": [{"name": lb["name"], "image_displacement_px": lb["image_displacement_px"],
                        "zone_px": lb["zone_px"]} for lb in lobes]}
 
@@ -124,7 +129,9 @@ def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nomi
             phases[phase] = job.but(phase=phase)
         return phases[phase].but(nose_radius=nose).made()
 
-    ctx = prepare(mirror, settings.tolerance, settings.polish, nominal_time_s, program,
+    ts = settings.tolerance
+    ts = dataclasses.replace(ts, seat_pivot_mm=ts.pivot_mm(mirror))  # 0: the design's rim
+    ctx = prepare(mirror, ts, settings.polish, nominal_time_s, program,
                   nose0=job.tool.nose_radius, machine_at=machine_at, progress=progress,
                   zones=zones_for(settings, mirror))
     ctx.cut_plus_x = mirror.step > 0  # the finishing pass runs axis -> rim (+X): backlash shows
@@ -158,14 +165,17 @@ def verdict(t: dict, spec: dict) -> dict:
 
 
 def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
-                 polish_time_s: float | None = None) -> dict:
+                 polish_time_s: float | None = None, nominal_only: bool = False) -> dict:
     """The optimiser's winner through the tolerance analysis of the best program with the
     configured tool and default tolerances: the nominal part (lattice phase 0, every
     parameter nominal) judged against the spec, and the Monte Carlo's yield against
     tolerance.target_yield. When the nominal part fails, the criteria it fails (only
-    those); when the yield falls short, the criteria failing trials break and the drawn
-    parameter those trials stand out on (the mean |offset| / tolerance of the failing
-    trials less the passing ones'), which `tolerance --allocate` tightens."""
+    those); when the yield falls short, the criteria failing trials break and the yield
+    with each drawn parameter held perfectly (`yield_without`, the same seed), naming the
+    tolerance that makes the target impossible (held perfectly, the target is reached) or
+    saying that none does alone. The part judged is `tolerance`'s: the best program
+    polished for its polishing curve's time (or polish_time_s), its label under
+    "made_mirror". nominal_only: the nominal part alone (no Monte Carlo, no yield)."""
     import numpy as np
 
     ts = settings.tolerance
@@ -182,34 +192,43 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
     nominal = {c: {"value": float(vals[j]), "limit": float(ctx.limits[c]), "pass": bool(ok[c][0])}
                for j, c in enumerate(CRITERIA)}
     failing = [c for c in CRITERIA if not nominal[c]["pass"]]
+    why = ("the nominal part fails " + ", ".join(
+        f"{c} ({nominal[c]['value']:.4g} > {nominal[c]['limit']:.4g})" for c in failing)
+        + ": no tolerance can fix it (the design, the tool or the spec must change)")
+    if nominal_only:
+        return {"program": Program.BEST.value, "made_mirror": job.but(polish_time_s=time_s).label,
+                "polish_time_s": time_s, "nominal": nominal, "nominal_pass": not failing,
+                **({"why": why} if failing else {})}
     mc = run_monte_carlo(ctx, progress=progress)
     y = float(mc.yield_fraction)
-    out = {"program": Program.BEST.value, "polish_time_s": time_s, "nominal": nominal,
+    out = {"program": Program.BEST.value, "made_mirror": job.but(polish_time_s=time_s).label,
+           "polish_time_s": time_s, "nominal": nominal,
            "nominal_pass": not failing, "yield": y, "target_yield": ts.target_yield, "trials": len(mc.trials),
+           "pass_fraction": {c: float(np.mean(mc.passed[c])) for c in CRITERIA},
            "zones": ctx.zones.describe()}
     if failing:
-        out["why"] = ("the nominal part fails " + ", ".join(
-            f"{c} ({nominal[c]['value']:.4g} > {nominal[c]['limit']:.4g})" for c in failing)
-            + ": no tolerance can fix it (the design, the tool or the spec must change)")
+        out["why"] = why
     elif y < ts.target_yield:
         broken = [c for c in CRITERIA if float(np.mean(mc.passed[c])) < ts.target_yield]
-        cols = mc.parameter_columns()
-        fail = ~mc.pass_all
-        offsets = {"nose_radius_mm": np.abs(np.asarray(cols["nose_mm"]) - mc.nominal_nose_mm),
-                   "polish_time_s": np.abs(np.asarray(cols["polish_time_s"]) - mc.nominal_time_s),
-                   "tool_x_mm": np.abs(cols["tool_x_mm"]), "tool_z_mm": np.abs(cols["tool_z_mm"]),
-                   "camera_decentre_mm": np.hypot(cols["camera_x_mm"], cols["camera_y_mm"]),
-                   "camera_axial_mm": np.abs(cols["camera_axial_mm"]),
-                   "camera_tilt_deg": np.hypot(cols["camera_tilt_x_deg"], cols["camera_tilt_y_deg"]),
-                   "seat_tilt_deg": np.hypot(cols["seat_tilt_x_deg"], cols["seat_tilt_y_deg"])}
-        score = {}
-        for k, v in offsets.items():
-            t = ts.tolerances.get(k, 0.0)
-            if t > 0 and fail.any() and (~fail).any():
-                score[k] = float(np.mean(v[fail]) / t - np.mean(v[~fail]) / t)
-        worst = max(score, key=score.get) if score else None
-        out["why"] = (f"yield {100 * y:.1f} % < {100 * ts.target_yield:g} %: the failing trials break "
-                      + ", ".join(f"{c} (pass {100 * float(np.mean(mc.passed[c])):.1f} %)" for c in broken)
-                      + (f"; they stand out on {worst} (tolerance {ts.tolerances[worst]:g}): "
-                         "`tolerance --allocate` says how far to tighten it" if worst else ""))
+        # which tolerance makes the target out of reach: the yield with each drawn
+        # parameter held perfectly (its tolerance 0, the others as configured; same seed)
+        without = {}
+        for k in DRAWN:
+            if ts.tolerances.get(k, 0.0) > 0:
+                tol = {**ts.tolerances, k: 0.0}
+                without[k] = float(run_monte_carlo(ctx, tolerances=tol).yield_fraction)
+        out["yield_without"] = without
+        ranked = sorted(without, key=lambda k: -without[k])
+        head = (f"yield {100 * y:.1f} % < {100 * ts.target_yield:g} %: the failing trials break "
+                + ", ".join(f"{c} (pass {100 * float(np.mean(mc.passed[c])):.1f} %)" for c in broken))
+        if not ranked:
+            out["why"] = head
+        elif without[ranked[0]] >= ts.target_yield:
+            k = ranked[0]
+            out["why"] = (f"{head}; {k} (tolerance {ts.tolerances[k]:g}) makes the target impossible: held "
+                          f"perfectly it gives {100 * without[k]:.1f} %, so tighten it (`tolerance --allocate` says how far)")
+        else:
+            top = ", ".join(f"{k} {100 * without[k]:.1f} %" for k in ranked[:3])
+            out["why"] = (f"{head}; no single tolerance makes the target impossible alone: held perfectly, each "
+                          f"gives at most {top}; `tolerance --allocate` tightens them together at least cost")
     return out

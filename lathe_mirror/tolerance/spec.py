@@ -76,7 +76,7 @@ class ToleranceSettings:
     """Everything the tolerance analysis reads from [tolerance].
 
     seat_pivot_mm: height above the pinhole (mm, on the axis) of the point the mirror's
-    seat tilts about. nose_step_mm: the drawn nose radius is rounded to this step and the
+    seat tilts about; 0: the design's rim (pivot_mm). nose_step_mm: the drawn nose radius is rounded to this step and the
     part re-machined with it (mm). matching_noise_px: the stereo matcher's sub-pixel noise
     (px), the floor of the depth error. target_yield: the allocation's target (0..1).
     cost: relative cost of holding each drawn parameter at its configured tolerance
@@ -95,12 +95,19 @@ class ToleranceSettings:
     depth_points: int
     spec: Spec
     tolerances: dict[str, float]  # PARAMETERS' keys except lattice_phase; edge units
-    seat_pivot_mm: float = 125.0
+    seat_pivot_mm: float = 0.0
     nose_step_mm: float = 0.002
     matching_noise_px: float = 0.1
     target_yield: float = 0.95
     cost: dict[str, float] = field(default_factory=dict)
     machine_errors: dict[str, float] = field(default_factory=dict)
+
+    def pivot_mm(self, mirror) -> float:
+        """The seat's pivot height above the pinhole (mm) for `mirror`: seat_pivot_mm, or
+        with 0 the design's rim (Mirror.far_z, its farthest point from the pinhole): a seat
+        tilt t moves the pinhole sideways by pivot x sin t, so the lever follows the mirror
+        (a 14 mm mirror 56 mm above a 6 mm lens is not tilted about a point 125 mm up)."""
+        return float(self.seat_pivot_mm) if self.seat_pivot_mm != 0 else float(mirror.far_z)
 
     def spec_dict(self) -> dict:
         """The spec as JSON-ready key -> value."""

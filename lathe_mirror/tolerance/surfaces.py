@@ -112,7 +112,7 @@ class SurfaceBank:
               time_s: float = 0.0) -> "SurfaceBank":
         """A bank holding one given surface (its z and slope on the grid, not polished):
         every trial is cut the same, whatever its phase, nose and polishing time (a part
-        that exists: measure.tolerance). The nose step is the nose itself, so that a trial
+        that exists: tolerance.measured). The nose step is the nose itself, so that a trial
         that draws no nose error keeps nose_mm (the draw's floor is one step)."""
         return cls(mirror, lambda phase, nose: _Given(profile), None, np.array([time_s]), np.array([0.0]),
                    nose_mm, nose_mm if nose_mm > 0 else 1.0, grid_step_mm=grid_step_mm)

@@ -14,6 +14,14 @@ from ..profile import ExactProfile, Profile
 from ..sheet import signed_distance_camera
 
 
+def slope_error(made_slope, exact_slope):
+    """The slope error (rad, signed) at the same r: the angle between the made and the exact
+    surface's normals, from their slopes dz/dr. The one definition every slope-error figure
+    uses (profile_errors, optics.radial.surface_errors, the polishing curve's clear aperture,
+    the tolerance trials)."""
+    return np.arctan(made_slope) - np.arctan(exact_slope)
+
+
 def profile_errors(profile: Profile, mirror: Mirror, *, n: int = 20001,
                    r_ranges: tuple[tuple[float, float], tuple[float, float]] | None = None) -> dict:
     """Normal deviation (mm) and slope error (rad) of a made profile, per lobe.
@@ -43,7 +51,7 @@ def profile_errors(profile: Profile, mirror: Mirror, *, n: int = 20001,
         z = profile.z(rr)
         s = profile.slope(rr)
         dist = np.abs(signed_distance_camera(lobe, rr, z))
-        slope_err = np.abs(np.arctan(s) - np.arctan(exact.slope(rr)))
+        slope_err = np.abs(slope_error(s, exact.slope(rr)))
         m = r.size  # the uniform samples come first: RMS over them
         entry = {"name": lobe.name}
         if r_ranges is not None:
