@@ -10,6 +10,7 @@ import html
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from .files import write_text
 from .stock_svg import polygons, stock_svg
 
 if TYPE_CHECKING:
@@ -128,8 +129,6 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
 
 def write_setup_sheet(path: str | Path, sheet: SetupSheet) -> Path:
     """Write the sheet atomically."""
-    from .files import write_text
-
     return write_text(path, setup_sheet_html(sheet))
 
 

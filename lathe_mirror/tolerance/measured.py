@@ -94,7 +94,7 @@ def measured_tolerance(mirror: Mirror, settings, profile: Profile, path: str, *,
              "note": note, "limits": ctx.limits, "monte_carlo": mc.to_dict(),
              "sensitivity": sensitivity_table(ctx, resp), "inverse_sensitivity": inverse_sensitivity(resp, ctx.limits),
              "stereo": stereo_table(ctx, DEPTH_RANGES_M),
-             "nominal_over_zone": {"surface": label, "zones": ctx.zones.describe(),
+             "nominal_over_zone": {"surface": label, "made_mirror": label, "zones": ctx.zones.describe(),
                                    "lobes": [{"name": lb["name"], "image_displacement_px": lb["image_displacement_px"],
                                               "zone_px": lb["zone_px"]} for lb in lobes]}}
     if allocate:
