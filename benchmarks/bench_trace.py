@@ -8,7 +8,10 @@ Surfaces: the exact design (closed form), the paper program and the best strateg
 machined (tabulated tool-nose envelopes). Pose of the misaligned camera: decentre
 (0.05, -0.03) mm, axial +0.1 mm, tilt (0.1, -0.06) deg (a tolerance trial's order). The
 time is the best of --repeat runs of trace_pixels on the whole sensor (wall clock; the
-process's CPU time beside it, less skewed when other processes load the machine). The
+process's CPU time beside it, less skewed when other processes load the machine; with
+threads it is their sum, so the rate by CPU time is per core). The 3-D tracer runs once
+serial (one core: what a Monte Carlo worker does) and once on all cores (a command's
+default --workers: its chunks in threads, numpy releasing the GIL). The
 per-profile tables (built once per surface) are warmed first. --march also times the
 march on its own (slow: tens of seconds).
 """
@@ -39,6 +42,7 @@ def main() -> int:
     ap.add_argument("--config", default=None)
     args = ap.parse_args()
 
+    from lathe_mirror import compute
     from lathe_mirror.config import load
     from lathe_mirror.enums import Surface
     from lathe_mirror.optics.camera import CameraPose, pixel_centres, ray_directions
@@ -57,15 +61,18 @@ def main() -> int:
     origin, d = ray_directions(cam, xy[..., 0], xy[..., 1], pose)
     surfaces = [("exact", ExactProfile(mirror)), ("paper", named_surface(Surface.PAPER, mirror, s)),
                 ("best", named_surface(Surface.BEST, mirror, s))]
+    cores = compute.default_workers()
     print(f"{n} rays per run, best of {args.repeat}; rays/s by wall clock (by CPU time)")
     for name, prof in surfaces:
         trace_pixels(prof, cam, xy[:4, :4], pose=pose)  # the per-profile tables
-        rows = [("aligned (meridian)", lambda: trace_pixels(prof, cam, xy)),
-                ("3-D (trace3d)", lambda: trace_pixels(prof, cam, xy, pose=pose))]
+        rows = [("aligned (meridian)", 1, lambda: trace_pixels(prof, cam, xy)),
+                ("3-D (trace3d)", 1, lambda: trace_pixels(prof, cam, xy, pose=pose)),
+                (f"3-D, {cores} threads", cores, lambda: trace_pixels(prof, cam, xy, pose=pose))]
         if args.march:
-            rows.append(("3-D march alone", lambda: trace_rays(prof, origin, d, fast=False)))
-        for label, fn in rows:
-            wall, cpu = best_of(fn, args.repeat if "march" not in label else 1)
+            rows.append(("3-D march alone", 1, lambda: trace_rays(prof, origin, d, fast=False)))
+        for label, workers, fn in rows:
+            with compute.session(workers=workers):  # a command's --workers: the 3-D chunks on its cores
+                wall, cpu = best_of(fn, args.repeat if "march" not in label else 1)
             print(f"  {name:6s} {label:20s} {n / wall:10.3g} rays/s  ({n / cpu:.3g})")
     return 0
 

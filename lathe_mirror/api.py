@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 from .enums import Program
 from .job import MachiningJob, polishing_curve
+from .tolerance.runs import monte_carlo as run
 
 if TYPE_CHECKING:
     from .design import Mirror
@@ -40,8 +41,6 @@ def monte_carlo(settings: Settings, program: Program | str = Program.BEST, *, tr
     polishing time (s); None chooses it as the command does (nominal_polish_time_s).
     Returns tolerance.montecarlo.MonteCarloResult (`.yield_fraction`, `.to_dict()`).
     """
-    from .tolerance.runs import monte_carlo as run
-
     program = Program(program)
     changes = {k: v for k, v in (("trials", trials), ("seed", seed)) if v is not None}
     if changes:

@@ -22,6 +22,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .errors import ConfigError, InputError
+from .inputs import STDIN, read_text
+from .settings import from_config
+from .settings.keys import declared_defaults
 
 if TYPE_CHECKING:
     from .settings import Settings
@@ -41,8 +44,6 @@ def default_config() -> dict[str, Any]:
     """The embedded defaults: every declared key's default (settings.keys, the one
     declaration; lathe_mirror/data/*.toml are generated from it, with each key's help and
     range as comments, and a test holds them equal)."""
-    from .settings.keys import declared_defaults  # with Settings: loaded when load() is
-
     return declared_defaults()
 
 
@@ -51,8 +52,6 @@ def load(path: str | Path | None = None, *,
     """The Settings of a configuration: the defaults, the user's TOML file (if any) merged
     over them, then `overrides` (dotted key, value, source: e.g. a command-line flag),
     every key and value checked once (one ConfigError / InputError line naming the key)."""
-    from .settings import from_config
-
     cfg = load_config(path)
     for dotted, value, source in overrides or ():
         set_value(cfg, dotted, value, source=source)
@@ -98,8 +97,6 @@ def _parse(path: str | Path, name: str) -> dict[str, Any]:
 def read_user_text(path: str | Path, what: str = "--config") -> str:
     """The text of the user's configuration file (stdin for "-", read once and kept):
     inputs.read_text, a regular file of at most MAX_CONFIG_BYTES."""
-    from .inputs import STDIN, read_text
-
     if str(path) == STDIN:
         if STDIN not in _stdin_text:
             _stdin_text[STDIN] = read_text(path, what, MAX_CONFIG_BYTES)

@@ -173,7 +173,7 @@ def named_surface(name: Surface, mirror: Mirror, settings: Settings, *, nose_rad
     if name is Surface.MEASURED:
         if not measured:
             raise InputError("--surface measured: name the measured file, measured:FILE")
-        from .measure.surface import measured_profile
+        from .measure.surface import measured_profile  # lazy: measure.surface off the CLI's start-up path
 
         return measured_profile(measured, mirror, nose_radius_mm=settings.tool.nose_radius)
     if name in builtin:

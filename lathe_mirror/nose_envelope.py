@@ -19,6 +19,7 @@ import numpy as np
 
 from .path import Line
 from .profile import PathProfile, Profile, TabulatedProfile, spiral_at_r
+from .sheet import foot_on_sheet, signed_distance_camera
 
 if TYPE_CHECKING:
     from .toolpath import Toolpath
@@ -205,8 +206,6 @@ def gouge_depth(toolpath: Toolpath, nose_radius: float | None = None) -> float:
     and from the step's top corner to the nose along the junction moves (the one place
     the part's boundary is not a lobe sheet that the nose passes).
     """
-    from .sheet import signed_distance_camera
-
     rho = toolpath.nose_radius if nose_radius is None else float(nose_radius)
     m = toolpath.mirror
     prof = as_machined(toolpath, rho)
@@ -250,8 +249,6 @@ def junction_fillet(toolpath: Toolpath, nose_radius: float | None = None) -> dic
     fillet meets the wall. The camera sees this band through a fillet, not the designed
     sheet.
     """
-    from .sheet import foot_on_sheet
-
     rho = toolpath.nose_radius if nose_radius is None else float(nose_radius)
     if rho == 0.0:
         return None

@@ -218,15 +218,17 @@ def test_run_checks_every_output_name_first(tmp_path):
 
 
 def test_sigterm_leaves_nothing_behind(tmp_path):
-    """SIGTERM after `run` made its directories and planned its programs: status 143, no
-    directory, no file, no temporary left (SIGINT's behaviour)."""
+    """SIGTERM after `run` made its directories, while its programs are simulated and the
+    tolerance analysis runs in their background processes: status 143, no directory, no
+    file, no temporary left (SIGINT's behaviour)."""
     (tmp_path / "small.toml").write_text("[tolerance]\ntrials = 20\n")
     proc = subprocess.Popen([sys.executable, "-m", "lathe_mirror", "run", "--config", "small.toml", "-o", "OUT",
                              "--no-render"], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     seen = ""
-    # the stage lines come after the directories are made; read by character, since the
-    # progress bar's carriage returns hold a line back until the run has finished
-    while "lathe-mirror run: CAD" not in seen:
+    # the progress bar names the stage (after the directories are made; the distortion
+    # stage starts once the background work has); read by character, since the progress
+    # bar's carriage returns hold a line back until the run has finished
+    while "distortion" not in seen:
         c = proc.stderr.read(1)
         if not c:
             break

@@ -65,7 +65,7 @@ def write_trace(path, mirror, amplitude, *, seed=1):
 def nominal_raw(mirror, settings, profile):
     """The aligned camera's raw RMS image displacement per lobe (px) on `profile` over the
     measured context's pixels (the Monte Carlo's tracer)."""
-    from lathe_mirror.measure.tolerance import measured_context
+    from lathe_mirror.tolerance.measured import measured_context
     from lathe_mirror.tolerance.montecarlo import evaluate_trials
     from lathe_mirror.tolerance.perturb import Trials
 
@@ -103,7 +103,7 @@ def test_exact_trace_images_as_the_design_and_draws_only_the_assembly(case):
     import dataclasses
 
     from lathe_mirror.measure.surface import measured_profile
-    from lathe_mirror.measure.tolerance import measured_context
+    from lathe_mirror.tolerance.measured import measured_context
     from lathe_mirror.profile import ExactProfile
     from lathe_mirror.tolerance.montecarlo import run_monte_carlo
 

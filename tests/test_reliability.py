@@ -66,7 +66,7 @@ def test_standard_input_when_asked_for_bounded_while_reading(tmp_path):
     """`--config -` reads stdin (a 0.4 mm nose reaches the figures); an endless stdin is
     refused at the limit, in bounded memory and time."""
     ok = subprocess.run([sys.executable, "-m", "lathe_mirror", "toolpath", "--config", "-", "--json"],
-                        input=NOSE04, capture_output=True, text=True, cwd=tmp_path, timeout=60)
+                        input=NOSE04, capture_output=True, text=True, cwd=tmp_path, timeout=300)
     assert ok.returncode == 0, ok.stderr
     assert '"nose_radius_mm": 0.4' in ok.stdout
     proc = capped("yes '#' | LM design --config -", tmp_path)

@@ -37,8 +37,9 @@ from lathe_mirror.tolerance.montecarlo import (
     evaluate_trials,
     judge,
     run_monte_carlo,
-    trials_csv,
 )
+from lathe_mirror.export.trials import trials_csv
+from lathe_mirror.export.numbers import column_exponent
 from lathe_mirror.tolerance.perturb import Trials, evaluate, poses
 from lathe_mirror.tolerance.samples import matching_floor_pct, pixel_sample
 from lathe_mirror.tolerance.sensitivity import responses, sensitivity_table
@@ -470,4 +471,22 @@ def test_trials_csv_has_a_row_per_trial_of_each_run(ctx):
                 "cal_rotation_x_deg", "pass_disparity_px", "pass"):
         assert col in head
     i = head.index("cal_disparity_px_p90")
-    assert [float(r[i]) for r in rows[1:len(a.trials) + 1]] == list(a.figures.calibrated["disparity_px_p90"][:, 0])
+    got = np.array([float(r[i]) for r in rows[1:len(a.trials) + 1]])
+    assert np.all(np.abs(got - a.figures.calibrated["disparity_px_p90"][:, 0]) <= 0.5e-6)  # written to 1e-6 px
+    # each column at its unit's stated precision: at most that many decimals
+    decimals = {"nose_mm": 9, "seat_tilt_x_deg": 10, "cal_image_displacement_px_rms_outer": 6,
+                "raw_disparity_px_p90": 6, "cal_rotation_x_deg": 10, "polish_time_s": 6}
+    for col, n in decimals.items():
+        j = head.index(col)
+        assert all(len(r[j].partition(".")[2]) <= n for r in rows[1:] if "e" not in r[j]), col
+
+
+def test_a_columns_precision_comes_from_its_unit():
+    # by hand from the table in export/numbers.py: mm 1e-9, px 1e-6, deg 1e-10, rad 1e-12, s 1e-6
+    assert column_exponent("cal_image_displacement_px_rms_outer") == -6
+    assert column_exponent("raw_disparity_px_p90") == -6
+    assert column_exponent("seat_tilt_x_deg") == -10
+    assert column_exponent("slope_error_rad_rms_inner") == -12
+    assert column_exponent("normal_deviation_mm_rms_outer") == -9
+    assert column_exponent("polish_time_s") == -6
+    assert column_exponent("phase_steps") is None and column_exponent("seen_fraction") is None

@@ -149,3 +149,26 @@ def test_made_surfaces_match_the_march(designs, name, which):
         assert np.array_equal(fast.blocked[m], ref.blocked[m])
         assert np.abs(fast.point[m] - ref.point[m]).max() < 1e-9
         assert np.abs(fast.direction[m] - ref.direction[m]).max() < 1e-10
+
+
+def test_chunks_in_threads_match_the_march(designs):
+    """A command with two workers traces its chunks in threads (tracing_threads): on a
+    non-paper made surface, small chunks across the threads give the march's fates and hits."""
+    from lathe_mirror import compute
+    from lathe_mirror.optics.trace3d import tracing_threads
+
+    s = designs["recessed"]
+    mirror = s.mirror()
+    made = _made(s, "best")
+    cam = mirror.camera
+    xy = _sensor_sample(cam, 2500, seed=7)
+    origin, d = ray_directions(cam, xy[:, 0], xy[:, 1], POSES[0])
+    ref = trace_rays(made, origin, d, fast=False, march_steps=1024, chunk=256)
+    assert tracing_threads() == 1  # serial outside a command's session
+    with compute.session(workers=2):
+        assert tracing_threads() == 2
+        fast = trace_rays(made, origin, d, chunk=64)  # 40 chunks over the threads
+    assert np.array_equal(fast.fate, ref.fate)
+    m = fast.fate <= Fate.OUTER
+    assert m.sum() > 1200 and np.array_equal(fast.blocked[m], ref.blocked[m])
+    assert np.abs(fast.point[m] - ref.point[m]).max() < 1e-9

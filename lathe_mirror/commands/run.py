@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     from ..export.gcode import program_files
     from ..job import cad_model, check_cad, check_program, check_programs, design
     from ..pipeline import report_figures
-    from ..shop.programs import shop_programs
+    from ..compute import active
     from ..report import write_report
     from .common import check_outputs, output_dir
     from .report import REPORT_FILES, summary
@@ -72,8 +72,6 @@ def run(args: argparse.Namespace) -> int:
     for strategy in strategies:
         check_program(settings, mirror, strategy)  # as every command that uses a program
     check_cad(settings, mirror)       # the CAD body, checked up front too
-    shops = shop_programs(settings, mirror, strategies=strategies)  # plans and simulates both programs: a
-    # design no program can cut, a program that touches the stock, stop here
     for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir"),
                     (calib_dir, "--calib-dir")):
         output_dir(d, what)  # one that cannot be made takes the ones before it away
@@ -87,14 +85,19 @@ def run(args: argparse.Namespace) -> int:
         from ..optics.zones import zones_for
 
         say("lathe-mirror run: programs")
+        shops[:] = shops_bg.result()  # a design no program can cut, a program that touches the stock: stop here
         texts = program_files(shops)
         written["gcode"] = [write_text(gcode_dir / name, text) for name, text in texts.items()]
         say("lathe-mirror run: CAD")
         written["cad"] = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
         written["calib"] = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
 
-    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render,
-                          alongside=programs_and_cad)
+    shops: list = []
+    # Both programs planned and simulated (the stock, the chuck, the part) in the background,
+    # beside the report's stages; nothing is written before they pass (files commit as a set).
+    with active().background(_shop_programs, (settings, mirror, strategies)) as shops_bg:
+        data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render,
+                              alongside=programs_and_cad)
     programs, cad, calib = written["gcode"], written["cad"], written["calib"]
     data.shop = [{"name": shop.program.name, "setup_sheet": f"{shop.program.name}.setup.html",
                   **shop.simulation.figures(),
@@ -114,6 +117,15 @@ def run(args: argparse.Namespace) -> int:
         print("CAD: " + ", ".join(str(p) for p in cad))
         print("calibration: " + ", ".join(str(p) for p in calib))
     return 0
+
+
+def _shop_programs(task) -> list:
+    """The checked, simulated programs (shop.programs.shop_programs) of task = (settings,
+    mirror, strategies)."""
+    from ..shop.programs import shop_programs
+
+    settings, mirror, strategies = task
+    return shop_programs(settings, mirror, strategies=strategies)
 
 
 def _sha256(path) -> str:

@@ -79,12 +79,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def run_measured(args: argparse.Namespace, settings, mirror) -> int:
-    """tolerance --surface measured:FILE (measure.tolerance): the file read and fitted
+    """tolerance --surface measured:FILE (tolerance.measured): the file read and fitted
     before any output is made (a bad file: one line, exit 2)."""
     from ..enums import Surface
     from ..errors import InputError
     from ..measure.surface import measured_profile
-    from ..measure.tolerance import ENTRY, measured_tolerance
+    from ..tolerance.measured import ENTRY, measured_tolerance
     from .common import surface_arg
 
     kind, path = surface_arg(args.surface)
@@ -121,7 +121,7 @@ def _write(args: argparse.Namespace, out: dict, results: list) -> None:
         write_histograms(Path(args.output), out)
     if args.csv:
         from ..export.files import write_text
-        from ..tolerance.montecarlo import trials_csv
+        from ..export.trials import trials_csv
 
         write_text(args.csv, trials_csv(results), "--csv")
     if args.json:

@@ -15,7 +15,10 @@ from typing import Any
 from ..body import CadModel, CadSettings
 from ..enums import CadFormat, Which
 from ..errors import InputError
+from .dxf import audit, dxf_bytes
 from .files import check_writable, prepare_dir, write_bytes
+from .mesh import mesh_figures, stl_bytes
+from .step import read_step, solid_figures, step_bytes
 
 #: File name suffixes that imply a format when --format is not given.
 SUFFIXES = {".step": CadFormat.STEP, ".stp": CadFormat.STEP, ".stl": CadFormat.STL,
@@ -31,14 +34,9 @@ def cad_bytes(model: CadModel, which: Which, fmt: CadFormat, settings: CadSettin
     if meridian is None:
         raise RuntimeError("cad_bytes: the model was built without the programmed mirror")
     if fmt is CadFormat.STEP:
-        from .step import step_bytes
-
         return step_bytes(meridian, schema=settings.schema, product_name=settings.product_name)
     if fmt is CadFormat.STL:
-        from .mesh import stl_bytes
-
         return stl_bytes(meridian, settings.stl_tolerance)
-    from .dxf import dxf_bytes
 
     return dxf_bytes(model.mirror, model.design, programmed=model.programmed,
                      tool_centre=model.tool_centre)
@@ -99,16 +97,11 @@ def check_file(path: str | Path, fmt: CadFormat) -> dict[str, Any]:
     """Read a written file back and check it: STEP (OCC's reader) one valid solid and
     its volume; STL (trimesh) watertight and its volume; DXF ezdxf's audit errors."""
     if fmt is CadFormat.STEP:
-        from .step import read_step, solid_figures
-
         return solid_figures(read_step(path))
     if fmt is CadFormat.STL:
         import trimesh
 
-        from .mesh import mesh_figures
-
         return mesh_figures(trimesh.load(str(path), file_type="stl", validate=True))
-    from .dxf import audit
 
     return {"audit_errors": audit(path)}
 

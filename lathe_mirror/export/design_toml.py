@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..design import Camera, LobeSpec
+from .files import write_text
 from .numbers import fmt_sig
 
 
@@ -40,8 +41,6 @@ def design_toml(camera: Camera, lobes: tuple[LobeSpec, LobeSpec], *, comments: l
 
 def write_design_toml(path: str | Path, text: str) -> Path:
     """Write the TOML atomically (export.files: a temp name, then renamed)."""
-    from .files import write_text
-
     return write_text(path, text)
 
 

@@ -15,6 +15,8 @@ import io
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from .files import write_bytes
+
 if TYPE_CHECKING:
     from ..body import Meridian
     from ..iso10110 import PartSpec
@@ -46,8 +48,6 @@ def drawing_bytes(spec: PartSpec, meridian: Meridian, *, title: str = "lathe-mir
 def write_drawing(directory: str | Path, spec: PartSpec, meridian: Meridian, *, stem: str = "mirror_drawing",
                   title: str = "lathe-mirror") -> list[Path]:
     """Write <stem>.pdf and <stem>.svg into `directory` (atomically, export.files)."""
-    from .files import write_bytes
-
     data = drawing_bytes(spec, meridian, title=title)
     return [write_bytes(Path(directory) / f"{stem}.{fmt}", data[fmt]) for fmt in ("pdf", "svg")]
 

@@ -230,7 +230,7 @@ def json_text(data: Any, *, indent: int = 2) -> str:
     """JSON of data (through json_ready), key order kept, ending in a newline; every float
     at its stated precision (export.numbers.json_precise: by the unit suffix of its key,
     `_mm` to 1e-9, `_px` to 1e-6, ..., else 12 significant digits)."""
-    from .numbers import json_precise
+    from .numbers import json_precise  # lazy: export.numbers off the CLI's start-up path
 
     return json.dumps(json_precise(json_ready(data)), indent=indent, allow_nan=False) + "\n"
 

@@ -36,6 +36,22 @@ from typing import TYPE_CHECKING
 from ..enums import Dialect
 from ..errors import InputError
 from ..path import Arc
+from ..shop.program import (
+    Comment,
+    Coolant,
+    Feed,
+    FeedRate,
+    OptionalStop,
+    PARTING_STATION,
+    ProgramEnd,
+    Rapid,
+    SpindleOn,
+    SpindleStop,
+    ToolCall,
+    stations,
+)
+from .files import write_text
+from .setup_sheet import setup_sheet_html
 
 if TYPE_CHECKING:
     from ..shop.program import Program
@@ -63,8 +79,6 @@ def format_program(program: Program, dialect: Dialect = Dialect.LINUXCNC) -> str
 
 def write_program(path: str | Path, program: Program, dialect: Dialect = Dialect.LINUXCNC) -> Path:
     """Write the program atomically (nothing is written if it is refused)."""
-    from .files import write_text
-
     return write_text(path, format_program(program, dialect))
 
 
@@ -73,8 +87,6 @@ def program_files(shops) -> dict[str, str]:
     dialects, mirror_<strategy>.ngc / .nc, its second set-up's program (the back and the
     mount), mirror_<strategy>_op2.ngc / .nc, when it parts off, and the set-up sheet of
     both, .setup.html."""
-    from .setup_sheet import setup_sheet_html
-
     out: dict[str, str] = {}
     for shop in shops:
         for prog in (shop.program, shop.second):
@@ -171,7 +183,6 @@ class _Writer:
         c(f"machine: resolution {lathe.resolution:g} mm, budget {lathe.max_points} points, "
           f"spindle cap {lathe.spindle_max_rpm} rpm, {_plain(lathe.surface_speed)} m/min, "
           f"feeds {_plain(lathe.feed_rough)}/{_plain(lathe.feed_finish)} mm/rev")
-        from ..shop.program import PARTING_STATION, stations
 
         t_r, t_f = (self.tool_word(st) for st in stations(tp))
         c(f"tools {t_r} roughing, {t_f} finishing: nose radius {tool.nose_radius:g} mm, included "
@@ -256,9 +267,6 @@ class _Writer:
         return f"T{station:02d}{station:02d}" if self.fanuc else f"T{station}"
 
     def operation(self, op) -> None:
-        from ..shop.program import (Comment, Coolant, Feed, FeedRate, OptionalStop, ProgramEnd,
-                                    Rapid, SpindleOn, SpindleStop, ToolCall)
-
         for b in op.blocks:
             n = b.number
             if isinstance(b, Comment):

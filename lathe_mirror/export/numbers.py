@@ -144,6 +144,32 @@ def unit_exponent(key: str) -> int | None:
     return None
 
 
+def column_exponent(name: str) -> int | None:
+    """The precision of a table column (the Monte Carlo's CSV) by its name: a lobe suffix
+    (_inner, _outer) and a statistic suffix (_rms, _max, _p90, ...) set aside, the unit
+    suffix's (`unit_exponent`); None when the name carries no unit."""
+    for lobe in ("_inner", "_outer"):
+        name = name.removesuffix(lobe)
+    own = unit_exponent(name)
+    if own is None:
+        head, _, stat = name.rpartition("_")
+        if stat in STATISTICS or stat in ("p90", "p10"):
+            own = unit_exponent(head)
+    return own
+
+
+def csv_cell(name: str, value: Any) -> Any:
+    """A CSV cell of column `name`: a float at its column's precision (`column_exponent`,
+    else 12 significant digits; "nan" where a figure could not be computed), anything
+    else as it is."""
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            return repr(value)
+        exp = column_exponent(name)
+        return fmt(value, exp if exp is not None else significant_exponent(value))
+    return value
+
+
 #: Keys of a figure's statistics: they take the unit of the key that holds them
 #: (`"normal_deviation_mm": {"rms": x, "max": y}`).
 STATISTICS = frozenset({"rms", "max", "min", "mean", "median", "std", "p5", "p50", "p95", "p99",

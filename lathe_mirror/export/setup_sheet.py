@@ -1,16 +1,17 @@
 """The set-up sheet as one self-contained HTML page (pictures embedded), written beside
 the programs it goes with. It lays out the model it is handed (shop.setup.SetupSheet);
-nothing is computed here but the pictures of the stock after each operation (matplotlib,
-Agg, no metadata: the same sheet gives the same bytes).
+nothing is computed here but the pictures of the stock after each operation (inline SVG,
+export.stock_svg: coordinates at 0.001 mm, so the same sheet gives the same bytes).
 """
 
 from __future__ import annotations
 
-import base64
 import html
-import io
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from .files import write_text
+from .stock_svg import polygons, stock_svg
 
 if TYPE_CHECKING:
     from ..shop.setup import SetupSheet
@@ -25,7 +26,7 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
         f"<title>Set-up sheet {e(sheet.name)}</title>",
         "<style>body{font-family:sans-serif;max-width:62em;margin:1em auto}"
         "table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #999;padding:.2em .5em;"
-        "text-align:left}th{background:#eee}td.n{text-align:right}img{max-width:100%}</style>",
+        "text-align:left}th{background:#eee}td.n{text-align:right}svg{max-width:100%;height:auto;display:block}</style>",
         "</head><body>",
         f"<h1>Set-up sheet: {e(sheet.name)}</h1>",
         f"<p>Programs: {', '.join(f'<code>{e(f)}</code>' for f in sheet.files)} (LinuxCNC, Fanuc; the "
@@ -118,9 +119,8 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
     out.append(f"<p>End position: home X{sheet.home[0] * (2 if sheet.diameter_mode else 1):.3f} "
                f"Z{sheet.home[1]:.3f}, reached Z first.</p>")
     out.append("<h2>The stock after each operation</h2>")
-    for op, png in zip(sheet.operations, stock_pictures(sheet)):
-        out.append(f"<h3>{e(op.name)}</h3><img alt='stock after {e(op.name)}' "
-                   f"src='data:image/png;base64,{base64.b64encode(png).decode('ascii')}'>")
+    for i, op in enumerate(sheet.operations):
+        out.append(f"<h3>{e(op.name)}</h3>{_stock_picture(sheet, op, f'op{i + 1}')}")
     if sheet.second is not None:
         out += _second_html(sheet)
     out.append("</body></html>")
@@ -129,8 +129,6 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
 
 def write_setup_sheet(path: str | Path, sheet: SetupSheet) -> Path:
     """Write the sheet atomically."""
-    from .files import write_text
-
     return write_text(path, setup_sheet_html(sheet))
 
 
@@ -158,36 +156,6 @@ def _time(s: float) -> str:
     return f"{int(m)} min {sec:04.1f} s" if m >= 1 else f"{sec:.1f} s"
 
 
-def _polygons(geom):
-    """The polygons of a shapely geometry (Polygon, MultiPolygon, collection)."""
-    if geom is None or geom.is_empty:
-        return []
-    if geom.geom_type == "Polygon":
-        return [geom]
-    return [g for part in getattr(geom, "geoms", []) for g in _polygons(part)]
-
-
-def stock_pictures(sheet: SetupSheet) -> list[bytes]:
-    """The stock picture of each operation, drawn on the command's executor
-    (lathe_mirror.compute: whole pictures per worker; the same bytes as one by one)."""
-    from ..compute import active
-
-    ex = active()
-    if ex.workers == 1 or len(sheet.operations) < 2:
-        return [_stock_picture(sheet, op) for op in sheet.operations]
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot  # noqa: F401 - imported once here: the forked workers inherit it
-
-    with ex.bound(sheet) as run:
-        return run.map(_picture_of, list(range(len(sheet.operations))))
-
-
-def _picture_of(sheet: SetupSheet, i: int) -> bytes:
-    return _stock_picture(sheet, sheet.operations[i])
-
-
 def _second_html(sheet: SetupSheet) -> list[str]:
     """The second set-up: programs, work zero, holding, touch-off, tool, operations, pictures."""
     e, sec = html.escape, sheet.second
@@ -208,43 +176,21 @@ def _second_html(sheet: SetupSheet) -> list[str]:
                    f"<td class='n'>{f['feed_mm_rev']:g}</td><td class='n'>{f['removed_volume_mm3']:.0f}</td>"
                    f"<td class='n'>{f['max_depth_of_cut_mm']:.3f}</td><td class='n'>{_time(f['cycle_time_s'])}</td></tr>")
     out.append("</table>")
-    for op in sec.operations:
-        png = _stock_picture(sheet, op, sec.stock_start, sec.part, sec.deepest_z_mm)
-        out.append(f"<h3>second set-up, {e(op.name)}</h3><img alt='stock after {e(op.name)}' "
-                   f"src='data:image/png;base64,{base64.b64encode(png).decode('ascii')}'>")
+    for i, op in enumerate(sec.operations):
+        out.append(f"<h3>second set-up, {e(op.name)}</h3>"
+                   f"{_stock_picture(sheet, op, f'second-op{i + 1}', sec.stock_start, sec.part, sec.deepest_z_mm)}")
     return out
 
 
-def _stock_picture(sheet: SetupSheet, op, stock_start=None, part=None, deepest: float | None = None) -> bytes:
-    """PNG: the bar's section after the operation (grey), what it removed (orange), the
+def _stock_picture(sheet: SetupSheet, op, ident: str, stock_start=None, part=None, deepest: float | None = None) -> str:
+    """SVG: the bar's section after the operation (grey), what it removed (orange), the
     designed part's outline (blue); machine (r, Z), mm. stock_start, part, deepest: the
     set-up's (default: the first set-up's, on the sheet)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7.0, 3.4), dpi=90)
-    for poly, colour in [(p, "#b8b8b8") for p in _polygons(op.stock_after)] + \
-                        [(p, "#f39c34") for p in _polygons(op.removed)]:
-        ax.fill(*poly.exterior.xy, color=colour, linewidth=0)
-        for hole in poly.interiors:
-            ax.fill(*hole.xy, color="white", linewidth=0)
     stock_start = sheet.stock_start if stock_start is None else stock_start
     deepest = sheet.stock["deepest_z_mm"] if deepest is None else deepest
-    for poly in _polygons(sheet.part if part is None else part):
-        ax.plot(*poly.exterior.xy, color="#1f5fbf", linewidth=0.6)
     x0, z0, x1, z1 = stock_start.bounds
-    ax.set_xlim(-1.0, x1 + 2.0)
-    ax.set_ylim(max(z0, deepest - 4.0), z1 + 1.0)
-    ax.set_aspect("equal")
-    ax.set_xlabel("r (mm)")
-    ax.set_ylabel("Z (mm)")
     f = op.figures
-    ax.set_title(f"after {op.name}: {f['removed_volume_mm3']:.0f} mm$^3$ removed, "
-                 f"max depth of cut {f['max_depth_of_cut_mm']:.2f} mm", fontsize=9)
-    ax.tick_params(labelsize=8)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", metadata={"Software": None}, bbox_inches="tight")
-    plt.close(fig)
-    return buf.getvalue()
+    title = (f"after {op.name}: {f['removed_volume_mm3']:.0f} mm\u00b3 removed, "
+             f"max depth of cut {f['max_depth_of_cut_mm']:.2f} mm")
+    return stock_svg(op.stock_after, op.removed, sheet.part if part is None else part,
+                     (-1.0, x1 + 2.0), (max(z0, deepest - 4.0), z1 + 1.0), title, ident)

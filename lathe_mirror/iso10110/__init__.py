@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from ..errors import InputError
 from .conic import CONVENTION, SAG_STEP_MM, Conic, lobe_conic, mirror_conics
 from .form import FormTolerance, angular_scale, form_tolerances
 from .texture import Texture, texture
@@ -86,8 +87,6 @@ def part_spec(mirror: Mirror, tolerance: ToleranceSettings, process: Process, *,
     `step` mm, form tolerances from `tolerance`'s spec and drawn tolerances, the texture of
     the resolved `process` (finish.Process.resolved) at wavelength_nm (nm)."""
     if not (isinstance(step, (int, float)) and math.isfinite(step) and 0.001 <= step <= 5.0):
-        from ..errors import InputError
-
         raise InputError(f"--step = {step!r} mm: allowed 0.001 to 5 mm")
     conics = mirror_conics(mirror)
     cas = [c.clear_aperture for c in conics]
@@ -117,8 +116,6 @@ def spec_of(settings, *, step: float = SAG_STEP_MM, process: str | None = None) 
     """The PartSpec of a Settings (typed; the [tolerance], [polish], [tool], [machine]
     sections): the process named (default the first of [polish.process], the configured
     lathe and tool), resolved with the configured nose, finishing feed and resolution."""
-    from ..errors import InputError
-
     procs = settings.polish.processes
     if process is None:
         proc = procs[0]

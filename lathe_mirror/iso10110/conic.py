@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..design import Lobe, Mirror
+from ..toolpath import usable_ranges
 
 #: Sag-table spacing (mm of radius) unless asked for a finer one.
 SAG_STEP_MM = 0.5
@@ -91,7 +92,5 @@ def lobe_conic(lobe: Lobe, mirror: Mirror, clear_aperture: tuple[float, float]) 
 
 def mirror_conics(mirror: Mirror) -> tuple[Conic, Conic]:
     """Both lobes' conics, inner first, each over the radii the camera uses."""
-    from ..toolpath import usable_ranges
-
     return tuple(lobe_conic(lobe, mirror, tuple(float(v) for v in ca))
                  for lobe, ca in zip(mirror.lobes, usable_ranges(mirror)))

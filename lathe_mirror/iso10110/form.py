@@ -45,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..design import Lobe, Mirror
+from ..tolerance.spec import DRAWN
 
 #: Drawn parameters whose error is the surface's form (the rest: camera and seat).
 FORM_PARAMETERS = ("nose_radius_mm", "polish_time_s", "tool_x_mm", "tool_z_mm")
@@ -104,8 +105,6 @@ def angular_scale(mirror: Mirror, lobe: Lobe, r: np.ndarray) -> tuple[np.ndarray
 def form_share(tolerances: dict[str, float]) -> float:
     """Share of a criterion's margin (in squares) the form takes: the FORM_PARAMETERS with
     a tolerance among the drawn parameters with one."""
-    from ..tolerance.spec import DRAWN
-
     drawn = [k for k in DRAWN if tolerances.get(k, 0.0) > 0]
     form = [k for k in drawn if k in FORM_PARAMETERS]
     return len(form) / len(drawn) if drawn else 1.0
@@ -116,7 +115,7 @@ def form_tolerances(mirror: Mirror, clear_apertures, spec, tolerances: dict[str,
     """Each lobe's FormTolerance (see the module doc). spec: tolerance.spec.Spec;
     tolerances: the drawn parameters' tolerances (edge units); clear_apertures: (r_min,
     r_max) per lobe, mm."""
-    from ..tolerance.montecarlo import disparity_limit_px
+    from ..tolerance.montecarlo import disparity_limit_px  # lazy: tolerance.montecarlo off the CLI's start-up path
 
     share = math.sqrt(form_share(tolerances))
     disparity = disparity_limit_px(mirror, spec.depth_error_pct, spec.depth_range_m, depth_points)

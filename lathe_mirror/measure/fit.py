@@ -31,6 +31,7 @@ import numpy as np
 
 from ..design import Mirror
 from ..errors import InputError
+from ..optics.polishing_curve import clear_aperture
 from ..profile import ExactProfile
 from .readers import AreaMap, Trace
 
@@ -237,8 +238,6 @@ def fit_trace(trace: Trace, mirror: Mirror, *, nose_radius_mm: float = 0.2,
 def lobe_figures(mirror: Mirror, k: int, r: np.ndarray, resid: np.ndarray, mask: np.ndarray,
                   options: FitOptions):
     from scipy.interpolate import make_lsq_spline
-
-    from ..optics.polishing_curve import clear_aperture
 
     lo, hi = clear_aperture(mirror, k, 0.0)
     sel = mask & (r >= lo) & (r <= hi)

@@ -31,7 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..enums import parse
 from ..errors import InputError
+from ..inputs import read_input
 
 #: Largest measured file read (bytes): a 4k x 4k float64 map is 128 MiB.
 MAX_BYTES = 256 << 20
@@ -85,8 +87,6 @@ class AreaMap:
 
 def format_of(path: str | Path, fmt: str | None = None) -> MeasuredFormat:
     """The format of a measured file: `fmt` (--format) if given, else by its suffix."""
-    from ..enums import parse
-
     if fmt is not None:
         return parse(MeasuredFormat, fmt, "--format")
     suffix = Path(path).suffix.lower()
@@ -103,8 +103,6 @@ def read_bytes_checked(path: str | Path) -> bytes:
     """The whole content of a measured file through inputs.read_input (a regular file or
     stdin '-', at most MAX_BYTES, limited while reading): the one place a measured file is
     read. InputError otherwise."""
-    from ..inputs import read_input
-
     return read_input(path, "measured file", MAX_BYTES)
 
 

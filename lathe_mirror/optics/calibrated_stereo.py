@@ -44,6 +44,7 @@ import numpy as np
 
 from ..design import Mirror
 from ..profile import Profile
+from .radial import lobe_pixel_radii, radial_displacement, trace_lobe
 from .stereo import (
     DepthCurve,
     band_elevations,
@@ -52,6 +53,7 @@ from .stereo import (
     triangulate,
     world_points,
 )
+from .trace import meridian_hits
 
 #: Fixed-point iterations for rho'' + P(rho'') = rho (P' is small: each contracts by |P'|).
 _PIXEL_ITER = 8
@@ -117,8 +119,6 @@ def fit_calibration(profile: Profile, mirror: Mirror, knot_px: float | None, *, 
     """
     from scipy.interpolate import make_lsq_spline
 
-    from .radial import lobe_pixel_radii, radial_displacement, trace_lobe
-
     domains, knots, coefs = [], [], []
     for k in (0, 1):
         if displacements is None:
@@ -162,8 +162,6 @@ def calibrated_depth_error(profile: Profile, mirror: Mirror, ranges_m: Sequence[
     elevations: rad (default stereo.band_elevations). A point whose pixel the made mirror
     sends to the other lobe, the step wall or into the mirror has no depth: NaN.
     """
-    from .trace import meridian_hits
-
     cal = calibration if calibration is not None else \
         fit_calibration(profile, mirror, knot_px, clear_edge_mm=clear_edge_mm, bin_px=bin_px)
     ranges_m = np.asarray(ranges_m, dtype=float)

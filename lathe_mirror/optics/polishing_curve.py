@@ -36,6 +36,8 @@ from ..polishing import LapPlan, PolishParams, lap_plan, polish_series
 from ..profile import LobeSamples, Profile, SampledProfile
 from ..progress import bar as progress_bar
 from ..toolpath.metrics import slope_error
+from .radial import lobe_pixel_radii, pooled_rms, radial_displacement, trace_lobe, used_extent, weighted_stats
+from .stereo import band_elevations, depth_error_curve
 
 #: Width (px) of the image-radius bins over which the curve evaluates the image figures: a
 #: facet of the paper program images ~1 px wide, so ten samples per pixel resolve it, at a
@@ -65,8 +67,6 @@ def clear_aperture(mirror: Mirror, k: int, edge_mm: float) -> tuple[float, float
     image uses (optics.radial.used_extent: the inner lobe stops where the step wall starts
     to vignette its rays, which leaves out the tool's fillet in the corner), less edge_mm
     (mm) at each edge of the lobe (the step and the outer rim; the axis is no edge)."""
-    from .radial import used_extent
-
     lo, hi = used_extent(mirror, k)
     lobe_lo, lobe_hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
     if k == 1:
@@ -226,10 +226,8 @@ def polish_curve(profile: Profile, mirror: Mirror, params: PolishParams,
     the calibrated stereo residual and the uncalibrated depth error at
     params.objective_range_m (m).
     """
-    from .calibrated_stereo import calibrated_depth_error, fit_calibration
-    from .radial import lobe_pixel_radii, pooled_rms, radial_displacement, trace_lobe, weighted_stats
-    from .scatter import haze_figures, lobe_geometry
-    from .stereo import band_elevations, depth_error_curve
+    from .calibrated_stereo import calibrated_depth_error, fit_calibration  # lazy: off the CLI's start-up path
+    from .scatter import haze_figures, lobe_geometry  # lazy: optics.scatter off the CLI's start-up path
 
     times = params.curve_times if times_s is None else np.asarray(times_s, dtype=float)
     plan = lap_plan(profile, params) if plan is None else plan
@@ -407,8 +405,7 @@ def form_facet_decomposition(profile: Profile, mirror: Mirror, *, degree: int = 
     carrying each alone (sampled every step_mm, mm), and give each one's depth error at
     range_m (m): {"made", "form", "facets"[, "removal_only"]} -> stereo.DepthCurve.at(),
     and with knot_px (px) the calibrated stereo residual of each too."""
-    from .calibrated_stereo import calibrated_depth_error
-    from .stereo import depth_error_curve
+    from .calibrated_stereo import calibrated_depth_error  # lazy: optics.calibrated_stereo off the CLI's start-up path
 
     forms, facets = [], []
     for k, lobe in enumerate(mirror.lobes):

@@ -38,6 +38,7 @@ from ..finish import (
     specular_fraction,
     total_integrated_scatter,
 )
+from .radial import lobe_pixel_radii, trace_lobe
 
 #: Values of (feed-mark amplitude factor x cos(theta_i)) at which the feed marks' specular
 #: fraction is tabulated (it is then interpolated per pixel).
@@ -58,8 +59,6 @@ class LobeGeometry:
 def lobe_geometry(mirror: Mirror, k: int, *, bin_px: float | None = None) -> LobeGeometry:
     """The exact design's geometry of lobe k's usable pixels (see LobeGeometry); bin_px: on
     image-radius bins of that width (px) instead of every distinct radius."""
-    from .radial import lobe_pixel_radii, trace_lobe
-
     px = lobe_pixel_radii(mirror, k, bin_px=bin_px)
     rays = trace_lobe(mirror.lobes[k], mirror, k, px.radius_px)
     norm = np.hypot(rays.r, rays.z)

@@ -40,6 +40,7 @@ import numpy as np
 from ..design import Mirror
 from ..errors import DesignError
 from ..profile import Profile
+from .trace import meridian_hits
 
 #: Elevations closer than this to an edge of the common band (rad) are not used: at
 #: 0.5 m the two viewpoints see a point 1.5 degrees apart, so points right at the band's
@@ -126,7 +127,7 @@ def exact_pixels(mirror: Mirror, w_r: np.ndarray, w_z: np.ndarray) -> tuple[np.n
     closed-form inverse map (optics.distortion.exact_image_point: the focal polar equation
     of the sheet, P = F1 + b^2 / (a - e u_z) u).
     """
-    from .distortion import exact_image_point
+    from .distortion import exact_image_point  # lazy: optics.distortion off the CLI's start-up path
 
     out = []
     for k, lobe in enumerate(mirror.lobes):
@@ -163,8 +164,6 @@ def depth_error_curve(profile: Profile, mirror: Mirror, ranges_m: Sequence[float
     meridian trace; a point whose pixel the made mirror sends to the other lobe, the step
     wall, or into the mirror itself (vignetted) has no depth: NaN.
     """
-    from .trace import meridian_hits
-
     ranges_m = np.asarray(ranges_m, dtype=float)
     elev = band_elevations(mirror) if elevations is None else np.asarray(elevations, float)
     w_r, w_z = world_points(mirror, ranges_m * 1e3, elev)

@@ -40,12 +40,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..compute import active
 from ..profile import Profile
 from .march import WALL_JUMP_MM, march, reflected_blocked
 from .rays import ROOT_TOL_MM, Fate, RayHits
 from .surface_tables import LobeTable, SurfaceTables, first_steep, lobe_zs, normal_slope, surface_tables
 
-__all__ = ["CHUNK", "WALL_JUMP_MM", "trace_rays"]
+__all__ = ["CHUNK", "WALL_JUMP_MM", "trace_rays", "tracing_threads"]
 #: Rays per vectorised batch (bounds the memory; a batch stays in cache).
 CHUNK = 1 << 15
 #: A ray must out-climb a bin's slope bound by this factor to count as monotone there.
@@ -80,13 +81,29 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
         bar = tqdm(total=n, unit="ray", unit_scale=True, desc="trace 3-D", leave=False)
     rest = [np.arange(n)]
     if fast:
-        rest = []
-        for a in range(0, n, chunk):
+        def one(a: int) -> np.ndarray:
             sl = slice(a, min(a + chunk, n))
-            rest.append(a + _fast_chunk(profile, tables, origin, d_all[sl], fate[sl], point[sl], out[sl],
-                                        blocked[sl]))
-            if bar is not None:
-                bar.update(sl.stop - sl.start)
+            return a + _fast_chunk(profile, tables, origin, d_all[sl], fate[sl], point[sl], out[sl], blocked[sl])
+
+        starts = range(0, n, chunk)
+        threads = tracing_threads() if len(starts) > 1 else 1
+        if threads > 1:
+            # numpy releases the GIL inside its loops: the chunks (disjoint slices of the
+            # outputs, each its own work) run on the command's cores, the same bytes as in turn
+            from concurrent.futures import ThreadPoolExecutor
+
+            with ThreadPoolExecutor(threads) as pool:
+                rest = []
+                for a, r in zip(starts, pool.map(one, starts)):
+                    rest.append(r)
+                    if bar is not None:
+                        bar.update(min(a + chunk, n) - a)
+        else:
+            rest = []
+            for a in starts:
+                rest.append(one(a))
+                if bar is not None:
+                    bar.update(min(a + chunk, n) - a)
     # the rays the fast path left, marched together (few: near a steep feature)
     rest = np.concatenate(rest)
     for a in range(0, rest.size, chunk):
@@ -99,6 +116,14 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
         bar.close()
     return RayHits(fate=fate.reshape(shape), point=point.reshape(*shape, 3),
                    direction=out.reshape(*shape, 3), blocked=blocked.reshape(shape))
+
+
+def tracing_threads() -> int:
+    """Threads for the fast path's chunks: the command's cores when it runs local worker
+    processes (compute.active(): --workers, default all cores), 1 when serial (inside a
+    worker, --workers 1) or on a Dask cluster."""
+    ex = active()
+    return ex.workers if ex.kind == "processes" else 1
 
 
 # --------------------------------------------------------------------------------------

@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..design import Mirror
+from .radial import sensor_radii, used_extent
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..settings import Settings
@@ -159,8 +160,6 @@ def zones(mirror: Mirror, nose_mm: float, guard_mm: float = 0.0, lattice_mm: flo
     stands on the lattice, up to a step from the design's r_junction, so the pixels whose
     ray passes within lattice_mm of the junction (the made rim of one lobe where the design
     has the other) are in neither lobe's used zone."""
-    from .radial import sensor_radii, used_extent
-
     radii = mirror.image_radii_px
     rj = mirror.r_junction
     recessed, band = fillet_band(mirror, nose_mm + guard_mm if nose_mm > 0 else 0.0)

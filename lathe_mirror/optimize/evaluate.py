@@ -292,7 +292,7 @@ def measure(mirror: Mirror, problem: Problem, lobes: tuple[LobeSpec, LobeSpec], 
 def _grip_mm() -> float:
     """What the second set-up's soft jaws need of the body's side below the shoulder (mm):
     shop.second's gap at the back plus its least grip (plan_second refuses less)."""
-    from ..shop.second import JAW_GAP, MIN_GRIP
+    from ..shop.second import JAW_GAP, MIN_GRIP  # lazy: shop.second off the CLI's start-up path
 
     return JAW_GAP + MIN_GRIP
 

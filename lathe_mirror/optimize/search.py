@@ -90,7 +90,7 @@ def search(problem: Problem, *, workers: int | None = None, progress: bool = Fal
     each generation (default the settings'); progress: a bar of generations on stderr."""
     from scipy.optimize import differential_evolution
 
-    from ..progress import bar
+    from ..progress import bar  # lazy: progress off the CLI's start-up path
 
     s = problem.settings
     workers = s.workers if workers is None else int(workers)
@@ -187,7 +187,7 @@ class _Batch:
         self._r: list[np.ndarray] = []
         self._bound = self.run = None
         if workers > 1:  # compute's executor: the command's session, or local processes of our own
-            from ..compute import active, make
+            from ..compute import active, make  # lazy: compute off the CLI's start-up path
 
             ex = active()
             if ex.kind != "dask" and ex.workers != workers:

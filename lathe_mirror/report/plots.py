@@ -12,6 +12,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..compute import active
+from ..tolerance.stats import percent_interval
+from .range_plots import error_vs_range_png, range_maps_png
+
 if TYPE_CHECKING:
     from ..results.optics import DepthCurve
     from ..results.polishing import Decomposition, LapPlan, PolishCurveFigures
@@ -208,8 +212,6 @@ def monte_carlo_histograms(per_trial: dict, limits: dict, *, calibrated: bool, p
     """Histograms of the trials' judged figures (image displacement per lobe, disparity
     90th percentile, slope error per lobe) with the limits; the yield with its Wilson
     95 % interval in the title."""
-    from ..tolerance.stats import percent_interval
-
     plt = _pyplot()
     disp = np.asarray(per_trial["image_displacement_px_rms"])
     slope = np.asarray(per_trial["slope_error_rad_rms"])
@@ -243,8 +245,6 @@ def report_plots(data: ReportData) -> dict[str, bytes]:
     """Every plot of the report, from what the pipeline handed it (figures, curves, renders):
     drawn on the command's executor (lathe_mirror.compute: the plots are independent, each
     worker draws whole plots), in the order of plot_jobs; the same bytes as one by one."""
-    from ..compute import active
-
     names = [name for name, _ in plot_jobs(data)]
     ex = active()
     if ex.workers == 1 or len(names) < 2:
@@ -273,8 +273,6 @@ def plot_jobs(data: ReportData) -> list[tuple[str, object]]:
     if data.images:
         jobs.append(("images", lambda: images_side_by_side(data.images)))
     if data.range_maps is not None:
-        from .range_plots import error_vs_range_png, range_maps_png
-
         rm = data.range_maps
         jobs.append(("range_maps", lambda: range_maps_png(rm.maps, rm.band_deg)))
         jobs.append(("range_error", lambda: error_vs_range_png(

@@ -14,11 +14,14 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..export.files import json_text, prepare_dir, write_bytes, write_text
 from ..results.made import FIVE
 from ..results.optics import DEPTH_REPORT_M
 from .cells import fmt as _fmt
 from .cells import pct as _pct
 from .cells import table as _table
+from .plots import report_plots
+from .spec_section import spec_html
 from .tolerance_section import summary_html, tolerance_html
 
 if TYPE_CHECKING:
@@ -31,11 +34,7 @@ if TYPE_CHECKING:
 
 def write_report(data: ReportData, out_dir: str | Path) -> dict[str, Path]:
     """report.json and report.html (self-contained) into out_dir, atomically each."""
-    from ..export.files import prepare_dir, write_bytes, write_text
-
     if not data.plots:
-        from .plots import report_plots
-
         data.plots = report_plots(data)
     d = prepare_dir(out_dir)
     paths = {"json": d / "report.json", "html": d / "report.html"}
@@ -46,8 +45,6 @@ def write_report(data: ReportData, out_dir: str | Path) -> dict[str, Path]:
 
 def dumps(figures: dict) -> str:
     """The report's JSON: finite numbers only (NaN / inf -> null), stable key order."""
-    from ..export.files import json_text
-
     return json_text(figures, indent=1)
 
 
@@ -59,8 +56,6 @@ def render_html(data: ReportData) -> str:
     """The self-contained page (template.html filled in; figures as data: URIs)."""
     from importlib import resources
     from string import Template
-
-    from .spec_section import spec_html
 
     tpl = Template((resources.files("lathe_mirror.report") / "template.html").read_text(encoding="utf-8"))
 

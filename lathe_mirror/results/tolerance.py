@@ -198,9 +198,30 @@ class SensitivityRow(Result):
 
 @dataclass(**RESULT)
 class Sensitivity(Result):
+    """Each parameter at -/+ its tolerance; `table()`: one row per parameter and side."""
+
     nominal: SensitivityCase
     rows: tuple[SensitivityRow, ...]
     nominal_values: dict[str, float]
+
+    def table(self) -> np.ndarray:
+        out = []
+        for r in self.rows:
+            for side in ("minus", "plus"):
+                c = getattr(r, side)
+                out.append((r.parameter, side, *c.raw.image_displacement_px_rms,
+                            *c.calibrated.image_displacement_px_rms, c.raw.disparity_px_p90,
+                            c.calibrated.disparity_px_p90, c.raw.depth_error_pct_rms,
+                            c.calibrated.depth_error_pct_rms, *c.slope_error_rad_rms, c.passed))
+        return structured(out, [("parameter", "U32"), ("side", "U5"),
+                                ("raw_image_displacement_px_rms_inner", "f8"),
+                                ("raw_image_displacement_px_rms_outer", "f8"),
+                                ("calibrated_image_displacement_px_rms_inner", "f8"),
+                                ("calibrated_image_displacement_px_rms_outer", "f8"),
+                                ("raw_disparity_px_p90", "f8"), ("calibrated_disparity_px_p90", "f8"),
+                                ("raw_depth_error_pct_rms", "f8"), ("calibrated_depth_error_pct_rms", "f8"),
+                                ("slope_error_rad_rms_inner", "f8"), ("slope_error_rad_rms_outer", "f8"),
+                                ("pass", "?")])
 
 
 @dataclass(**RESULT)
@@ -259,7 +280,10 @@ class ZoneLobeDisplacement(Result):
 
 @dataclass(**RESULT)
 class NominalOverZone(Result):
+    """A part's image displacement per lobe over the zone the criteria judge (optics.radial)."""
+
     surface: str
+    made_mirror: str
     zones: str
     lobes: tuple[ZoneLobeDisplacement, ...]
 
@@ -317,6 +341,13 @@ class Allocation(Result):
     unreachable: str
     statement: str
 
+    def table(self) -> np.ndarray:
+        """One row per parameter: configured, allocated, factor, relative cost, tighten."""
+        return structured([(t.parameter, t.unit, t.tolerance, t.allocated, t.factor, t.cost, t.tighten)
+                           for t in self.tolerances],
+                          [("parameter", "U32"), ("unit", "U8"), ("tolerance", "f8"), ("allocated", "f8"),
+                           ("factor", "f8"), ("cost", "f8"), ("tighten", "?")])
+
 
 @dataclass(**RESULT)
 class ProgramTolerance(Result):
@@ -332,6 +363,7 @@ class ProgramTolerance(Result):
     stereo: ToleranceStereo
     nose_radii_cut: int
     nominal_over_zone: NominalOverZone
+    as_machined_over_zone: NominalOverZone
     allocation: Allocation | None = omitted()
     verdict: Verdict
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from ..enums import Mount
 from ..errors import InputError
 from ..path import Line
 from .program import (Comment, Coolant, Feed, FeedRate, Operation, ProgramEnd, Rapid, SpindleOn, SpindleStop,
@@ -28,8 +29,6 @@ if TYPE_CHECKING:
 def body_length(body: BodySpec) -> float:
     """From the vertex plane to the body's lowest point, mm: the thickness, plus the
     boss's length when the mount is a boss."""
-    from ..enums import Mount
-
     return body.thickness + (body.mount_depth if body.mount is Mount.BOSS else 0.0)
 
 

@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING
 
 from ..errors import InputError
 from ..lathe import Stock
+from ..nose_envelope import as_machined, gouge_depth, junction_fillet
+from ..toolpath import check_travel, profile_errors, usable_ranges
 from .program import MAX_BLOCK_NUMBER, Comment, Operation, Program, ProgramOptions
 from .roughing import plan_operations
 
@@ -31,9 +33,6 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
     the program ends with the part-off at its length (shop.partoff) and the second
     set-up (shop.second) faces the back and cuts the mount.
     """
-    from ..nose_envelope import as_machined, gouge_depth, junction_fillet
-    from ..toolpath import check_travel, profile_errors, usable_ranges
-
     options = ProgramOptions() if options is None else options
     lathe, m = toolpath.lathe, toolpath.mirror
     if stock.radius <= m.r_max:
@@ -58,7 +57,7 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
     plan = plan_operations(toolpath, stock, options)
     ops_list, parting = list(plan.operations), None
     if body is not None:
-        from .partoff import parting_z, with_partoff
+        from .partoff import parting_z, with_partoff  # lazy: shop.partoff off the CLI's start-up path
 
         z = parting_z(body, stock, options, lathe)
         ops_list = with_partoff(ops_list, plan.home, z, stock, options, lathe)

@@ -24,6 +24,7 @@ from ..declared import SLACK, check as check_declared
 from ..errors import InputError
 from ..lathe import Stock
 from ..path import Arc, Line, Move
+from ..toolpath.moves import Hand
 
 if TYPE_CHECKING:
     from ..toolpath import Toolpath, ToolpathSettings
@@ -42,8 +43,6 @@ PARTING_STATION = 5
 
 def stations(toolpath: Toolpath) -> tuple[int, int]:
     """(roughing, finishing) stations of the toolpath's hand."""
-    from ..toolpath.moves import Hand
-
     if toolpath.hand is Hand.OPPOSITE:
         return OPPOSITE_ROUGHING_STATION, OPPOSITE_FINISHING_STATION
     return ROUGHING_STATION, FINISHING_STATION
@@ -257,7 +256,7 @@ class Program:
     def shapes(self) -> dict:
         """{station: tool_shapes.ToolShape} of the tools that are not the turning insert:
         the parting blade when the program parts off (the second set-up: its own)."""
-        from .tool_shapes import blade_shape
+        from .tool_shapes import blade_shape  # lazy: shop.tool_shapes off the CLI's start-up path
 
         if self.setup is not None:
             return self.setup.shapes

@@ -213,7 +213,7 @@ class _Planner:
         open run fed from outside the bar toward the axis, then each pocket entered by
         ramps from the level above (prev). The tool goes down outside the bar far enough
         that its flank, leaning over the bar, stays half the clearance off the layer."""
-        from .stock import reach_toward_axis
+        from .stock import reach_toward_axis  # lazy: shop.stock off the CLI's start-up path
 
         c = self.opts.clearance
         reach = reach_toward_axis(self.tool, top - z)

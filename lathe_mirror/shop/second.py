@@ -28,10 +28,14 @@ from dataclasses import dataclass, field
 from types import SimpleNamespace
 from typing import TYPE_CHECKING
 
+from ..body import design_meridian
 from ..enums import Mount
 from ..errors import InputError
+from ..toolpath.moves import Hand
 from .operations import OperationWriter
+from .plan import numbered
 from .program import OPPOSITE_ROUGHING_STATION, ROUGHING_STATION, Program
+from .tool_shapes import insert_shape
 
 if TYPE_CHECKING:
     from ..body import BodySpec
@@ -90,11 +94,6 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
     frame, shop.stock's Simulation.parted) of the first program `first` (see the module
     doc). InputError naming the key when the part cannot be held or the home is low."""
     import shapely
-
-    from ..body import design_meridian
-    from ..toolpath.moves import Hand
-    from .plan import numbered
-    from .tool_shapes import insert_shape
 
     tp, opts, lathe, stock = first.toolpath, first.options, first.toolpath.lathe, first.stock
     m, T, res = tp.mirror, body.thickness, lathe.resolution

@@ -32,6 +32,7 @@ from ..path import Arc, Move
 from .sim_results import Contact, OperationFigures, SimMove, SimOperation, Simulation
 from .tool_shapes import (CUTTING_EDGE_FRACTION, INSERT_IC, cutting_zone, edge_length, insert_outline,  # noqa: F401
                           insert_shape, reach_toward_axis)
+from .program import Feed, FeedRate, Rapid
 
 if TYPE_CHECKING:
     from ..design import Mirror
@@ -82,8 +83,6 @@ def simulate_program(program: Program) -> Simulation:
 
 def operations_of(program: Program) -> list[SimOperation]:
     """The program's operations as the simulation replays them."""
-    from .program import Feed, FeedRate, Rapid
-
     out = []
     for op in program.operations:
         feed = op.feed

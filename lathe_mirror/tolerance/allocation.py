@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .montecarlo import CRITERIA, Context, MonteCarloResult, run_monte_carlo
-from .sensitivity import Responses
+from .sensitivity import Responses, judged_values
 from .spec import PARAMETERS, Distribution
 from .stats import percent_interval, wilson, yield_to_show
 
@@ -295,8 +295,6 @@ def _greedy(surrogate_yield, rungs: dict[str, int], cost: dict[str, float], aim:
 def _surrogate_check(sur: Surrogate, mc: MonteCarloResult, keys) -> dict:
     """Fit the surrogate's scales to the Monte Carlo's own trials, then: its yield on them
     and how often it agrees with their traced pass / fail (before and after the fit)."""
-    from .sensitivity import judged_values
-
     t = mc.trials
     deg = 180.0 / math.pi
     x = {"nose_radius_mm": t.nose_mm - mc.nominal_nose_mm, "polish_time_s": t.time_s - mc.nominal_time_s,

@@ -16,8 +16,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..compute import active
 from ..design import Mirror
+from ..optics.ranging.resolution import parallax_per_px
+from ..optics.stereo import band_elevations
 from ..optics.zones import zones as zones_of
+from ..progress import bar
+from .calibration import Calibration
 from .perturb import (
     LOBE_FIGURES,
     STEREO_FIGURES,
@@ -26,8 +31,7 @@ from .perturb import (
     batch_trials,
     evaluate,
 )
-from .samples import PixelSample, pixel_sample
-from .calibration import Calibration
+from .samples import PixelSample, matching_floor_pct, pixel_sample
 from .spec import DRAWN, MACHINE_DRAWN, Distribution, Program, ToleranceSettings
 from .stats import wilson
 from .surfaces import SurfaceBank, time_nodes
@@ -198,9 +202,6 @@ def disparity_limit_px(mirror: Mirror, depth_error_pct: float, depth_range_m: fl
     pixel stands for (optics.ranging.resolution.parallax_per_px), at the band's median
     elevation. 20 % at 1 m on the paper
     mirror: 2.5 mrad, 0.44 px."""
-    from ..optics.ranging.resolution import parallax_per_px
-    from ..optics.stereo import band_elevations
-
     el = float(np.median(band_elevations(mirror, max(n_elev, 2))))
     parallax = mirror.baseline * math.cos(el) / (depth_range_m * 1e3)
     return float(depth_error_pct / 100.0 * parallax / parallax_per_px(mirror, np.array([el]))[0])
@@ -282,8 +283,6 @@ def evaluate_trials(ctx: Context, trials: Trials, *, progress: bool = False, des
                     ranges_m=None, **kw) -> TrialFigures:
     """Figures of each trial (tolerance.perturb.evaluate) at ranges_m (m; default the
     spec's range), the noses they drew cut first, with a progress bar when asked."""
-    from ..compute import active
-
     ctx.ensure(trials, progress)
     bar = _bar(len(trials), desc, progress)
     ranges = (ctx.settings.spec.depth_range_m,) if ranges_m is None else tuple(ranges_m)
@@ -369,8 +368,6 @@ def stereo_table(ctx: Context, ranges_m) -> dict:
     error (px), the fractions of its points within 5 % and 10 % of their range and seen
     by both lobes, the capped RMS depth error (%), and the depth error (%) that
     matching_noise_px alone gives."""
-    from .samples import matching_floor_pct
-
     fig = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s), ranges_m=ranges_m)
     floor = matching_floor_pct(ctx.mirror, ranges_m, ctx.settings.matching_noise_px, ctx.settings.depth_points)
     out = {"ranges_m": [float(r) for r in ranges_m], "matching_noise_px": ctx.settings.matching_noise_px,
@@ -378,26 +375,6 @@ def stereo_table(ctx: Context, ranges_m) -> dict:
     for label, d in (("raw", fig.raw), ("calibrated", fig.calibrated)):
         out[label] = {key: [float(x) for x in d[key][0]] for key in STEREO_FIGURES}
     return out
-
-
-def trials_csv(results: list[tuple[str, MonteCarloResult]]) -> str:
-    """CSV text (RFC 4180, "," separated, a header line): one row per trial of each
-    (run name, result), every drawn parameter and figure; numbers as repr (17 digits)."""
-    import csv
-    import io
-
-    buf = io.StringIO()
-    writer = csv.writer(buf, lineterminator="\n")
-    header_written = None
-    for run, res in results:
-        header, rows = res.csv_rows(run)
-        if header_written is None:
-            writer.writerow(header)
-            header_written = header
-        for row in rows:
-            writer.writerow([repr(v) if isinstance(v, float) else v for v in row])
-    return buf.getvalue()
-
 
 def _rotation_angle(r: np.ndarray) -> np.ndarray:
     """Angle (rad) of each rotation matrix (trials, 3, 3)."""
@@ -417,6 +394,4 @@ def _dist(x: np.ndarray) -> dict:
 
 
 def _bar(total: int, desc: str, enabled: bool):
-    from ..progress import bar
-
     return bar(total, desc, enabled)

@@ -22,6 +22,7 @@ import numpy as np
 from .montecarlo import CRITERIA, Context, evaluate_trials, judge
 from .perturb import TrialFigures, Trials
 from .spec import DRAWN, MACHINE_DRAWN, PARAMETERS
+from .surfaces import SurfaceBank
 
 #: Fractions of a tolerance each parameter is scanned at (both signs).
 SCAN = (0.5, 1.0, 4.0 / 3.0)
@@ -166,8 +167,6 @@ def resolution_row(ctx: Context, polish_params, *, res0: float, machine_at, prog
 
     res0: the nominal resolution, mm. machine_at(resolution) -> a made surface (attributes
     profile, source): the pipeline's builder, the nominal part on that controller."""
-    from .surfaces import SurfaceBank
-
     d = ctx.settings.tolerances.get("resolution_mm", 0.0)
     if d <= 0:
         return None

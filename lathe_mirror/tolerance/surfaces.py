@@ -45,8 +45,10 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..compute import active
 from ..design import Mirror
-from ..profile import Profile
+from ..polishing import polish_series
+from ..profile import LobeSamples, Profile, SampledProfile
 
 #: Polishing-time snapshots per machined surface, as fractions of the time tolerance.
 TIME_NODES = (-1.0, -0.75, -0.5, -0.25, 0.0, 0.25, 0.5, 0.75, 1.0)
@@ -110,7 +112,7 @@ class SurfaceBank:
               time_s: float = 0.0) -> "SurfaceBank":
         """A bank holding one given surface (its z and slope on the grid, not polished):
         every trial is cut the same, whatever its phase, nose and polishing time (a part
-        that exists: measure.tolerance). The nose step is the nose itself, so that a trial
+        that exists: tolerance.measured). The nose step is the nose itself, so that a trial
         that draws no nose error keeps nose_mm (the draw's floor is one step)."""
         return cls(mirror, lambda phase, nose: _Given(profile), None, np.array([time_s]), np.array([0.0]),
                    nose_mm, nose_mm if nose_mm > 0 else 1.0, grid_step_mm=grid_step_mm)
@@ -190,7 +192,6 @@ class SurfaceBank:
             return self._sample(cut)
         if not self.leave_junction:
             return self._sample(cut)
-        from ..profile import LobeSamples, SampledProfile
 
         m = self.mirror
         pad, zone, z_cut = [], [], []
@@ -217,8 +218,6 @@ class SurfaceBank:
     def _sample(self, profile: Profile, *, polished: bool = True) -> list[tuple[np.ndarray, np.ndarray]]:
         """(z, slope) per lobe on the grid, (snapshots, n): polished at every snapshot time
         (or as cut, one row per snapshot)."""
-        from ..polishing import polish_series
-
         T = self.time_s.size
         polished = polished and self.polish_params is not None
         snaps = polish_series(profile, self.polish_params, self.time_s) if polished else [profile]
@@ -274,8 +273,6 @@ def _interp_weights(x: np.ndarray, nodes: np.ndarray) -> tuple[np.ndarray, np.nd
 def _on_executor(bank: SurfaceBank, fn, items: list, progress) -> list:
     """fn(bank, item) for each item, on the command's executor (lathe_mirror.compute:
     each part cut and polished whole by one worker, the results in item order)."""
-    from ..compute import active
-
     ex = active()
     if ex.workers == 1 or len(items) < 2:
         out = []

@@ -17,6 +17,7 @@ from ..design import Mirror
 from ..errors import InputError
 from ..lathe import Lathe, Tool
 from ..sheet import normal_angles
+from .metrics import usable_ranges
 from .moves import Hand
 
 
@@ -97,8 +98,6 @@ def fillet_hidden_margin(mirror: Mirror, nose_radius: float) -> float:
     radius metrics.usable_ranges gives; the fillet must start beyond it. Outer lobe
     recessed: the inner rim hides the outer lobe up to Mirror.r_outer_visible; the
     fillet must end before it."""
-    from .metrics import usable_ranges
-
     contact = corner_nose(mirror, nose_radius)[1]
     if mirror.step > 0:
         return contact - usable_ranges(mirror)[0][1]

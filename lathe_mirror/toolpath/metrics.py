@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..design import Mirror
+from ..design import Mirror, sheet_point_seen_from_focus
 from ..profile import ExactProfile, Profile
 from ..sheet import signed_distance_camera
 
@@ -71,8 +71,6 @@ def usable_ranges(mirror: Mirror) -> tuple[tuple[float, float], tuple[float, flo
     Mirror.image_radii_px["inner_blocked_by_step"]), so a junction fillet there costs
     no image. The outer lobe from Mirror.r_outer_visible to the rim.
     """
-    from ..design import sheet_point_seen_from_focus
-
     r_inner = mirror.r_junction
     if mirror.step > 0:
         el = mirror.fov_usable(mirror.inner)[1]

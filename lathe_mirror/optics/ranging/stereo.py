@@ -29,6 +29,8 @@ from ...errors import InputError
 from ...profile import Profile
 from ..camera import CameraPose
 from ..radial import ideal_radius_px
+from ..scene import BOX_FACE0, CEILING, FLOOR
+from ..trace import Fate, trace_pixels
 from .match import MatchParams, match
 from .rectify import PanoramaGrid, image_points, make_grid, unwrap
 from .resolution import angular_resolution, parallax_per_px, r10, range_error_pct
@@ -156,8 +158,6 @@ def band_visibility(profile: Profile, mirror: Mirror, grid: PanoramaGrid,
     inner and the outer lobe of a surface: the image point the design maps each to, traced
     off the surface (optics.trace, with the camera's pose), lands on that lobe and its
     reflection leaves unblocked."""
-    from ..trace import Fate, trace_pixels
-
     out = []
     for k in (0, 1):
         u, v, seen = image_points(mirror, k, grid)
@@ -213,8 +213,6 @@ def range_figures(result: StereoResult, truth: TrueRange, mirror: Mirror, *,
     in panorama px of elevation_step), each the median over the bin's valid pixels. valid_by_surface: the
     valid share on the floor, walls, ceiling and boxes (flat colour starves the matcher).
     """
-    from ..scene import BOX_FACE0, CEILING, FLOOR
-
     grid = result.grid
     valid = result.valid & np.isfinite(truth.range_mm)
     err = 100.0 * (result.range_map.range_mm - truth.range_mm) / truth.range_mm

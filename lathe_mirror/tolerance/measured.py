@@ -21,6 +21,16 @@ import dataclasses
 
 from ..design import Mirror
 from ..profile import Profile
+from ..optics.radial import radial_figures
+from ..optics.zones import zones_for
+from .allocation import allocate as allocate_tolerances
+from .allocation import inverse_sensitivity
+from .montecarlo import Context, disparity_limit_px
+from .montecarlo import run_monte_carlo, stereo_table
+from .runs import DEPTH_RANGES_M, verdict
+from .samples import pixel_sample
+from .sensitivity import responses, sensitivity_table
+from .surfaces import SurfaceBank
 
 #: The parameters drawn for a part that exists: its assembly.
 ASSEMBLY = ("camera_decentre_mm", "camera_axial_mm", "camera_tilt_deg", "seat_tilt_deg")
@@ -43,10 +53,6 @@ def measured_label(path: str) -> str:
 def measured_context(mirror: Mirror, settings, profile: Profile, label: str, *, progress: bool = False):
     """The Monte Carlo's context (tolerance.montecarlo.Context) for `profile` held fixed,
     only the assembly drawn (module doc)."""
-    from ..optics.zones import zones_for
-    from ..tolerance.montecarlo import Context, disparity_limit_px
-    from ..tolerance.samples import pixel_sample
-    from ..tolerance.surfaces import SurfaceBank
 
     ts = settings.tolerance
     tol = {k: (float(v) if k in ASSEMBLY else 0.0) for k, v in ts.tolerances.items()}
@@ -72,12 +78,6 @@ def measured_tolerance(mirror: Mirror, settings, profile: Profile, path: str, *,
     """The tolerance analysis of the measured part in `path` (its surface `profile`):
     (figures, [(run name, MonteCarloResult)]) with figures shaped as tolerance_analysis's,
     its one entry under "programs" named ENTRY (module doc)."""
-    from ..optics.radial import radial_figures
-    from ..tolerance.allocation import allocate as allocate_tolerances
-    from ..tolerance.allocation import inverse_sensitivity
-    from ..tolerance.montecarlo import run_monte_carlo, stereo_table
-    from ..tolerance.runs import DEPTH_RANGES_M, verdict
-    from ..tolerance.sensitivity import responses, sensitivity_table
 
     label = measured_label(path)
     ctx = measured_context(mirror, settings, profile, label, progress=progress)
@@ -94,7 +94,7 @@ def measured_tolerance(mirror: Mirror, settings, profile: Profile, path: str, *,
              "note": note, "limits": ctx.limits, "monte_carlo": mc.to_dict(),
              "sensitivity": sensitivity_table(ctx, resp), "inverse_sensitivity": inverse_sensitivity(resp, ctx.limits),
              "stereo": stereo_table(ctx, DEPTH_RANGES_M),
-             "nominal_over_zone": {"surface": label, "zones": ctx.zones.describe(),
+             "nominal_over_zone": {"surface": label, "made_mirror": label, "zones": ctx.zones.describe(),
                                    "lobes": [{"name": lb["name"], "image_displacement_px": lb["image_displacement_px"],
                                               "zone_px": lb["zone_px"]} for lb in lobes]}}
     if allocate:
