@@ -57,7 +57,7 @@ def measured_context(mirror: Mirror, settings, profile: Profile, label: str, *, 
     ts = settings.tolerance
     tol = {k: (float(v) if k in ASSEMBLY else 0.0) for k, v in ts.tolerances.items()}
     fixed = dataclasses.replace(ts, tolerances=tol, machine_errors={k: 0.0 for k in ts.machine_errors},
-                                lattice_phases=1)
+                                lattice_phases=1, seat_pivot_mm=ts.pivot_mm(mirror))  # 0: the design's rim
     nose = float(settings.tool.nose_radius)
     bank = SurfaceBank.fixed(mirror, profile, settings.polish.grid_step_mm, nose_mm=nose)
     bank.source = label
@@ -104,7 +104,7 @@ def measured_tolerance(mirror: Mirror, settings, profile: Profile, path: str, *,
     entry["verdict"] = verdict(entry, ts.spec_dict())
     figures = {"spec": ts.spec_dict(), "distribution": ts.distribution.value, "tolerances": ts.tolerances,
                "cost": ts.cost, "seed": ts.seed, "trials": ts.trials, "target_yield": ts.target_yield,
-               "seat_pivot_mm": ts.seat_pivot_mm, "judged": label,
+               "seat_pivot_mm": ts.pivot_mm(mirror), "judged": label,
                "measured_part": {"file": str(path), "made_mirror": label, "drawn": list(ASSEMBLY), "note": note},
                "programs": {ENTRY: entry}}
     return figures, results
