@@ -21,7 +21,7 @@ from lathe_mirror.shop import options_from_settings
 
 #: (section, field, file key, value in the file, value in the typed field) across modules:
 #: polishing.PolishParams, lathe.Lathe / Tool / Stock, optimize.OptimizeSettings, body.BodySpec
-#: ([cad]); shop.ProgramOptions (through [toolpath]) below.
+#: ([cad]), toolpath.ToolpathSettings; shop.ProgramOptions (built from [toolpath]) below.
 CASES = [
     ("polish", "overhang", "polish.overhang", 2.0, 2.0),
     ("polish", "calibration_knot_px", "polish.calibration_knot_px", 2.0, 2.0),
@@ -36,6 +36,8 @@ CASES = [
     ("optimize", "workers", "optimize.workers", 65, 65),
     ("body", "thickness", "cad.thickness", -1.0, -1.0),
     ("body", "min_wall", "cad.min_wall", 0.0, 0.0),
+    ("toolpath", "max_deviation", "toolpath.max_deviation", 20.0, 20.0),
+    ("toolpath", "ramp_angle", "toolpath.ramp_angle", 50.0, math.radians(50.0)),
 ]
 
 

@@ -60,7 +60,8 @@ class Result:
         names = {f.metadata.get("key", f.name): f for f in dataclasses.fields(cls)}
         unknown = [k for k in d if k not in names]
         if unknown:
-            raise KeyError(f"{cls.__name__}: figures it does not declare: {unknown}")
+            raise KeyError(f"{cls.__module__}.{cls.__name__}: figures it does not declare: {unknown} "
+                           "(a stage grew a figure: declare it in its result type)")
         kw = {names[k].name: _convert(hints[names[k].name], v) for k, v in d.items()}
         return cls(**kw)
 

@@ -280,7 +280,10 @@ class ZoneLobeDisplacement(Result):
 
 @dataclass(**RESULT)
 class NominalOverZone(Result):
+    """A part's image displacement per lobe over the zone the criteria judge (optics.radial)."""
+
     surface: str
+    made_mirror: str
     zones: str
     lobes: tuple[ZoneLobeDisplacement, ...]
 
@@ -360,6 +363,7 @@ class ProgramTolerance(Result):
     stereo: ToleranceStereo
     nose_radii_cut: int
     nominal_over_zone: NominalOverZone
+    as_machined_over_zone: NominalOverZone
     allocation: Allocation | None = omitted()
     verdict: Verdict
 

@@ -10,10 +10,11 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
+from ..declared import SLACK, check as check_declared
 from ..design import Mirror
 from ..enums import BEST, Strategy
 from ..lathe import Lathe, Tool
@@ -94,6 +95,17 @@ class ToolpathSettings:
     parting_width_mm: float = 3.0
     parting_feed: float = 0.05
     back_allowance_mm: float = 0.5
+
+    def __post_init__(self) -> None:
+        # Each number within its key's declaration (toolpath.<field>; the ramp angle in the
+        # file's degrees): the line load() gives, however the section was built.
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name == "ramp_angle":
+                ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+                check_declared("toolpath.ramp_angle", math.degrees(v) if ok else v, slack=SLACK)
+            elif f.name not in ("strategy", "spring_pass", "coolant"):
+                check_declared(f"toolpath.{f.name}", v)
 
 
 @dataclass
