@@ -21,6 +21,15 @@ _FINEST = 0.0001
 #: F words (mm/rev): 4 decimals (their range, up to 500 mm/rev, is machine.feed_*'s).
 FEED_STEP = 0.0001
 
+# The soft jaws of the second set-up (shop.second), which hold the parted mirror by its
+# outside diameter: facts of the workholding the design's body must leave room for
+# (optimize's thickness constraint), so they sit with the machine, below both.
+#: The soft jaws stop this far below the back face (mm): the facing tool passes over them.
+JAW_GAP = 3.0
+#: The jaws reach out this far beyond the part (mm) and grip at least this long (mm).
+JAW_WIDTH = 10.0
+MIN_GRIP = 3.0
+
 
 @dataclass(frozen=True)
 class Lathe:

@@ -58,6 +58,7 @@ from .report.polishing_study import polishing_study
 from .results.design import DesignFigures
 from .results.made import MadeMirror, ZoneFigures
 from .results.optics import DEPTH_REPORT_M, CalibrationFigures, DepthAt, DepthCurve, StereoFigures
+from .report.plots import report_plots
 from .results.tolerance import ToleranceAnalysis
 from .tolerance.runs import DEPTH_RANGES_M, tolerance_analysis
 
@@ -71,7 +72,7 @@ STAGES = ["design", "toolpaths", "polishing", "distortion", "stereo", "renders",
 
 def report_figures(settings: Settings, *, progress: bool = False, renders: bool = True,
                    tolerance: bool = True, alongside: Callable[[], None] | None = None,
-                   measured: Profile | None = None) -> ReportData:
+                   measured: Profile | None = None, plots: bool = False) -> ReportData:
     """Run every analysis stage on the settings: design, the toolpath of each strategy and
     its as-machined surface, polishing, the distortion of each made mirror, stereo depth
     error against range, renders, the tolerance analysis and the verdict. No files.
@@ -80,7 +81,9 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
 
     The tolerance analysis needs only the polishing times: it runs in the background
     (lathe_mirror.compute) beside the stages after polishing and `alongside()` (the
-    caller's own work, e.g. `run`'s programs and CAD), the same figures as in turn."""
+    caller's own work, e.g. `run`'s programs and CAD), the same figures as in turn.
+    plots: draw the report's plots that do not need the tolerance analysis while it runs
+    (report.plots.report_plots; `write_report` draws the rest), not after it."""
     steps = Stages(STAGES, progress)
     steps.start("design")
     mirror = design(settings)
@@ -110,6 +113,8 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
         _optics_stages(data, made, mirror, settings, steps, renders, curve_paper.optimum_time_s, job, measured)
         if alongside is not None:
             alongside()
+        if plots:
+            data.plots = report_plots(data)
         steps.start("tolerance")
         if tol is not None:
             data.tolerance = ToleranceAnalysis.from_dict(tol.result())

@@ -54,7 +54,8 @@ def run(args: argparse.Namespace) -> int:
     out_dir = args.output or "out"
     check_outputs(out_dir, list(REPORT_FILES))
     output_dir(out_dir)
-    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render, measured=measured)
+    data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render, measured=measured,
+                          plots=True)  # drawn while the tolerance analysis runs
     paths = write_report(data, out_dir)
     if args.json:
         print_json(data.figures)

@@ -61,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
     exts = [d.extension for d in Dialect] + ["setup.html"]
     programs = [f"mirror_{s.value}{op}.{ext}" for s in strategies for op in ("", "_op2") for ext in exts
                 if not (op and ext == "setup.html")]  # the second set-up's program is on the first's sheet
+    from ..iso10110 import spec_of
     from .spec import FILES as SPEC_FILES, write_spec
 
     for d, names, what in ((out_dir, list(REPORT_FILES) + list(SPEC_FILES), "-o/--output"), (gcode_dir, programs, "--gcode-dir"),
@@ -79,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
     written: dict[str, list] = {}
 
     def programs_and_cad() -> None:
-        """The programs, the CAD and the calibration files: beside the tolerance analysis."""
+        """The programs, the CAD, the calibration files and the spec drawing: beside the
+        tolerance analysis."""
         from ..export.cad import write_reference_cad
         from ..export.calib import write_calibration
         from ..optics.zones import zones_for
@@ -91,13 +93,14 @@ def run(args: argparse.Namespace) -> int:
         say("lathe-mirror run: CAD")
         written["cad"] = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
         written["calib"] = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
+        write_spec(out_dir, settings, spec_of(settings))  # the drawing beside the report (lathe-mirror spec)
 
     shops: list = []
     # Both programs planned and simulated (the stock, the chuck, the part) in the background,
     # beside the report's stages; nothing is written before they pass (files commit as a set).
     with active().background(_shop_programs, (settings, mirror, strategies)) as shops_bg:
         data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render,
-                              alongside=programs_and_cad)
+                              alongside=programs_and_cad, plots=True)
     programs, cad, calib = written["gcode"], written["cad"], written["calib"]
     data.shop = [{"name": shop.program.name, "setup_sheet": f"{shop.program.name}.setup.html",
                   **shop.simulation.figures(),
@@ -106,9 +109,6 @@ def run(args: argparse.Namespace) -> int:
     data.outputs = {kind: [{"path": str(p), "sha256": _sha256(p)} for p in paths]
                     for kind, paths in (("gcode", programs), ("cad", cad), ("calib", calib))}
     paths = write_report(data, out_dir)
-    from ..iso10110 import spec_of
-
-    write_spec(out_dir, settings, spec_of(settings))  # the drawing beside the report (lathe-mirror spec)
     if args.json:
         print_json(data.figures)
     else:

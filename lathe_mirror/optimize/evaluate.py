@@ -42,7 +42,7 @@ from ..body import BodySpec
 from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
 from ..enums import Mount
 from ..errors import DesignError
-from ..lathe import Stock, Tool
+from ..lathe import JAW_GAP, MIN_GRIP, Stock, Tool
 from ..optics.ranging.resolution import r10
 from ..toolpath.checks import corner_nose, fillet_hidden_margin, reach_margin
 from ..toolpath.moves import Hand
@@ -292,8 +292,6 @@ def measure(mirror: Mirror, problem: Problem, lobes: tuple[LobeSpec, LobeSpec], 
 def _grip_mm() -> float:
     """What the second set-up's soft jaws need of the body's side below the shoulder (mm):
     shop.second's gap at the back plus its least grip (plan_second refuses less)."""
-    from ..shop.second import JAW_GAP, MIN_GRIP  # lazy: shop.second off the CLI's start-up path
-
     return JAW_GAP + MIN_GRIP
 
 

@@ -244,14 +244,19 @@ def monte_carlo_histograms(per_trial: dict, limits: dict, *, calibrated: bool, p
 def report_plots(data: ReportData) -> dict[str, bytes]:
     """Every plot of the report, from what the pipeline handed it (figures, curves, renders):
     drawn on the command's executor (lathe_mirror.compute: the plots are independent, each
-    worker draws whole plots), in the order of plot_jobs; the same bytes as one by one."""
-    names = [name for name, _ in plot_jobs(data)]
+    worker draws whole plots), in the order of plot_jobs; the same bytes as one by one.
+    The plots already in data.plots (drawn earlier, e.g. while the tolerance analysis
+    ran) are kept, not drawn again."""
+    jobs = plot_jobs(data)
+    names = [name for name, _ in jobs if name not in data.plots]
     ex = active()
     if ex.workers == 1 or len(names) < 2:
-        return {name: draw() for name, draw in plot_jobs(data)}
-    _pyplot()  # imported once here: the forked workers inherit it
-    with ex.bound(data) as run:
-        return dict(zip(names, run.map(_draw_one, names)))
+        drawn = {name: draw() for name, draw in jobs if name in names}
+    else:
+        _pyplot()  # imported once here: the forked workers inherit it
+        with ex.bound(data) as run:
+            drawn = dict(zip(names, run.map(_draw_one, names)))
+    return {name: data.plots[name] if name in data.plots else drawn[name] for name, _ in jobs}
 
 
 def _draw_one(data: ReportData, name: str) -> bytes:

@@ -34,8 +34,7 @@ if TYPE_CHECKING:
 
 def write_report(data: ReportData, out_dir: str | Path) -> dict[str, Path]:
     """report.json and report.html (self-contained) into out_dir, atomically each."""
-    if not data.plots:
-        data.plots = report_plots(data)
+    data.plots = report_plots(data)  # the ones not drawn yet
     d = prepare_dir(out_dir)
     paths = {"json": d / "report.json", "html": d / "report.html"}
     write_text(paths["json"], dumps(data.figures))

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 from ..body import design_meridian
 from ..enums import Mount
 from ..errors import InputError
+from ..lathe import JAW_GAP, JAW_WIDTH, MIN_GRIP
 from ..toolpath.moves import Hand
 from .operations import OperationWriter
 from .plan import numbered
@@ -40,11 +41,6 @@ from .tool_shapes import insert_shape
 if TYPE_CHECKING:
     from ..body import BodySpec
 
-#: The soft jaws stop this far below the back face (mm): the facing tool passes over them.
-JAW_GAP = 3.0
-#: The jaws reach out this far beyond the part (mm) and grip at least this long (mm).
-JAW_WIDTH = 10.0
-MIN_GRIP = 3.0
 
 
 @dataclass(frozen=True)
