@@ -49,6 +49,10 @@ from .surface_tables import LobeTable, SurfaceTables, first_steep, lobe_zs, norm
 __all__ = ["CHUNK", "WALL_JUMP_MM", "trace_rays", "tracing_threads"]
 #: Rays per vectorised batch (bounds the memory; a batch stays in cache).
 CHUNK = 1 << 15
+#: Rays per batch when the batches run in threads (tracing_threads): larger, so that the
+#: threads spend their time in numpy's loops, not waiting for the interpreter (2 threads
+#: on the full sensor: 5.7e6 rays/s at 1 << 17 against 4.7e6 at 1 << 15).
+THREAD_CHUNK = 1 << 17
 #: A ray must out-climb a bin's slope bound by this factor to count as monotone there.
 MONOTONE_MARGIN = 1.02
 #: The steep bins at the inner lobe's rim walked one by one (beyond: the march).
@@ -56,11 +60,12 @@ STEEP_WALK = 32
 
 
 def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
-               chunk: int = CHUNK, progress: bool = False, fast: bool = True,
+               chunk: int | None = None, progress: bool = False, fast: bool = True,
                march_steps: int = 16) -> RayHits:
     """Rays origin + s * direction (mm, unit directions (..., 3)) off the profile.
 
-    fast=False marches every ray (the fallback; for comparison and benchmarks).
+    chunk: rays per vectorised batch (default CHUNK; THREAD_CHUNK when the batches run in
+    threads, tracing_threads). fast=False marches every ray (the fallback; for comparison and benchmarks).
     march_steps: the march's steps through the height range (it misses a sliver of
     material thinner than a step: more steps, finer). A tqdm bar on stderr when `progress`.
     """
@@ -79,6 +84,8 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
         from tqdm import tqdm
 
         bar = tqdm(total=n, unit="ray", unit_scale=True, desc="trace 3-D", leave=False)
+    threads = tracing_threads() if fast and n > (chunk or CHUNK) else 1
+    chunk = chunk or (THREAD_CHUNK if threads > 1 else CHUNK)
     rest = [np.arange(n)]
     if fast:
         def one(a: int) -> np.ndarray:
@@ -86,7 +93,7 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
             return a + _fast_chunk(profile, tables, origin, d_all[sl], fate[sl], point[sl], out[sl], blocked[sl])
 
         starts = range(0, n, chunk)
-        threads = tracing_threads() if len(starts) > 1 else 1
+        threads = min(threads, len(starts))
         if threads > 1:
             # numpy releases the GIL inside its loops: the chunks (disjoint slices of the
             # outputs, each its own work) run on the command's cores, the same bytes as in turn
