@@ -22,7 +22,8 @@ from functools import cached_property
 
 import numpy as np
 
-from .errors import DesignError
+from .declared import SLACK, check as check_declared
+from .errors import ConfigError, DesignError
 
 @dataclass(frozen=True)
 class Camera:
@@ -39,14 +40,18 @@ class Camera:
     f_number: float = 8.0
 
     def __post_init__(self) -> None:
-        _positive("camera.f", self.f, "mm")
-        _positive("camera.t_pixel", self.t_pixel, "mm")
-        _positive("camera.f_number", self.f_number, "(f / aperture diameter)")
-        if len(self.sensor_px) != 2 or any(int(n) != n or n <= 0 for n in self.sensor_px):
+        # The [camera] declarations (lathe_mirror.declared): the line `load()` gives for the
+        # file's key, raised as a design error (a camera that cannot be designed for).
+        for name, value in (("camera.f", self.f), ("camera.t_pixel", self.t_pixel),
+                            ("camera.f_number", self.f_number)):
+            _finite(name, value)
+            _declared(name, value)
+        if len(self.sensor_px) != 2 or any(int(n) != n for n in self.sensor_px):
             raise DesignError(
                 f"camera.sensor_px = {list(self.sensor_px)} must be two positive integers "
                 "[width, height] in pixels"
             )
+        _declared("camera.sensor_px", [int(n) for n in self.sensor_px])
 
     @property
     def r_pixel_max(self) -> float:
@@ -460,6 +465,14 @@ def _positive(key: str, value: float, unit: str) -> None:
     _finite(key, value)
     if value <= 0:
         raise DesignError(f"{key} = {value:g} {unit} must be > 0")
+
+
+def _declared(key: str, value) -> None:
+    """DesignError with the line the configuration file's key gets (declared.check)."""
+    try:
+        check_declared(key, value, slack=SLACK)
+    except ConfigError as exc:
+        raise DesignError(str(exc)) from None
 
 
 def _finite(key: str, value: float) -> None:

@@ -182,10 +182,34 @@ def test_mirror_level_checks():
     with pytest.raises(DesignError, match="must be smaller than"):
         design_mirror(cam, design_lobe("inner", cam, 20.0, 504.0, alpha_deg=0.0),
                       design_lobe("outer", cam, 35.0, 400.0, alpha_deg=0.0))
-    with pytest.raises(DesignError, match="must be > 0"):
-        Camera(f=0.0)
     with pytest.raises(DesignError, match="sensor_px"):
         Camera(sensor_px=(1008, -2))
+
+
+@pytest.mark.parametrize("field, value, line", [
+    ("f", 0.0, "camera.f = 0 mm: allowed 0.1 to 1000 mm"),
+    ("t_pixel", 0.2, "camera.t_pixel = 0.2 mm: allowed 0.0005 to 0.1 mm"),
+    ("f_number", 0.1, "camera.f_number = 0.1: allowed 0.5 to 100"),
+])
+def test_a_camera_built_in_python_is_refused_with_the_configs_line(tmp_path, field, value, line):
+    """Camera(...) and dataclasses.replace on it: the line `load()` gives for the same
+    [camera] key (the declaration's range), a design error; the ends are accepted."""
+    import dataclasses
+
+    from lathe_mirror.config import load
+    from lathe_mirror.declared import key
+    from lathe_mirror.errors import InputError
+
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(f"[camera]\n{field} = {value!r}\n")
+    with pytest.raises(InputError) as from_file:
+        load(cfg)
+    with pytest.raises(DesignError) as built:
+        dataclasses.replace(Camera(), **{field: value})
+    assert str(built.value) == str(from_file.value) and line in str(built.value)
+    k = key(f"camera.{field}")
+    for end in (k.lo, k.hi):
+        Camera(**{field: end})  # both documented ends
 
 
 def test_design_figures_report_the_viewpoint_check(paper_mirror):
