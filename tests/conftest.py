@@ -60,3 +60,20 @@ def paper_config() -> dict:
 @pytest.fixture(scope="session")
 def paper_mirror(paper_config):
     return from_config(paper_config).mirror()
+
+
+@pytest.fixture(scope="module", params=["paper", "recessed"])
+def design_case(request, tmp_path_factory) -> dict:
+    """The paper default and a design that is not the paper's (RECESSED_OUTER: a 6 mm lens,
+    the outer lobe recessed), each with its config file (None: the default), settings,
+    mirror and a directory of its own; a module's tests run on both."""
+    d = tmp_path_factory.mktemp(request.param)
+    cfg = None
+    if request.param == "recessed":
+        cfg = d / "recessed.toml"
+        cfg.write_text(RECESSED_OUTER)
+    from lathe_mirror.config import load
+
+    settings = load(cfg)
+    return {"name": request.param, "cfg": cfg, "settings": settings, "mirror": settings.mirror(), "dir": d}
+

@@ -18,8 +18,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import RECESSED_OUTER, run_cli
-from lathe_mirror.config import load
+from conftest import run_cli
 from lathe_mirror.measure.fit import fit_trace, profile_through_axis
 from lathe_mirror.measure.readers import read_measurement
 
@@ -28,15 +27,9 @@ NOISE_MM = 5e-5
 DX_MM = 0.005
 
 
-@pytest.fixture(scope="module", params=["paper", "recessed"])
-def case(request, tmp_path_factory):
-    d = tmp_path_factory.mktemp(request.param)
-    cfg = None
-    if request.param == "recessed":
-        cfg = d / "recessed.toml"
-        cfg.write_text(RECESSED_OUTER)
-    settings = load(cfg)
-    return {"name": request.param, "cfg": cfg, "mirror": settings.mirror(), "dir": d}
+@pytest.fixture(scope="module")
+def case(design_case):
+    return design_case
 
 
 def design_machine_z(mirror, r):

@@ -23,8 +23,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import RECESSED_OUTER, run_cli
-from lathe_mirror.config import load
+from conftest import run_cli
 from lathe_mirror.job import check_program, machine
 from lathe_mirror.machine_errors import MachineErrors, machined_with_errors
 from lathe_mirror.toolpath.moves import reversed_move
@@ -33,17 +32,10 @@ BACKLASH_MM = 0.010
 TOL_MM = 0.002
 
 
-@pytest.fixture(scope="module", params=["paper", "recessed"])
-def case(request, tmp_path_factory):
-    d = tmp_path_factory.mktemp(request.param)
-    cfg = None
-    if request.param == "recessed":
-        cfg = d / "recessed.toml"
-        cfg.write_text(RECESSED_OUTER)
-    settings = load(cfg)
-    mirror = settings.mirror()
-    tp = check_program(settings, mirror, settings.toolpath.strategy)
-    return {"name": request.param, "cfg": cfg, "settings": settings, "mirror": mirror, "tp": tp, "dir": d}
+@pytest.fixture(scope="module")
+def case(design_case):
+    s, mirror = design_case["settings"], design_case["mirror"]
+    return {**design_case, "tp": check_program(s, mirror, s.toolpath.strategy)}
 
 
 def reversing_cut(tp):

@@ -30,22 +30,15 @@ import math
 import numpy as np
 import pytest
 
-from conftest import RECESSED_OUTER, run_cli
-from lathe_mirror.config import load
+from conftest import run_cli
 from test_measure import DECENTRE_MM, PISTON_MM, TILT_RAD, design_machine_z, smooth_residual
 
 TRIALS = 60
 
 
-@pytest.fixture(scope="module", params=["paper", "recessed"])
-def case(request, tmp_path_factory):
-    d = tmp_path_factory.mktemp(request.param)
-    cfg = None
-    if request.param == "recessed":
-        cfg = d / "recessed.toml"
-        cfg.write_text(RECESSED_OUTER)
-    settings = load(cfg)
-    return {"name": request.param, "cfg": cfg, "settings": settings, "mirror": settings.mirror(), "dir": d}
+@pytest.fixture(scope="module")
+def case(design_case):
+    return design_case
 
 
 def write_trace(path, mirror, amplitude, *, seed=1):
