@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from conftest import UNCUTTABLE, UNCUTTABLE_PHRASE, run_cli
 from lathe_mirror.export.calib import FILE_NAMES
 
@@ -106,3 +108,25 @@ def _small(tmp_path):
     return cfg
 
 
+
+
+@pytest.mark.parametrize("design", ["paper", "recessed"])
+def test_run_refuses_a_bar_too_short_before_any_work(tmp_path, design):
+    """A bar the part-off cannot leave room in: `run` refuses at once (its programs are
+    simulated in the background, but planned up front) with the line `toolpath` gives, and
+    writes nothing."""
+    import time
+
+    from conftest import RECESSED_OUTER
+
+    cfg = tmp_path / "short.toml"
+    cfg.write_text((RECESSED_OUTER if design == "recessed" else "") + "\n[stock]\nlength = 12.0\n")
+    t0 = time.perf_counter()
+    proc = run_cli("run", "--config", str(cfg), "-o", str(tmp_path / "out"), "--no-progress")
+    took = time.perf_counter() - t0
+    assert proc.returncode == 2 and not (tmp_path / "out").exists()
+    line = proc.stderr.strip()
+    assert len(line.splitlines()) == 1 and "stock.length = 12 mm" in line
+    tp = run_cli("toolpath", "--config", str(cfg), "-o", str(tmp_path / "t.ngc"))
+    assert tp.returncode == 2 and tp.stderr.strip().split("error: ", 1)[1] == line.split("error: ", 1)[1]
+    assert took < 30.0  # seconds, not the whole pipeline (a loaded machine: generous)

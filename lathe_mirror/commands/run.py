@@ -46,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from ..pipeline import report_figures
     from ..compute import active
     from ..report import write_report
+    from ..shop.programs import plan_checks
     from .common import check_outputs, output_dir
     from .report import REPORT_FILES, summary
 
@@ -73,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
     for strategy in strategies:
         check_program(settings, mirror, strategy)  # as every command that uses a program
     check_cad(settings, mirror)       # the CAD body, checked up front too
+    plan_checks(settings, mirror, strategies=strategies)  # the bar, the part-off: before the simulation
     for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir"),
                     (calib_dir, "--calib-dir")):
         output_dir(d, what)  # one that cannot be made takes the ones before it away

@@ -124,6 +124,18 @@ def inspection_table(settings: Settings) -> tuple:
     return tuple(rows)
 
 
+def plan_checks(settings: Settings, mirror: Mirror, *,
+                strategies: tuple[Strategy, ...] = (Strategy.PAPER, BEST)) -> None:
+    """The checks of shop_programs that need no simulation, in a fraction of a second: each
+    strategy's whole program planned (shop.plan_program: the bar's diameter and length, the
+    end position, the block numbers, the part-off below the body). InputError names the
+    setting. `run` makes them before any work and simulates in the background."""
+    options = options_from_settings(settings.toolpath)
+    job = MachiningJob.from_settings(settings, mirror)
+    for strategy in strategies:
+        plan_program(job.but(strategy=strategy).toolpath, settings.stock, options, body=settings.body)
+
+
 def shop_programs(settings: Settings, mirror: Mirror, *,
                   strategies: tuple[Strategy, ...] = (Strategy.PAPER, BEST)) -> list[ShopProgram]:
     """The checked programs of `mirror` for each strategy (default: the paper's method and
