@@ -70,18 +70,30 @@ def test_x_offset_and_centre_height(case):
     assert zm[0] == pytest.approx(edge + 0.1, abs=1e-6) and zm[1] == pytest.approx(edge + 0.05, abs=2e-4)
 
 
-def test_measure_names_nose_and_centre_height(case):
-    m, d = case["mirror"], case["dir"]
-    made = machined_with_errors(case["tp"], MachineErrors(centre_height_mm=0.05, nose_radius_error_mm=0.01),
-                                pip_height_mm=case["settings"].toolpath.rough_allowance)
-    x0, tilt, p = -0.211, -2.0e-4, 0.5
+#: The trace's decentre (mm), tilt (rad) and lift (mm) of the part on the profilometer.
+TRACE_X0, TRACE_TILT, TRACE_LIFT = -0.211, -2.0e-4, 0.5
+
+
+def trace(path, case, tp, errors):
+    """The part `tp` cuts on a lathe with `errors`, traced (decentred, tilted, lifted,
+    0.05 um noise, every 2 um) to a CSV."""
+    m = case["mirror"]
+    made = machined_with_errors(tp, errors, pip_height_mm=case["settings"].toolpath.rough_allowance)
+    x0, tilt, p = TRACE_X0, TRACE_TILT, TRACE_LIFT
     u = np.linspace(-m.r_max, m.r_max, 600001)
     w = m.vertex_z - made.z(np.abs(u))
     X = x0 + u * math.cos(tilt) - w * math.sin(tilt)
     Z = p + u * math.sin(tilt) + w * math.cos(tilt)
     x = np.arange(X.min() + 0.01, X.max() - 0.01, 0.002)
     z = np.interp(x, X, Z) + np.random.default_rng(3).normal(0, 5e-5, x.size)
-    np.savetxt(d / "part.csv", np.c_[x, z], delimiter=",", header="x_mm,z_mm", comments="", fmt="%.7f")
+    np.savetxt(path, np.c_[x, z], delimiter=",", header="x_mm,z_mm", comments="", fmt="%.7f")
+    return path
+
+
+def test_measure_names_nose_and_centre_height(case):
+    d = case["dir"]
+    x0, tilt = TRACE_X0, TRACE_TILT
+    trace(d / "part.csv", case, case["tp"], MachineErrors(centre_height_mm=0.05, nose_radius_error_mm=0.01))
     args = ["measure", str(d / "part.csv"), "--json"] + (["--config", str(case["cfg"])] if case["cfg"] else [])
     p = run_cli(*args)
     assert p.returncode == 0, p.stderr

@@ -18,14 +18,14 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 
 import numpy as np
 import pytest
 
 from conftest import run_cli
+from test_machine_errors import trace
 from lathe_mirror.job import check_program, machine
-from lathe_mirror.machine_errors import MachineErrors, machined_with_errors
+from lathe_mirror.machine_errors import MachineErrors
 from lathe_mirror.toolpath.moves import reversed_move
 
 BACKLASH_MM = 0.010
@@ -45,22 +45,6 @@ def reversing_cut(tp):
     rest = [(s, k) for s, k in zip(tp.segments, tp.lobe_of) if k != "outer"]
     return dataclasses.replace(tp, segments=tuple([s for s, _ in rest] + [reversed_move(s) for s in reversed(outer)]),
                                lobe_of=tuple([k for _, k in rest] + ["outer"] * len(outer)))
-
-
-def trace(path, case, tp, errors):
-    """The part `tp` cuts on a lathe with `errors`, traced (decentred, tilted, lifted,
-    0.05 um noise, every 2 um) to a CSV."""
-    m = case["mirror"]
-    made = machined_with_errors(tp, errors, pip_height_mm=case["settings"].toolpath.rough_allowance)
-    x0, tilt, p = -0.211, -2.0e-4, 0.5
-    u = np.linspace(-m.r_max, m.r_max, 600001)
-    w = m.vertex_z - made.z(np.abs(u))
-    X = x0 + u * math.cos(tilt) - w * math.sin(tilt)
-    Z = p + u * math.sin(tilt) + w * math.cos(tilt)
-    x = np.arange(X.min() + 0.01, X.max() - 0.01, 0.002)
-    z = np.interp(x, X, Z) + np.random.default_rng(3).normal(0, 5e-5, x.size)
-    np.savetxt(path, np.c_[x, z], delimiter=",", header="x_mm,z_mm", comments="", fmt="%.7f")
-    return path
 
 
 def test_cut_directions_follow_the_hand(case):
