@@ -3,6 +3,8 @@ every drawn parameter and figure, each number at its column's stated precision."
 
 from __future__ import annotations
 
+import csv
+import io
 from typing import TYPE_CHECKING
 
 from .numbers import csv_cell
@@ -17,9 +19,6 @@ def trials_csv(results: list[tuple[str, MonteCarloResult]]) -> str:
     stated precision (export.numbers.csv_cell: 1e-9 mm, 1e-6 px, 1e-10 deg, ...; 12
     significant digits where a column has no unit), so a library's last bit cannot change
     the bytes."""
-    import csv
-    import io
-
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     header_written = None

@@ -38,6 +38,9 @@ bisection across the step wall), as before this module existed.
 
 from __future__ import annotations
 
+import contextlib
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 from ..compute import active
@@ -65,7 +68,8 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
     """Rays origin + s * direction (mm, unit directions (..., 3)) off the profile.
 
     chunk: rays per vectorised batch (default CHUNK; THREAD_CHUNK when the batches run in
-    threads, tracing_threads). fast=False marches every ray (the fallback; for comparison and benchmarks).
+    threads, tracing_threads). fast=False marches every ray (the fallback; for comparison
+    and benchmarks).
     march_steps: the march's steps through the height range (it misses a sliver of
     material thinner than a step: more steps, finer). A tqdm bar on stderr when `progress`.
     """
@@ -93,22 +97,12 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
             return a + _fast_chunk(profile, tables, origin, d_all[sl], fate[sl], point[sl], out[sl], blocked[sl])
 
         starts = range(0, n, chunk)
-        threads = min(threads, len(starts))
-        if threads > 1:
-            # numpy releases the GIL inside its loops: the chunks (disjoint slices of the
-            # outputs, each its own work) run on the command's cores, the same bytes as in turn
-            from concurrent.futures import ThreadPoolExecutor
-
-            with ThreadPoolExecutor(threads) as pool:
-                rest = []
-                for a, r in zip(starts, pool.map(one, starts)):
-                    rest.append(r)
-                    if bar is not None:
-                        bar.update(min(a + chunk, n) - a)
-        else:
+        # numpy releases the GIL inside its loops: in threads, the chunks (disjoint slices
+        # of the outputs, each its own work) run on the command's cores, the same bytes as in turn
+        with (ThreadPoolExecutor(min(threads, len(starts))) if threads > 1 else contextlib.nullcontext()) as pool:
             rest = []
-            for a in starts:
-                rest.append(one(a))
+            for a, r in zip(starts, pool.map(one, starts) if pool else map(one, starts)):
+                rest.append(r)
                 if bar is not None:
                     bar.update(min(a + chunk, n) - a)
     # the rays the fast path left, marched together (few: near a steep feature)
