@@ -96,10 +96,34 @@ def pixel_centres(camera: Camera, *, supersample: int = 1,
 def ray_directions(camera: Camera, u: np.ndarray, v: np.ndarray,
                    pose: CameraPose = ALIGNED) -> tuple[np.ndarray, np.ndarray]:
     """Ray origin (3,) and unit directions (..., 3) in the mirror frame for image points (px)."""
-    d = np.stack([np.asarray(u, float) * camera.t_pixel, np.asarray(v, float) * camera.t_pixel,
-                  np.full(np.shape(u), camera.f)], axis=-1)
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
-    if not pose.aligned:
-        d = d @ pose.rotation.T
+    u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
+    d = np.empty(u.shape + (3,))
+    flat = d.reshape(-1, 3)
+    uf, vf = u.reshape(-1), v.reshape(-1)
+    rot = None if pose.aligned else pose.rotation
+    t, f = camera.t_pixel, camera.f
+    for a in range(0, uf.size, _RAY_BLOCK):  # blocks that stay in cache
+        x = uf[a:a + _RAY_BLOCK] * t
+        y = vf[a:a + _RAY_BLOCK] * t
+        inv = x * x
+        inv += y * y
+        inv += f * f
+        np.sqrt(inv, out=inv)
+        np.divide(1.0, inv, out=inv)
+        x *= inv
+        y *= inv
+        inv *= f  # the z component
+        blk = flat[a:a + _RAY_BLOCK]
+        if rot is None:
+            blk[:, 0], blk[:, 1], blk[:, 2] = x, y, inv
+        else:
+            for c in range(3):
+                col = x * rot[c, 0]
+                col += y * rot[c, 1]
+                col += inv * rot[c, 2]
+                blk[:, c] = col
     return pose.origin, d
 
+
+#: Rays per block of ray_directions.
+_RAY_BLOCK = 1 << 14

@@ -137,7 +137,7 @@ def _lobe_table(profile: Profile, k: int, nb_max: int = 512) -> LobeTable:
     if TabulatedProfile is not None and isinstance(profile, TabulatedProfile):
         tab = np.asarray(profile.lobes[k][2], float)
     lut = _climb_lut(cummax)
-    return LobeTable(lo=lo, hi=hi, quad=quad, exact=exact, grid=None if vr is None else VertexGrid(vr, vz, tab),
+    return LobeTable(lo=lo, hi=hi, quad=quad, exact=exact, grid=None if vr is None else VertexGrid(vr, vz, tab, lo, hi),
                  lut=lut, edges=edges,
                  slope_cummax=cummax, z_edge=z_edge, z_sufmin=sufmin, z_binmin=zmin)
 
@@ -193,14 +193,59 @@ def _eval_vertices(vr: np.ndarray, vz: np.ndarray, r: np.ndarray) -> tuple[np.nd
     return z0 + m * (r - r0), m
 
 
+#: Vertices of a polyline lying on the chord of their neighbours within this height (mm)
+#: are dropped from the tracer's grid (the G1 lines of a program, offset by the nose,
+#: give long runs of collinear vertices): the grid's polyline stays within this of the
+#: profile's, far below ROOT_TOL_MM, and a Newton step lands on its segment far more often.
+COLLINEAR_MM = 5e-14
+#: Segments shorter than this (clustered vertices at a kink) are never merged, mm.
+MERGE_MIN_DR_MM = 1e-9
+
+
+def collinear_keep(vr: np.ndarray, vz: np.ndarray, slope: np.ndarray | None = None) -> np.ndarray:
+    """Which vertices of the polyline (vr, vz) to keep: an interior vertex of a run of
+    collinear vertices (each on its neighbours' chord within COLLINEAR_MM, with a constant
+    slope column if given) is dropped when every vertex of the run lies within
+    COLLINEAR_MM of the run's end-to-end chord (checked; a run that drifts is kept whole)."""
+    n = vr.size
+    keep = np.ones(n, dtype=bool)
+    if n < 3:
+        return keep
+    dr = np.diff(vr)
+    long = dr > MERGE_MIN_DR_MM
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dev = vz[1:-1] - (vz[:-2] + (vz[2:] - vz[:-2]) * ((vr[1:-1] - vr[:-2]) / (vr[2:] - vr[:-2])))
+    mid = long[:-1] & long[1:] & (np.abs(dev) <= COLLINEAR_MM)
+    if slope is not None:
+        mid &= (slope[1:-1] == slope[:-2]) & (slope[1:-1] == slope[2:])
+    keep[1:-1] = ~mid
+    kept = np.nonzero(keep)[0]
+    # each vertex against the chord of the kept vertices around it
+    i = np.clip(np.searchsorted(kept, np.arange(n), side="right") - 1, 0, kept.size - 2)
+    a, b = kept[i], kept[i + 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        chord = vz[a] + (vz[b] - vz[a]) * ((vr - vr[a]) / (vr[b] - vr[a]))
+    bad = ~(np.abs(vz - chord) <= COLLINEAR_MM)
+    if bad.any():  # a drifting run: keep all its vertices
+        keep |= np.isin(i, i[bad])
+    return keep
+
+
 class VertexGrid:
     """O(1) segment lookup on a polyline: a uniform grid of cells over its radii, each
-    holding the last vertex at or before its start; a few steps forward find the segment
-    (the one np.searchsorted(vr, r, "right") - 1 finds, clipped to the end segments).
-    slope: a TabulatedProfile's slope column at the vertices (interpolated linearly, as
-    the profile does), else None."""
+    holding the last vertex at or before its start; a step or two forward find the
+    segment (the one np.searchsorted(vr, r, "right") - 1 finds, clipped to the end
+    segments; a binary search for the rare r in a cluster of vertices). Collinear runs
+    are merged first (collinear_keep). slope: a TabulatedProfile's slope column at the
+    vertices (interpolated linearly, as the profile does), else None. seg_lo, seg_hi:
+    the radii where segment j is the one evaluated (the end segments extended), within
+    the lobe [lo, hi]."""
 
-    def __init__(self, vr: np.ndarray, vz: np.ndarray, slope: np.ndarray | None = None):
+    def __init__(self, vr: np.ndarray, vz: np.ndarray, slope: np.ndarray | None = None,
+                 lo: float = -np.inf, hi: float = np.inf):
+        keep = collinear_keep(vr, vz, slope)
+        vr, vz = vr[keep], vz[keep]
+        slope = None if slope is None else slope[keep]
         n = vr.size
         dr = np.diff(vr)
         pos = dr > 0
@@ -208,17 +253,16 @@ class VertexGrid:
         self.m = np.where(pos, np.diff(vz) / safe, 0.0)
         self.r0, self.z0 = vr[:-1].copy(), vz[:-1].copy()
         self.nxt = np.concatenate([vr[1:-1], [np.inf]])  # the next segment's start
+        self.seg_lo = np.maximum(np.concatenate([[-np.inf], vr[1:-1]]), lo)
+        self.seg_hi = np.minimum(self.nxt, hi)
         self.g0 = float(vr[0])
         span = float(vr[-1] - vr[0]) or 1.0
-        for cells in (2 * n, 8 * n, 32 * n):
-            self.inv_h = cells / span
-            starts = self.g0 + np.arange(cells) / self.inv_h
-            self.start = np.clip(np.searchsorted(vr, starts, side="right") - 1, 0, n - 2).astype(np.intp)
-            per_cell = np.diff(np.concatenate([self.start, [n - 2]]))
-            self.steps = int(per_cell.max()) + 1 if per_cell.size else 1
-            if self.steps <= 3:
-                break
-        self.cells = cells
+        self.cells = 4 * n
+        self.inv_h = self.cells / span
+        starts = self.g0 + np.arange(self.cells) / self.inv_h
+        self.start = np.clip(np.searchsorted(vr, starts, side="right") - 1, 0, n - 2).astype(np.intp)
+        per_cell = np.diff(np.concatenate([self.start, [n - 2]]))
+        self.steps = min(int(per_cell.max()) + 1 if per_cell.size else 1, 2)
         self.vr = vr
         self.r_ends = (float(vr[0]), float(vr[-1]))
         self.s0 = self.sm = None
@@ -227,24 +271,28 @@ class VertexGrid:
             self.sm = np.where(pos, np.diff(slope) / safe, 0.0)
 
     def segment(self, r: np.ndarray) -> np.ndarray:
-        if self.steps > 8:  # clustered vertices: a binary search is cheaper
-            return np.clip(np.searchsorted(self.vr, r, side="right") - 1, 0, self.vr.size - 2)
         c = ((r - self.g0) * self.inv_h).astype(np.intp)
         np.clip(c, 0, self.cells - 1, out=c)
         j = self.start[c]
         for _ in range(self.steps):
             j += self.nxt[j] <= r
+        far = self.nxt[j] <= r  # a cell holding more vertices (a cluster): search
+        if far.any():
+            k = np.nonzero(far)[0]
+            j[k] = np.clip(np.searchsorted(self.vr, r[k], side="right") - 1, 0, self.vr.size - 2)
         return j
 
-    def eval(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        j = self.segment(r)
+    def eval(self, r: np.ndarray, j: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        if j is None:
+            j = self.segment(r)
         m = self.m[j]
         return self.z0[j] + m * (r - self.r0[j]), m
 
-    def slope_at(self, r: np.ndarray) -> np.ndarray:
-        """The tabulated slope at r (np.interp's: held at the ends)."""
+    def slope_at(self, r: np.ndarray, j: np.ndarray | None = None) -> np.ndarray:
+        """The tabulated slope at r (np.interp's: held at the ends); j: r's segment if known."""
         r = np.clip(r, *self.r_ends)
-        j = self.segment(r)
+        if j is None:
+            j = self.segment(r)
         return self.s0[j] + self.sm[j] * (r - self.r0[j])
 
 
@@ -261,13 +309,14 @@ def lobe_zs(profile: Profile, lobe: LobeTable, r: np.ndarray) -> tuple[np.ndarra
     return profile.z(r), profile.slope(r)
 
 
-def normal_slope(profile: Profile, lobe: LobeTable, r: np.ndarray) -> np.ndarray:
-    """The slope the reflection uses (the profile's own, as the meridian tracer's)."""
+def normal_slope(profile: Profile, lobe: LobeTable, r: np.ndarray, j: np.ndarray | None = None) -> np.ndarray:
+    """The slope the reflection uses (the profile's own, as the meridian tracer's); j: the
+    grid's segment of each r (clipped into the lobe) if known."""
     r = np.clip(r, lobe.lo, lobe.hi)
     if lobe.exact is not None:
         return lobe.exact.slope(r)
     if lobe.grid is not None and lobe.grid.s0 is not None:  # TabulatedProfile.slope on this lobe
-        return lobe.grid.slope_at(r)
+        return lobe.grid.slope_at(r, j)
     return profile.slope(r)
 
 

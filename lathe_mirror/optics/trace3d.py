@@ -60,6 +60,9 @@ THREAD_CHUNK = 1 << 17
 MONOTONE_MARGIN = 1.02
 #: The steep bins at the inner lobe's rim walked one by one (beyond: the march).
 STEEP_WALK = 32
+#: A Newton step whose g'(s) is below this (a ray grazing the surface) is checked by a
+#: second evaluation (the check without it allows a residual of the grid's rounding / g').
+NEWTON_DG_MIN = 0.05
 
 
 def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
@@ -214,17 +217,19 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
         lobe = tb.lobes[k]
         kx, ky, kz = dx[sel], dy[sel], dz[sel]
         s = _quadric_hit(lobe, oz, kz, bxy[sel], dxy2[sel], r0sq)
+        seg = None
         if lobe.exact is not None:
             conv = (s >= lo_s - 1e-9) & (s <= hi_s + 1e-9)  # False for NaN
         else:
-            s, conv = _newton(profile, lobe, (ox, oy, oz), kx, ky, kz, s, lo_s, hi_s)
+            s, conv, seg = _newton(profile, lobe, (ox, oy, oz), kx, ky, kz, dxy2[sel], s, lo_s, hi_s)
         rows = idx[sel]
         if not conv.all():
             undecided[rows[~conv]] = True
             rows, kx, ky, kz, s = rows[conv], kx[conv], ky[conv], kz[conv], s[conv]
+            seg = None if seg is None else seg[conv]
         px, py, pz = ox + s * kx, oy + s * ky, oz + s * kz
         r = np.sqrt(px * px + py * py)
-        slope = normal_slope(profile, lobe, r)
+        slope = normal_slope(profile, lobe, r, seg)
         # unit normal toward the camera: (slope px / r, slope py / r, -1) / sqrt(1 + slope^2)
         nn = 1.0 / np.sqrt(1.0 + slope * slope)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -257,12 +262,71 @@ def _quadric_hit(lobe: LobeTable, oz: float, dz: np.ndarray, bxy: np.ndarray, dx
         return np.where(ok1 & ok2, np.minimum(s1, s2), np.where(ok1, s1, np.where(ok2, s2, np.nan)))
 
 
-def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, s0, lo, hi, max_iter: int = 60):
+def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi):
     """Roots of g(s) = z - Z(r) in [lo, hi] (g(lo) < 0 <= g(hi)) from s0 (the quadric's
-    hit): safeguarded Newton, a step leaving the bracket bisects it. s, converged."""
+    hit): s, converged, and on a polyline the grid's segment of each root (else None).
+
+    On a polyline one Newton step along the chord of the start's segment (the grid merges
+    collinear runs) lands on the root whenever the step stays in that segment: that is
+    checked without a second evaluation (the step inside the bracket, the root's radius
+    in the segment's range, g's slope not grazing). The other rays continue in
+    _newton_loop."""
+    grid = lobe.grid
+    x = s0
+    inb = (s0 >= lo) & (s0 <= hi)
+    if not inb.all():
+        x = np.where(inb, s0, 0.5 * (lo + hi))  # NaN s0: the middle
+    if grid is None:
+        x, conv = _newton_loop(profile, lobe, o, dx, dy, dz, x, lo.copy(), hi.copy())
+        return x, conv, None
     ox, oy, oz = o
-    x = np.where((s0 >= lo) & (s0 <= hi), s0, 0.5 * (lo + hi))  # NaN s0: the middle
-    lo, hi = lo.copy(), hi.copy()
+    px = ox + x * dx
+    py = oy + x * dy
+    r = np.sqrt(px * px + py * py)
+    rc = np.clip(r, lobe.lo, lobe.hi)
+    j = grid.segment(rc)
+    m = grid.m[j]
+    g = (oz + x * dz) - (grid.z0[j] + m * (rc - grid.r0[j]))
+    np.maximum(r, 1e-300, out=r)  # on the axis dr/ds = 0
+    drds = (px * dx + py * dy) / r
+    dg = dz - m * drds
+    step = g / dg
+    nx = x - step
+    # converged: a step inside the bracket (dg > 0: g < 0 steps up, g > 0 down; nx in
+    # [lo, hi]) landing in the segment, whose neglected second-order term (a skew ray's
+    # r(s) curves: g'' = -m r'', r'' = (|d_xy|^2 - r'^2) / r) moves s by less than ROOT_TOL_MM
+    px = ox + nx * dx
+    py = oy + nx * dy
+    r1 = np.sqrt(px * px + py * py)
+    curve = np.abs(m * (dxy2 - drds * drds) / r) * (step * step)
+    with np.errstate(invalid="ignore"):
+        conv = ((dg >= NEWTON_DG_MIN) & (nx >= lo) & (nx <= hi) & (curve <= (2.0 * ROOT_TOL_MM) * dg)
+                & (r1 >= grid.seg_lo[j]) & (r1 < grid.seg_hi[j]))
+    if conv.all():
+        return nx, conv, j
+    k = np.nonzero(~conv)[0]
+    xk, gk, nk = x[k], g[k], nx[k]
+    below = gk < 0
+    la = np.where(below, xk, lo[k])
+    ha = np.where(below, hi[k], xk)
+    with np.errstate(invalid="ignore"):
+        nk = np.where((nk >= la) & (nk <= ha), nk, 0.5 * (la + ha))
+    done = (np.abs(nk - xk) <= ROOT_TOL_MM) | (gk == 0) | (ha - la <= ROOT_TOL_MM)
+    loop = ~done
+    if loop.any():
+        nk[loop], done[loop] = _newton_loop(profile, lobe, o, dx[k][loop], dy[k][loop], dz[k][loop],
+                                            nk[loop], la[loop], ha[loop])
+    nx[k], conv[k] = nk, done
+    pk, qk = ox + nk * dx[k], oy + nk * dy[k]
+    j[k] = grid.segment(np.clip(np.sqrt(pk * pk + qk * qk), lobe.lo, lobe.hi))
+    return nx, conv, j
+
+
+def _newton_loop(profile: Profile, lobe: LobeTable, o, dx, dy, dz, x, lo, hi, max_iter: int = 60):
+    """Safeguarded Newton on g(s) = z - Z(r) from x in the brackets [lo, hi] (updated in
+    place; g(lo) < 0 <= g(hi)): a step leaving the bracket bisects it. s, converged."""
+    ox, oy, oz = o
+    x = x.copy()
     conv = np.zeros(x.size, dtype=bool)
     act = np.arange(x.size)
     ax, ay, az = dx, dy, dz
