@@ -172,3 +172,29 @@ def test_chunks_in_threads_match_the_march(designs):
     m = fast.fate <= Fate.OUTER
     assert m.sum() > 1200 and np.array_equal(fast.blocked[m], ref.blocked[m])
     assert np.abs(fast.point[m] - ref.point[m]).max() < 1e-9
+
+
+def test_vertex_grid_merges_collinear_runs_within_its_tolerance():
+    """The tracer's grid drops the interior vertices of collinear runs (G1 lines offset by
+    the nose): its heights and tabulated slopes against np.interp on every original vertex
+    (lines, kinks, a cluster of near-equal radii, a vertical step, a gently curved arc
+    whose vertices are not collinear)."""
+    from lathe_mirror.optics.surface_tables import COLLINEAR_MM, VertexGrid
+
+    r = np.concatenate([np.linspace(0.0, 2.0, 4001), 2.0 + np.array([1e-15, 2e-15, 3e-15]),
+                        np.linspace(2.0005, 3.0, 2000), [3.0], np.linspace(3.0005, 4.0, 2000)])
+    z = np.where(r <= 2.0, 50.0 + 0.3 * r, 50.6 + 1.7 * (r - 2.0))
+    z[-2000:] = 52.5 + 0.05 * (r[-2000:] - 3.0) ** 2  # an arc after a vertical step
+    z[-2001] = 52.3  # the step's foot
+    slope = np.where(r <= 2.0, 0.3, 1.7)
+    slope[-2000:] = 0.1 * (r[-2000:] - 3.0)
+    grid = VertexGrid(r, z, slope)
+    assert grid.vr.size < 2200  # the lines merged, the arc kept
+    q = np.concatenate([np.random.default_rng(1).uniform(0.0, 4.0, 20000), r])
+    q = q[(q < 3.0 - 1e-9) | (q > 3.0 + 1e-9)]  # off the step itself
+    zg, _ = grid.eval(q)
+    assert np.abs(zg - np.interp(q, r, z)).max() <= 2 * COLLINEAR_MM
+    assert np.abs(grid.slope_at(q) - np.interp(q, r, slope)).max() < 1e-12
+    # a segment found by the grid's cells or its binary search: where np.searchsorted puts it
+    j = grid.segment(q)
+    assert np.array_equal(j, np.clip(np.searchsorted(grid.vr, q, side="right") - 1, 0, grid.vr.size - 2))
