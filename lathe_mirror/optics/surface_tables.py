@@ -20,6 +20,17 @@ try:
 except ImportError:  # pragma: no cover
     TabulatedProfile = None
 
+#: Vertices of a polyline lying on the chord of their neighbours within this height (mm)
+#: are dropped from the tracer's grid (the G1 lines of a program, offset by the nose,
+#: give long runs of collinear vertices): the grid's polyline stays within this of the
+#: profile's, far below ROOT_TOL_MM, and a Newton step lands on its segment far more often.
+COLLINEAR_MM = 5e-14
+#: Segments shorter than this (clustered vertices at a kink) are never merged, mm; one
+#: whose ends differ in height by at most COLLINEAR_MM is no step (its chord slope is
+#: rounding noise).
+MERGE_MIN_DR_MM = 1e-9
+
+
 @dataclass(frozen=True)
 class LobeTable:
     """One lobe of a profile, tabulated for the fast path (mm)."""
@@ -90,8 +101,12 @@ def _lobe_table(profile: Profile, k: int, nb_max: int = 512) -> LobeTable:
     if verts is not None:
         # Each segment's chord slope and lower end bound every bin it overlaps (the end
         # segments extend beyond the vertices, as the profile evaluates there).
+        # a cluster of vertices at one radius whose heights differ by rounding (an
+        # envelope's duplicated points) is no step: its chord slope is noise
+        dz = np.diff(vz)
+        flat = (seg <= MERGE_MIN_DR_MM) & (np.abs(dz) <= COLLINEAR_MM)
         with np.errstate(divide="ignore", invalid="ignore"):
-            m = np.abs(np.where(seg > 0, np.diff(vz) / seg, 0.0))
+            m = np.abs(np.where((seg > 0) & ~flat, dz / seg, 0.0))
         r0 = vr[:-1].copy()
         r1 = vr[1:].copy()
         r0[0], r1[-1] = min(r0[0], lo), max(r1[-1], hi)
@@ -110,8 +125,9 @@ def _lobe_table(profile: Profile, k: int, nb_max: int = 512) -> LobeTable:
             sel = b0 + off <= b1
             np.maximum.at(smax, b0[sel] + off, m[sel])
             np.minimum.at(zmin, b0[sel] + off, zmin_seg[sel])
-        if np.any(seg == 0):  # a vertical step between equal radii: infinitely steep
-            np.maximum.at(smax, np.clip(np.searchsorted(edges, vr[1:][seg == 0], "right") - 1, 0, nb - 1), np.inf)
+        step = (seg == 0) & ~flat
+        if np.any(step):  # a vertical step between equal radii: infinitely steep
+            np.maximum.at(smax, np.clip(np.searchsorted(edges, vr[1:][step], "right") - 1, 0, nb - 1), np.inf)
         z_edge = _eval_vertices(vr, vz, edges)[0]
     else:
         rs = np.linspace(lo, hi, 16 * nb + 1)
@@ -191,15 +207,6 @@ def _eval_vertices(vr: np.ndarray, vz: np.ndarray, r: np.ndarray) -> tuple[np.nd
     dr = r1 - r0
     m = np.where(dr > 0, (vz[j + 1] - z0) / np.where(dr > 0, dr, 1.0), 0.0)
     return z0 + m * (r - r0), m
-
-
-#: Vertices of a polyline lying on the chord of their neighbours within this height (mm)
-#: are dropped from the tracer's grid (the G1 lines of a program, offset by the nose,
-#: give long runs of collinear vertices): the grid's polyline stays within this of the
-#: profile's, far below ROOT_TOL_MM, and a Newton step lands on its segment far more often.
-COLLINEAR_MM = 5e-14
-#: Segments shorter than this (clustered vertices at a kink) are never merged, mm.
-MERGE_MIN_DR_MM = 1e-9
 
 
 def collinear_keep(vr: np.ndarray, vz: np.ndarray, slope: np.ndarray | None = None) -> np.ndarray:
