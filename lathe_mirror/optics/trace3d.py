@@ -269,8 +269,8 @@ def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi):
     On a polyline one Newton step along the chord of the start's segment (the grid merges
     collinear runs) lands on the root whenever the step stays in that segment: that is
     checked without a second evaluation (the step inside the bracket, the root's radius
-    in the segment's range, g's slope not grazing). The other rays continue in
-    _newton_loop."""
+    in the segment's range, g's slope not grazing, the neglected second-order term of a
+    skew ray's curving r(s) below ROOT_TOL_MM). The other rays continue in _newton_loop."""
     grid = lobe.grid
     x = s0
     inb = (s0 >= lo) & (s0 <= hi)
@@ -280,38 +280,69 @@ def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi):
         x, conv = _newton_loop(profile, lobe, o, dx, dy, dz, x, lo.copy(), hi.copy())
         return x, conv, None
     ox, oy, oz = o
-    px = ox + x * dx
-    py = oy + x * dy
-    r = np.sqrt(px * px + py * py)
-    rc = np.clip(r, lobe.lo, lobe.hi)
-    j = grid.segment(rc)
-    m = grid.m[j]
-    g = (oz + x * dz) - (grid.z0[j] + m * (rc - grid.r0[j]))
-    np.maximum(r, 1e-300, out=r)  # on the axis dr/ds = 0
-    drds = (px * dx + py * dy) / r
-    dg = dz - m * drds
-    step = g / dg
-    nx = x - step
-    # converged: a step inside the bracket (dg > 0: g < 0 steps up, g > 0 down; nx in
-    # [lo, hi]) landing in the segment, whose neglected second-order term (a skew ray's
-    # r(s) curves: g'' = -m r'', r'' = (|d_xy|^2 - r'^2) / r) moves s by less than ROOT_TOL_MM
-    px = ox + nx * dx
-    py = oy + nx * dy
-    r1 = np.sqrt(px * px + py * py)
-    curve = np.abs(m * (dxy2 - drds * drds) / r) * (step * step)
-    with np.errstate(invalid="ignore"):
-        conv = ((dg >= NEWTON_DG_MIN) & (nx >= lo) & (nx <= hi) & (curve <= (2.0 * ROOT_TOL_MM) * dg)
-                & (r1 >= grid.seg_lo[j]) & (r1 < grid.seg_hi[j]))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        px = x * dx
+        px += ox
+        py = x * dy
+        py += oy
+        r = px * px
+        t = py * py
+        r += t
+        np.sqrt(r, out=r)
+        rc = np.minimum(r, lobe.hi)
+        np.maximum(rc, lobe.lo, out=rc)
+        j = grid.segment(rc)
+        m = grid.m.take(j)
+        z = grid.r0.take(j)
+        np.subtract(rc, z, out=z)
+        z *= m
+        z += grid.z0.take(j)
+        g = x * dz  # the height gap g = z_ray - Z(r)
+        g += oz
+        g -= z
+        drds = px * dx  # dr/ds
+        np.multiply(py, dy, out=t)
+        drds += t
+        np.maximum(r, 1e-300, out=r)  # on the axis dr/ds = 0
+        drds /= r
+        dg = m * drds  # g'(s) = dz - m dr/ds
+        np.subtract(dz, dg, out=dg)
+        step = np.divide(g, dg, out=g)
+        nx = x - step
+        # converged: a step inside the bracket (dg > 0: g < 0 steps up, g > 0 down; nx in
+        # [lo, hi]) landing in the segment, whose neglected second-order term (g'' = -m r'',
+        # r'' = (|d_xy|^2 - r'^2) / r) moves s by less than ROOT_TOL_MM
+        np.multiply(drds, drds, out=t)
+        np.subtract(dxy2, t, out=t)
+        t *= m
+        t /= r
+        np.abs(t, out=t)
+        t *= step
+        t *= step
+        conv = dg >= NEWTON_DG_MIN
+        conv &= t <= np.multiply(dg, 2.0 * ROOT_TOL_MM, out=dg)
+        conv &= nx >= lo
+        conv &= nx <= hi
+        np.multiply(nx, dx, out=px)
+        px += ox
+        np.multiply(nx, dy, out=py)
+        py += oy
+        np.multiply(px, px, out=r)
+        np.multiply(py, py, out=t)
+        r += t
+        np.sqrt(r, out=r)
+        conv &= r >= grid.seg_lo.take(j)
+        conv &= r < grid.seg_hi.take(j)
     if conv.all():
         return nx, conv, j
     k = np.nonzero(~conv)[0]
-    xk, gk, nk = x[k], g[k], nx[k]
-    below = gk < 0
+    xk, nk = x[k], nx[k]
+    below = (z[k] > oz + xk * dz[k])  # g < 0 at x
     la = np.where(below, xk, lo[k])
     ha = np.where(below, hi[k], xk)
     with np.errstate(invalid="ignore"):
         nk = np.where((nk >= la) & (nk <= ha), nk, 0.5 * (la + ha))
-    done = (np.abs(nk - xk) <= ROOT_TOL_MM) | (gk == 0) | (ha - la <= ROOT_TOL_MM)
+    done = (np.abs(nk - xk) <= ROOT_TOL_MM) | (ha - la <= ROOT_TOL_MM)
     loop = ~done
     if loop.any():
         nk[loop], done[loop] = _newton_loop(profile, lobe, o, dx[k][loop], dy[k][loop], dz[k][loop],
