@@ -146,46 +146,74 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
     dx, dy, dz = np.ascontiguousarray(d.T)
     # a ray heading down never reaches the mirror above (a miss); one along the axis or
     # with its origin off the inner lobe's monotone zone goes to the march
-    dxy2 = dx * dx + dy * dy
+    dxy2 = dx * dx
+    t = dy * dy
+    dxy2 += t
     go = (dz > 0) & (dxy2 > 0)
-    idx = np.nonzero(go)[0]
-    undecided = np.zeros(n, dtype=bool)
-    undecided[(dz > 0) & ~go] = True
-    if idx.size < n:
-        dx, dy, dz, dxy2 = dx[idx], dy[idx], dz[idx], dxy2[idx]
-    bxy = ox * dx + oy * dy
-    inv = 1.0 / dxy2
+    undecided = []
+    idx = None  # the rays traced here (None: all)
+    if not go.all():
+        idx = np.nonzero(go)[0]
+        undecided.append(np.nonzero((dz > 0) & ~go)[0])
+        dx, dy, dz, dxy2, t = dx[idx], dy[idx], dz[idx], dxy2[idx], t[idx]
+    bxy = dx * ox
+    np.multiply(dy, oy, out=t)
+    bxy += t
+    inv = np.divide(1.0, dxy2)
     bb = bxy * bxy
-    climb = dz * np.sqrt(inv) * (1.0 / MONOTONE_MARGIN)  # the ray's dz / dr, at least
+    climb = np.sqrt(inv)  # the ray's dz / dr, at least
+    climb *= dz
+    climb *= 1.0 / MONOTONE_MARGIN
 
     def exit_s(radius, sel=None):
         """Ray length where the ray leaves the cylinder r = radius (origin inside it)."""
         if sel is None:
-            return (np.sqrt(bb + dxy2 * (radius * radius - r0sq)) - bxy) * inv
-        return (np.sqrt(bb[sel] + dxy2[sel] * (radius * radius - r0sq)) - bxy[sel]) * inv[sel]
+            e = np.multiply(dxy2, radius * radius - r0sq)
+            e += bb
+        else:
+            e = np.multiply(dxy2.take(sel), radius * radius - r0sq)
+            e += bb.take(sel)
+        with np.errstate(invalid="ignore"):
+            np.sqrt(e, out=e)
+        e -= bxy if sel is None else bxy.take(sel)
+        e *= inv if sel is None else inv.take(sel)
+        return e
+
+    def row(i):
+        return i if idx is None else idx[i]
 
     # Inner lobe: each ray's monotone zone ends at r_s; above the surface there: a hit.
     nb0 = inner_t.slope_cummax.size
     b_s = first_steep(inner_t, climb)
-    r_s = inner_t.edges[b_s]
-    with np.errstate(invalid="ignore"):
+    if b_s.min(initial=nb0) == nb0:  # no steep bin in reach: the zone is the lobe
+        s_s = exit_s(inner_t.hi)
+        ok = np.full(b_s.size, r0sq < inner_t.hi * inner_t.hi)
+        z_bs = inner_t.z_edge[nb0]
+    else:
+        r_s = inner_t.edges.take(b_s)
         s_s = exit_s(r_s)
-    z_s = oz + s_s * dz
-    ok = r0sq < r_s * r_s
-    inner = ok & (z_s >= inner_t.z_edge[b_s])
+        ok = r_s * r_s > r0sq
+        z_bs = inner_t.z_edge.take(b_s)
+    z_s = s_s * dz
+    z_s += oz
+    inner = z_s >= z_bs
+    inner &= ok
     # The others: never inside the inner lobe's material, then the wall, the outer lobe
     # (its monotone zone from the junction) or past the rim.
-    rest = np.nonzero(ok & ~inner)[0]
-    b_r = b_s[rest]
-    s_c = s_s[rest]
+    ok &= ~inner
+    rest = np.nonzero(ok)[0]
+    b_r = b_s.take(rest)
+    s_c = s_s.take(rest)
+    dz_r = dz.take(rest)
     steep = b_r < nb0
     if steep.any():
         s_c[steep] = exit_s(inner_t.hi, rest[steep])
-    z_c = oz + s_c * dz[rest]
-    not_inner = z_c < inner_t.z_sufmin[b_r]
+    z_c = s_c * dz_r
+    z_c += oz
+    not_inner = z_c < inner_t.z_sufmin.take(b_r)
     # Where that does not settle it, walk the steep bins: the ray below each bin's lowest
     # point at the bin's outer edge (its highest point there) never enters it.
-    walk = np.nonzero(~not_inner & (b_r >= nb0 - STEEP_WALK) & (b_r < nb0))[0]
+    walk = np.nonzero(~not_inner & (b_r >= nb0 - STEEP_WALK) & steep)[0]
     if walk.size:
         first = nb0 - STEEP_WALK if nb0 > STEEP_WALK else 0
         bins = np.arange(first, nb0)
@@ -197,16 +225,26 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
         not_inner[walk] = under.all(axis=1)
     wall = not_inner & (z_c >= outer_t.z_edge[0])
     beyond = not_inner & ~wall
-    b1 = first_steep(outer_t, climb[rest])
-    s1 = exit_s(outer_t.edges[b1], rest)
-    z1 = oz + s1 * dz[rest]
-    outer = beyond & (b1 > 0) & (z1 >= outer_t.z_edge[b1])
-    miss = beyond & (b1 == outer_t.slope_cummax.size) & (z1 < outer_t.z_edge[-1])
-    decided = np.zeros(idx.size, dtype=bool)
-    decided[inner] = True
-    decided[rest[wall | outer | miss]] = True
-    undecided[idx[~decided]] = True
-    fate[idx[rest[wall]]] = Fate.WALL
+    nb1 = outer_t.slope_cummax.size
+    b1 = first_steep(outer_t, climb.take(rest))
+    if b1.min(initial=nb1) == nb1:
+        s1 = exit_s(outer_t.hi, rest)
+        z_b1 = outer_t.z_edge[nb1]
+    else:
+        s1 = exit_s(outer_t.edges.take(b1), rest)
+        z_b1 = outer_t.z_edge.take(b1)
+    z1 = s1 * dz_r
+    z1 += oz
+    outer = beyond & (b1 > 0) & (z1 >= z_b1)
+    miss = beyond & (b1 == nb1) & (z1 < outer_t.z_edge[-1])
+    ok = ~ok
+    ok &= ~inner  # neither inner nor a candidate for the rest: the march
+    if ok.any():
+        undecided.append(row(np.nonzero(ok)[0]))
+    settled = wall | outer | miss
+    if not settled.all():
+        undecided.append(row(rest[~settled]))
+    fate[row(rest[wall])] = Fate.WALL
 
     o_in = np.nonzero(inner)[0]
     o_out = rest[outer]
@@ -217,49 +255,101 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
         lobe = tb.lobes[k]
         kx, ky, kz = dx[sel], dy[sel], dz[sel]
         s = _quadric_hit(lobe, oz, kz, bxy[sel], dxy2[sel], r0sq)
-        seg = None
+        rows = sel if idx is None else idx[sel]
         if lobe.exact is not None:
             conv = (s >= lo_s - 1e-9) & (s <= hi_s + 1e-9)  # False for NaN
+            seg = hit = None
         else:
-            s, conv, seg = _newton(profile, lobe, (ox, oy, oz), kx, ky, kz, dxy2[sel], s, lo_s, hi_s)
-        rows = idx[sel]
+            s, conv, seg, hit = _newton(profile, lobe, (ox, oy, oz), kx, ky, kz, dxy2[sel], s, lo_s, hi_s)
         if not conv.all():
-            undecided[rows[~conv]] = True
+            undecided.append(rows[~conv])
             rows, kx, ky, kz, s = rows[conv], kx[conv], ky[conv], kz[conv], s[conv]
             seg = None if seg is None else seg[conv]
-        px, py, pz = ox + s * kx, oy + s * ky, oz + s * kz
-        r = np.sqrt(px * px + py * py)
+            hit = None if hit is None else tuple(c[conv] for c in hit)
+        if hit is None:
+            px, py = s * kx, s * ky
+            px += ox
+            py += oy
+            r = px * px
+            r += py * py
+            np.sqrt(r, out=r)
+        else:
+            px, py, r = hit
+        pz = s * kz
+        pz += oz
         slope = normal_slope(profile, lobe, r, seg)
-        # unit normal toward the camera: (slope px / r, slope py / r, -1) / sqrt(1 + slope^2)
-        nn = 1.0 / np.sqrt(1.0 + slope * slope)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            kr = np.where(r > 0, slope * nn / r, 0.0)  # on the axis the normal is -z
-        two_dn = 2.0 * (kr * (px * kx + py * ky) - kz * nn)
-        ux, uy, uz = kx - two_dn * kr * px, ky - two_dn * kr * py, kz + two_dn * nn
+        ux, uy, uz = _reflect(px, py, r, kx, ky, kz, slope)
         fate[rows] = k
         for c, (pc, uc) in enumerate(((px, ux), (py, uy), (pz, uz))):
             point[rows, c] = pc
             out[rows, c] = uc
         if k == 0:
             blocked[rows] = _blocked(profile, tb, px, py, pz, ux, uy, uz)
-    return np.nonzero(undecided)[0]
+    return np.concatenate(undecided) if undecided else np.zeros(0, dtype=np.intp)
+
+
+def _reflect(px, py, r, kx, ky, kz, slope):
+    """The rays k reflected at p (radius r) off a surface of revolution of the given slope:
+    the unit normal toward the camera (slope px / r, slope py / r, -1) / sqrt(1 + slope^2),
+    -z on the axis."""
+    nn = slope * slope
+    nn += 1.0
+    np.sqrt(nn, out=nn)
+    np.divide(1.0, nn, out=nn)
+    kr = slope * nn
+    if (r > 0).all():
+        kr /= r
+    else:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            kr = np.where(r > 0, kr / r, 0.0)
+    two_dn = px * kx
+    t = py * ky
+    two_dn += t
+    two_dn *= kr
+    np.multiply(kz, nn, out=t)
+    two_dn -= t
+    two_dn *= 2.0
+    np.multiply(two_dn, kr, out=kr)
+    ux = px * kr
+    np.subtract(kx, ux, out=ux)
+    uy = py * kr
+    np.subtract(ky, uy, out=uy)
+    uz = np.multiply(two_dn, nn, out=nn)
+    uz += kz
+    return ux, uy, uz
 
 
 def _quadric_hit(lobe: LobeTable, oz: float, dz: np.ndarray, bxy: np.ndarray, dxy2: np.ndarray,
                  r0sq: float) -> np.ndarray:
     """Smallest s > 0 where the rays meet the lobe's quadric on the mirror's sheet (NaN
-    where they do not): A s^2 + 2 B s + C = 0, the stable pair of roots."""
+    where they do not): A s^2 + 2 B s + C = 0, the stable pair of roots. The mirror's
+    sheet: 2 z + p of its sign, z = oz + s dz (dz > 0) beyond (sheet +1) or before (-1)
+    the height -p / 2."""
     p, q, w, sheet = lobe.quad
-    A = dz * dz + q * dxy2
-    B = (oz + 0.5 * p) * dz + q * bxy
     C = oz * oz + p * oz + q * r0sq + w
     with np.errstate(divide="ignore", invalid="ignore"):
-        sq = np.sqrt(B * B - A * C)  # NaN where the ray misses the quadric
-        qq = -(B + np.copysign(sq, B))
-        s1, s2 = qq / A, C / qq
-        ok1 = (s1 > 0) & ((2.0 * (oz + s1 * dz) + p) * sheet > 0)
-        ok2 = (s2 > 0) & ((2.0 * (oz + s2 * dz) + p) * sheet > 0)
-        return np.where(ok1 & ok2, np.minimum(s1, s2), np.where(ok1, s1, np.where(ok2, s2, np.nan)))
+        A = dz * dz
+        t = dxy2 * q
+        A += t
+        B = dz * (oz + 0.5 * p)
+        np.multiply(bxy, q, out=t)
+        B += t
+        sq = B * B
+        np.multiply(A, C, out=t)
+        sq -= t
+        np.sqrt(sq, out=sq)  # NaN where the ray misses the quadric
+        qq = np.copysign(sq, B, out=sq)
+        qq += B
+        np.negative(qq, out=qq)
+        s1 = np.divide(qq, A, out=A)
+        s2 = np.divide(C, qq, out=qq)
+        lo = np.fmin(s1, s2)
+        hi = np.fmax(s1, s2, out=s1)
+        edge = np.divide(-0.5 * p - oz, dz, out=B)  # s where z = -p / 2
+        if sheet > 0:
+            np.maximum(edge, 0.0, out=edge)
+            return np.where(lo > edge, lo, np.where(hi > edge, hi, np.nan))
+        return np.where((lo > 0) & (lo < edge), lo, np.where((hi > 0) & (hi < edge), hi, np.nan))
 
 
 def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi):
@@ -278,7 +368,7 @@ def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi):
         x = np.where(inb, s0, 0.5 * (lo + hi))  # NaN s0: the middle
     if grid is None:
         x, conv = _newton_loop(profile, lobe, o, dx, dy, dz, x, lo.copy(), hi.copy())
-        return x, conv, None
+        return x, conv, None, None
     ox, oy, oz = o
     with np.errstate(invalid="ignore", divide="ignore"):
         px = x * dx
@@ -334,7 +424,7 @@ def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi):
         conv &= r >= grid.seg_lo.take(j)
         conv &= r < grid.seg_hi.take(j)
     if conv.all():
-        return nx, conv, j
+        return nx, conv, j, (px, py, r)
     k = np.nonzero(~conv)[0]
     xk, nk = x[k], nx[k]
     below = (z[k] > oz + xk * dz[k])  # g < 0 at x
@@ -348,9 +438,10 @@ def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi):
         nk[loop], done[loop] = _newton_loop(profile, lobe, o, dx[k][loop], dy[k][loop], dz[k][loop],
                                             nk[loop], la[loop], ha[loop])
     nx[k], conv[k] = nk, done
-    pk, qk = ox + nk * dx[k], oy + nk * dy[k]
-    j[k] = grid.segment(np.clip(np.sqrt(pk * pk + qk * qk), lobe.lo, lobe.hi))
-    return nx, conv, j
+    px[k], py[k] = ox + nk * dx[k], oy + nk * dy[k]
+    r[k] = np.sqrt(px[k] ** 2 + py[k] ** 2)
+    j[k] = grid.segment(np.clip(r[k], lobe.lo, lobe.hi))
+    return nx, conv, j, (px, py, r)
 
 
 def _newton_loop(profile: Profile, lobe: LobeTable, o, dx, dy, dz, x, lo, hi, max_iter: int = 60):
