@@ -352,23 +352,71 @@ def _quadric_hit(lobe: LobeTable, oz: float, dz: np.ndarray, bxy: np.ndarray, dx
         return np.where((lo > 0) & (lo < edge), lo, np.where((hi > 0) & (hi < edge), hi, np.nan))
 
 
-def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi):
+def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi, max_iter: int = 60):
     """Roots of g(s) = z - Z(r) in [lo, hi] (g(lo) < 0 <= g(hi)) from s0 (the quadric's
-    hit): s, converged, and on a polyline the grid's segment of each root (else None).
+    hit): s, converged, and on a polyline the grid's segment of each root and its hit
+    point's (x, y, r) (else None).
 
-    On a polyline one Newton step along the chord of the start's segment (the grid merges
+    On a polyline a Newton step along the chord of the current segment (the grid merges
     collinear runs) lands on the root whenever the step stays in that segment: that is
-    checked without a second evaluation (the step inside the bracket, the root's radius
-    in the segment's range, g's slope not grazing, the neglected second-order term of a
-    skew ray's curving r(s) below ROOT_TOL_MM). The other rays continue in _newton_loop."""
+    checked without another evaluation (_checked_step). A ray whose step leaves its
+    segment (about one in twenty from the quadric's hit) takes another step, from there
+    or, outside its bracket, from the bracket's middle (safeguarded Newton); it stops too
+    where the step or the bracket falls below ROOT_TOL_MM (at a step wall or a kink)."""
     grid = lobe.grid
     x = s0
     inb = (s0 >= lo) & (s0 <= hi)
     if not inb.all():
         x = np.where(inb, s0, 0.5 * (lo + hi))  # NaN s0: the middle
     if grid is None:
-        x, conv = _newton_loop(profile, lobe, o, dx, dy, dz, x, lo.copy(), hi.copy())
+        x, conv = _newton_loop(profile, lobe, o, dx, dy, dz, x, lo.copy(), hi.copy(), max_iter)
         return x, conv, None, None
+    ox, oy, oz = o
+    nx, conv, j, hit, below = _checked_step(lobe, o, dx, dy, dz, dxy2, x, lo, hi)
+    if conv.all():
+        return nx, conv, j, hit
+    px, py, r = hit
+    act = np.nonzero(~conv)[0]  # the rays still going, and their own arrays
+    ax, ay, az, a2 = dx[act], dy[act], dz[act], dxy2[act]
+    xa, na, la, ha, ba = x[act], nx[act], lo[act], hi[act], below[act]
+    for _ in range(max_iter):
+        # the bracket from g's sign at xa; a step leaving it bisects it
+        la = np.where(ba, xa, la)
+        ha = np.where(ba, ha, xa)
+        with np.errstate(invalid="ignore"):
+            na = np.where((na >= la) & (na <= ha), na, 0.5 * (la + ha))
+        done = (np.abs(na - xa) <= ROOT_TOL_MM) | (ha - la <= ROOT_TOL_MM)
+        if done.any():
+            d_i = act[done]
+            nx[d_i] = na[done]
+            conv[d_i] = True
+            px[d_i], py[d_i] = ox + na[done] * ax[done], oy + na[done] * ay[done]
+            r[d_i] = np.sqrt(px[d_i] ** 2 + py[d_i] ** 2)
+            j[d_i] = grid.segment(np.clip(r[d_i], lobe.lo, lobe.hi))
+            keep = ~done
+            act, ax, ay, az, a2, na, la, ha = (v[keep] for v in (act, ax, ay, az, a2, na, la, ha))
+            if act.size == 0:
+                break
+        xa = na
+        na, ok, ja, (pa, qa, ra), ba = _checked_step(lobe, o, ax, ay, az, a2, xa, la, ha)
+        if ok.any():
+            d_i = act[ok]
+            nx[d_i], conv[d_i], j[d_i], px[d_i], py[d_i], r[d_i] = na[ok], True, ja[ok], pa[ok], qa[ok], ra[ok]
+            keep = ~ok
+            act, ax, ay, az, a2, xa, na, la, ha, ba = (v[keep] for v in (act, ax, ay, az, a2, xa, na, la, ha, ba))
+            if act.size == 0:
+                break
+    return nx, conv, j, (px, py, r)
+
+
+def _checked_step(lobe: LobeTable, o, dx, dy, dz, dxy2, x, lo, hi):
+    """One Newton step on g(s) = z - Z(r) from x along the chord of x's grid segment: the
+    new s, whether it is the root (the step inside the bracket [lo, hi] (dg > 0: g < 0
+    steps up, g > 0 down) landing in the segment, g' not grazing, the neglected
+    second-order term of a skew ray's curving r(s) (g'' = -m r'', r'' = (|d_xy|^2 - r'^2)
+    / r) moving s by less than ROOT_TOL_MM), the segment, (x, y, r) at the new s, and
+    whether g < 0 at x."""
+    grid = lobe.grid
     ox, oy, oz = o
     with np.errstate(invalid="ignore", divide="ignore"):
         px = x * dx
@@ -390,6 +438,7 @@ def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi):
         g = x * dz  # the height gap g = z_ray - Z(r)
         g += oz
         g -= z
+        below = g < 0
         drds = px * dx  # dr/ds
         np.multiply(py, dy, out=t)
         drds += t
@@ -399,9 +448,6 @@ def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi):
         np.subtract(dz, dg, out=dg)
         step = np.divide(g, dg, out=g)
         nx = x - step
-        # converged: a step inside the bracket (dg > 0: g < 0 steps up, g > 0 down; nx in
-        # [lo, hi]) landing in the segment, whose neglected second-order term (g'' = -m r'',
-        # r'' = (|d_xy|^2 - r'^2) / r) moves s by less than ROOT_TOL_MM
         np.multiply(drds, drds, out=t)
         np.subtract(dxy2, t, out=t)
         t *= m
@@ -423,25 +469,7 @@ def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi):
         np.sqrt(r, out=r)
         conv &= r >= grid.seg_lo.take(j)
         conv &= r < grid.seg_hi.take(j)
-    if conv.all():
-        return nx, conv, j, (px, py, r)
-    k = np.nonzero(~conv)[0]
-    xk, nk = x[k], nx[k]
-    below = (z[k] > oz + xk * dz[k])  # g < 0 at x
-    la = np.where(below, xk, lo[k])
-    ha = np.where(below, hi[k], xk)
-    with np.errstate(invalid="ignore"):
-        nk = np.where((nk >= la) & (nk <= ha), nk, 0.5 * (la + ha))
-    done = (np.abs(nk - xk) <= ROOT_TOL_MM) | (ha - la <= ROOT_TOL_MM)
-    loop = ~done
-    if loop.any():
-        nk[loop], done[loop] = _newton_loop(profile, lobe, o, dx[k][loop], dy[k][loop], dz[k][loop],
-                                            nk[loop], la[loop], ha[loop])
-    nx[k], conv[k] = nk, done
-    px[k], py[k] = ox + nk * dx[k], oy + nk * dy[k]
-    r[k] = np.sqrt(px[k] ** 2 + py[k] ** 2)
-    j[k] = grid.segment(np.clip(r[k], lobe.lo, lobe.hi))
-    return nx, conv, j, (px, py, r)
+    return nx, conv, j, (px, py, r), below
 
 
 def _newton_loop(profile: Profile, lobe: LobeTable, o, dx, dy, dz, x, lo, hi, max_iter: int = 60):
