@@ -20,6 +20,17 @@ try:
 except ImportError:  # pragma: no cover
     TabulatedProfile = None
 
+#: Vertices of a polyline lying on the chord of their neighbours within this height (mm)
+#: are dropped from the tracer's grid (the G1 lines of a program, offset by the nose,
+#: give long runs of collinear vertices): the grid's polyline stays within this of the
+#: profile's, far below ROOT_TOL_MM, and a Newton step lands on its segment far more often.
+COLLINEAR_MM = 5e-14
+#: Segments shorter than this (clustered vertices at a kink) are never merged, mm; one
+#: whose ends differ in height by at most COLLINEAR_MM is no step (its chord slope is
+#: rounding noise).
+MERGE_MIN_DR_MM = 1e-9
+
+
 @dataclass(frozen=True)
 class LobeTable:
     """One lobe of a profile, tabulated for the fast path (mm)."""
@@ -90,8 +101,12 @@ def _lobe_table(profile: Profile, k: int, nb_max: int = 512) -> LobeTable:
     if verts is not None:
         # Each segment's chord slope and lower end bound every bin it overlaps (the end
         # segments extend beyond the vertices, as the profile evaluates there).
+        # a cluster of vertices at one radius whose heights differ by rounding (an
+        # envelope's duplicated points) is no step: its chord slope is noise
+        dz = np.diff(vz)
+        flat = (seg <= MERGE_MIN_DR_MM) & (np.abs(dz) <= COLLINEAR_MM)
         with np.errstate(divide="ignore", invalid="ignore"):
-            m = np.abs(np.where(seg > 0, np.diff(vz) / seg, 0.0))
+            m = np.abs(np.where((seg > 0) & ~flat, dz / seg, 0.0))
         r0 = vr[:-1].copy()
         r1 = vr[1:].copy()
         r0[0], r1[-1] = min(r0[0], lo), max(r1[-1], hi)
@@ -110,8 +125,9 @@ def _lobe_table(profile: Profile, k: int, nb_max: int = 512) -> LobeTable:
             sel = b0 + off <= b1
             np.maximum.at(smax, b0[sel] + off, m[sel])
             np.minimum.at(zmin, b0[sel] + off, zmin_seg[sel])
-        if np.any(seg == 0):  # a vertical step between equal radii: infinitely steep
-            np.maximum.at(smax, np.clip(np.searchsorted(edges, vr[1:][seg == 0], "right") - 1, 0, nb - 1), np.inf)
+        step = (seg == 0) & ~flat
+        if np.any(step):  # a vertical step between equal radii: infinitely steep
+            np.maximum.at(smax, np.clip(np.searchsorted(edges, vr[1:][step], "right") - 1, 0, nb - 1), np.inf)
         z_edge = _eval_vertices(vr, vz, edges)[0]
     else:
         rs = np.linspace(lo, hi, 16 * nb + 1)
@@ -193,15 +209,6 @@ def _eval_vertices(vr: np.ndarray, vz: np.ndarray, r: np.ndarray) -> tuple[np.nd
     return z0 + m * (r - r0), m
 
 
-#: Vertices of a polyline lying on the chord of their neighbours within this height (mm)
-#: are dropped from the tracer's grid (the G1 lines of a program, offset by the nose,
-#: give long runs of collinear vertices): the grid's polyline stays within this of the
-#: profile's, far below ROOT_TOL_MM, and a Newton step lands on its segment far more often.
-COLLINEAR_MM = 5e-14
-#: Segments shorter than this (clustered vertices at a kink) are never merged, mm.
-MERGE_MIN_DR_MM = 1e-9
-
-
 def collinear_keep(vr: np.ndarray, vz: np.ndarray, slope: np.ndarray | None = None) -> np.ndarray:
     """Which vertices of the polyline (vr, vz) to keep: an interior vertex of a run of
     collinear vertices (each on its neighbours' chord within COLLINEAR_MM, with a constant
@@ -233,9 +240,9 @@ def collinear_keep(vr: np.ndarray, vz: np.ndarray, slope: np.ndarray | None = No
 
 class VertexGrid:
     """O(1) segment lookup on a polyline: a uniform grid of cells over its radii, each
-    holding the last vertex at or before its start; a step or two forward find the
+    holding the segment at its start and the next boundary; one step forward finds the
     segment (the one np.searchsorted(vr, r, "right") - 1 finds, clipped to the end
-    segments; a binary search for the rare r in a cluster of vertices). Collinear runs
+    segments; a binary search for the rare r in a cell holding a cluster of vertices). Collinear runs
     are merged first (collinear_keep). slope: a TabulatedProfile's slope column at the
     vertices (interpolated linearly, as the profile does), else None. seg_lo, seg_hi:
     the radii where segment j is the one evaluated (the end segments extended), within
@@ -255,14 +262,23 @@ class VertexGrid:
         self.nxt = np.concatenate([vr[1:-1], [np.inf]])  # the next segment's start
         self.seg_lo = np.maximum(np.concatenate([[-np.inf], vr[1:-1]]), lo)
         self.seg_hi = np.minimum(self.nxt, hi)
-        self.g0 = float(vr[0])
-        span = float(vr[-1] - vr[0]) or 1.0
-        self.cells = 4 * n
-        self.inv_h = self.cells / span
-        starts = self.g0 + np.arange(self.cells) / self.inv_h
-        self.start = np.clip(np.searchsorted(vr, starts, side="right") - 1, 0, n - 2).astype(np.intp)
-        per_cell = np.diff(np.concatenate([self.start, [n - 2]]))
-        self.steps = min(int(per_cell.max()) + 1 if per_cell.size else 1, 2)
+        # cells over the vertices and the lobe: a cell holds the segment of its start and
+        # the next boundary; one holding more boundaries (a cluster) is flagged -2
+        g0, g1 = float(vr[0]), float(vr[-1])
+        g0, g1 = (min(g0, lo) if np.isfinite(lo) else g0), (max(g1, hi) if np.isfinite(hi) else g1)
+        self.g0 = g0
+        for per in (4, 16, 64):  # finer until few cells hold a cluster
+            self.cells = per * n
+            self.inv_h = self.cells / ((g1 - g0) or 1.0)
+            c = np.arange(self.cells + 1)
+            a = g0 + (c - 0.01) / self.inv_h  # a little wider than the cell: rounding in r -> cell
+            b = g0 + (c + 1.01) / self.inv_h
+            start = np.clip(np.searchsorted(vr, a, side="right") - 1, 0, n - 2)
+            more = np.searchsorted(self.nxt, b, side="right") - np.searchsorted(self.nxt, a, side="right") > 1
+            if more.mean() <= 0.005 or self.cells >= 1 << 18:
+                break
+        self.start = np.where(more, -2, start).astype(np.intp)
+        self.cell_nxt = self.nxt[start]
         self.vr = vr
         self.r_ends = (float(vr[0]), float(vr[-1]))
         self.s0 = self.sm = None
@@ -271,14 +287,14 @@ class VertexGrid:
             self.sm = np.where(pos, np.diff(slope) / safe, 0.0)
 
     def segment(self, r: np.ndarray) -> np.ndarray:
-        c = ((r - self.g0) * self.inv_h).astype(np.intp)
-        np.clip(c, 0, self.cells - 1, out=c)
-        j = self.start[c]
-        for _ in range(self.steps):
-            j += self.nxt[j] <= r
-        far = self.nxt[j] <= r  # a cell holding more vertices (a cluster): search
-        if far.any():
-            k = np.nonzero(far)[0]
+        """The segment of each r (in the lobe or the vertices' range; NaN: any)."""
+        c = r - self.g0
+        c *= self.inv_h
+        c = c.astype(np.intp)
+        j = self.start.take(c, mode="clip")
+        j += self.cell_nxt.take(c, mode="clip") <= r
+        if (j < 0).any():  # a cluster of vertices in the cell: search
+            k = np.nonzero(j < 0)[0]
             j[k] = np.clip(np.searchsorted(self.vr, r[k], side="right") - 1, 0, self.vr.size - 2)
         return j
 

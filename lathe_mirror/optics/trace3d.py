@@ -146,46 +146,74 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
     dx, dy, dz = np.ascontiguousarray(d.T)
     # a ray heading down never reaches the mirror above (a miss); one along the axis or
     # with its origin off the inner lobe's monotone zone goes to the march
-    dxy2 = dx * dx + dy * dy
+    dxy2 = dx * dx
+    t = dy * dy
+    dxy2 += t
     go = (dz > 0) & (dxy2 > 0)
-    idx = np.nonzero(go)[0]
-    undecided = np.zeros(n, dtype=bool)
-    undecided[(dz > 0) & ~go] = True
-    if idx.size < n:
-        dx, dy, dz, dxy2 = dx[idx], dy[idx], dz[idx], dxy2[idx]
-    bxy = ox * dx + oy * dy
-    inv = 1.0 / dxy2
+    undecided = []
+    idx = None  # the rays traced here (None: all)
+    if not go.all():
+        idx = np.nonzero(go)[0]
+        undecided.append(np.nonzero((dz > 0) & ~go)[0])
+        dx, dy, dz, dxy2, t = dx[idx], dy[idx], dz[idx], dxy2[idx], t[idx]
+    bxy = dx * ox
+    np.multiply(dy, oy, out=t)
+    bxy += t
+    inv = np.divide(1.0, dxy2)
     bb = bxy * bxy
-    climb = dz * np.sqrt(inv) * (1.0 / MONOTONE_MARGIN)  # the ray's dz / dr, at least
+    climb = np.sqrt(inv)  # the ray's dz / dr, at least
+    climb *= dz
+    climb *= 1.0 / MONOTONE_MARGIN
 
     def exit_s(radius, sel=None):
         """Ray length where the ray leaves the cylinder r = radius (origin inside it)."""
         if sel is None:
-            return (np.sqrt(bb + dxy2 * (radius * radius - r0sq)) - bxy) * inv
-        return (np.sqrt(bb[sel] + dxy2[sel] * (radius * radius - r0sq)) - bxy[sel]) * inv[sel]
+            e = np.multiply(dxy2, radius * radius - r0sq)
+            e += bb
+        else:
+            e = np.multiply(dxy2.take(sel), radius * radius - r0sq)
+            e += bb.take(sel)
+        with np.errstate(invalid="ignore"):
+            np.sqrt(e, out=e)
+        e -= bxy if sel is None else bxy.take(sel)
+        e *= inv if sel is None else inv.take(sel)
+        return e
+
+    def row(i):
+        return i if idx is None else idx[i]
 
     # Inner lobe: each ray's monotone zone ends at r_s; above the surface there: a hit.
     nb0 = inner_t.slope_cummax.size
     b_s = first_steep(inner_t, climb)
-    r_s = inner_t.edges[b_s]
-    with np.errstate(invalid="ignore"):
+    if b_s.min(initial=nb0) == nb0:  # no steep bin in reach: the zone is the lobe
+        s_s = exit_s(inner_t.hi)
+        ok = np.full(b_s.size, r0sq < inner_t.hi * inner_t.hi)
+        z_bs = inner_t.z_edge[nb0]
+    else:
+        r_s = inner_t.edges.take(b_s)
         s_s = exit_s(r_s)
-    z_s = oz + s_s * dz
-    ok = r0sq < r_s * r_s
-    inner = ok & (z_s >= inner_t.z_edge[b_s])
+        ok = r_s * r_s > r0sq
+        z_bs = inner_t.z_edge.take(b_s)
+    z_s = s_s * dz
+    z_s += oz
+    inner = z_s >= z_bs
+    inner &= ok
     # The others: never inside the inner lobe's material, then the wall, the outer lobe
     # (its monotone zone from the junction) or past the rim.
-    rest = np.nonzero(ok & ~inner)[0]
-    b_r = b_s[rest]
-    s_c = s_s[rest]
+    ok &= ~inner
+    rest = np.nonzero(ok)[0]
+    b_r = b_s.take(rest)
+    s_c = s_s.take(rest)
+    dz_r = dz.take(rest)
     steep = b_r < nb0
     if steep.any():
         s_c[steep] = exit_s(inner_t.hi, rest[steep])
-    z_c = oz + s_c * dz[rest]
-    not_inner = z_c < inner_t.z_sufmin[b_r]
+    z_c = s_c * dz_r
+    z_c += oz
+    not_inner = z_c < inner_t.z_sufmin.take(b_r)
     # Where that does not settle it, walk the steep bins: the ray below each bin's lowest
     # point at the bin's outer edge (its highest point there) never enters it.
-    walk = np.nonzero(~not_inner & (b_r >= nb0 - STEEP_WALK) & (b_r < nb0))[0]
+    walk = np.nonzero(~not_inner & (b_r >= nb0 - STEEP_WALK) & steep)[0]
     if walk.size:
         first = nb0 - STEEP_WALK if nb0 > STEEP_WALK else 0
         bins = np.arange(first, nb0)
@@ -197,16 +225,26 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
         not_inner[walk] = under.all(axis=1)
     wall = not_inner & (z_c >= outer_t.z_edge[0])
     beyond = not_inner & ~wall
-    b1 = first_steep(outer_t, climb[rest])
-    s1 = exit_s(outer_t.edges[b1], rest)
-    z1 = oz + s1 * dz[rest]
-    outer = beyond & (b1 > 0) & (z1 >= outer_t.z_edge[b1])
-    miss = beyond & (b1 == outer_t.slope_cummax.size) & (z1 < outer_t.z_edge[-1])
-    decided = np.zeros(idx.size, dtype=bool)
-    decided[inner] = True
-    decided[rest[wall | outer | miss]] = True
-    undecided[idx[~decided]] = True
-    fate[idx[rest[wall]]] = Fate.WALL
+    nb1 = outer_t.slope_cummax.size
+    b1 = first_steep(outer_t, climb.take(rest))
+    if b1.min(initial=nb1) == nb1:
+        s1 = exit_s(outer_t.hi, rest)
+        z_b1 = outer_t.z_edge[nb1]
+    else:
+        s1 = exit_s(outer_t.edges.take(b1), rest)
+        z_b1 = outer_t.z_edge.take(b1)
+    z1 = s1 * dz_r
+    z1 += oz
+    outer = beyond & (b1 > 0) & (z1 >= z_b1)
+    miss = beyond & (b1 == nb1) & (z1 < outer_t.z_edge[-1])
+    ok = ~ok
+    ok &= ~inner  # neither inner nor a candidate for the rest: the march
+    if ok.any():
+        undecided.append(row(np.nonzero(ok)[0]))
+    settled = wall | outer | miss
+    if not settled.all():
+        undecided.append(row(rest[~settled]))
+    fate[row(rest[wall])] = Fate.WALL
 
     o_in = np.nonzero(inner)[0]
     o_out = rest[outer]
@@ -217,109 +255,221 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
         lobe = tb.lobes[k]
         kx, ky, kz = dx[sel], dy[sel], dz[sel]
         s = _quadric_hit(lobe, oz, kz, bxy[sel], dxy2[sel], r0sq)
-        seg = None
+        rows = sel if idx is None else idx[sel]
         if lobe.exact is not None:
             conv = (s >= lo_s - 1e-9) & (s <= hi_s + 1e-9)  # False for NaN
+            seg = hit = None
         else:
-            s, conv, seg = _newton(profile, lobe, (ox, oy, oz), kx, ky, kz, dxy2[sel], s, lo_s, hi_s)
-        rows = idx[sel]
+            s, conv, seg, hit = _newton(profile, lobe, (ox, oy, oz), kx, ky, kz, dxy2[sel], s, lo_s, hi_s)
         if not conv.all():
-            undecided[rows[~conv]] = True
+            undecided.append(rows[~conv])
             rows, kx, ky, kz, s = rows[conv], kx[conv], ky[conv], kz[conv], s[conv]
             seg = None if seg is None else seg[conv]
-        px, py, pz = ox + s * kx, oy + s * ky, oz + s * kz
-        r = np.sqrt(px * px + py * py)
+            hit = None if hit is None else tuple(c[conv] for c in hit)
+        if hit is None:
+            px, py = s * kx, s * ky
+            px += ox
+            py += oy
+            r = px * px
+            r += py * py
+            np.sqrt(r, out=r)
+        else:
+            px, py, r = hit
+        pz = s * kz
+        pz += oz
         slope = normal_slope(profile, lobe, r, seg)
-        # unit normal toward the camera: (slope px / r, slope py / r, -1) / sqrt(1 + slope^2)
-        nn = 1.0 / np.sqrt(1.0 + slope * slope)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            kr = np.where(r > 0, slope * nn / r, 0.0)  # on the axis the normal is -z
-        two_dn = 2.0 * (kr * (px * kx + py * ky) - kz * nn)
-        ux, uy, uz = kx - two_dn * kr * px, ky - two_dn * kr * py, kz + two_dn * nn
+        ux, uy, uz = _reflect(px, py, r, kx, ky, kz, slope)
         fate[rows] = k
         for c, (pc, uc) in enumerate(((px, ux), (py, uy), (pz, uz))):
             point[rows, c] = pc
             out[rows, c] = uc
         if k == 0:
             blocked[rows] = _blocked(profile, tb, px, py, pz, ux, uy, uz)
-    return np.nonzero(undecided)[0]
+    return np.concatenate(undecided) if undecided else np.zeros(0, dtype=np.intp)
+
+
+def _reflect(px, py, r, kx, ky, kz, slope):
+    """The rays k reflected at p (radius r) off a surface of revolution of the given slope:
+    the unit normal toward the camera (slope px / r, slope py / r, -1) / sqrt(1 + slope^2),
+    -z on the axis."""
+    nn = slope * slope
+    nn += 1.0
+    np.sqrt(nn, out=nn)
+    np.divide(1.0, nn, out=nn)
+    kr = slope * nn
+    if (r > 0).all():
+        kr /= r
+    else:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            kr = np.where(r > 0, kr / r, 0.0)
+    two_dn = px * kx
+    t = py * ky
+    two_dn += t
+    two_dn *= kr
+    np.multiply(kz, nn, out=t)
+    two_dn -= t
+    two_dn *= 2.0
+    np.multiply(two_dn, kr, out=kr)
+    ux = px * kr
+    np.subtract(kx, ux, out=ux)
+    uy = py * kr
+    np.subtract(ky, uy, out=uy)
+    uz = np.multiply(two_dn, nn, out=nn)
+    uz += kz
+    return ux, uy, uz
 
 
 def _quadric_hit(lobe: LobeTable, oz: float, dz: np.ndarray, bxy: np.ndarray, dxy2: np.ndarray,
                  r0sq: float) -> np.ndarray:
     """Smallest s > 0 where the rays meet the lobe's quadric on the mirror's sheet (NaN
-    where they do not): A s^2 + 2 B s + C = 0, the stable pair of roots."""
+    where they do not): A s^2 + 2 B s + C = 0, the stable pair of roots. The mirror's
+    sheet: 2 z + p of its sign, z = oz + s dz (dz > 0) beyond (sheet +1) or before (-1)
+    the height -p / 2."""
     p, q, w, sheet = lobe.quad
-    A = dz * dz + q * dxy2
-    B = (oz + 0.5 * p) * dz + q * bxy
     C = oz * oz + p * oz + q * r0sq + w
     with np.errstate(divide="ignore", invalid="ignore"):
-        sq = np.sqrt(B * B - A * C)  # NaN where the ray misses the quadric
-        qq = -(B + np.copysign(sq, B))
-        s1, s2 = qq / A, C / qq
-        ok1 = (s1 > 0) & ((2.0 * (oz + s1 * dz) + p) * sheet > 0)
-        ok2 = (s2 > 0) & ((2.0 * (oz + s2 * dz) + p) * sheet > 0)
-        return np.where(ok1 & ok2, np.minimum(s1, s2), np.where(ok1, s1, np.where(ok2, s2, np.nan)))
+        A = dz * dz
+        t = dxy2 * q
+        A += t
+        B = dz * (oz + 0.5 * p)
+        np.multiply(bxy, q, out=t)
+        B += t
+        sq = B * B
+        np.multiply(A, C, out=t)
+        sq -= t
+        np.sqrt(sq, out=sq)  # NaN where the ray misses the quadric
+        qq = np.copysign(sq, B, out=sq)
+        qq += B
+        np.negative(qq, out=qq)
+        s1 = np.divide(qq, A, out=A)
+        s2 = np.divide(C, qq, out=qq)
+        lo = np.fmin(s1, s2)
+        hi = np.fmax(s1, s2, out=s1)
+        edge = np.divide(-0.5 * p - oz, dz, out=B)  # s where z = -p / 2
+        if sheet > 0:
+            np.maximum(edge, 0.0, out=edge)
+            return np.where(lo > edge, lo, np.where(hi > edge, hi, np.nan))
+        return np.where((lo > 0) & (lo < edge), lo, np.where((hi > 0) & (hi < edge), hi, np.nan))
 
 
-def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi):
+def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi, max_iter: int = 60):
     """Roots of g(s) = z - Z(r) in [lo, hi] (g(lo) < 0 <= g(hi)) from s0 (the quadric's
-    hit): s, converged, and on a polyline the grid's segment of each root (else None).
+    hit): s, converged, and on a polyline the grid's segment of each root and its hit
+    point's (x, y, r) (else None).
 
-    On a polyline one Newton step along the chord of the start's segment (the grid merges
+    On a polyline a Newton step along the chord of the current segment (the grid merges
     collinear runs) lands on the root whenever the step stays in that segment: that is
-    checked without a second evaluation (the step inside the bracket, the root's radius
-    in the segment's range, g's slope not grazing). The other rays continue in
-    _newton_loop."""
+    checked without another evaluation (_checked_step). A ray whose step leaves its
+    segment (about one in twenty from the quadric's hit) takes another step, from there
+    or, outside its bracket, from the bracket's middle (safeguarded Newton); it stops too
+    where the step or the bracket falls below ROOT_TOL_MM (at a step wall or a kink)."""
     grid = lobe.grid
     x = s0
     inb = (s0 >= lo) & (s0 <= hi)
     if not inb.all():
         x = np.where(inb, s0, 0.5 * (lo + hi))  # NaN s0: the middle
     if grid is None:
-        x, conv = _newton_loop(profile, lobe, o, dx, dy, dz, x, lo.copy(), hi.copy())
-        return x, conv, None
+        x, conv = _newton_loop(profile, lobe, o, dx, dy, dz, x, lo.copy(), hi.copy(), max_iter)
+        return x, conv, None, None
     ox, oy, oz = o
-    px = ox + x * dx
-    py = oy + x * dy
-    r = np.sqrt(px * px + py * py)
-    rc = np.clip(r, lobe.lo, lobe.hi)
-    j = grid.segment(rc)
-    m = grid.m[j]
-    g = (oz + x * dz) - (grid.z0[j] + m * (rc - grid.r0[j]))
-    np.maximum(r, 1e-300, out=r)  # on the axis dr/ds = 0
-    drds = (px * dx + py * dy) / r
-    dg = dz - m * drds
-    step = g / dg
-    nx = x - step
-    # converged: a step inside the bracket (dg > 0: g < 0 steps up, g > 0 down; nx in
-    # [lo, hi]) landing in the segment, whose neglected second-order term (a skew ray's
-    # r(s) curves: g'' = -m r'', r'' = (|d_xy|^2 - r'^2) / r) moves s by less than ROOT_TOL_MM
-    px = ox + nx * dx
-    py = oy + nx * dy
-    r1 = np.sqrt(px * px + py * py)
-    curve = np.abs(m * (dxy2 - drds * drds) / r) * (step * step)
-    with np.errstate(invalid="ignore"):
-        conv = ((dg >= NEWTON_DG_MIN) & (nx >= lo) & (nx <= hi) & (curve <= (2.0 * ROOT_TOL_MM) * dg)
-                & (r1 >= grid.seg_lo[j]) & (r1 < grid.seg_hi[j]))
+    nx, conv, j, hit, below = _checked_step(lobe, o, dx, dy, dz, dxy2, x, lo, hi)
     if conv.all():
-        return nx, conv, j
-    k = np.nonzero(~conv)[0]
-    xk, gk, nk = x[k], g[k], nx[k]
-    below = gk < 0
-    la = np.where(below, xk, lo[k])
-    ha = np.where(below, hi[k], xk)
-    with np.errstate(invalid="ignore"):
-        nk = np.where((nk >= la) & (nk <= ha), nk, 0.5 * (la + ha))
-    done = (np.abs(nk - xk) <= ROOT_TOL_MM) | (gk == 0) | (ha - la <= ROOT_TOL_MM)
-    loop = ~done
-    if loop.any():
-        nk[loop], done[loop] = _newton_loop(profile, lobe, o, dx[k][loop], dy[k][loop], dz[k][loop],
-                                            nk[loop], la[loop], ha[loop])
-    nx[k], conv[k] = nk, done
-    pk, qk = ox + nk * dx[k], oy + nk * dy[k]
-    j[k] = grid.segment(np.clip(np.sqrt(pk * pk + qk * qk), lobe.lo, lobe.hi))
-    return nx, conv, j
+        return nx, conv, j, hit
+    px, py, r = hit
+    act = np.nonzero(~conv)[0]  # the rays still going, and their own arrays
+    ax, ay, az, a2 = dx[act], dy[act], dz[act], dxy2[act]
+    xa, na, la, ha, ba = x[act], nx[act], lo[act], hi[act], below[act]
+    for _ in range(max_iter):
+        # the bracket from g's sign at xa; a step leaving it bisects it
+        la = np.where(ba, xa, la)
+        ha = np.where(ba, ha, xa)
+        with np.errstate(invalid="ignore"):
+            na = np.where((na >= la) & (na <= ha), na, 0.5 * (la + ha))
+        done = (np.abs(na - xa) <= ROOT_TOL_MM) | (ha - la <= ROOT_TOL_MM)
+        if done.any():
+            d_i = act[done]
+            nx[d_i] = na[done]
+            conv[d_i] = True
+            px[d_i], py[d_i] = ox + na[done] * ax[done], oy + na[done] * ay[done]
+            r[d_i] = np.sqrt(px[d_i] ** 2 + py[d_i] ** 2)
+            j[d_i] = grid.segment(np.clip(r[d_i], lobe.lo, lobe.hi))
+            keep = ~done
+            act, ax, ay, az, a2, na, la, ha = (v[keep] for v in (act, ax, ay, az, a2, na, la, ha))
+            if act.size == 0:
+                break
+        xa = na
+        na, ok, ja, (pa, qa, ra), ba = _checked_step(lobe, o, ax, ay, az, a2, xa, la, ha)
+        if ok.any():
+            d_i = act[ok]
+            nx[d_i], conv[d_i], j[d_i], px[d_i], py[d_i], r[d_i] = na[ok], True, ja[ok], pa[ok], qa[ok], ra[ok]
+            keep = ~ok
+            act, ax, ay, az, a2, xa, na, la, ha, ba = (v[keep] for v in (act, ax, ay, az, a2, xa, na, la, ha, ba))
+            if act.size == 0:
+                break
+    return nx, conv, j, (px, py, r)
+
+
+def _checked_step(lobe: LobeTable, o, dx, dy, dz, dxy2, x, lo, hi):
+    """One Newton step on g(s) = z - Z(r) from x along the chord of x's grid segment: the
+    new s, whether it is the root (the step inside the bracket [lo, hi] (dg > 0: g < 0
+    steps up, g > 0 down) landing in the segment, g' not grazing, the neglected
+    second-order term of a skew ray's curving r(s) (g'' = -m r'', r'' = (|d_xy|^2 - r'^2)
+    / r) moving s by less than ROOT_TOL_MM), the segment, (x, y, r) at the new s, and
+    whether g < 0 at x."""
+    grid = lobe.grid
+    ox, oy, oz = o
+    with np.errstate(invalid="ignore", divide="ignore"):
+        px = x * dx
+        px += ox
+        py = x * dy
+        py += oy
+        r = px * px
+        t = py * py
+        r += t
+        np.sqrt(r, out=r)
+        rc = np.minimum(r, lobe.hi)
+        np.maximum(rc, lobe.lo, out=rc)
+        j = grid.segment(rc)
+        m = grid.m.take(j)
+        z = grid.r0.take(j)
+        np.subtract(rc, z, out=z)
+        z *= m
+        z += grid.z0.take(j)
+        g = x * dz  # the height gap g = z_ray - Z(r)
+        g += oz
+        g -= z
+        below = g < 0
+        drds = px * dx  # dr/ds
+        np.multiply(py, dy, out=t)
+        drds += t
+        np.maximum(r, 1e-300, out=r)  # on the axis dr/ds = 0
+        drds /= r
+        dg = m * drds  # g'(s) = dz - m dr/ds
+        np.subtract(dz, dg, out=dg)
+        step = np.divide(g, dg, out=g)
+        nx = x - step
+        np.multiply(drds, drds, out=t)
+        np.subtract(dxy2, t, out=t)
+        t *= m
+        t /= r
+        np.abs(t, out=t)
+        t *= step
+        t *= step
+        conv = dg >= NEWTON_DG_MIN
+        conv &= t <= np.multiply(dg, 2.0 * ROOT_TOL_MM, out=dg)
+        conv &= nx >= lo
+        conv &= nx <= hi
+        np.multiply(nx, dx, out=px)
+        px += ox
+        np.multiply(nx, dy, out=py)
+        py += oy
+        np.multiply(px, px, out=r)
+        np.multiply(py, py, out=t)
+        r += t
+        np.sqrt(r, out=r)
+        conv &= r >= grid.seg_lo.take(j)
+        conv &= r < grid.seg_hi.take(j)
+    return nx, conv, j, (px, py, r), below
 
 
 def _newton_loop(profile: Profile, lobe: LobeTable, o, dx, dy, dz, x, lo, hi, max_iter: int = 60):
