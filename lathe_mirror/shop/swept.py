@@ -16,6 +16,10 @@ import numpy as np
 
 #: Half-width (mm) of the boxes a hull is cut at the axis with.
 _BIG = 1e4
+#: A shape's vertex at a piece's start is inside the swept hull when both its edges face
+#: the move by more than this (the cosine); pieces shorter than MIN_REDUCED mm keep all.
+SIDE_TOL = 1e-6
+MIN_REDUCED = 1e-3
 
 
 def fold(hulls: np.ndarray) -> np.ndarray:
@@ -39,16 +43,41 @@ def sweep(xy: np.ndarray, points: np.ndarray):
 
 
 def sweep_pieces(xy: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
-    """sweep(xy, [s, e]) of every piece (starts, ends (n, 2)), as an object array (n,)."""
-    return sweep_all(np.concatenate([starts[:, None, :] + xy[None, :, :], ends[:, None, :] + xy[None, :, :]], axis=1))
+    """sweep(xy, [s, e]) of every piece (starts, ends (n, 2)), as an object array (n,).
+    Only the vertices that may lie on the hull are handed to shapely: not those of the
+    shape at s whose two edges both face the move (nor at e both facing back), which lie
+    inside it (by at least the piece's length x SIDE_TOL)."""
+    import shapely
+
+    pts = np.concatenate([starts[:, None, :] + xy[None, :, :], ends[:, None, :] + xy[None, :, :]], axis=1)
+    d = ends - starts
+    length = np.hypot(d[:, 0], d[:, 1])
+    edges = np.roll(xy, -1, axis=0) - xy  # edge i from vertex i to i + 1
+    ccw = np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]) > 0
+    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1) * (1.0 if ccw else -1.0)
+    normals /= np.hypot(normals[:, 0], normals[:, 1])[:, None]
+    facing = (d @ normals.T) / np.maximum(length, 1e-300)[:, None]  # (n, m): edge i along the move
+    before = np.roll(facing, 1, axis=1)  # the edge ending at vertex i
+    long = (length > MIN_REDUCED)[:, None]
+    keep = np.concatenate([~(long & (facing > SIDE_TOL) & (before > SIDE_TOL)),
+                           ~(long & (facing < -SIDE_TOL) & (before < -SIDE_TOL))], axis=1)
+    lines = shapely.linestrings(pts[keep], indices=np.repeat(np.arange(len(pts)), keep.sum(axis=1)))
+    return _hulls(lines, pts)
 
 
 def sweep_all(pts: np.ndarray) -> np.ndarray:
-    """The folded convex hull of each set of points pts (n, k, 2) (shapely's hull of them
-    as a line string: the same as of the points, built faster)."""
+    """The folded convex hull of each set of points pts (n, k, 2)."""
     import shapely
 
-    hulls = shapely.convex_hull(shapely.linestrings(pts))
+    return _hulls(shapely.linestrings(pts), pts)
+
+
+def _hulls(lines: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """The folded convex hulls of line strings (shapely's hull of a line string's vertices,
+    the same as of them as points, built faster); pts (n, k, 2) all their points."""
+    import shapely
+
+    hulls = shapely.convex_hull(lines)
     cross = np.flatnonzero(pts[:, :, 0].min(axis=1) < 0.0)
     if cross.size:
         hulls[cross] = fold(hulls[cross])
@@ -69,28 +98,33 @@ def depth_inside(geoms: np.ndarray, boundary) -> np.ndarray:
 @dataclass(frozen=True)
 class Swept:
     """What the pieces of an operation sweep, whatever the stock: `regions` (the whole
-    tool) and `zones` (its cutting part), object arrays (n,); `bounds` (n, 4) of the
+    tool) and `zones` (its cutting part), object arrays (n,); `backs` what the hull of its
+    body sweeps (n,), a region no smaller than regions minus zones; `bounds` (n, 4) of the
     regions; `chuck` (n,) bool, the region meets the chuck; `part_depth` (n,) mm, how far
     the zone reaches into the designed part (0: not at all) and `part_inside` the part
     inside the zone where it does (None elsewhere)."""
 
     regions: np.ndarray
     zones: np.ndarray
+    backs: np.ndarray
     bounds: np.ndarray
     chuck: np.ndarray
     part_depth: np.ndarray
     part_inside: np.ndarray
 
 
-def swept_pieces(ins_xy: np.ndarray, cut_xy: np.ndarray, starts: np.ndarray, ends: np.ndarray,
-                 part, part_boundary, chuck) -> Swept:
-    """Swept for the straight pieces starts -> ends (n, 2) of a tool of outline ins_xy and
-    cutting part cut_xy, against the designed part (its boundary) and the chuck."""
+def swept_pieces(ins_xy: np.ndarray, cut_xy: np.ndarray, back_xy: np.ndarray, starts: np.ndarray,
+                 ends: np.ndarray, part, part_boundary, chuck) -> Swept:
+    """Swept for the straight pieces starts -> ends (n, 2) of a tool of outline ins_xy,
+    cutting part cut_xy and body back_xy (all convex: a point of the outline outside the
+    cutting part lies in the body's hull), against the designed part (its boundary) and
+    the chuck."""
     import shapely
 
     n = len(starts)
     regions = sweep_pieces(ins_xy, starts, ends)
     zones = sweep_pieces(cut_xy, starts, ends)
+    backs = sweep_pieces(back_xy, starts, ends)
     bounds = shapely.bounds(regions).reshape(n, 4)
     near_chuck = np.flatnonzero(bounds[:, 1] < chuck.bounds[3])
     on_chuck = np.zeros(n, dtype=bool)
@@ -104,5 +138,5 @@ def swept_pieces(ins_xy: np.ndarray, cut_xy: np.ndarray, starts: np.ndarray, end
         meet, inside = meet[real], inside[real]
         depth[meet] = depth_inside(inside, part_boundary)
         inside_all[meet] = inside
-    return Swept(regions=regions, zones=zones, bounds=bounds, chuck=on_chuck, part_depth=depth,
+    return Swept(regions=regions, zones=zones, backs=backs, bounds=bounds, chuck=on_chuck, part_depth=depth,
                  part_inside=inside_all)
