@@ -219,12 +219,8 @@ class _Sim:
 
     def use(self, station) -> None:
         """Take the tool of `station` (the default shape when it has none of its own)."""
-        import shapely
-
         shape = self.shapes.get(station, self.shapes[None])
         self.ins_xy, self.cut_xy = shape.outline_xy, shape.cutting_xy
-        # the hull of the body (the outline beyond the cutting part): what the body sweeps lies in its sweep
-        self.back_xy = shapely.get_coordinates(shapely.convex_hull(shapely.difference(shape.outline, shape.cutting)))[:-1]
 
     def separate(self, z: float, width: float):
         """The part above a part-off's slot [z, z + width] (shapely), a contact if stock
@@ -288,7 +284,7 @@ class _Sim:
         p_e = np.concatenate([p[1:] for p in pts]) if pts else np.empty((0, 2))
         p_f = np.concatenate([np.full(len(p) - 1, mv.feed) for mv, p in zip(feeds, pts)]) if pts else np.empty(0)
         p_a = np.zeros(len(p_s))
-        swept = swept_pieces(self.ins_xy, self.cut_xy, self.back_xy, p_s, p_e, self.part, self.part_boundary, self.chuck)
+        swept = swept_pieces(self.ins_xy, self.cut_xy, p_s, p_e, self.part, self.part_boundary, self.chuck)
         first = i_feed = 0  # the feed move's first piece, its index in feeds
         for mv in op.moves:
             if self.pos is None:
@@ -387,9 +383,9 @@ class _Sim:
         cx = shapely.get_x(shapely.centroid(hit))
         volume = float(np.sum(2 * math.pi * np.abs(cx) * areas[areas > 0]))
         zone = swept.zones[k]
-        # the body's contact, measured only where stock is inside what the body's hull sweeps (the hit
-        # beyond the zone lies there) and the hit's pieces beyond the zone may add up to it
-        if (shapely.relate_pattern(hit, swept.backs[k], "T********").any()
+        # the body's contact, measured only where the hit may stick out of the zone by AREA_TOL: not
+        # when its vertices are all in the (convex) zone, and its pieces beyond the zone may add up to it
+        if (not swept.within_zone(k, shapely.get_coordinates(hit))
                 and float(shapely.area(shapely.difference(hit, zone)).sum()) > 0.5 * AREA_TOL):
             body = shapely.difference(shapely.union_all(hit), zone)
             if body.area > AREA_TOL:

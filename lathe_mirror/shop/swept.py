@@ -20,6 +20,10 @@ _BIG = 1e4
 #: the move by more than this (the cosine); pieces shorter than MIN_REDUCED mm keep all.
 SIDE_TOL = 1e-6
 MIN_REDUCED = 1e-3
+#: Points this far (mm) outside a convex zone count as in it (Swept.within_zone): a polygon
+#: whose vertices are then sticks out of the zone by less than its perimeter x this in
+#: area, far below shop.stock.AREA_TOL.
+PLANE_TOL = 1e-9
 
 
 def fold(hulls: np.ndarray) -> np.ndarray:
@@ -98,33 +102,74 @@ def depth_inside(geoms: np.ndarray, boundary) -> np.ndarray:
 @dataclass(frozen=True)
 class Swept:
     """What the pieces of an operation sweep, whatever the stock: `regions` (the whole
-    tool) and `zones` (its cutting part), object arrays (n,); `backs` what the hull of its
-    body sweeps (n,), a region no smaller than regions minus zones; `bounds` (n, 4) of the
+    tool) and `zones` (its cutting part), object arrays (n,); `bounds` (n, 4) of the
     regions; `chuck` (n,) bool, the region meets the chuck; `part_depth` (n,) mm, how far
     the zone reaches into the designed part (0: not at all) and `part_inside` the part
-    inside the zone where it does (None elsewhere)."""
+    inside the zone where it does (None elsewhere); `planes` each convex zone's edges
+    (ZonePlanes)."""
 
     regions: np.ndarray
     zones: np.ndarray
-    backs: np.ndarray
     bounds: np.ndarray
     chuck: np.ndarray
     part_depth: np.ndarray
     part_inside: np.ndarray
+    planes: ZonePlanes
+
+    def within_zone(self, k: int, pts: np.ndarray) -> bool:
+        """Whether the points (m, 2) all lie in piece k's zone, or outside it by at most
+        PLANE_TOL mm (False: not known, the zone folded at the axis)."""
+        lo, hi = self.planes.start[k], self.planes.stop[k]
+        if lo < 0:
+            return False
+        d = pts @ self.planes.normals[lo:hi].T - self.planes.offsets[lo:hi]
+        return bool(d.max() <= PLANE_TOL)
 
 
-def swept_pieces(ins_xy: np.ndarray, cut_xy: np.ndarray, back_xy: np.ndarray, starts: np.ndarray,
-                 ends: np.ndarray, part, part_boundary, chuck) -> Swept:
-    """Swept for the straight pieces starts -> ends (n, 2) of a tool of outline ins_xy,
-    cutting part cut_xy and body back_xy (all convex: a point of the outline outside the
-    cutting part lies in the body's hull), against the designed part (its boundary) and
-    the chuck."""
+@dataclass(frozen=True)
+class ZonePlanes:
+    """The edges of convex zones as half planes n.p <= c: unit outward normals (M, 2) and
+    offsets c (M,); piece k's are rows start[k]:stop[k] (start -1: a zone folded at the
+    axis, not convex)."""
+
+    normals: np.ndarray
+    offsets: np.ndarray
+    start: np.ndarray
+    stop: np.ndarray
+
+
+def zone_planes(zones: np.ndarray, convex: np.ndarray) -> ZonePlanes:
+    """ZonePlanes of the zones (polygons, each ring either way round) marked convex."""
+    import shapely
+
+    n = len(zones)
+    start, stop = np.full(n, -1), np.full(n, -1)
+    ok = np.flatnonzero(convex & (shapely.get_type_id(zones) == 3))  # polygons
+    pts, which = shapely.get_coordinates(zones[ok], return_index=True)
+    same = which[1:] == which[:-1]  # consecutive vertices of one ring (each ring closed)
+    a, b, owner = pts[:-1][same], pts[1:][same], which[:-1][same]
+    twice_area = np.bincount(owner, a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1], minlength=len(ok))
+    turn = np.where(twice_area > 0, 1.0, -1.0)[owner]  # anticlockwise: outward is the edge's right
+    normals = np.stack([(b - a)[:, 1], -(b - a)[:, 0]], axis=1) * turn[:, None]
+    length = np.hypot(normals[:, 0], normals[:, 1])
+    real = length > 0
+    normals, a, owner = normals[real] / length[real, None], a[real], owner[real]
+    start[ok] = np.searchsorted(owner, np.arange(len(ok)), side="left")
+    stop[ok] = np.searchsorted(owner, np.arange(len(ok)), side="right")
+    return ZonePlanes(normals=normals, offsets=np.sum(normals * a, axis=1), start=start, stop=stop)
+
+
+def swept_pieces(ins_xy: np.ndarray, cut_xy: np.ndarray, starts: np.ndarray, ends: np.ndarray,
+                 part, part_boundary, chuck) -> Swept:
+    """Swept for the straight pieces starts -> ends (n, 2) of a tool of outline ins_xy and
+    cutting part cut_xy (both convex), against the designed part (its boundary) and the
+    chuck."""
     import shapely
 
     n = len(starts)
     regions = sweep_pieces(ins_xy, starts, ends)
     zones = sweep_pieces(cut_xy, starts, ends)
-    backs = sweep_pieces(back_xy, starts, ends)
+    unfolded = np.minimum(starts[:, 0], ends[:, 0]) + cut_xy[:, 0].min() >= 0.0  # as _hulls tells
     bounds = shapely.bounds(regions).reshape(n, 4)
     near_chuck = np.flatnonzero(bounds[:, 1] < chuck.bounds[3])
     on_chuck = np.zeros(n, dtype=bool)
@@ -138,5 +183,5 @@ def swept_pieces(ins_xy: np.ndarray, cut_xy: np.ndarray, back_xy: np.ndarray, st
         meet, inside = meet[real], inside[real]
         depth[meet] = depth_inside(inside, part_boundary)
         inside_all[meet] = inside
-    return Swept(regions=regions, zones=zones, backs=backs, bounds=bounds, chuck=on_chuck, part_depth=depth,
-                 part_inside=inside_all)
+    return Swept(regions=regions, zones=zones, bounds=bounds, chuck=on_chuck, part_depth=depth,
+                 part_inside=inside_all, planes=zone_planes(zones, unfolded))
