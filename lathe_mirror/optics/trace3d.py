@@ -55,7 +55,7 @@ CHUNK = 1 << 15
 #: Rays per batch when the batches run in threads (tracing_threads): larger, so that the
 #: threads spend their time in numpy's loops, not waiting for the interpreter (2 threads
 #: on the full sensor: 5.7e6 rays/s at 1 << 17 against 4.7e6 at 1 << 15).
-THREAD_CHUNK = 1 << 17
+THREAD_CHUNK = 1 << 15
 #: A ray must out-climb a bin's slope bound by this factor to count as monotone there.
 MONOTONE_MARGIN = 1.02
 #: The steep bins at the inner lobe's rim walked one by one (beyond: the march).
@@ -82,8 +82,11 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
     d_all = d_all.reshape(-1, 3)
     n = d_all.shape[0]
     fate = np.full(n, Fate.MISS, dtype=np.int8)
-    point = np.full((n, 3), np.nan)
-    out = np.full((n, 3), np.nan)
+    point = np.empty((n, 3))  # NaN where no lobe is hit: filled chunk by chunk (in the threads)
+    out = np.empty((n, 3))
+    if not fast:
+        point.fill(np.nan)
+        out.fill(np.nan)
     blocked = np.zeros(n, dtype=bool)
     tables = surface_tables(profile)
     bar = None
@@ -97,6 +100,8 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
     if fast:
         def one(a: int) -> np.ndarray:
             sl = slice(a, min(a + chunk, n))
+            point[sl] = np.nan
+            out[sl] = np.nan
             return a + _fast_chunk(profile, tables, origin, d_all[sl], fate[sl], point[sl], out[sl], blocked[sl])
 
         starts = range(0, n, chunk)
@@ -213,8 +218,8 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
     not_inner = z_c < inner_t.z_sufmin.take(b_r)
     # Where that does not settle it, walk the steep bins: the ray below each bin's lowest
     # point at the bin's outer edge (its highest point there) never enters it.
-    walk = np.nonzero(~not_inner & (b_r >= nb0 - STEEP_WALK) & steep)[0]
-    if walk.size:
+    walk = np.nonzero(~not_inner & (b_r >= nb0 - STEEP_WALK) & steep)[0] if steep.any() else ()
+    if len(walk):
         first = nb0 - STEEP_WALK if nb0 > STEEP_WALK else 0
         bins = np.arange(first, nb0)
         sel = rest[walk]
@@ -228,7 +233,7 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
     nb1 = outer_t.slope_cummax.size
     b1 = first_steep(outer_t, climb.take(rest))
     if b1.min(initial=nb1) == nb1:
-        s1 = exit_s(outer_t.hi, rest)
+        s1 = exit_s(outer_t.hi).take(rest)  # (dense, then picked: cheaper than four picks)
         z_b1 = outer_t.z_edge[nb1]
     else:
         s1 = exit_s(outer_t.edges.take(b1), rest)
@@ -510,24 +515,56 @@ def _blocked(profile: Profile, tb: SurfaceTables, px, py, pz, ux, uy, uz) -> np.
     lobe's material (up to the rim)? h(l) = z - Z_outer(r) is concave (convex lobe): its
     values at the junction and the rim and its tangents there decide; an undecided ray is
     sampled (march.reflected_blocked)."""
-    oxy2 = ux * ux + uy * uy
-    bxy = px * ux + py * uy
-    rp2 = px * px + py * py
     outer = tb.lobes[1]
     with np.errstate(invalid="ignore", divide="ignore"):
-        inv = 1.0 / oxy2
+        oxy2 = ux * ux
+        t = uy * uy
+        oxy2 += t
+        bxy = px * ux
+        np.multiply(py, uy, out=t)
+        bxy += t
+        rp2 = px * px
+        np.multiply(py, py, out=t)
+        rp2 += t
+        inv = np.divide(1.0, oxy2)
         bb = bxy * bxy
-        lj = (np.sqrt(np.maximum(bb - oxy2 * (rp2 - outer.lo**2), 0.0)) - bxy) * inv
-        lm = (np.sqrt(np.maximum(bb - oxy2 * (rp2 - outer.hi**2), 0.0)) - bxy) * inv
-        hj = pz + lj * uz - outer.z_edge[0]
-        hm = pz + lm * uz - tb.z_rim
-        dj = uz - tb.slope_j * (bxy + lj * oxy2) / outer.lo
-        dm = uz - tb.slope_rim * (bxy + lm * oxy2) / outer.hi
-        cross = (hm - hj + dj * lj - dm * lm) / (dj - dm)
-        bound = hj + dj * (cross - lj)
-        valid = (oxy2 > 0) & (lj > 0)
-        res = valid & ((hj > 0) | (hm > 0))
-        maybe = valid & ~res & (dj > 0) & (dm < 0) & ~(bound <= 0)
+
+        def leave(radius):  # l where the ray leaves the cylinder r = radius
+            e = rp2 - radius * radius
+            e *= oxy2
+            np.subtract(bb, e, out=e)
+            np.maximum(e, 0.0, out=e)
+            np.sqrt(e, out=e)
+            e -= bxy
+            e *= inv
+            return e
+
+        lj, lm = leave(outer.lo), leave(outer.hi)
+        hj = lj * uz  # h and its slope dh/dl at the junction and the rim
+        hj += pz
+        hj -= outer.z_edge[0]
+        hm = lm * uz
+        hm += pz
+        hm -= tb.z_rim
+        dj = lj * oxy2
+        dj += bxy
+        dj *= tb.slope_j
+        dj /= outer.lo
+        np.subtract(uz, dj, out=dj)
+        dm = lm * oxy2
+        dm += bxy
+        dm *= tb.slope_rim
+        dm /= outer.hi
+        np.subtract(uz, dm, out=dm)
+        valid = oxy2 > 0
+        valid &= lj > 0
+        res = (hj > 0) | (hm > 0)
+        res &= valid
+        maybe = valid & ~res & (dj > 0) & (dm < 0)
+        if maybe.any():  # the tangents' meeting point bounds h
+            k = np.nonzero(maybe)[0]
+            cross = (hm[k] - hj[k] + dj[k] * lj[k] - dm[k] * lm[k]) / (dj[k] - dm[k])
+            maybe[k] = ~(hj[k] + dj[k] * (cross - lj[k]) <= 0)
     if maybe.any():
         p = np.stack([px[maybe], py[maybe], pz[maybe]], axis=-1)
         u = np.stack([ux[maybe], uy[maybe], uz[maybe]], axis=-1)
