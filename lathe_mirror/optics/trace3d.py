@@ -148,7 +148,7 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
     ox, oy, oz = (float(x) for x in o)
     r0sq = ox * ox + oy * oy
     inner_t, outer_t = tb.lobes
-    dx, dy, dz = np.ascontiguousarray(d.T)
+    dx, dy, dz = (np.ascontiguousarray(c) for c in d.T)  # no copy from ray_directions' planar rays
     # a ray heading down never reaches the mirror above (a miss); one along the axis or
     # with its origin off the inner lobe's monotone zone goes to the march
     dxy2 = dx * dx
