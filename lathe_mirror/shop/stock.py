@@ -33,6 +33,7 @@ from .sim_results import Contact, OperationFigures, SimMove, SimOperation, Simul
 from .tool_shapes import (CUTTING_EDGE_FRACTION, INSERT_IC, cutting_zone, edge_length, insert_outline,  # noqa: F401
                           insert_shape, reach_toward_axis)
 from .program import Feed, FeedRate, Rapid
+from .swept import Swept, sweep, swept_pieces
 
 if TYPE_CHECKING:
     from ..design import Mirror
@@ -211,6 +212,8 @@ class _Sim:
                                          min(self.z_lo + (j + 1) * TILE, self.z_hi)))
         self.tiles = shapely.intersection(np.array(tiles, dtype=object), start)
         self.alive = shapely.area(self.tiles) > 0
+        self.tile_bounds = shapely.bounds(self.tiles)
+        self._stock = None
         self.contacts: list[Contact] = []
         self.pos: tuple[float, float] | None = None
 
@@ -234,39 +237,34 @@ class _Sim:
 
     # -- geometry ---------------------------------------------------------------------
 
-    def sweep(self, xy: np.ndarray, points: np.ndarray):
-        """Convex hull of the convex shape xy placed at each point (n, 2), folded about
-        the axis: what it sweeps at r < 0 is mirrored to r > 0."""
-        import shapely
-
-        pts = (points[:, None, :] + xy[None, :, :]).reshape(-1, 2)
-        hull = shapely.convex_hull(shapely.multipoints(pts))
-        if pts[:, 0].min() < 0.0:
-            big = 1e4
-            right = hull.intersection(shapely.box(0.0, -big, big, big))
-            left = hull.intersection(shapely.box(-big, -big, 0.0, big))
-            if not left.is_empty:
-                left = shapely.transform(left, lambda c: c * np.array([-1.0, 1.0]))
-                hull = shapely.union(right, left)
-            else:
-                hull = right
-        return hull
-
-    def tiles_near(self, geom) -> np.ndarray:
-        x0, y0, x1, y1 = geom.bounds
+    def tiles_near(self, bounds) -> np.ndarray:
+        """The live tiles whose bounding boxes meet the box `bounds` (x0, y0, x1, y1)."""
+        x0, y0, x1, y1 = bounds
         i0, i1 = max(0, int(x0 // TILE)), min(self.nr - 1, int(x1 // TILE))
         j0 = max(0, int((y0 - self.z_lo) // TILE))
         j1 = min(self.nz - 1, int((y1 - self.z_lo) // TILE))
         if i1 < i0 or j1 < j0:
             return np.empty(0, dtype=np.intp)
-        ii, jj = np.meshgrid(np.arange(i0, i1 + 1), np.arange(j0, j1 + 1), indexing="ij")
-        idx = (ii * self.nz + jj).ravel()
-        return idx[self.alive[idx]]
+        idx = np.add.outer(np.arange(i0, i1 + 1) * self.nz, np.arange(j0, j1 + 1)).ravel()
+        idx = idx[self.alive[idx]]
+        tb = self.tile_bounds[idx]
+        return idx[(tb[:, 0] <= x1) & (tb[:, 2] >= x0) & (tb[:, 1] <= y1) & (tb[:, 3] >= y0)]
 
     def stock_geometry(self):
+        """The stock left (one shapely geometry; kept until a tile changes)."""
         import shapely
 
-        return shapely.union_all(self.tiles[self.alive])
+        if self._stock is None:
+            self._stock = shapely.union_all(self.tiles[self.alive])
+        return self._stock
+
+    def set_tiles(self, idx: np.ndarray, left: np.ndarray) -> None:
+        import shapely
+
+        self.tiles[idx] = left
+        self.alive[idx] = shapely.area(left) > 0
+        self.tile_bounds[idx] = shapely.bounds(left)
+        self._stock = None
 
     # -- replay -----------------------------------------------------------------------
 
@@ -279,8 +277,15 @@ class _Sim:
         rapid_time = 0.0
         area = volume = 0.0
         part_cut = 0.0
-        # feed pieces: start, end, feed, removed area, radius
-        p_s, p_e, p_f, p_a = [], [], [], []
+        # the feed pieces, all swept first (what does not depend on the stock)
+        feeds = [mv for mv in op.moves if not mv.rapid]
+        pts = [_pieces(mv.move) for mv in feeds]
+        p_s = np.concatenate([p[:-1] for p in pts]) if pts else np.empty((0, 2))
+        p_e = np.concatenate([p[1:] for p in pts]) if pts else np.empty((0, 2))
+        p_f = np.concatenate([np.full(len(p) - 1, mv.feed) for mv, p in zip(feeds, pts)]) if pts else np.empty(0)
+        p_a = np.zeros(len(p_s))
+        swept = swept_pieces(self.ins_xy, self.cut_xy, p_s, p_e, self.part, self.part_boundary, self.chuck)
+        first = i_feed = 0  # the feed move's first piece, its index in feeds
         for mv in op.moves:
             if self.pos is None:
                 self.pos = tuple(mv.move.start)
@@ -289,21 +294,19 @@ class _Sim:
                 rapid_time += 60.0 * float(np.hypot(*(b - a))) / rapid_rate
                 self.rapid(mv, op.name, a, b)
                 continue
-            pts = _pieces(mv.move)
-            for s, e in zip(pts[:-1], pts[1:]):
-                removed, vol, depth = self.feed_piece(mv, op.name, s, e)
+            last = first + len(pts[i_feed]) - 1
+            for k in range(first, last):
+                removed, vol, depth = self.feed_piece(mv, op.name, swept, k)
                 area += removed
                 volume += vol
                 part_cut = max(part_cut, depth)
-                p_s.append(s)
-                p_e.append(e)
-                p_f.append(mv.feed)
-                p_a.append(removed)
+                p_a[k] = removed
+            first, i_feed = last, i_feed + 1
             self.pos = tuple(mv.move.end)
         after = self.stock_geometry()
         removed_geom = shapely.difference(before, after)
-        if p_s:
-            s, e, f, a = (np.array(p_s), np.array(p_e), np.array(p_f), np.array(p_a))
+        if len(p_s):
+            s, e, f, a = p_s, p_e, p_f, p_a
             t = feed_time(s, e, f, lathe)
             length = np.hypot(*(e - s).T)
             air = a <= 1e-4 * np.maximum(length, 1e-3)
@@ -335,10 +338,10 @@ class _Sim:
                               ("dogleg", np.array([a, b, [a[0], b[1]], [b[0], a[1]]]))):
             if kind == "dogleg" and (a[0] == b[0] or a[1] == b[1]):
                 return  # along one axis: the box is the line
-            region = self.sweep(self.ins_xy, corners)
+            region = sweep(self.ins_xy, corners)
             self.check_chuck(region, mv, op)
             geom = None
-            idx = self.tiles_near(region)
+            idx = self.tiles_near(region.bounds)
             if idx.size:
                 hit = shapely.intersection(self.tiles[idx], region)
                 hit = hit[shapely.area(hit) > 0]
@@ -352,22 +355,18 @@ class _Sim:
                 self.add(kind, op, mv, geom, region)
                 return
 
-    def feed_piece(self, mv: SimMove, op: str, s: np.ndarray, e: np.ndarray) -> tuple[float, float, float]:
-        """Cut one straight piece; returns (area removed mm^2, volume mm^3, depth into the part mm)."""
+    def feed_piece(self, mv: SimMove, op: str, swept: Swept, k: int) -> tuple[float, float, float]:
+        """Cut the operation's straight piece k (swept: swept_pieces); returns (area
+        removed mm^2, volume mm^3, depth into the part mm)."""
         import shapely
 
-        ends = np.array([s, e])
-        region = self.sweep(self.ins_xy, ends)
-        self.check_chuck(region, mv, op)
-        part_depth = 0.0
-        zone = self.sweep(self.cut_xy, ends)
-        if shapely.intersects(self.part, zone):
-            inside = shapely.intersection(self.part, zone)
-            if inside.area > 0:
-                part_depth = _depth_inside(inside, self.part_boundary)
-                if part_depth > self.gouge:
-                    self.add("part", op, mv, inside, None, depth=part_depth)
-        idx = self.tiles_near(region)
+        region = swept.regions[k]
+        if swept.chuck[k]:
+            self.chuck_contact(region, mv, op)
+        part_depth = float(swept.part_depth[k])
+        if part_depth > self.gouge:
+            self.add("part", op, mv, swept.part_inside[k], None, depth=part_depth)
+        idx = self.tiles_near(swept.bounds[k])
         if idx.size == 0:
             return 0.0, 0.0, part_depth
         tiles = self.tiles[idx]
@@ -380,25 +379,33 @@ class _Sim:
         removed = float(areas.sum())
         if removed <= 0.0:
             return 0.0, 0.0, part_depth
-        cx = shapely.get_x(shapely.centroid(hit[areas > 0]))
+        hit = hit[areas > 0]
+        cx = shapely.get_x(shapely.centroid(hit))
         volume = float(np.sum(2 * math.pi * np.abs(cx) * areas[areas > 0]))
-        body = shapely.difference(shapely.union_all(hit[areas > 0]), zone)
-        if body.area > AREA_TOL:
-            depth = _depth_inside(body, zone.boundary)
-            if depth > BODY_TOL:
-                self.add("body", op, mv, body, None, depth=depth)
-        left = shapely.difference(tiles, region)
-        self.tiles[idx] = left
-        self.alive[idx] = shapely.area(left) > 0
+        zone = swept.zones[k]
+        # the body's contact, measured only where the pieces of the hit beyond the zone may add up to it
+        if float(shapely.area(shapely.difference(hit, zone)).sum()) > 0.5 * AREA_TOL:
+            body = shapely.difference(shapely.union_all(hit), zone)
+            if body.area > AREA_TOL:
+                depth = _depth_inside(body, zone.boundary)
+                if depth > BODY_TOL:
+                    self.add("body", op, mv, body, None, depth=depth)
+        self.set_tiles(idx, shapely.difference(tiles, region))
         return removed, volume, part_depth
 
     def check_chuck(self, region, mv: SimMove, op: str) -> None:
         import shapely
 
         if region.bounds[1] < self.chuck.bounds[3] and shapely.intersects(self.chuck, region):
-            geom = shapely.intersection(self.chuck, region)
-            if geom.area > AREA_TOL:
-                self.add("chuck", op, mv, geom, region)
+            self.chuck_contact(region, mv, op)
+
+    def chuck_contact(self, region, mv: SimMove, op: str) -> None:
+        """The chuck inside `region` (which meets it), a contact if it has area."""
+        import shapely
+
+        geom = shapely.intersection(self.chuck, region)
+        if geom.area > AREA_TOL:
+            self.add("chuck", op, mv, geom, region)
 
     def add(self, kind: str, op: str, mv: SimMove, geom, region, *, depth: float | None = None) -> None:
         """Record a contact once per block and kind."""
