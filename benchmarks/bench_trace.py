@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import time
 
 import numpy as np
@@ -62,7 +63,8 @@ def main() -> int:
     surfaces = [("exact", ExactProfile(mirror)), ("paper", named_surface(Surface.PAPER, mirror, s)),
                 ("best", named_surface(Surface.BEST, mirror, s))]
     cores = compute.default_workers()
-    print(f"{n} rays per run, best of {args.repeat}; rays/s by wall clock (by CPU time)")
+    print(f"{n} rays per run, best of {args.repeat}; rays/s by wall clock (by CPU time); "
+          f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     for name, prof in surfaces:
         trace_pixels(prof, cam, xy[:4, :4], pose=pose)  # the per-profile tables
         rows = [("aligned (meridian)", 1, lambda: trace_pixels(prof, cam, xy)),
@@ -74,6 +76,7 @@ def main() -> int:
             with compute.session(workers=workers):  # a command's --workers: the 3-D chunks on its cores
                 wall, cpu = best_of(fn, args.repeat if "march" not in label else 1)
             print(f"  {name:6s} {label:20s} {n / wall:10.3g} rays/s  ({n / cpu:.3g})")
+    print(f"load average at the end {os.getloadavg()[0]:.2f}")
     return 0
 
 

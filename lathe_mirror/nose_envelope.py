@@ -193,10 +193,15 @@ def _piece_discs(verts: np.ndarray, rho: float, r: np.ndarray, zbest, sbest) -> 
     h = np.sqrt(np.maximum(rho * rho - dx * dx, 0.0))
     z = verts[owner, 1] - h
     s = np.where(h > 0, dx / np.where(h > 0, h, 1.0), np.sign(dx) * 1e6)
-    order = np.lexsort((z, idx))
+    # the lowest disc at each grid radius (the first such vertex on a tie): grouped by the
+    # radius (a stable integer sort, linear), each group's minimum, its first entry at it
+    order = np.argsort(idx, kind="stable")
     idx, z, s = idx[order], z[order], s[order]
-    first = np.concatenate([[True], idx[1:] != idx[:-1]])
-    _take_lower(idx[first], z[first], s[first], zbest, sbest)
+    starts = np.flatnonzero(np.concatenate([[True], idx[1:] != idx[:-1]]))
+    group = np.repeat(np.arange(starts.size), np.diff(np.append(starts, idx.size)))
+    at_min = np.flatnonzero(z == np.minimum.reduceat(z, starts)[group])
+    pick = at_min[np.concatenate([[True], group[at_min[1:]] != group[at_min[:-1]]])]
+    _take_lower(idx[pick], z[pick], s[pick], zbest, sbest)
 
 
 def gouge_depth(toolpath: Toolpath, nose_radius: float | None = None) -> float:

@@ -198,3 +198,34 @@ def test_vertex_grid_merges_collinear_runs_within_its_tolerance():
     # a segment found by the grid's cells or its binary search: where np.searchsorted puts it
     j = grid.segment(q)
     assert np.array_equal(j, np.clip(np.searchsorted(grid.vr, q, side="right") - 1, 0, grid.vr.size - 2))
+
+
+@pytest.mark.parametrize("which", ["best", "paper"])
+def test_duplicated_envelope_points_leave_no_ray_to_the_march(designs, which, monkeypatch):
+    """An envelope's points duplicated at one radius (heights equal to rounding) are no
+    steep feature: on the recessed design's made surfaces no ray goes to the march (before,
+    most did), and the fates and hits are the fine march's."""
+    import lathe_mirror.optics.trace3d as trace3d
+
+    s = designs["recessed"]
+    mirror = s.mirror()
+    made = _made(s, which)
+    cam = mirror.camera
+    xy = _sensor_sample(cam, 2500, seed=11)
+    marched = []
+    march = trace3d.march
+
+    def counting(profile, origin, d, *args, **kw):
+        marched.append(len(d))
+        return march(profile, origin, d, *args, **kw)
+
+    for pose in POSES:
+        origin, d = ray_directions(cam, xy[:, 0], xy[:, 1], pose)
+        monkeypatch.setattr(trace3d, "march", counting)
+        fast = trace_rays(made, origin, d)
+        monkeypatch.setattr(trace3d, "march", march)
+        assert sum(marched) == 0
+        ref = trace_rays(made, origin, d, fast=False, march_steps=1024, chunk=256)
+        assert np.array_equal(fast.fate, ref.fate)
+        m = fast.fate <= Fate.OUTER
+        assert m.sum() > 1000 and np.abs(fast.point[m] - ref.point[m]).max() < 1e-9

@@ -95,10 +95,11 @@ def pixel_centres(camera: Camera, *, supersample: int = 1,
 
 def ray_directions(camera: Camera, u: np.ndarray, v: np.ndarray,
                    pose: CameraPose = ALIGNED) -> tuple[np.ndarray, np.ndarray]:
-    """Ray origin (3,) and unit directions (..., 3) in the mirror frame for image points (px)."""
+    """Ray origin (3,) and unit directions (..., 3) in the mirror frame for image points (px).
+    The directions are stored component by component (the (..., 3) array is a view of a
+    (3, ...) one: the 3-D tracer reads the components as contiguous rows)."""
     u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
-    d = np.empty(u.shape + (3,))
-    flat = d.reshape(-1, 3)
+    planar = np.empty((3, u.size))
     uf, vf = u.reshape(-1), v.reshape(-1)
     rot = None if pose.aligned else pose.rotation
     t, f = camera.t_pixel, camera.f
@@ -113,16 +114,15 @@ def ray_directions(camera: Camera, u: np.ndarray, v: np.ndarray,
         x *= inv
         y *= inv
         inv *= f  # the z component
-        blk = flat[a:a + _RAY_BLOCK]
+        blk = planar[:, a:a + _RAY_BLOCK]
         if rot is None:
-            blk[:, 0], blk[:, 1], blk[:, 2] = x, y, inv
+            blk[0], blk[1], blk[2] = x, y, inv
         else:
             for c in range(3):
-                col = x * rot[c, 0]
+                col = np.multiply(x, rot[c, 0], out=blk[c])
                 col += y * rot[c, 1]
                 col += inv * rot[c, 2]
-                blk[:, c] = col
-    return pose.origin, d
+    return pose.origin, planar.T.reshape(u.shape + (3,))
 
 
 #: Rays per block of ray_directions.

@@ -13,8 +13,9 @@ Fast path (every ray, vectorised; no Python loop per ray):
 * on a made profile (polyline, tabulated envelope, programmed moves, spline) the hit is
   the root of the height gap g(s) = z(s) - Z(r(s)) along the ray: safeguarded Newton (a
   step leaving the bracket bisects it), all rays at once, from the quadric's hit, with
-  the interpolant's own chord slope on piecewise-linear profiles (exact on a piece), to
-  ROOT_TOL_MM. Two or three steps.
+  the interpolant's own chord slope on piecewise-linear profiles, to ROOT_TOL_MM
+  (optics.roots3d). On a piecewise-linear profile one step, checked without a second
+  evaluation, settles about nineteen rays in twenty.
 * which lobe, the wall or a miss, decided without marching: a ray from below climbs
   faster than the surface where the surface's slope stays below the ray's d_z / |d_xy|
   (dr/ds <= |d_xy|), so g rises monotonically there and has at most one root. Per lobe,
@@ -46,23 +47,18 @@ import numpy as np
 from ..compute import active
 from ..profile import Profile
 from .march import WALL_JUMP_MM, march, reflected_blocked
-from .rays import ROOT_TOL_MM, Fate, RayHits
-from .surface_tables import LobeTable, SurfaceTables, first_steep, lobe_zs, normal_slope, surface_tables
+from .rays import Fate, RayHits
+from .roots3d import newton_roots
+from .surface_tables import LobeTable, SurfaceTables, first_steep, normal_slope, surface_tables
 
 __all__ = ["CHUNK", "WALL_JUMP_MM", "trace_rays", "tracing_threads"]
-#: Rays per vectorised batch (bounds the memory; a batch stays in cache).
+#: Rays per vectorised batch, in turn or in threads (its arrays stay in a core's cache:
+#: per ray, 1 << 15 took less CPU than 1 << 16 or 1 << 17, serial and in 2 threads).
 CHUNK = 1 << 15
-#: Rays per batch when the batches run in threads (tracing_threads): larger, so that the
-#: threads spend their time in numpy's loops, not waiting for the interpreter (2 threads
-#: on the full sensor: 5.7e6 rays/s at 1 << 17 against 4.7e6 at 1 << 15).
-THREAD_CHUNK = 1 << 17
 #: A ray must out-climb a bin's slope bound by this factor to count as monotone there.
 MONOTONE_MARGIN = 1.02
 #: The steep bins at the inner lobe's rim walked one by one (beyond: the march).
 STEEP_WALK = 32
-#: A Newton step whose g'(s) is below this (a ray grazing the surface) is checked by a
-#: second evaluation (the check without it allows a residual of the grid's rounding / g').
-NEWTON_DG_MIN = 0.05
 
 
 def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
@@ -70,8 +66,8 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
                march_steps: int = 16) -> RayHits:
     """Rays origin + s * direction (mm, unit directions (..., 3)) off the profile.
 
-    chunk: rays per vectorised batch (default CHUNK; THREAD_CHUNK when the batches run in
-    threads, tracing_threads). fast=False marches every ray (the fallback; for comparison
+    chunk: rays per vectorised batch (default CHUNK; the batches run in threads when the
+    command has several cores, tracing_threads). fast=False marches every ray (the fallback; for comparison
     and benchmarks).
     march_steps: the march's steps through the height range (it misses a sliver of
     material thinner than a step: more steps, finer). A tqdm bar on stderr when `progress`.
@@ -82,8 +78,11 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
     d_all = d_all.reshape(-1, 3)
     n = d_all.shape[0]
     fate = np.full(n, Fate.MISS, dtype=np.int8)
-    point = np.full((n, 3), np.nan)
-    out = np.full((n, 3), np.nan)
+    point = np.empty((n, 3))  # NaN where no lobe is hit: filled chunk by chunk (in the threads)
+    out = np.empty((n, 3))
+    if not fast:
+        point.fill(np.nan)
+        out.fill(np.nan)
     blocked = np.zeros(n, dtype=bool)
     tables = surface_tables(profile)
     bar = None
@@ -92,11 +91,13 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
 
         bar = tqdm(total=n, unit="ray", unit_scale=True, desc="trace 3-D", leave=False)
     threads = tracing_threads() if fast and n > (chunk or CHUNK) else 1
-    chunk = chunk or (THREAD_CHUNK if threads > 1 else CHUNK)
+    chunk = chunk or CHUNK
     rest = [np.arange(n)]
     if fast:
         def one(a: int) -> np.ndarray:
             sl = slice(a, min(a + chunk, n))
+            point[sl] = np.nan
+            out[sl] = np.nan
             return a + _fast_chunk(profile, tables, origin, d_all[sl], fate[sl], point[sl], out[sl], blocked[sl])
 
         starts = range(0, n, chunk)
@@ -143,7 +144,7 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
     ox, oy, oz = (float(x) for x in o)
     r0sq = ox * ox + oy * oy
     inner_t, outer_t = tb.lobes
-    dx, dy, dz = np.ascontiguousarray(d.T)
+    dx, dy, dz = (np.ascontiguousarray(c) for c in d.T)  # no copy from ray_directions' planar rays
     # a ray heading down never reaches the mirror above (a miss); one along the axis or
     # with its origin off the inner lobe's monotone zone goes to the march
     dxy2 = dx * dx
@@ -213,8 +214,8 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
     not_inner = z_c < inner_t.z_sufmin.take(b_r)
     # Where that does not settle it, walk the steep bins: the ray below each bin's lowest
     # point at the bin's outer edge (its highest point there) never enters it.
-    walk = np.nonzero(~not_inner & (b_r >= nb0 - STEEP_WALK) & steep)[0]
-    if walk.size:
+    walk = np.nonzero(~not_inner & (b_r >= nb0 - STEEP_WALK) & steep)[0] if steep.any() else ()
+    if len(walk):
         first = nb0 - STEEP_WALK if nb0 > STEEP_WALK else 0
         bins = np.arange(first, nb0)
         sel = rest[walk]
@@ -228,7 +229,7 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
     nb1 = outer_t.slope_cummax.size
     b1 = first_steep(outer_t, climb.take(rest))
     if b1.min(initial=nb1) == nb1:
-        s1 = exit_s(outer_t.hi, rest)
+        s1 = exit_s(outer_t.hi).take(rest)  # (dense, then picked: cheaper than four picks)
         z_b1 = outer_t.z_edge[nb1]
     else:
         s1 = exit_s(outer_t.edges.take(b1), rest)
@@ -260,7 +261,7 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
             conv = (s >= lo_s - 1e-9) & (s <= hi_s + 1e-9)  # False for NaN
             seg = hit = None
         else:
-            s, conv, seg, hit = _newton(profile, lobe, (ox, oy, oz), kx, ky, kz, dxy2[sel], s, lo_s, hi_s)
+            s, conv, seg, hit = newton_roots(profile, lobe, (ox, oy, oz), kx, ky, kz, dxy2[sel], s, lo_s, hi_s)
         if not conv.all():
             undecided.append(rows[~conv])
             rows, kx, ky, kz, s = rows[conv], kx[conv], ky[conv], kz[conv], s[conv]
@@ -352,182 +353,61 @@ def _quadric_hit(lobe: LobeTable, oz: float, dz: np.ndarray, bxy: np.ndarray, dx
         return np.where((lo > 0) & (lo < edge), lo, np.where((hi > 0) & (hi < edge), hi, np.nan))
 
 
-def _newton(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo, hi, max_iter: int = 60):
-    """Roots of g(s) = z - Z(r) in [lo, hi] (g(lo) < 0 <= g(hi)) from s0 (the quadric's
-    hit): s, converged, and on a polyline the grid's segment of each root and its hit
-    point's (x, y, r) (else None).
-
-    On a polyline a Newton step along the chord of the current segment (the grid merges
-    collinear runs) lands on the root whenever the step stays in that segment: that is
-    checked without another evaluation (_checked_step). A ray whose step leaves its
-    segment (about one in twenty from the quadric's hit) takes another step, from there
-    or, outside its bracket, from the bracket's middle (safeguarded Newton); it stops too
-    where the step or the bracket falls below ROOT_TOL_MM (at a step wall or a kink)."""
-    grid = lobe.grid
-    x = s0
-    inb = (s0 >= lo) & (s0 <= hi)
-    if not inb.all():
-        x = np.where(inb, s0, 0.5 * (lo + hi))  # NaN s0: the middle
-    if grid is None:
-        x, conv = _newton_loop(profile, lobe, o, dx, dy, dz, x, lo.copy(), hi.copy(), max_iter)
-        return x, conv, None, None
-    ox, oy, oz = o
-    nx, conv, j, hit, below = _checked_step(lobe, o, dx, dy, dz, dxy2, x, lo, hi)
-    if conv.all():
-        return nx, conv, j, hit
-    px, py, r = hit
-    act = np.nonzero(~conv)[0]  # the rays still going, and their own arrays
-    ax, ay, az, a2 = dx[act], dy[act], dz[act], dxy2[act]
-    xa, na, la, ha, ba = x[act], nx[act], lo[act], hi[act], below[act]
-    for _ in range(max_iter):
-        # the bracket from g's sign at xa; a step leaving it bisects it
-        la = np.where(ba, xa, la)
-        ha = np.where(ba, ha, xa)
-        with np.errstate(invalid="ignore"):
-            na = np.where((na >= la) & (na <= ha), na, 0.5 * (la + ha))
-        done = (np.abs(na - xa) <= ROOT_TOL_MM) | (ha - la <= ROOT_TOL_MM)
-        if done.any():
-            d_i = act[done]
-            nx[d_i] = na[done]
-            conv[d_i] = True
-            px[d_i], py[d_i] = ox + na[done] * ax[done], oy + na[done] * ay[done]
-            r[d_i] = np.sqrt(px[d_i] ** 2 + py[d_i] ** 2)
-            j[d_i] = grid.segment(np.clip(r[d_i], lobe.lo, lobe.hi))
-            keep = ~done
-            act, ax, ay, az, a2, na, la, ha = (v[keep] for v in (act, ax, ay, az, a2, na, la, ha))
-            if act.size == 0:
-                break
-        xa = na
-        na, ok, ja, (pa, qa, ra), ba = _checked_step(lobe, o, ax, ay, az, a2, xa, la, ha)
-        if ok.any():
-            d_i = act[ok]
-            nx[d_i], conv[d_i], j[d_i], px[d_i], py[d_i], r[d_i] = na[ok], True, ja[ok], pa[ok], qa[ok], ra[ok]
-            keep = ~ok
-            act, ax, ay, az, a2, xa, na, la, ha, ba = (v[keep] for v in (act, ax, ay, az, a2, xa, na, la, ha, ba))
-            if act.size == 0:
-                break
-    return nx, conv, j, (px, py, r)
-
-
-def _checked_step(lobe: LobeTable, o, dx, dy, dz, dxy2, x, lo, hi):
-    """One Newton step on g(s) = z - Z(r) from x along the chord of x's grid segment: the
-    new s, whether it is the root (the step inside the bracket [lo, hi] (dg > 0: g < 0
-    steps up, g > 0 down) landing in the segment, g' not grazing, the neglected
-    second-order term of a skew ray's curving r(s) (g'' = -m r'', r'' = (|d_xy|^2 - r'^2)
-    / r) moving s by less than ROOT_TOL_MM), the segment, (x, y, r) at the new s, and
-    whether g < 0 at x."""
-    grid = lobe.grid
-    ox, oy, oz = o
-    with np.errstate(invalid="ignore", divide="ignore"):
-        px = x * dx
-        px += ox
-        py = x * dy
-        py += oy
-        r = px * px
-        t = py * py
-        r += t
-        np.sqrt(r, out=r)
-        rc = np.minimum(r, lobe.hi)
-        np.maximum(rc, lobe.lo, out=rc)
-        j = grid.segment(rc)
-        m = grid.m.take(j)
-        z = grid.r0.take(j)
-        np.subtract(rc, z, out=z)
-        z *= m
-        z += grid.z0.take(j)
-        g = x * dz  # the height gap g = z_ray - Z(r)
-        g += oz
-        g -= z
-        below = g < 0
-        drds = px * dx  # dr/ds
-        np.multiply(py, dy, out=t)
-        drds += t
-        np.maximum(r, 1e-300, out=r)  # on the axis dr/ds = 0
-        drds /= r
-        dg = m * drds  # g'(s) = dz - m dr/ds
-        np.subtract(dz, dg, out=dg)
-        step = np.divide(g, dg, out=g)
-        nx = x - step
-        np.multiply(drds, drds, out=t)
-        np.subtract(dxy2, t, out=t)
-        t *= m
-        t /= r
-        np.abs(t, out=t)
-        t *= step
-        t *= step
-        conv = dg >= NEWTON_DG_MIN
-        conv &= t <= np.multiply(dg, 2.0 * ROOT_TOL_MM, out=dg)
-        conv &= nx >= lo
-        conv &= nx <= hi
-        np.multiply(nx, dx, out=px)
-        px += ox
-        np.multiply(nx, dy, out=py)
-        py += oy
-        np.multiply(px, px, out=r)
-        np.multiply(py, py, out=t)
-        r += t
-        np.sqrt(r, out=r)
-        conv &= r >= grid.seg_lo.take(j)
-        conv &= r < grid.seg_hi.take(j)
-    return nx, conv, j, (px, py, r), below
-
-
-def _newton_loop(profile: Profile, lobe: LobeTable, o, dx, dy, dz, x, lo, hi, max_iter: int = 60):
-    """Safeguarded Newton on g(s) = z - Z(r) from x in the brackets [lo, hi] (updated in
-    place; g(lo) < 0 <= g(hi)): a step leaving the bracket bisects it. s, converged."""
-    ox, oy, oz = o
-    x = x.copy()
-    conv = np.zeros(x.size, dtype=bool)
-    act = np.arange(x.size)
-    ax, ay, az = dx, dy, dz
-    for _ in range(max_iter):
-        xa = x[act]
-        px = ox + xa * ax
-        py = oy + xa * ay
-        r = np.sqrt(px * px + py * py)
-        z, m = lobe_zs(profile, lobe, r)
-        g = oz + xa * az - z
-        with np.errstate(invalid="ignore", divide="ignore"):
-            drds = np.where(r > 0, (px * ax + py * ay) / r, 0.0)
-            nx = xa - g / (az - m * drds)
-        below = g < 0
-        la = np.where(below, xa, lo[act])
-        ha = np.where(below, hi[act], xa)
-        nx = np.where((nx >= la) & (nx <= ha), nx, 0.5 * (la + ha))
-        lo[act], hi[act], x[act] = la, ha, nx
-        done = (np.abs(nx - xa) <= ROOT_TOL_MM) | (g == 0) | (ha - la <= ROOT_TOL_MM)
-        conv[act[done]] = True
-        keep = ~done
-        act = act[keep]
-        if act.size == 0:
-            break
-        ax, ay, az = ax[keep], ay[keep], az[keep]
-    return x, conv
-
-
 def _blocked(profile: Profile, tb: SurfaceTables, px, py, pz, ux, uy, uz) -> np.ndarray:
     """Does the reflected ray p + l u (l > 0) leaving the inner lobe run into the outer
     lobe's material (up to the rim)? h(l) = z - Z_outer(r) is concave (convex lobe): its
     values at the junction and the rim and its tangents there decide; an undecided ray is
     sampled (march.reflected_blocked)."""
-    oxy2 = ux * ux + uy * uy
-    bxy = px * ux + py * uy
-    rp2 = px * px + py * py
     outer = tb.lobes[1]
     with np.errstate(invalid="ignore", divide="ignore"):
-        inv = 1.0 / oxy2
+        oxy2 = ux * ux
+        t = uy * uy
+        oxy2 += t
+        bxy = px * ux
+        np.multiply(py, uy, out=t)
+        bxy += t
+        rp2 = px * px
+        np.multiply(py, py, out=t)
+        rp2 += t
+        inv = np.divide(1.0, oxy2)
         bb = bxy * bxy
-        lj = (np.sqrt(np.maximum(bb - oxy2 * (rp2 - outer.lo**2), 0.0)) - bxy) * inv
-        lm = (np.sqrt(np.maximum(bb - oxy2 * (rp2 - outer.hi**2), 0.0)) - bxy) * inv
-        hj = pz + lj * uz - outer.z_edge[0]
-        hm = pz + lm * uz - tb.z_rim
-        dj = uz - tb.slope_j * (bxy + lj * oxy2) / outer.lo
-        dm = uz - tb.slope_rim * (bxy + lm * oxy2) / outer.hi
-        cross = (hm - hj + dj * lj - dm * lm) / (dj - dm)
-        bound = hj + dj * (cross - lj)
-        valid = (oxy2 > 0) & (lj > 0)
-        res = valid & ((hj > 0) | (hm > 0))
-        maybe = valid & ~res & (dj > 0) & (dm < 0) & ~(bound <= 0)
+
+        def leave(radius):  # l where the ray leaves the cylinder r = radius
+            e = rp2 - radius * radius
+            e *= oxy2
+            np.subtract(bb, e, out=e)
+            np.maximum(e, 0.0, out=e)
+            np.sqrt(e, out=e)
+            e -= bxy
+            e *= inv
+            return e
+
+        lj, lm = leave(outer.lo), leave(outer.hi)
+        hj = lj * uz  # h and its slope dh/dl at the junction and the rim
+        hj += pz
+        hj -= outer.z_edge[0]
+        hm = lm * uz
+        hm += pz
+        hm -= tb.z_rim
+        dj = lj * oxy2
+        dj += bxy
+        dj *= tb.slope_j
+        dj /= outer.lo
+        np.subtract(uz, dj, out=dj)
+        dm = lm * oxy2
+        dm += bxy
+        dm *= tb.slope_rim
+        dm /= outer.hi
+        np.subtract(uz, dm, out=dm)
+        valid = oxy2 > 0
+        valid &= lj > 0
+        res = (hj > 0) | (hm > 0)
+        res &= valid
+        maybe = valid & ~res & (dj > 0) & (dm < 0)
+        if maybe.any():  # the tangents' meeting point bounds h
+            k = np.nonzero(maybe)[0]
+            cross = (hm[k] - hj[k] + dj[k] * lj[k] - dm[k] * lm[k]) / (dj[k] - dm[k])
+            maybe[k] = ~(hj[k] + dj[k] * (cross - lj[k]) <= 0)
     if maybe.any():
         p = np.stack([px[maybe], py[maybe], pz[maybe]], axis=-1)
         u = np.stack([ux[maybe], uy[maybe], uz[maybe]], axis=-1)

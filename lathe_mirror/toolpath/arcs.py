@@ -152,17 +152,23 @@ def _fit_arcs(t: Target, ends: np.ndarray | None, lathe: Lathe, *, window: int =
     r0 = np.hypot(*(S[:, None, :] - cand).transpose(2, 0, 1))
     r1 = np.hypot(*(E[:, None, :] - cand).transpose(2, 0, 1))
     ok = np.abs(r1 - r0) <= lathe.arc_radius_tolerance
-    # sample each candidate's spiral and score its max slope error against the curve
-    a0 = np.arctan2(S[:, None, 1] - cand[..., 1], S[:, None, 0] - cand[..., 0])
-    a1 = np.arctan2(E[:, None, 1] - cand[..., 1], E[:, None, 0] - cand[..., 0])
-    sweep = (a1 - a0 + np.pi) % (2 * np.pi) - np.pi
+    # sample each candidate's spiral and score its max slope error against the curve; only
+    # the candidates within the radius tolerance (those near SE's bisector: a few of the
+    # window's (2 window + 1)^2) are scored, the others cannot be cut
+    ii, jj = np.nonzero(ok)
+    sweep = np.zeros(ok.shape)
+    c_ok, r0k, r1k = cand[ii, jj], r0[ii, jj], r1[ii, jj]
+    a0 = np.arctan2(S[ii, 1] - c_ok[:, 1], S[ii, 0] - c_ok[:, 0])
+    a1 = np.arctan2(E[ii, 1] - c_ok[:, 1], E[ii, 0] - c_ok[:, 0])
+    sw = (a1 - a0 + np.pi) % (2 * np.pi) - np.pi
+    sweep[ii, jj] = sw
     u = np.linspace(0.0, 1.0, n_check)
-    phi = a0[..., None] + sweep[..., None] * u
-    rad = r0[..., None] + (r1 - r0)[..., None] * u
-    pr = cand[..., 0, None] + rad * np.cos(phi)
-    pz = cand[..., 1, None] + rad * np.sin(phi)
+    phi = a0[:, None] + sw[:, None] * u
+    rad = r0k[:, None] + (r1k - r0k)[:, None] * u
+    pr = c_ok[:, 0, None] + rad * np.cos(phi)
+    pz = c_ok[:, 1, None] + rad * np.sin(phi)
     # tangent of the spiral: d/dphi of (R cos, R sin) with dR/dphi = (r1 - r0) / sweep
-    dR = ((r1 - r0) / np.where(sweep == 0, 1.0, sweep))[..., None]
+    dR = ((r1k - r0k) / np.where(sw == 0, 1.0, sw))[:, None]
     tr = dR * np.cos(phi) - rad * np.sin(phi)
     tz = dR * np.sin(phi) + rad * np.cos(phi)
     sign = np.where(tr < 0, -1.0, 1.0)  # orient toward +r
@@ -174,7 +180,8 @@ def _fit_arcs(t: Target, ends: np.ndarray | None, lathe: Lathe, *, window: int =
     # (a centre off by more would follow the slope at the cost of the surface's place),
     # but on a fine lattice a long arc at a fixed column may not get that close to the
     # hyperbola at all; then the best centre beyond it still beats a chord.
-    score = np.where(ok, err + 0.1 * dev + np.where(dev < 4 * res, 0.0, _FAR), np.inf)
+    score = np.full(ok.shape, np.inf)
+    score[ii, jj] = err + 0.1 * dev + np.where(dev < 4 * res, 0.0, _FAR)
     best = np.argmin(score, axis=1)
     moves: list[Move] = []
     for i in range(m):

@@ -220,7 +220,7 @@ def range_figures(result: StereoResult, truth: TrueRange, mirror: Mirror, *,
     measured = float(np.median(np.abs(derr[valid]))) if valid.any() else math.nan
     precision = measured if precision_px is None else float(precision_px)
     r_true = truth.range_mm
-    model_1px = range_error_pct(mirror, r_true, truth.elevation)
+    model_1px = truth.model_1px_pct
     model_match = range_error_pct(mirror, r_true, truth.elevation, precision * grid.step)
     bins = []
     for lo, hi in RANGE_BINS_M:
@@ -272,7 +272,7 @@ def error_curve(result: StereoResult, truth: TrueRange, mirror: Mirror, precisio
     valid = result.valid & np.isfinite(truth.range_mm)
     r = truth.range_mm / 1e3
     err = np.abs(100.0 * (result.range_map.range_mm - truth.range_mm) / truth.range_mm)
-    m1 = range_error_pct(mirror, truth.range_mm, truth.elevation)
+    m1 = truth.model_1px_pct
     mp = range_error_pct(mirror, truth.range_mm, truth.elevation, precision_px * result.grid.step)
     out = {"range_m": [], "measured_pct": [], "model_1px_pct": [], "model_matcher_pct": [], "pixels": []}
     for lo, hi in zip(edges[:-1], edges[1:]):

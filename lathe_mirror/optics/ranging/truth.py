@@ -19,6 +19,7 @@ import numpy as np
 from ...design import Mirror
 from ..scene import Scene, intersect_columns
 from .rectify import PanoramaGrid
+from .resolution import range_error_pct
 from .triangulate import stereo_centre_z
 
 
@@ -26,13 +27,16 @@ from .triangulate import stereo_centre_z
 class TrueRange:
     """Per reference pixel (n_el, n_az): range_mm from the stereo centre, the hit point
     (mm, (..., 3)), the surface id it lies on (optics.scene), the elevation (rad) of the
-    point from the stereo centre and the true panorama disparity (px)."""
+    point from the stereo centre, the true panorama disparity (px) and the resolution
+    model's range error (%) at one pixel of disparity there (resolution.range_error_pct:
+    the design's, the same for every made mirror ranged in this room, so computed once)."""
 
     range_mm: np.ndarray
     points: np.ndarray
     surface: np.ndarray
     elevation: np.ndarray
     disparity: np.ndarray
+    model_1px_pct: np.ndarray
 
 
 def true_range(mirror: Mirror, scene: Scene, grid: PanoramaGrid) -> TrueRange:
@@ -50,6 +54,8 @@ def true_range(mirror: Mirror, scene: Scene, grid: PanoramaGrid) -> TrueRange:
     r = np.hypot(p[..., 0], p[..., 1])
     zc = stereo_centre_z(mirror)
     phi_inner = np.arctan2(p[..., 2] - mirror.inner.focus_z, r)
-    return TrueRange(range_mm=np.hypot(r, p[..., 2] - zc), points=p, surface=surface.reshape(shape),
-                     elevation=np.arctan2(p[..., 2] - zc, r),
-                     disparity=(phi_inner - el) / grid.step)
+    range_mm = np.hypot(r, p[..., 2] - zc)
+    elevation = np.arctan2(p[..., 2] - zc, r)
+    return TrueRange(range_mm=range_mm, points=p, surface=surface.reshape(shape), elevation=elevation,
+                     disparity=(phi_inner - el) / grid.step,
+                     model_1px_pct=range_error_pct(mirror, range_mm, elevation))
