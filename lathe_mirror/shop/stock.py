@@ -213,6 +213,7 @@ class _Sim:
         self.tiles = shapely.intersection(np.array(tiles, dtype=object), start)
         self.alive = shapely.area(self.tiles) > 0
         self.tile_bounds = shapely.bounds(self.tiles)
+        self.grid = np.arange(self.nr * self.nz).reshape(self.nr, self.nz)  # tile (i, j)'s index
         self._stock = None
         self.contacts: list[Contact] = []
         self.pos: tuple[float, float] | None = None
@@ -245,7 +246,7 @@ class _Sim:
         j1 = min(self.nz - 1, int((y1 - self.z_lo) // TILE))
         if i1 < i0 or j1 < j0:
             return np.empty(0, dtype=np.intp)
-        idx = np.add.outer(np.arange(i0, i1 + 1) * self.nz, np.arange(j0, j1 + 1)).ravel()
+        idx = self.grid[i0:i1 + 1, j0:j1 + 1].ravel()
         idx = idx[self.alive[idx]]
         tb = self.tile_bounds[idx]
         return idx[(tb[:, 0] <= x1) & (tb[:, 2] >= x0) & (tb[:, 1] <= y1) & (tb[:, 3] >= y0)]
@@ -370,7 +371,8 @@ class _Sim:
         if idx.size == 0:
             return 0.0, 0.0, part_depth
         tiles = self.tiles[idx]
-        touch = shapely.intersects(tiles, region)
+        shapely.prepare(region)
+        touch = shapely.intersects(region, tiles)
         idx, tiles = idx[touch], tiles[touch]
         if idx.size == 0:
             return 0.0, 0.0, part_depth
