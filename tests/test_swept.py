@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import shapely
 
-from lathe_mirror.shop.swept import PLANE_TOL, sweep, sweep_pieces, swept_pieces
+from lathe_mirror.shop.swept import PLANE_TOL, sweep_pieces, sweep_rapids, swept_pieces
 
 
 def rectangle(w: float, h: float) -> np.ndarray:
@@ -61,7 +61,8 @@ def test_what_crosses_the_axis_is_folded_onto_it():
     moved 2 mm along Z, 3 x 3; moved 2 mm in +r from r = -3 to -1 (the sweep from r = -3
     to 3), its mirror the rest: 3 x 1."""
     xy = rectangle(4.0, 1.0)
-    assert sweep(xy, np.array([[-1.0, 0.0], [-1.0, 0.0]])).area == pytest.approx(3.0, rel=1e-12)
+    at = np.array([[-1.0, 0.0]])
+    assert sweep_pieces(xy, at, at)[0].area == pytest.approx(3.0, rel=1e-12)
     hulls = sweep_pieces(xy, np.array([[-1.0, 0.0], [-3.0, 0.0]]), np.array([[-1.0, 2.0], [-1.0, 0.0]]))
     assert shapely.area(hulls) == pytest.approx([9.0, 3.0], rel=1e-12)
     assert shapely.bounds(hulls[1]) == pytest.approx([0.0, 0.0, 3.0, 1.0])
@@ -82,3 +83,19 @@ def test_within_zone_holds_points_inside_and_on_the_edge_only():
         assert not sw.within_zone(0, np.vstack([inside, out]))
     assert not sw.within_zone(1, np.array([[0.2, 0.5]]))
     assert not sw.chuck.any() and not sw.part_depth.any()
+
+
+def test_a_rapid_sweeps_its_line_and_a_diagonal_one_its_box_too():
+    """A w x h rectangle at rapid: along one axis only the line (w h + |dr| h + |dz| w);
+    diagonally the line and the box its ends span, (w + |dr|) (h + |dz|); no rapid, none."""
+    w, h = 0.8, 2.0
+    a = np.array([[10.0, 5.0], [10.0, 5.0], [30.0, -2.0]])
+    b = np.array([[10.0, 1.0], [4.0, 8.0], [22.0, 3.0]])
+    out = sweep_rapids(rectangle(w, h), a, b)
+    assert [[kind for kind, _ in regions] for regions in out] == [["rapid"], ["rapid", "dogleg"], ["rapid", "dogleg"]]
+    for (dr, dz), regions in zip(b - a, out):
+        dr, dz = abs(dr), abs(dz)
+        assert regions[0][1].area == pytest.approx(w * h + dr * h + dz * w, rel=1e-12)
+        if len(regions) > 1:
+            assert regions[1][1].area == pytest.approx((w + dr) * (h + dz), rel=1e-12)
+    assert sweep_rapids(rectangle(w, h), np.empty((0, 2)), np.empty((0, 2))) == []

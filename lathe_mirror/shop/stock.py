@@ -33,7 +33,7 @@ from .sim_results import Contact, OperationFigures, SimMove, SimOperation, Simul
 from .tool_shapes import (CUTTING_EDGE_FRACTION, INSERT_IC, cutting_zone, edge_length, insert_outline,  # noqa: F401
                           insert_shape, reach_toward_axis)
 from .program import Feed, FeedRate, Rapid
-from .swept import Swept, sweep, swept_pieces
+from .swept import Swept, sweep_rapids, swept_pieces
 
 if TYPE_CHECKING:
     from ..design import Mirror
@@ -205,12 +205,11 @@ class _Sim:
         r0, self.z_lo, r1, self.z_hi = start.bounds
         self.nr = max(1, int(math.ceil(r1 / TILE)))
         self.nz = max(1, int(math.ceil((self.z_hi - self.z_lo) / TILE)))
-        tiles = []
-        for i in range(self.nr):
-            for j in range(self.nz):
-                tiles.append(shapely.box(i * TILE, self.z_lo + j * TILE, min((i + 1) * TILE, r1),
-                                         min(self.z_lo + (j + 1) * TILE, self.z_hi)))
-        self.tiles = shapely.intersection(np.array(tiles, dtype=object), start)
+        i, j = np.meshgrid(np.arange(self.nr, dtype=float), np.arange(self.nz, dtype=float), indexing="ij")
+        i, j = i.ravel(), j.ravel()
+        tiles = shapely.box(i * TILE, self.z_lo + j * TILE, np.minimum((i + 1) * TILE, r1),
+                            np.minimum(self.z_lo + (j + 1) * TILE, self.z_hi))
+        self.tiles = shapely.intersection(tiles, start)
         self.alive = shapely.area(self.tiles) > 0
         self.tile_bounds = shapely.bounds(self.tiles)
         self.grid = np.arange(self.nr * self.nz).reshape(self.nr, self.nz)  # tile (i, j)'s index
@@ -286,6 +285,8 @@ class _Sim:
         p_f = np.concatenate([np.full(len(p) - 1, mv.feed) for mv, p in zip(feeds, pts)]) if pts else np.empty(0)
         p_a = np.zeros(len(p_s))
         swept = swept_pieces(self.ins_xy, self.cut_xy, p_s, p_e, self.part, self.part_boundary, self.chuck)
+        rapids = np.array([[mv.move.start, mv.move.end] for mv in op.moves if mv.rapid], float).reshape(-1, 2, 2)
+        rapid_regions = iter(sweep_rapids(self.ins_xy, rapids[:, 0], rapids[:, 1]))
         first = i_feed = 0  # the feed move's first piece, its index in feeds
         for mv in op.moves:
             if self.pos is None:
@@ -293,7 +294,7 @@ class _Sim:
             if mv.rapid:
                 a, b = np.asarray(mv.move.start, float), np.asarray(mv.move.end, float)
                 rapid_time += 60.0 * float(np.hypot(*(b - a))) / rapid_rate
-                self.rapid(mv, op.name, a, b)
+                self.rapid(mv, op.name, next(rapid_regions))
                 continue
             last = first + len(pts[i_feed]) - 1
             for k in range(first, last):
@@ -330,16 +331,13 @@ class _Sim:
                                 cut_time_s=cut_time, air_time_s=air_time, rapid_time_s=rapid_time,
                                 max_part_cut_mm=part_cut, plunge_mm=plunge, stock_after=after, removed=removed_geom)
 
-    def rapid(self, mv: SimMove, op: str, a: np.ndarray, b: np.ndarray) -> None:
+    def rapid(self, mv: SimMove, op: str, regions: tuple) -> None:
         """Stock or part inside the tool swept along the rapid ("rapid"), else over the
-        box its ends span, the path of a controller that moves one axis first ("dogleg")."""
+        box its ends span, the path of a controller that moves one axis first ("dogleg"):
+        regions ((kind, region), ...) as swept.sweep_rapids gives them."""
         import shapely
 
-        for kind, corners in (("rapid", np.array([a, b])),
-                              ("dogleg", np.array([a, b, [a[0], b[1]], [b[0], a[1]]]))):
-            if kind == "dogleg" and (a[0] == b[0] or a[1] == b[1]):
-                return  # along one axis: the box is the line
-            region = sweep(self.ins_xy, corners)
+        for kind, region in regions:
             self.check_chuck(region, mv, op)
             geom = None
             idx = self.tiles_near(region.bounds)

@@ -40,14 +40,9 @@ def fold(hulls: np.ndarray) -> np.ndarray:
     return right
 
 
-def sweep(xy: np.ndarray, points: np.ndarray):
-    """Convex hull of the convex shape xy (m, 2) placed at each point (n, 2), folded
-    about the axis."""
-    return sweep_all((points[:, None, :] + xy[None, :, :]).reshape(1, -1, 2))[0]
-
-
 def sweep_pieces(xy: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
-    """sweep(xy, [s, e]) of every piece (starts, ends (n, 2)), as an object array (n,).
+    """The folded convex hull of the convex shape xy (m, 2) placed at both ends of each
+    piece (starts, ends (n, 2)), an object array (n,).
     Only the vertices that may lie on the hull are handed to shapely: not those of the
     shape at s whose two edges both face the move (nor at e both facing back), which lie
     inside it (by at least the piece's length x SIDE_TOL)."""
@@ -67,6 +62,21 @@ def sweep_pieces(xy: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.nda
                            ~(long & (facing < -SIDE_TOL) & (before < -SIDE_TOL))], axis=1)
     lines = shapely.linestrings(pts[keep], indices=np.repeat(np.arange(len(pts)), keep.sum(axis=1)))
     return _hulls(lines, pts)
+
+
+def sweep_rapids(xy: np.ndarray, a: np.ndarray, b: np.ndarray) -> list[tuple[tuple[str, object], ...]]:
+    """What the shape xy sweeps along each rapid a -> b (n, 2): ("rapid", its sweep) and,
+    unless it moves along one axis, ("dogleg", the sweep over the box its ends span: a
+    controller moving one axis first): the folded hull of xy placed at those corners."""
+    if len(a) == 0:
+        return []
+    straight = sweep_all((np.stack([a, b], axis=1)[:, :, None, :] + xy[None, None, :, :]).reshape(len(a), -1, 2))
+    diag = np.flatnonzero((a[:, 0] != b[:, 0]) & (a[:, 1] != b[:, 1]))
+    corners = np.stack([a, b, np.stack([a[:, 0], b[:, 1]], axis=1), np.stack([b[:, 0], a[:, 1]], axis=1)], axis=1)
+    box = np.full(len(a), None, dtype=object)
+    if diag.size:
+        box[diag] = sweep_all((corners[diag][:, :, None, :] + xy[None, None, :, :]).reshape(diag.size, -1, 2))
+    return [(("rapid", r),) if d is None else (("rapid", r), ("dogleg", d)) for r, d in zip(straight, box)]
 
 
 def sweep_all(pts: np.ndarray) -> np.ndarray:
