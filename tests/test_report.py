@@ -23,10 +23,16 @@ from lathe_mirror.toolpath import BEST, Strategy, plan_toolpath
 from conftest import UNCUTTABLE, UNCUTTABLE_PHRASE, run_cli
 
 
+#: The module's report: hourly to 10 h (the stereo objective's floor, ~7-8 h, inside), 60
+#: trials, one lattice phase.
+SMALL_TOML = ("[polish]\ncurve_points = 11\ncurve_max_s = 36000.0\n"
+              "[tolerance]\ntrials = 60\nlattice_phases = 1\n")
+
+
 @pytest.fixture(scope="module")
 def small_cfg(paper_config):
     cfg = copy.deepcopy(paper_config)
-    cfg["polish"]["curve_points"] = 11  # hourly to 10 h: the stereo objective's floor (~7-8 h) inside
+    cfg["polish"]["curve_points"] = 11
     cfg["polish"]["curve_max_s"] = 36000.0
     cfg["tolerance"]["trials"] = 60
     cfg["tolerance"]["lattice_phases"] = 1
@@ -263,17 +269,6 @@ def test_html_is_self_contained_and_json_is_plain(report, tmp_path):
     assert dumps(report.figures) == paths["json"].read_text()
 
 
-def test_same_config_same_json(small_cfg, report):
-    cfg = copy.deepcopy(small_cfg)
-    again = report_figures(from_config(cfg), renders=False)
-    a, b = dict(report.figures), dict(again.figures)
-    a.pop("renders", None)
-    a.pop("ranging", None)  # ranging renders too: --no-render skips it
-    assert dumps(a) == dumps(b)
-
-
-
-
 def test_report_cli_uncuttable_design_leaves_no_output_dir(tmp_path):
     cfg = tmp_path / "recessed.toml"
     cfg.write_text(UNCUTTABLE)
@@ -285,10 +280,16 @@ def test_report_cli_uncuttable_design_leaves_no_output_dir(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
-def test_report_cli_no_progress_keeps_stderr_empty(tmp_path):
-    """--no-progress (as render's): nothing on stderr on success, the figures on stdout."""
-    cfg = tmp_path / "quick.toml"
-    cfg.write_text("[polish]\ncurve_points = 3\n[tolerance]\ntrials = 20\nlattice_phases = 1\n")
+def test_report_cli_no_progress_keeps_stderr_empty_and_gives_the_same_json(tmp_path, report):
+    """--no-progress (as render's): nothing on stderr on success, the figures on stdout.
+    The same config in another process gives the same JSON as this module's report (the
+    small config, computed here in-process), but for the stages --no-render skips."""
+    cfg = tmp_path / "small.toml"
+    cfg.write_text(SMALL_TOML)
     proc = run_cli("report", "--config", str(cfg), "--no-progress", "--no-render", "-o", str(tmp_path / "out"))
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stderr == "" and proc.stdout.strip()
+    a = dict(report.figures)
+    a.pop("renders", None)
+    a.pop("ranging", None)  # ranging renders too: --no-render skips it
+    assert (tmp_path / "out" / "report.json").read_text() == dumps(a)
