@@ -17,6 +17,8 @@ config dict. shop.programs.shop_program strings it together (plan, simulate, ref
                shape), per-operation removal, depth of cut, chip load, air time, cycle time
                (G96 with the spindle cap); refuses a rapid or the body touching stock, a
                part-off that leaves the part on; either set-up (simulate, simulate_setup)
+- swept.py     what the tool sweeps along each piece of an operation, all at once (convex
+               hulls folded at the axis, the chuck and part checks, the zone's half planes)
 - tool_shapes.py  the insert (nose, flanks, cutting part) and the parting blade
 - sim_results.py  what the simulation reports (moves, contacts, figures, the parted part)
 - setup.py     the set-up sheet's model: work zero, stock, tools, offsets for the

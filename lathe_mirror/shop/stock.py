@@ -362,10 +362,10 @@ class _Sim:
         region = swept.regions[k]
         if swept.chuck[k]:
             self.chuck_contact(region, mv, op)
-        part_depth = float(swept.part_depth[k])
+        part_depth = swept.depths[k]
         if part_depth > self.gouge:
             self.add("part", op, mv, swept.part_inside[k], None, depth=part_depth)
-        idx = self.tiles_near(swept.bounds[k])
+        idx = self.tiles_near(swept.boxes[k])
         if idx.size == 0:
             return 0.0, 0.0, part_depth
         tiles = self.tiles[idx]
@@ -379,9 +379,10 @@ class _Sim:
         removed = float(areas.sum())
         if removed <= 0.0:
             return 0.0, 0.0, part_depth
-        hit = hit[areas > 0]
+        if not areas.all():
+            hit, areas = hit[areas > 0], areas[areas > 0]
         cx = shapely.get_x(shapely.centroid(hit))
-        volume = float(np.sum(2 * math.pi * np.abs(cx) * areas[areas > 0]))
+        volume = float(np.sum(2 * math.pi * np.abs(cx) * areas))
         zone = swept.zones[k]
         # the body's contact, measured only where the hit may stick out of the zone by AREA_TOL: not
         # when its vertices are all in the (convex) zone, and its pieces beyond the zone may add up to it

@@ -42,10 +42,10 @@ def fold(hulls: np.ndarray) -> np.ndarray:
 
 def sweep_pieces(xy: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
     """The folded convex hull of the convex shape xy (m, 2) placed at both ends of each
-    piece (starts, ends (n, 2)), an object array (n,).
-    Only the vertices that may lie on the hull are handed to shapely: not those of the
-    shape at s whose two edges both face the move (nor at e both facing back), which lie
-    inside it (by at least the piece's length x SIDE_TOL)."""
+    piece (starts, ends (n, 2)), an object array (n,). Only the vertices that may lie on
+    the hull are handed to shapely (its hull is the same): not those of the shape at the
+    start whose two edges both face the move (nor at the end both facing back), which lie
+    inside it by about the piece's length x SIDE_TOL or more."""
     import shapely
 
     pts = np.concatenate([starts[:, None, :] + xy[None, :, :], ends[:, None, :] + xy[None, :, :]], axis=1)
@@ -98,15 +98,24 @@ def _hulls(lines: np.ndarray, pts: np.ndarray) -> np.ndarray:
     return hulls
 
 
-def depth_inside(geoms: np.ndarray, boundary) -> np.ndarray:
-    """Largest distance (mm) from a vertex of each geometry to `boundary` (0 for an empty one)."""
+def depth_inside(geoms: np.ndarray, boundary, vertices: np.ndarray | None = None) -> np.ndarray:
+    """Largest distance (mm) from a vertex of each geometry to `boundary` (0 for an empty
+    one). vertices (k, 2): the boundary's own, at distance 0 from it, not measured."""
     import shapely
 
     out = np.zeros(len(geoms))
     pts, which = shapely.get_coordinates(geoms, return_index=True)
+    if vertices is not None and pts.size:
+        away = ~np.isin(_as_complex(pts), _as_complex(vertices))
+        pts, which = pts[away], which[away]
     if pts.size:
         np.maximum.at(out, which, shapely.distance(shapely.points(pts), boundary))
     return out
+
+
+def _as_complex(pts: np.ndarray) -> np.ndarray:
+    """Points (k, 2) as complex numbers, bit for bit (to compare them)."""
+    return np.ascontiguousarray(pts, dtype=float).view(np.complex128).ravel()
 
 
 @dataclass(frozen=True)
@@ -116,7 +125,7 @@ class Swept:
     regions; `chuck` (n,) bool, the region meets the chuck; `part_depth` (n,) mm, how far
     the zone reaches into the designed part (0: not at all) and `part_inside` the part
     inside the zone where it does (None elsewhere); `planes` each convex zone's edges
-    (ZonePlanes)."""
+    (ZonePlanes). boxes and depths: bounds and part_depth as lists of floats."""
 
     regions: np.ndarray
     zones: np.ndarray
@@ -125,6 +134,8 @@ class Swept:
     part_depth: np.ndarray
     part_inside: np.ndarray
     planes: ZonePlanes
+    boxes: list
+    depths: list
 
     def within_zone(self, k: int, pts: np.ndarray) -> bool:
         """Whether the points (m, 2) all lie in piece k's zone, or outside it by at most
@@ -179,7 +190,9 @@ def swept_pieces(ins_xy: np.ndarray, cut_xy: np.ndarray, starts: np.ndarray, end
     n = len(starts)
     regions = sweep_pieces(ins_xy, starts, ends)
     zones = sweep_pieces(cut_xy, starts, ends)
-    unfolded = np.minimum(starts[:, 0], ends[:, 0]) + cut_xy[:, 0].min() >= 0.0  # as _hulls tells
+    # the zones _hulls did not fold: convex
+    r = cut_xy[None, :, 0]
+    unfolded = np.minimum(starts[:, None, 0] + r, ends[:, None, 0] + r).min(axis=1) >= 0.0
     bounds = shapely.bounds(regions).reshape(n, 4)
     near_chuck = np.flatnonzero(bounds[:, 1] < chuck.bounds[3])
     on_chuck = np.zeros(n, dtype=bool)
@@ -191,7 +204,8 @@ def swept_pieces(ins_xy: np.ndarray, cut_xy: np.ndarray, starts: np.ndarray, end
         inside = shapely.intersection(part, zones[meet])
         real = shapely.area(inside) > 0
         meet, inside = meet[real], inside[real]
-        depth[meet] = depth_inside(inside, part_boundary)
+        depth[meet] = depth_inside(inside, part_boundary, shapely.get_coordinates(part_boundary))
         inside_all[meet] = inside
     return Swept(regions=regions, zones=zones, bounds=bounds, chuck=on_chuck, part_depth=depth,
-                 part_inside=inside_all, planes=zone_planes(zones, unfolded))
+                 part_inside=inside_all, planes=zone_planes(zones, unfolded), boxes=bounds.tolist(),
+                 depths=depth.tolist())
