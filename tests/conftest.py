@@ -44,12 +44,54 @@ def require_program(name: str) -> str:
     return path
 
 
-def run_cli(*args: str, cwd=None, env=None) -> subprocess.CompletedProcess:
-    """Run `lathe-mirror ARGS` in a fresh process; returns the completed process."""
-    return subprocess.run(
-        [sys.executable, "-m", "lathe_mirror", *args],
-        capture_output=True, text=True, cwd=cwd, env=env, timeout=600,
-    )
+#: LATHE_MIRROR_TEST_FRESH=1 runs every run_cli in a fresh process (as fresh=True does).
+FRESH = os.environ.get("LATHE_MIRROR_TEST_FRESH", "") not in ("", "0")
+
+
+def run_cli(*args: str, cwd=None, env=None, fresh: bool = False) -> subprocess.CompletedProcess:
+    """Run `lathe-mirror ARGS`; returns the completed process (exit status, stdout, stderr).
+
+    By default in this process: the command line's own entry point (cli.main, its signal
+    handlers, its staged files and exit status) with stdout and stderr captured, in `cwd`
+    with `env` as the environment for the call; what a new interpreter would add is its
+    start-up and imports, ~0.3-1 s a command, which the suite's ~200 calls would pay each.
+    fresh=True (or LATHE_MIRROR_TEST_FRESH=1): in a new process, for what only a process
+    shows (the modules a command imports, the interpreter's own exit)."""
+    if fresh or FRESH:
+        return subprocess.run([sys.executable, "-m", "lathe_mirror", *args],
+                              capture_output=True, text=True, cwd=cwd, env=env, timeout=600)
+    return _run_in_process(list(args), cwd, env)
+
+
+def _run_in_process(args: list[str], cwd, env) -> subprocess.CompletedProcess:
+    import contextlib
+    import io
+
+    from lathe_mirror.cli import main
+
+    out, err = (io.TextIOWrapper(io.BytesIO(), encoding="utf-8", newline="") for _ in range(2))
+    old_cwd, old_env = os.getcwd(), dict(os.environ)
+    try:
+        if cwd is not None:
+            os.chdir(cwd)
+        if env is not None:
+            os.environ.clear()
+            os.environ.update(env)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                status = main(args)
+            except SystemExit as exc:  # argparse: --help, --version, a usage error
+                status = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    finally:
+        os.chdir(old_cwd)
+        if env is not None:
+            os.environ.clear()
+            os.environ.update(old_env)
+    texts = []
+    for stream in (out, err):
+        stream.flush()
+        texts.append(stream.buffer.getvalue().decode("utf-8"))
+    return subprocess.CompletedProcess(["lathe-mirror", *args], status, texts[0], texts[1])
 
 
 @pytest.fixture(scope="session")

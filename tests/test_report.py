@@ -286,7 +286,8 @@ def test_report_cli_no_progress_keeps_stderr_empty_and_gives_the_same_json(tmp_p
     small config, computed here in-process), but for the stages --no-render skips."""
     cfg = tmp_path / "small.toml"
     cfg.write_text(SMALL_TOML)
-    proc = run_cli("report", "--config", str(cfg), "--no-progress", "--no-render", "-o", str(tmp_path / "out"))
+    proc = run_cli("report", "--config", str(cfg), "--no-progress", "--no-render", "-o", str(tmp_path / "out"),
+                   fresh=True)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stderr == "" and proc.stdout.strip()
     a = dict(report.figures)

@@ -37,8 +37,7 @@ def displacement_map_png(maps: DistortionMaps, *, title: str = "") -> bytes:
     fig, ax = plt.subplots(figsize=(6, 6), dpi=120)
     data = np.ma.masked_invalid(np.where(maps.usable, maps.radial_px, np.nan))
     lim = float(np.nanmax(np.abs(data))) if data.count() else 1.0
-    cmap = plt.get_cmap("coolwarm").copy()
-    cmap.set_bad("0.75")
+    cmap = plt.get_cmap("coolwarm").with_extremes(bad="0.75")
     im = ax.imshow(data, cmap=cmap, vmin=-lim, vmax=lim, interpolation="antialiased")
     fig.colorbar(im, ax=ax, shrink=0.8, label="radial image displacement (px)")
     ax.set_title(title or "image displacement map")
