@@ -25,7 +25,7 @@ def newton_roots(profile: Profile, lobe: LobeTable, o, dx, dy, dz, dxy2, s0, lo,
 
     On a polyline a Newton step along the chord of the current segment (the grid merges
     collinear runs) lands on the root whenever the step stays in that segment: that is
-    checked without another evaluation (_checked_step). A ray whose step leaves its
+    checked without another evaluation (checked_step). A ray whose step leaves its
     segment (about one in twenty from the quadric's hit) takes another step, from there
     or, outside its bracket, from the bracket's middle (safeguarded Newton); it stops too
     where the step or the bracket falls below ROOT_TOL_MM (at a step wall or a kink)."""

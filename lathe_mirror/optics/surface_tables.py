@@ -100,9 +100,9 @@ def _lobe_table(profile: Profile, k: int, nb_max: int = 512) -> LobeTable:
     edges = np.linspace(lo, hi, nb + 1)
     if verts is not None:
         # Each segment's chord slope and lower end bound every bin it overlaps (the end
-        # segments extend beyond the vertices, as the profile evaluates there).
-        # a cluster of vertices at one radius whose heights differ by rounding (an
-        # envelope's duplicated points) is no step: its chord slope is noise
+        # segments extend beyond the vertices, as the profile evaluates there). A cluster
+        # of vertices at one radius whose heights differ by rounding (an envelope's
+        # duplicated points) is no step: its chord slope is noise.
         dz = np.diff(vz)
         flat = (seg <= MERGE_MIN_DR_MM) & (np.abs(dz) <= COLLINEAR_MM)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -242,11 +242,11 @@ class VertexGrid:
     """O(1) segment lookup on a polyline: a uniform grid of cells over its radii, each
     holding the segment at its start and the next boundary; one step forward finds the
     segment (the one np.searchsorted(vr, r, "right") - 1 finds, clipped to the end
-    segments; a binary search for the rare r in a cell holding a cluster of vertices). Collinear runs
-    are merged first (collinear_keep). slope: a TabulatedProfile's slope column at the
-    vertices (interpolated linearly, as the profile does), else None. seg_lo, seg_hi:
-    the radii where segment j is the one evaluated (the end segments extended), within
-    the lobe [lo, hi]."""
+    segments; a binary search for the rare r in a cell holding a cluster of vertices).
+    Collinear runs are merged first (collinear_keep). slope: a TabulatedProfile's slope
+    column at the vertices (interpolated linearly, as the profile does), else None.
+    seg_lo, seg_hi: the radii where segment j is the one evaluated (the end segments
+    extended), within the lobe [lo, hi]."""
 
     def __init__(self, vr: np.ndarray, vz: np.ndarray, slope: np.ndarray | None = None,
                  lo: float = -np.inf, hi: float = np.inf):
