@@ -120,14 +120,18 @@ def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nomi
     program: default MachiningJob.from_settings) cut at each lattice phase (and, as trials
     draw them, with each nose radius), polished at the time nodes."""
     job = (MachiningJob.from_settings(settings, mirror) if job is None else job).but(strategy=program.strategy)
-    phases: dict[float, MachiningJob] = {}
+    # each phase's program planned once (the noses the trials draw are all cut along the
+    # program planned for the [tool] nose); phase 0's here, before the workers fork, so
+    # every nose cut in them takes it
+    phases: dict[float, MachiningJob] = {0.0: job.but(phase=0.0)}
+    phases[0.0].toolpath  # noqa: B018 - planned now (a cached property)
 
     def machine_at(phase: float, nose: float) -> MadeSurface:
-        # each phase's program planned once: the noses the trials draw are all cut along
-        # the program planned for the [tool] nose.
         if phase not in phases:
             phases[phase] = job.but(phase=phase)
-        return phases[phase].but(nose_radius=nose).made()
+        planned = phases[phase]
+        planned.toolpath  # noqa: B018 - planned before `but`, which hands the plan on
+        return planned.but(nose_radius=nose).made()
 
     ts = settings.tolerance
     ts = dataclasses.replace(ts, seat_pivot_mm=ts.pivot_mm(mirror))  # 0: the design's rim
