@@ -250,3 +250,50 @@ def test_made_surface_hits_agree_with_the_march_to_the_root_tolerance(designs, n
     m = fast.fate <= Fate.OUTER
     assert m.sum() > 1500
     assert np.abs(fast.point[m] - ref.point[m]).max() < 1e-11
+
+
+def test_a_steep_lip_at_the_inner_rim_matches_the_march(designs, monkeypatch):
+    """A made surface whose inner lobe rises steeply in its last 0.2 mm (a nose's fillet at
+    the step, exaggerated: slope up to 12) on the recessed design: rays near the junction
+    cannot out-climb it, so the per-bin classification decides them and sends the few it
+    cannot to the march. Fates, hits and vignetting against the fine march's, for pixels
+    around the junction's ring."""
+    from lathe_mirror.optics import trace3d
+    from lathe_mirror.profile import TabulatedProfile
+
+    mirror = designs["recessed"].mirror()
+    cam = mirror.camera
+    exact = ExactProfile(mirror)
+    lobes = []
+    for k in (0, 1):
+        lo, hi = exact.lobe_range(k)
+        r = np.linspace(float(np.nextafter(lo, np.inf)) if k else lo, hi, 6001)
+        z, slope = exact.z(r), exact.slope(r)
+        if k == 0:
+            t = np.maximum(r - (hi - 0.2), 0.0)
+            z, slope = z + 30.0 * t * t, slope + 60.0 * t
+        lobes.append((r, z, slope))
+    made = TabulatedProfile(*lobes, r_junction=exact.r_junction, r_max=exact.r_max, vertex_z=mirror.vertex_z)
+    rho = np.linspace(0.0, min(cam.sensor_px) / 2, 400)
+    ring = rho[np.argmax(trace_pixels(exact, cam, radii_px=rho).fate != Fate.INNER)]
+    rng = np.random.default_rng(3)
+    ang, rad = rng.uniform(0, 2 * np.pi, 2000), ring + rng.uniform(-25, 10, 2000)
+    marched = []
+    march = trace3d.march
+
+    def counting(profile, origin, d, *args, **kw):
+        marched.append(len(d))
+        return march(profile, origin, d, *args, **kw)
+
+    for pose in POSES:
+        origin, d = ray_directions(cam, rad * np.cos(ang), rad * np.sin(ang), pose)
+        monkeypatch.setattr(trace3d, "march", counting)
+        fast = trace_rays(made, origin, d)
+        monkeypatch.setattr(trace3d, "march", march)
+        ref = trace_rays(made, origin, d, fast=False, march_steps=4096, chunk=256)
+        assert np.array_equal(fast.fate, ref.fate)
+        m = fast.fate <= Fate.OUTER
+        assert np.sum(fast.fate == Fate.WALL) > 10 and m.sum() > 1500
+        assert np.array_equal(fast.blocked[m], ref.blocked[m])
+        assert np.abs(fast.point[m] - ref.point[m]).max() < 1e-9
+    assert sum(marched) > 0  # the general classification ran, the march took its few

@@ -183,74 +183,101 @@ def _fast_chunk(profile, tb: SurfaceTables, o, d, fate, point, out, blocked) -> 
     def row(i):
         return i if idx is None else idx[i]
 
-    # Inner lobe: each ray's monotone zone ends at r_s; above the surface there: a hit.
-    nb0 = inner_t.slope_cummax.size
+    nb0, nb1 = inner_t.slope_cummax.size, outer_t.slope_cummax.size
     b_s = first_steep(inner_t, climb)
-    if b_s.min(initial=nb0) == nb0:  # no steep bin in reach: the zone is the lobe
+    b1 = first_steep(outer_t, climb)
+    if b_s.min(initial=nb0) == nb0 and b1.min(initial=nb1) == nb1 and r0sq < inner_t.hi ** 2:
+        # No steep bin in any ray's reach (the usual case): each lobe is one monotone zone.
+        # The inner lobe where the ray leaves it above its rim; else the wall where the ray
+        # reaches the junction above the outer lobe's start; else the outer lobe where it
+        # leaves that above the rim; else past the rim (the general case below, simplified).
         s_s = exit_s(inner_t.hi)
-        ok = np.full(b_s.size, r0sq < inner_t.hi * inner_t.hi)
-        z_bs = inner_t.z_edge[nb0]
+        z_s = s_s * dz
+        z_s += oz
+        inner = z_s >= inner_t.z_edge[nb0]
+        wall = z_s >= outer_t.z_edge[0]
+        wall &= ~inner
+        s1 = exit_s(outer_t.hi)
+        z1 = s1 * dz
+        z1 += oz
+        outer = z1 >= outer_t.z_edge[nb1]
+        outer &= ~inner
+        outer &= ~wall
+        lost = np.isnan(z1)  # (the general case leaves these to the march)
+        if lost.any():
+            undecided.append(row(np.nonzero(lost & ~inner & ~wall)[0]))
+        if wall.any():
+            fate[row(np.nonzero(wall)[0])] = Fate.WALL
+        o_in, o_out = np.nonzero(inner)[0], np.nonzero(outer)[0]
+        jobs = ((0, o_in, np.zeros(o_in.size), np.minimum(s_s[o_in], (tb.z_hi - oz) / dz[o_in])),
+                (1, o_out, s_s[o_out], s1[o_out]))
     else:
-        r_s = inner_t.edges.take(b_s)
-        s_s = exit_s(r_s)
-        ok = r_s * r_s > r0sq
-        z_bs = inner_t.z_edge.take(b_s)
-    z_s = s_s * dz
-    z_s += oz
-    inner = z_s >= z_bs
-    inner &= ok
-    # The others: never inside the inner lobe's material, then the wall, the outer lobe
-    # (its monotone zone from the junction) or past the rim.
-    ok &= ~inner
-    rest = np.nonzero(ok)[0]
-    b_r = b_s.take(rest)
-    s_c = s_s.take(rest)
-    dz_r = dz.take(rest)
-    steep = b_r < nb0
-    if steep.any():
-        s_c[steep] = exit_s(inner_t.hi, rest[steep])
-    z_c = s_c * dz_r
-    z_c += oz
-    not_inner = z_c < inner_t.z_sufmin.take(b_r)
-    # Where that does not settle it, walk the steep bins: the ray below each bin's lowest
-    # point at the bin's outer edge (its highest point there) never enters it.
-    walk = np.nonzero(~not_inner & (b_r >= nb0 - STEEP_WALK) & steep)[0] if steep.any() else ()
-    if len(walk):
-        first = nb0 - STEEP_WALK if nb0 > STEEP_WALK else 0
-        bins = np.arange(first, nb0)
-        sel = rest[walk]
-        with np.errstate(invalid="ignore"):
-            s_e = (np.sqrt(bb[sel, None] + dxy2[sel, None] * (inner_t.edges[bins + 1] ** 2 - r0sq))
-                   - bxy[sel, None]) * inv[sel, None]
-        under = (oz + s_e * dz[sel, None] < inner_t.z_binmin[bins]) | (bins < b_r[walk, None])
-        not_inner[walk] = under.all(axis=1)
-    wall = not_inner & (z_c >= outer_t.z_edge[0])
-    beyond = not_inner & ~wall
-    nb1 = outer_t.slope_cummax.size
-    b1 = first_steep(outer_t, climb.take(rest))
-    if b1.min(initial=nb1) == nb1:
-        s1 = exit_s(outer_t.hi).take(rest)  # (dense, then picked: cheaper than four picks)
-        z_b1 = outer_t.z_edge[nb1]
-    else:
-        s1 = exit_s(outer_t.edges.take(b1), rest)
-        z_b1 = outer_t.z_edge.take(b1)
-    z1 = s1 * dz_r
-    z1 += oz
-    outer = beyond & (b1 > 0) & (z1 >= z_b1)
-    miss = beyond & (b1 == nb1) & (z1 < outer_t.z_edge[-1])
-    ok = ~ok
-    ok &= ~inner  # neither inner nor a candidate for the rest: the march
-    if ok.any():
-        undecided.append(row(np.nonzero(ok)[0]))
-    settled = wall | outer | miss
-    if not settled.all():
-        undecided.append(row(rest[~settled]))
-    fate[row(rest[wall])] = Fate.WALL
+        # Inner lobe: each ray's monotone zone ends at r_s; above the surface there: a hit.
+        if b_s.min(initial=nb0) == nb0:  # no steep bin in reach: the zone is the lobe
+            s_s = exit_s(inner_t.hi)
+            ok = np.full(b_s.size, r0sq < inner_t.hi * inner_t.hi)
+            z_bs = inner_t.z_edge[nb0]
+        else:
+            r_s = inner_t.edges.take(b_s)
+            s_s = exit_s(r_s)
+            ok = r_s * r_s > r0sq
+            z_bs = inner_t.z_edge.take(b_s)
+        z_s = s_s * dz
+        z_s += oz
+        inner = z_s >= z_bs
+        inner &= ok
+        # The others: never inside the inner lobe's material, then the wall, the outer lobe
+        # (its monotone zone from the junction) or past the rim.
+        ok &= ~inner
+        rest = np.nonzero(ok)[0]
+        b_r = b_s.take(rest)
+        s_c = s_s.take(rest)
+        dz_r = dz.take(rest)
+        steep = b_r < nb0
+        if steep.any():
+            s_c[steep] = exit_s(inner_t.hi, rest[steep])
+        z_c = s_c * dz_r
+        z_c += oz
+        not_inner = z_c < inner_t.z_sufmin.take(b_r)
+        # Where that does not settle it, walk the steep bins: the ray below each bin's lowest
+        # point at the bin's outer edge (its highest point there) never enters it.
+        walk = np.nonzero(~not_inner & (b_r >= nb0 - STEEP_WALK) & steep)[0] if steep.any() else ()
+        if len(walk):
+            first = nb0 - STEEP_WALK if nb0 > STEEP_WALK else 0
+            bins = np.arange(first, nb0)
+            sel = rest[walk]
+            with np.errstate(invalid="ignore"):
+                s_e = (np.sqrt(bb[sel, None] + dxy2[sel, None] * (inner_t.edges[bins + 1] ** 2 - r0sq))
+                       - bxy[sel, None]) * inv[sel, None]
+            under = (oz + s_e * dz[sel, None] < inner_t.z_binmin[bins]) | (bins < b_r[walk, None])
+            not_inner[walk] = under.all(axis=1)
+        wall = not_inner & (z_c >= outer_t.z_edge[0])
+        beyond = not_inner & ~wall
+        b1 = b1.take(rest)
+        if b1.min(initial=nb1) == nb1:
+            s1 = exit_s(outer_t.hi).take(rest)  # (dense, then picked: cheaper than four picks)
+            z_b1 = outer_t.z_edge[nb1]
+        else:
+            s1 = exit_s(outer_t.edges.take(b1), rest)
+            z_b1 = outer_t.z_edge.take(b1)
+        z1 = s1 * dz_r
+        z1 += oz
+        outer = beyond & (b1 > 0) & (z1 >= z_b1)
+        miss = beyond & (b1 == nb1) & (z1 < outer_t.z_edge[-1])
+        ok = ~ok
+        ok &= ~inner  # neither inner nor a candidate for the rest: the march
+        if ok.any():
+            undecided.append(row(np.nonzero(ok)[0]))
+        settled = wall | outer | miss
+        if not settled.all():
+            undecided.append(row(rest[~settled]))
+        fate[row(rest[wall])] = Fate.WALL
 
-    o_in = np.nonzero(inner)[0]
-    o_out = rest[outer]
-    for k, sel, lo_s, hi_s in ((0, o_in, np.zeros(o_in.size), np.minimum(s_s[o_in], (tb.z_hi - oz) / dz[o_in])),
-                               (1, o_out, s_c[outer], s1[outer])):
+        o_in = np.nonzero(inner)[0]
+        o_out = rest[outer]
+        jobs = ((0, o_in, np.zeros(o_in.size), np.minimum(s_s[o_in], (tb.z_hi - oz) / dz[o_in])),
+                (1, o_out, s_c[outer], s1[outer]))
+    for k, sel, lo_s, hi_s in jobs:
         if sel.size == 0:
             continue
         lobe = tb.lobes[k]
