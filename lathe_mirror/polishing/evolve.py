@@ -8,6 +8,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.fft import next_fast_len
 
 from ..design import Mirror
 from ..errors import InputError
@@ -177,7 +178,9 @@ class PadFit:
         self.n_user = n
         n = n + self.mirror
         self.n, self.h, self.d = n, h, d
-        self.size = 1 << int(math.ceil(math.log2(n + 2 * h)))
+        # the correlation's length without wrap-around, rounded up to a 5-smooth length (the
+        # FFT's fast sizes: 5625 against 8192 for a 35 mm outer lobe, ~1.4x faster)
+        self.size = next_fast_len(n + 2 * h, real=True)
         # Kernels flipped for a correlation: T_m[i] = sum_j g(u_j) u_j^m z[i + j].
         self.kernels_f = np.stack([np.fft.rfft(g * (-u) ** m, self.size) for m in range(2 * self.DEGREE + 1)])
         self.rows = self._solve(np.ones(n))  # every point in contact
