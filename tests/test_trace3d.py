@@ -297,3 +297,9 @@ def test_a_steep_lip_at_the_inner_rim_matches_the_march(designs, monkeypatch):
         assert np.array_equal(fast.blocked[m], ref.blocked[m])
         assert np.abs(fast.point[m] - ref.point[m]).max() < 1e-9
     assert sum(marched) > 0  # the general classification ran, the march took its few
+
+
+def test_no_rays_give_empty_hits(designs):
+    mirror = designs["recessed"].mirror()
+    hits = trace_rays(ExactProfile(mirror), np.zeros(3), np.zeros((2, 0, 3)))
+    assert hits.fate.shape == (2, 0) and hits.point.shape == (2, 0, 3)

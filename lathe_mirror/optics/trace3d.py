@@ -116,7 +116,7 @@ def trace_rays(profile: Profile, origin: np.ndarray, directions: np.ndarray, *,
                 if bar is not None:
                     bar.update(min(a + chunk, n) - a)
     # the rays the fast path left, marched together (few: near a steep feature)
-    rest = np.concatenate(rest)
+    rest = np.concatenate(rest) if rest else np.zeros(0, dtype=np.intp)
     for a in range(0, rest.size, chunk):
         ii = rest[a:a + chunk]
         fate[ii], point[ii], out[ii], blocked[ii] = march(profile, origin, d_all[ii], tables.z_lo, tables.z_hi,
