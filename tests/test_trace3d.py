@@ -212,12 +212,7 @@ def test_duplicated_envelope_points_leave_no_ray_to_the_march(designs, which, mo
     made = _made(s, which)
     cam = mirror.camera
     xy = _sensor_sample(cam, 2500, seed=11)
-    marched = []
-    march = trace3d.march
-
-    def counting(profile, origin, d, *args, **kw):
-        marched.append(len(d))
-        return march(profile, origin, d, *args, **kw)
+    marched, counting, march = _counting_march()
 
     for pose in POSES:
         origin, d = ray_directions(cam, xy[:, 0], xy[:, 1], pose)
@@ -278,12 +273,7 @@ def test_a_steep_lip_at_the_inner_rim_matches_the_march(designs, monkeypatch):
     ring = rho[np.argmax(trace_pixels(exact, cam, radii_px=rho).fate != Fate.INNER)]
     rng = np.random.default_rng(3)
     ang, rad = rng.uniform(0, 2 * np.pi, 2000), ring + rng.uniform(-25, 10, 2000)
-    marched = []
-    march = trace3d.march
-
-    def counting(profile, origin, d, *args, **kw):
-        marched.append(len(d))
-        return march(profile, origin, d, *args, **kw)
+    marched, counting, march = _counting_march()
 
     for pose in POSES:
         origin, d = ray_directions(cam, rad * np.cos(ang), rad * np.sin(ang), pose)
@@ -303,3 +293,18 @@ def test_no_rays_give_empty_hits(designs):
     mirror = designs["recessed"].mirror()
     hits = trace_rays(ExactProfile(mirror), np.zeros(3), np.zeros((2, 0, 3)))
     assert hits.fate.shape == (2, 0) and hits.point.shape == (2, 0, 3)
+
+
+def _counting_march():
+    """trace3d.march wrapped to record the rays each call marches: (that list, the wrapper,
+    the original), for monkeypatch."""
+    import lathe_mirror.optics.trace3d as trace3d
+
+    march = trace3d.march
+    marched: list[int] = []
+
+    def counting(profile, origin, d, *args, **kw):
+        marched.append(len(d))
+        return march(profile, origin, d, *args, **kw)
+
+    return marched, counting, march
