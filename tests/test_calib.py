@@ -517,3 +517,24 @@ def test_calibration_how_to_runs_as_written(tmp_path, paper_mirror):
     f1 = paper_mirror.outer.focus_z
     expected = tracer_pixels(paper_mirror, 1, np.array([[1000.0, 500.0, f1 - 200.0]]))[0]
     assert np.abs(got - expected).max() < 1e-6
+
+
+def test_a_refit_stops_when_it_stalls_not_while_it_gains():
+    """The refit's stopping rule (camera_model.Stalled) by hand: a cost falling 1e-5 a step
+    (the 6 mm lens's recessed outer lobe crawls at about that: 0.2 % over 150 evaluations)
+    has fallen 1 - (1 - 1e-5)^10 ~ 1e-4 <= 1e-3 over 10 steps, so it stops at the 11th; a
+    cost halving each step (a fit converging) never stops."""
+    from types import SimpleNamespace
+
+    from lathe_mirror.optics.camera_model import STALL_FRACTION, STALL_ITERATIONS, Stalled
+
+    assert (STALL_FRACTION, STALL_ITERATIONS) == (1e-3, 10)
+    crawl, calls = Stalled(), 0
+    with pytest.raises(StopIteration):
+        for k in range(200):
+            calls += 1
+            crawl(SimpleNamespace(cost=1e8 * (1 - 1e-5) ** k))
+    assert calls == 11
+    gaining = Stalled()
+    for k in range(200):
+        gaining(SimpleNamespace(cost=1e8 * 0.5 ** k))

@@ -257,7 +257,7 @@ def reprojection_error(model: UnifiedModel, corr: Correspondences) -> dict:
     return weighted_stats(err, corr.weight)
 
 
-#: A refit stalls (stops, _Stall) when its cost fell by at most this fraction over this
+#: A refit stalls (stops, Stalled) when its cost fell by at most this fraction over this
 #: many iterations.
 STALL_FRACTION = 1e-3
 STALL_ITERATIONS = 10
@@ -340,12 +340,12 @@ def refit(model: UnifiedModel, corr: Correspondences, *, fit_centre: bool | None
     lo = [xi_lo, 1e-6, -np.inf, -np.inf] + ([-np.inf, -np.inf] if centre else [])
     sol = least_squares(residuals, np.asarray(x0, float), jac=jacobian, bounds=(lo, np.inf),
                         method="dogbox", x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200,
-                        callback=_Stall())
+                        callback=Stalled())
     return build(sol.x)
 
 
-class _Stall:
-    """least_squares' callback: stop a fit whose cost fell by less than STALL_FRACTION over
+class Stalled:
+    """least_squares' callback: stop a fit whose cost fell by at most STALL_FRACTION over
     its last STALL_ITERATIONS iterations. A lobe the model fits converges from the variable
     projection's start in a few (the paper's: 2) or keeps gaining (another hyperbola's
     outer lobe: 98 evaluations to its closed form to 1e-8); one it cannot fit (the 6 mm
