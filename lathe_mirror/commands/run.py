@@ -70,37 +70,38 @@ def run(args: argparse.Namespace) -> int:
                            (calib_dir, list(CALIB_FILES), "--calib-dir")):
         check_outputs(d, names, what)  # every output name, before any work
     mirror = design(settings)
-    check_programs(settings, mirror)  # bad input stops here, before anything is written
-    for strategy in strategies:
-        check_program(settings, mirror, strategy)  # as every command that uses a program
-    check_cad(settings, mirror)       # the CAD body, checked up front too
-    plan_checks(settings, mirror, strategies=strategies)  # the bar, the part-off: before the simulation
-    for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir"),
-                    (calib_dir, "--calib-dir")):
-        output_dir(d, what)  # one that cannot be made takes the ones before it away
-    say = (lambda m: None) if args.no_progress else (lambda m: print(m, file=sys.stderr))
-    written: dict[str, list] = {}
-
-    def programs_and_cad() -> None:
-        """The programs, the CAD, the calibration files and the spec drawing: beside the
-        tolerance analysis."""
-        from ..export.cad import write_reference_cad
-        from ..export.calib import write_calibration
-        from ..optics.zones import zones_for
-
-        say("lathe-mirror run: programs")
-        shops[:] = shops_bg.result()  # a design no program can cut, a program that touches the stock: stop here
-        texts = program_files(shops)
-        written["gcode"] = [write_text(gcode_dir / name, text) for name, text in texts.items()]
-        say("lathe-mirror run: CAD")
-        written["cad"] = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
-        written["calib"] = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
-        write_spec(out_dir, settings, spec_of(settings))  # the drawing beside the report (lathe-mirror spec)
-
-    shops: list = []
-    # Both programs planned and simulated (the stock, the chuck, the part) in the background,
-    # beside the report's stages; nothing is written before they pass (files commit as a set).
+    # Both programs planned and simulated (the stock, the chuck, the part) in the background
+    # from here, beside the checks and the report's stages: a check that refuses ends it,
+    # and nothing is written before they pass (files commit as a set).
     with active().background(_shop_programs, (settings, mirror, strategies)) as shops_bg:
+        check_programs(settings, mirror)  # bad input stops here, before anything is written
+        for strategy in strategies:
+            check_program(settings, mirror, strategy)  # as every command that uses a program
+        check_cad(settings, mirror)       # the CAD body, checked up front too
+        plan_checks(settings, mirror, strategies=strategies)  # the bar, the part-off: not waiting for the simulation
+        for d, what in ((out_dir, "-o/--output"), (gcode_dir, "--gcode-dir"), (cad_dir, "--cad-dir"),
+                        (calib_dir, "--calib-dir")):
+            output_dir(d, what)  # one that cannot be made takes the ones before it away
+        say = (lambda m: None) if args.no_progress else (lambda m: print(m, file=sys.stderr))
+        written: dict[str, list] = {}
+
+        def programs_and_cad() -> None:
+            """The programs, the CAD, the calibration files and the spec drawing: beside the
+            tolerance analysis."""
+            from ..export.cad import write_reference_cad
+            from ..export.calib import write_calibration
+            from ..optics.zones import zones_for
+
+            say("lathe-mirror run: programs")
+            shops[:] = shops_bg.result()  # a design no program can cut, a program that touches the stock: stop here
+            texts = program_files(shops)
+            written["gcode"] = [write_text(gcode_dir / name, text) for name, text in texts.items()]
+            say("lathe-mirror run: CAD")
+            written["cad"] = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
+            written["calib"] = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
+            write_spec(out_dir, settings, spec_of(settings))  # the drawing beside the report (lathe-mirror spec)
+
+        shops: list = []
         data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render,
                               alongside=programs_and_cad, plots=True)
     programs, cad, calib = written["gcode"], written["cad"], written["calib"]
