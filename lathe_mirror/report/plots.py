@@ -35,10 +35,12 @@ def _pyplot():
     return plt
 
 
-def png(fig) -> bytes:
-    """The figure as PNG bytes, without metadata that would change from run to run."""
+def png(fig, *, crop: bool = True) -> bytes:
+    """The figure as PNG bytes, without metadata that would change from run to run.
+    crop: to the drawn content (a tight bounding box: the figure drawn twice); False for a
+    figure laid out already (tight_layout)."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100, metadata={"Software": None}, bbox_inches="tight")
+    fig.savefig(buf, format="png", dpi=100, metadata={"Software": None}, bbox_inches="tight" if crop else None)
     _pyplot().close(fig)
     return buf.getvalue()
 
@@ -142,7 +144,7 @@ def polishing_curve_plot(curve: PolishCurveFigures, title: str) -> bytes:
     fig.suptitle(f"{title} (dashed: the time each objective chooses; purple: stereo, black: image "
                  f"displacement, green: slope)")
     fig.tight_layout()
-    return png(fig)
+    return png(fig, crop=False)
 
 
 def decomposition_plot(decomposition: dict[str, Decomposition]) -> bytes:
@@ -175,7 +177,7 @@ def decomposition_plot(decomposition: dict[str, Decomposition]) -> bytes:
         ax.legend(loc="best", fontsize=7)
     fig.suptitle("Form against facets: the depth error of each part of the polished paper mirror alone")
     fig.tight_layout()
-    return png(fig)
+    return png(fig, crop=False)
 
 
 def lap_plot(plan: LapPlan) -> bytes:
@@ -238,7 +240,7 @@ def monte_carlo_histograms(per_trial: dict, limits: dict, *, calibrated: bool, p
     fig.suptitle(f"Monte Carlo{', ' + title if title else ''}: yield {percent_interval(passed, disp.shape[0])}"
                  " (image and disparity clipped at 5x their limits)")
     fig.tight_layout()
-    return png(fig)
+    return png(fig, crop=False)
 
 
 def report_plots(data: ReportData) -> dict[str, bytes]:
