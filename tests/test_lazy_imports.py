@@ -59,3 +59,18 @@ def test_the_lazy_ones_are_few():
     """The count the issue started from was 222 in-function imports of the project's own
     modules; what is left below the command layer is a handful, each with its reason."""
     assert len(list(_in_function_own_imports())) <= 20
+
+
+def test_design_starts_without_the_heavy_libraries():
+    """`lathe-mirror design` in a new process imports none of the libraries only other
+    stages need (plots, OpenCV, the CAD kernel, the FFT, the optimisers, shapely): each
+    costs 0.1 to 2.5 s of start-up on every command that pays it."""
+    import subprocess
+    import sys
+
+    heavy = ("matplotlib", "cv2", "cadquery", "OCP", "scipy.fft", "scipy.optimize", "shapely")
+    code = ("import sys\nfrom lathe_mirror.cli import main\nmain(['design'])\n"
+            f"print([m for m in {heavy!r} if m in sys.modules], file=sys.stderr)\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr.strip().splitlines()[-1] == "[]", proc.stderr

@@ -425,3 +425,16 @@ def test_precompensate_puts_the_allowance_into_the_program(tmp_path):
 
     allowance = 4e-13 * 30e3 * (3000 * 2 * math.pi / 60) * 0.375 * 14400.0
     assert finish_entry(comp.stdout) - finish_entry(plain.stdout) == pytest.approx(allowance, abs=0.005)
+
+
+def test_fft_length_is_the_smallest_5_smooth_number_at_least_n():
+    """polishing.evolve.fast_length against the 5-smooth numbers enumerated by hand (2^a 3^b
+    5^c), and the two lengths the pad fit of the paper mirror takes (5403 -> 5625 = 3^2 5^4,
+    7501 -> 7680 = 2^9 3 5)."""
+    from lathe_mirror.polishing.evolve import fast_length
+
+    smooth = sorted(2**a * 3**b * 5**c for a in range(16) for b in range(10) for c in range(7)
+                    if 2**a * 3**b * 5**c <= 20000)
+    for n in range(1, 10001):
+        assert fast_length(n) == next(m for m in smooth if m >= n), n
+    assert (fast_length(5403), fast_length(7501)) == (5625, 7680)

@@ -8,7 +8,6 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.fft import next_fast_len
 
 from ..design import Mirror
 from ..errors import InputError
@@ -148,6 +147,21 @@ def _evolve(r: np.ndarray, z0: np.ndarray, rate: np.ndarray, params: PolishParam
     return snaps
 
 
+def fast_length(n: int) -> int:
+    """The smallest 5-smooth number (2^a 3^b 5^c) >= n: an FFT length pocketfft transforms
+    fast (scipy.fft.next_fast_len(n, real=True), without importing scipy.fft on every
+    command's start-up path)."""
+    best = 1 << max(n - 1, 0).bit_length()
+    p5 = 1
+    while p5 < best:
+        p35 = p5
+        while p35 < best:
+            best = min(best, p35 << max(-(-n // p35) - 1, 0).bit_length())
+            p35 *= 3
+        p5 *= 5
+    return best
+
+
 class PadFit:
     """The pad's conforming surface: at each point, the value there of a cubic fitted by
     least squares to the surface around it with Gaussian weights exp(-u^2 / (2 sigma^2)),
@@ -180,7 +194,7 @@ class PadFit:
         self.n, self.h, self.d = n, h, d
         # the correlation's length without wrap-around, rounded up to a 5-smooth length (the
         # FFT's fast sizes: 5625 against 8192 for a 35 mm outer lobe, ~1.4x faster)
-        self.size = next_fast_len(n + 2 * h, real=True)
+        self.size = fast_length(n + 2 * h)
         # Kernels flipped for a correlation: T_m[i] = sum_j g(u_j) u_j^m z[i + j].
         self.kernels_f = np.stack([np.fft.rfft(g * (-u) ** m, self.size) for m in range(2 * self.DEGREE + 1)])
         self.rows = self._solve(np.ones(n))  # every point in contact
