@@ -11,10 +11,10 @@ from lathe_mirror.export.calib import FILE_NAMES
 
 SMALL = """
 [polish]
-curve_points = 11
+curve_points = 6
 curve_max_s = 36000.0
 [tolerance]
-trials = 100
+trials = 40
 lattice_phases = 1
 """
 
