@@ -454,3 +454,42 @@ def test_sheet_is_written_beside_the_program(tmp_path):
     n_ops = sum(len(re.search(r"^\(OPERATIONS, RESTART AT THEIR FIRST BLOCK: (.*)\)$", (tmp_path / f).read_text(),
                               re.M).group(1).split(", ")) for f in ("part.nc", "part_op2.nc"))
     assert page.count("<svg ") == n_ops and "https://" not in page
+
+
+@pytest.mark.parametrize("which", ["paper", "recessed"])
+def test_a_program_planned_again_is_simulated_from_its_first_finishing_pass(which, tmp_path):
+    """shop_program plans a program, simulates it and, a finishing pass cutting too deep,
+    plans it again with more passes (shop.resume): the second run starts from the state the
+    first had before its first finishing pass (the face, the roughing and the semi-finish are
+    the same operations), and its figures and contacts are those of the program simulated
+    from the bar, on the paper default and a recessed-outer design."""
+    from conftest import RECESSED_OUTER
+    from lathe_mirror.config import load
+    from lathe_mirror.shop import options_from_settings
+    from lathe_mirror.shop.plan import plan_program
+    from lathe_mirror.shop.programs import shop_programs
+    from lathe_mirror.shop.resume import Resume
+    from lathe_mirror.shop.stock import operations_of
+
+    path = None
+    if which == "recessed":
+        path = tmp_path / "r.toml"
+        path.write_text(RECESSED_OUTER)
+    settings = load(path)
+    mirror = settings.mirror()
+    for shop in shop_programs(settings, mirror):
+        fresh = simulate_program(shop.program)
+        assert shop.simulation.figures() == fresh.figures()
+        assert shop.simulation.contacts == fresh.contacts == ()
+        assert shop.simulation.parted.equals(fresh.parted)
+        # the first plan (the configured passes) and the final one share their first three operations
+        first = plan_program(shop.program.toolpath, settings.stock, options_from_settings(settings.toolpath),
+                             name=shop.program.name, body=settings.body)
+        resume = Resume()
+        simulate_program(first, resume=resume)
+        names = [op.name for op in operations_of(shop.program)]
+        if len(first.operations) != len(shop.program.operations):  # planned again
+            assert names[:3] == ["face", "rough", "semi-finish"] and names[3].startswith("finish 1/")
+            assert len(resume.states) == len(first.operations)
+            again = simulate_program(shop.program, resume=resume)
+            assert again.figures() == fresh.figures()

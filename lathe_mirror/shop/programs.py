@@ -21,6 +21,7 @@ from .program import ProgramOptions, options_from_settings
 from .roughing import finish_allowances
 from .second import plan_second
 from .setup import InspectionRow, setup_sheet
+from .resume import Resume
 from .stock import simulate_program
 
 if TYPE_CHECKING:
@@ -67,10 +68,11 @@ def shop_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
     from dataclasses import replace
 
     options = ProgramOptions() if options is None else options
+    resume = Resume()  # a program planned again with more passes: simulated from its first finishing pass
     while True:
         program = plan_program(toolpath, stock, options, name=name or f"mirror_{toolpath.strategy.value}",
                                body=body)
-        sim = simulate_program(program)
+        sim = simulate_program(program, resume=resume)
         sim.check()
         deepest = max((op.max_depth_of_cut_mm for op in sim.operations if op.name.startswith("finish")),
                       default=0.0)

@@ -23,6 +23,7 @@ a cut into the designed part deeper than the gouge tolerance, the chuck touched.
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import TYPE_CHECKING
 
@@ -33,6 +34,7 @@ from .sim_results import Contact, OperationFigures, SimMove, SimOperation, Simul
 from .tool_shapes import (CUTTING_EDGE_FRACTION, INSERT_IC, cutting_zone, edge_length, insert_outline,  # noqa: F401
                           insert_shape, reach_toward_axis)
 from .program import Feed, FeedRate, Rapid
+from .resume import Resume, run_inputs
 from .swept import Swept, sweep_rapids, swept_pieces
 
 if TYPE_CHECKING:
@@ -66,20 +68,21 @@ JAW_HEIGHT = 10.0
 # Public entry points
 
 
-def simulate_program(program: Program) -> Simulation:
+def simulate_program(program: Program, *, resume: Resume | None = None) -> Simulation:
     """Simulate a planned program (shop.program.Program) against its stock: the first
-    set-up's bar, or (program.setup, a second set-up) the part it parted off, reversed."""
+    set-up's bar, or (program.setup, a second set-up) the part it parted off, reversed.
+    resume: see simulate_setup."""
     tp = program.toolpath
     if program.setup is not None:
         return simulate_setup(operations_of(program), program.setup.shapes, tp.lathe, program.setup.start,
                               program.setup.part, program.setup.chuck, rapid_rate=program.options.rapid_rate,
-                              gouge_tolerance=program.options.gouge_tolerance)
+                              gouge_tolerance=program.options.gouge_tolerance, resume=resume)
     # the shoulder is where the finishing pass leaves it: its last point's nose bottom
     planned = tp.segments[-1].end[1] - tp.nose_radius
     return simulate(operations_of(program), tp.mirror, tp.held_tool, tp.lathe, program.stock,
                     rapid_rate=program.options.rapid_rate, gouge_tolerance=program.options.gouge_tolerance,
                     shoulder_z=min(planned, shoulder_height(tp.mirror, tp.tool)) - 1e-3,
-                    shapes=program.shapes(), parting=program.parting)
+                    shapes=program.shapes(), parting=program.parting, resume=resume)
 
 
 def operations_of(program: Program) -> list[SimOperation]:
@@ -100,7 +103,8 @@ def operations_of(program: Program) -> list[SimOperation]:
 
 def simulate(operations: list[SimOperation], mirror: Mirror, tool: Tool, lathe: Lathe, stock: Stock, *,
              rapid_rate: float, gouge_tolerance: float, shoulder_z: float | None = None,
-             shapes: dict | None = None, parting: tuple[float, float] | None = None) -> Simulation:
+             shapes: dict | None = None, parting: tuple[float, float] | None = None,
+             resume: Resume | None = None) -> Simulation:
     """Replay the operations against the bar (see the module doc). rapid_rate mm/min;
     gouge_tolerance mm; shoulder_z: machine Z (mm) of the finished shoulder beyond the rim
     (default: shoulder_height(mirror, tool) - SHOULDER_ALLOWANCE). shapes: {station:
@@ -118,21 +122,35 @@ def simulate(operations: list[SimOperation], mirror: Mirror, tool: Tool, lathe: 
     chuck = shapely.box(0.0, -stock.length - 1000.0, r_hi, -stock.length)
     start = shapely.box(0.0, -stock.length, stock.radius, stock.face_allowance)
     return simulate_setup(operations, shapes, lathe, start, part, chuck, rapid_rate=rapid_rate,
-                          gouge_tolerance=gouge_tolerance, parting=parting)
+                          gouge_tolerance=gouge_tolerance, parting=parting, resume=resume)
 
 
 def simulate_setup(operations: list[SimOperation], shapes: dict, lathe: Lathe, start, part, chuck, *,
                    rapid_rate: float, gouge_tolerance: float,
-                   parting: tuple[float, float] | None = None) -> Simulation:
+                   parting: tuple[float, float] | None = None, resume: Resume | None = None) -> Simulation:
     """Replay the operations of one set-up: `start` the stock, `part` the designed part
     and `chuck` what holds it (shapely, machine (r, Z) of this set-up, mm); shapes
-    {station: ToolShape}, None the default. parting: see simulate."""
+    {station: ToolShape}, None the default. parting: see simulate. resume (shop.resume):
+    start from the state the last run it kept had before the first operation this run
+    does not share with it (the same figures and contacts as from the start), and keep
+    this run."""
     import shapely
 
-    sim = _Sim(shapes, lathe, start, part, chuck, gouge_tolerance)
-    figs = []
-    for op in operations:
+    k0, figs, states = 0, [], []
+    if resume is not None:
+        inputs = run_inputs(shapes, lathe, start, part, chuck, gouge_tolerance, rapid_rate)
+        k0 = resume.common(inputs, operations)
+    if k0 > 0:
+        sim = resume.states[k0].snapshot()
+        figs, states = list(resume.figures[:k0]), list(resume.states[:k0])
+    else:
+        sim = _Sim(shapes, lathe, start, part, chuck, gouge_tolerance)
+    for op in operations[k0:]:
+        if resume is not None:
+            states.append(sim.snapshot())
         figs.append(sim.operation(op, rapid_rate))
+    if resume is not None:
+        resume.keep(inputs, operations, states, figs)
     parted = None
     if parting is not None:
         parted = sim.separate(*parting)
@@ -216,6 +234,13 @@ class _Sim:
         self._stock = None
         self.contacts: list[Contact] = []
         self.pos: tuple[float, float] | None = None
+
+    def snapshot(self) -> _Sim:
+        """A copy to go on from (the stock's tiles copied; the geometry itself is immutable)."""
+        other = copy.copy(self)
+        other.tiles, other.alive, other.tile_bounds = self.tiles.copy(), self.alive.copy(), self.tile_bounds.copy()
+        other.contacts = list(self.contacts)
+        return other
 
     def use(self, station) -> None:
         """Take the tool of `station` (the default shape when it has none of its own)."""
