@@ -24,9 +24,9 @@ from conftest import UNCUTTABLE, UNCUTTABLE_PHRASE, run_cli
 
 
 #: The module's report: hourly to 10 h (the stereo objective's floor, ~7-8 h, inside), 60
-#: trials, one lattice phase.
+#: trials, one lattice phase, the ranging rendered with one ray a pixel.
 SMALL_TOML = ("[polish]\ncurve_points = 11\ncurve_max_s = 36000.0\n"
-              "[tolerance]\ntrials = 60\nlattice_phases = 1\n")
+              "[tolerance]\ntrials = 60\nlattice_phases = 1\n[stereo]\nsupersample = 1\n")
 
 
 @pytest.fixture(scope="module")
@@ -36,6 +36,7 @@ def small_cfg(paper_config):
     cfg["polish"]["curve_max_s"] = 36000.0
     cfg["tolerance"]["trials"] = 60
     cfg["tolerance"]["lattice_phases"] = 1
+    cfg["stereo"]["supersample"] = 1  # the ranging's renders: one ray a pixel
     return cfg
 
 

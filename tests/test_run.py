@@ -16,6 +16,8 @@ curve_max_s = 36000.0
 [tolerance]
 trials = 40
 lattice_phases = 1
+[stereo]
+supersample = 1
 """
 
 
