@@ -11,8 +11,6 @@ start (the replay is deterministic), at a fraction of the cost.
 
 from __future__ import annotations
 
-import numpy as np
-
 
 class Resume:
     """What shop.stock.simulate_setup keeps of one run (resume=): the run's inputs, its
@@ -26,7 +24,7 @@ class Resume:
 
     def common(self, inputs: tuple, operations: list) -> int:
         """How many leading operations a run with these inputs shares with the kept one."""
-        if self.inputs is None or not same_inputs(self.inputs, inputs):
+        if self.inputs is None or self.inputs != inputs:
             return 0
         k, n = 0, min(len(operations), len(self.operations))
         while k < n and operations[k] == self.operations[k]:
@@ -38,7 +36,8 @@ class Resume:
 
 
 def run_inputs(shapes: dict, lathe, start, part, chuck, gouge_tolerance: float, rapid_rate: float) -> tuple:
-    """A set-up's inputs as Resume compares them (geometry as WKB, the tools' outlines)."""
+    """A set-up's inputs as Resume compares them (==): geometry as WKB, the tools'
+    outlines, the lathe, the tolerances."""
     import shapely
 
     tools = tuple(sorted(((str(k), s.kind, shapely.to_wkb(s.outline), shapely.to_wkb(s.cutting))
@@ -46,7 +45,3 @@ def run_inputs(shapes: dict, lathe, start, part, chuck, gouge_tolerance: float, 
     return (tools, lathe, shapely.to_wkb(start), shapely.to_wkb(part), shapely.to_wkb(chuck),
             float(gouge_tolerance), float(rapid_rate))
 
-
-def same_inputs(a: tuple, b: tuple) -> bool:
-    return len(a) == len(b) and all(x == y if not isinstance(x, np.ndarray) else np.array_equal(x, y)
-                                    for x, y in zip(a, b))
