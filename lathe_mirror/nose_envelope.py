@@ -92,16 +92,8 @@ def nose_envelope(toolpath: Toolpath, rho: float, *, include_junction: bool = Tr
         for i in keep:
             _piece_move(segs[i], rho, r, zbest, sbest)
         by_move = np.isfinite(zbest)
-        # vertices: the ends of the kept moves (interior ones only without the junction)
-        verts = []
-        for i in keep:
-            verts.append(segs[i].start)
-            verts.append(segs[i].end)
-        verts = np.unique(np.asarray(verts), axis=0)
-        if not include_junction:
-            ends = {tuple(segs[keep[0]].start), tuple(segs[keep[-1]].end)}
-            verts = np.array([v for v in verts if tuple(v) not in ends]).reshape(-1, 2)
-        _piece_discs(verts, rho, r, zbest, sbest)
+        verts, lo_r, hi_r = _vertex_windows(segs, keep, rho, ends=not include_junction)
+        _piece_discs(verts, lo_r, hi_r, rho, r, zbest, sbest)
         ok = np.isfinite(zbest)
         if not include_junction:
             # beyond the moves' own offsets only vertex discs reach: extend the moves
@@ -170,18 +162,94 @@ def _piece_move(seg, rho: float, r: np.ndarray, zbest, sbest) -> None:
         if i1 <= i0:
             return
         idx = np.arange(i0, i1)
-        z, s = spiral_at_r(r[idx], np.full(idx.size, c[0]), np.full(idx.size, c[1]),
-                            np.full(idx.size, R0), np.full(idx.size, R1),
-                            np.full(idx.size, phis[0]), np.full(idx.size, phis[1]))
+        z, s = spiral_at_r(r[idx], c[0], c[1], R0, R1, phis[0], phis[1])  # the move's numbers broadcast
         _take_lower(idx, z, s, zbest, sbest)
 
 
-def _piece_discs(verts: np.ndarray, rho: float, r: np.ndarray, zbest, sbest) -> None:
-    """Lower half of the nose circle at each vertex, on the grid r (vectorised)."""
+#: Margin (rad) added to each side of a vertex's window (_vertex_windows): rounding.
+WINDOW_PAD = 0.01
+
+
+def _lower_normal_angles(seg, rho: float):
+    """Angles (rad, from -Z toward +r) of the directions from a move's start and end to its
+    offset toward the part (_piece_move's), and a margin for a spiral, whose radial offset
+    crosses the nose circle at its ends at up to that angle; None where the lower half of
+    the nose circle must be kept whole (a vertical move, a move with no offset)."""
+    if isinstance(seg, Line):
+        (r0, z0), (r1, z1) = seg.start, seg.end
+        dr, dz = r1 - r0, z1 - z0
+        ln = math.hypot(dr, dz)
+        if ln == 0 or abs(dr) < 1e-12:
+            return None
+        nr, nz = -dz / ln, dr / ln
+        if nz > 0:
+            nr, nz = -nr, -nz
+        a = math.atan2(nr, -nz)
+        return a, a, 0.0
+    cr, cz = seg.centre
+    R0, R1 = seg.radius, seg.end_radius
+    if min(R0, R1) - rho <= 0 or seg.start[1] <= cz or seg.end[1] <= cz:
+        return None
+    a0 = math.atan2(cr - seg.start[0], seg.start[1] - cz)  # toward the centre: (cr - r, cz - Z)
+    a1 = math.atan2(cr - seg.end[0], seg.end[1] - cz)
+    sweep = abs(seg.sweep)
+    crossing = math.atan(abs(R1 - R0) / (sweep * (min(R0, R1) - rho))) if sweep > 0 else math.pi
+    return a0, a1, 3.0 * crossing
+
+
+def _vertex_windows(segs, keep: list[int], rho: float, *, ends: bool):
+    """The vertices of the kept moves (sorted, unique) and the radii (lo_r, hi_r) between
+    which each one's nose circle can be the envelope.
+
+    The lower boundary of the nose swept along a path is made of the moves' offsets and,
+    at each vertex, the arc of the nose circle between the two moves' offset directions:
+    anywhere else the circle lies inside the region the nose sweeps along the move beside
+    it (the offset line is tangent to it there). So a vertex between two moves needs only
+    that window of angles (plus WINDOW_PAD, and a spiral's crossing margin); a path's end,
+    a vertical move's ends and a gap keep the whole lower half (-rho .. +rho). ends=True:
+    the kept run's first and last points are left out (contour_profile's offset without
+    the junction)."""
+    if not keep:
+        return np.empty((0, 2)), np.empty(0), np.empty(0)
+    angles = [_lower_normal_angles(segs[i], rho) for i in keep]
+    half = math.pi / 2
+    pts, lo, hi = [], [], []
+    for n, i in enumerate(keep):
+        # the move's start joins the previous kept move's end, its end the next one's start
+        for point, j, at_end in ((segs[i].start, n - 1, False), (segs[i].end, n + 1, True)):
+            pts.append(point)
+            joined = 0 <= j < len(keep) and tuple(segs[keep[j]].start if at_end else segs[keep[j]].end) == tuple(point)
+            if not joined or angles[n] is None or angles[j] is None:
+                lo.append(-half)
+                hi.append(half)
+                continue
+            a = angles[n][1] if at_end else angles[n][0]
+            b = angles[j][0] if at_end else angles[j][1]
+            pad = WINDOW_PAD + max(angles[n][2], angles[j][2])
+            lo.append(max(-half, min(a, b) - pad))
+            hi.append(min(half, max(a, b) + pad))
+    pts = np.asarray(pts, float)
+    verts, inv = np.unique(pts, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    wlo = np.full(len(verts), np.inf)
+    whi = np.full(len(verts), -np.inf)
+    np.minimum.at(wlo, inv, np.asarray(lo))
+    np.maximum.at(whi, inv, np.asarray(hi))
+    if ends:
+        drop = {tuple(segs[keep[0]].start), tuple(segs[keep[-1]].end)}
+        keep_v = np.array([tuple(v) not in drop for v in verts], bool)
+        verts, wlo, whi = verts[keep_v], wlo[keep_v], whi[keep_v]
+    return verts, verts[:, 0] + rho * np.sin(wlo), verts[:, 0] + rho * np.sin(whi)
+
+
+def _piece_discs(verts: np.ndarray, lo_r: np.ndarray, hi_r: np.ndarray, rho: float, r: np.ndarray,
+                 zbest, sbest) -> None:
+    """Lower half of the nose circle at each vertex, on the grid r between lo_r and hi_r
+    (its window, _vertex_windows; vectorised)."""
     if verts.size == 0:
         return
-    i0 = np.searchsorted(r, verts[:, 0] - rho)
-    i1 = np.searchsorted(r, verts[:, 0] + rho, side="right")
+    i0 = np.searchsorted(r, lo_r)
+    i1 = np.searchsorted(r, hi_r, side="right")
     counts = np.maximum(i1 - i0, 0)
     if counts.sum() == 0:
         return

@@ -51,6 +51,24 @@ def test_envelope_matches_a_brute_force_sweep(tp02, paper_mirror, window):
     assert np.max(np.abs(got - want)) < 2e-6
 
 
+@pytest.mark.parametrize("strategy, nose", [(Strategy.PAPER, 0.4), (Strategy.ARCS, 0.4)])
+def test_envelope_matches_a_brute_force_sweep_on_another_design(design_case, strategy, nose):
+    """Each vertex's nose circle is taken only over its window of angles (between the two
+    moves' offset directions): the paper's method (527 lines, a window at every vertex) and
+    the arcs (spirals) with a 0.4 mm nose, on the paper default and the recessed design,
+    against the brute-force sweep across each lobe's rims and junction."""
+    m = design_case["mirror"]
+    tp = plan_toolpath(m, LATHE, Tool(nose_radius=nose), strategy)
+    am = as_machined(tp)
+    for lo, hi in ((0.0, 0.4), (0.5 * m.r_junction - 0.2, 0.5 * m.r_junction + 0.2),
+                   (m.r_junction - 0.45, m.r_junction - 0.001), (m.r_junction + 0.001, m.r_junction + 0.45),
+                   (m.r_max - 0.4, m.r_max)):
+        r = np.linspace(lo, hi, 81)
+        got = m.vertex_z - am.z(r)
+        want = brute_envelope(tp, nose, r)
+        assert np.max(np.abs(got - want)) < 2e-6, (lo, hi)
+
+
 def test_the_fillet_in_the_inside_corner(tp02, paper_mirror):
     """The nose cannot enter the corner at the wall's foot: at the wall (r = 20) the
     surface stands rho / tan(theta / 2) above the foot (tangent-line hand estimate with
