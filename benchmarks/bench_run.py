@@ -7,7 +7,8 @@ Run: .venv/bin/python benchmarks/bench_run.py [--runs 3] [--no-suite] [--suite-a
   calibration files), so the repository's gcode/, cad/ and calib/ are left alone; the
   median of --runs wall times, with the CPU time (user + system of the child processes:
   above the wall time when both cores work).
-- The test suite as `scripts/test` runs it (`pytest -n auto --dist loadscope`), wall and CPU time.
+- The test suite as `scripts/test` runs it (`pytest -n auto --dist loadscope --no-loadscope-reorder`),
+  wall and CPU time.
 
 Prints a table (seconds). Measure on an idle machine: another job on a 2-core machine
 doubles the figures.
@@ -58,7 +59,8 @@ def bench_run(runs: int) -> list[tuple[float, float]]:
 
 
 def bench_suite(extra: list[str], log: str | None = None) -> tuple[float, float, str]:
-    cmd = [sys.executable, "-m", "pytest", "-n", "auto", "--dist", "loadscope", "-q", "-p", "no:cacheprovider", *extra]
+    cmd = [sys.executable, "-m", "pytest", "-n", "auto", "--dist", "loadscope", "--no-loadscope-reorder", "-q",
+           "-p", "no:cacheprovider", *extra]
     wall, cpu, proc = timed(cmd, cwd=REPO)
     last = (proc.stdout.strip().splitlines() or ["(no output)"])[-1]
     if log:

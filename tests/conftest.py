@@ -94,6 +94,23 @@ def _run_in_process(args: list[str], cwd, env) -> subprocess.CompletedProcess:
     return subprocess.CompletedProcess(["lathe-mirror", *args], status, texts[0], texts[1])
 
 
+#: The modules that take longest (seconds of one worker on the reference machine, 2 cores),
+#: handed to the workers first: `--dist loadscope --no-loadscope-reorder` (scripts/test)
+#: gives each worker the next module in collection order as it frees, so with the longest
+#: first the two workers finish together instead of one waiting for the docs' site build
+#: (xdist's own order is by the number of tests, which put that 50 s module last).
+LONGEST_FIRST = ("test_docs", "test_report", "test_fuzz", "test_designs", "test_run", "test_machine_errors",
+                 "test_shop", "test_optimize", "test_reliability", "test_outer_step", "test_gcode", "test_calib",
+                 "test_measure", "test_compute", "test_povray", "test_job", "test_bounds", "test_measure_backlash",
+                 "test_tolerance", "test_trace3d", "test_ranging", "test_step", "test_polish", "test_measure_tolerance",
+                 "test_results", "test_cad_cli", "test_partoff", "test_api_script", "test_render")
+
+
+def pytest_collection_modifyitems(config, items):
+    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.stem, len(rank)))  # stable: a module's own order kept
+
+
 @pytest.fixture(scope="session")
 def paper_config() -> dict:
     return default_config()
