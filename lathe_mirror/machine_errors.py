@@ -113,23 +113,91 @@ def displaced_centres(x: np.ndarray, z: np.ndarray, errors: MachineErrors) -> tu
     return xp, zp
 
 
+#: Margins that keep each disc's window (disc_windows) a superset of where it can be the
+#: lowest: on the chord ratio (dimensionless) and on the radii (mm).
+WINDOW_K_PAD = 1e-9
+WINDOW_X_PAD = 2e-6
+#: Disc samples evaluated at once by disc_envelope.
+BLOCK = 1 << 21
+
+
+def disc_windows(xc: np.ndarray, zc: np.ndarray, rho: float) -> tuple[np.ndarray, np.ndarray]:
+    """The radii (lo, hi), mm, between which the disc about each centre (xc, zc) can be the
+    lowest of the discs (lo > hi: nowhere).
+
+    A point of disc i's lower half in the direction u (p = c_i + rho u) lies strictly
+    inside the disc about another centre c_j when u . d > |d| / (2 rho), d = c_j - c_i;
+    then disc j is strictly lower at that radius, and p is not the lowest point there. So
+    the lowest disc at any radius is always inside its own window: the directions of the
+    lower half that neither of its neighbours in the given order covers (any order is
+    correct; the path's order makes the windows narrow, about the spacing of the centres).
+    """
+    n = xc.size
+    half = math.pi / 2
+    nb_beta = np.full((2, n), np.nan)
+    nb_k = np.full((2, n), np.inf)
+    for side, (a, b) in enumerate(((slice(1, None), slice(None, -1)), (slice(None, -1), slice(1, None)))):
+        dx, dz = xc[b] - xc[a], zc[b] - zc[a]  # side 0: to the previous centre, side 1: to the next
+        length = np.hypot(dx, dz)
+        nb_beta[side, a] = np.arctan2(dz, dx)
+        nb_k[side, a] = np.where(length > 0, length / (2 * rho), np.inf) + WINDOW_K_PAD
+    # directions alpha in [-pi/2, pi/2] (u = (sin a, -cos a)); the neighbour covers
+    # sin(alpha - beta) > k, the open arc beta + (asin k, pi - asin k)
+    cuts = [np.full(n, -half), np.full(n, half)]
+    for side in (0, 1):
+        ok = nb_k[side] < 1
+        w = np.arcsin(np.where(ok, nb_k[side], 0.0))
+        for edge in (nb_beta[side] + w, nb_beta[side] + math.pi - w):
+            e = (edge + math.pi) % (2 * math.pi) - math.pi
+            cuts.append(np.where(ok & (e > -half) & (e < half), e, np.nan))
+    cuts = np.sort(np.stack(cuts, axis=1), axis=1)  # nan last
+    lo_c, hi_c = cuts[:, :-1], cuts[:, 1:]
+    mid = 0.5 * (lo_c + hi_c)
+    free = np.isfinite(mid)
+    for side in (0, 1):
+        beta, k = nb_beta[side][:, None], nb_k[side][:, None]
+        free &= ~((k < 1) & (np.sin(mid - beta) > k))
+    lo = np.where(free, lo_c, np.inf).min(axis=1)
+    hi = np.where(free, hi_c, -np.inf).max(axis=1)
+    some = lo <= hi
+    x_lo = np.where(some, xc + rho * np.sin(np.where(some, lo, 0.0)) - WINDOW_X_PAD, np.inf)
+    x_hi = np.where(some, xc + rho * np.sin(np.where(some, hi, 0.0)) + WINDOW_X_PAD, -np.inf)
+    return x_lo, x_hi
+
+
 def disc_envelope(xc: np.ndarray, zc: np.ndarray, rho: float, x: np.ndarray) -> np.ndarray:
     """Lowest point (mm) at each x of discs of radius rho (mm) centred at (xc, zc): the
-    surface a round nose leaves. +inf where no disc reaches. x sorted ascending."""
-    order = np.argsort(xc, kind="stable")
-    xc, zc = xc[order], zc[order]
+    surface a round nose leaves. +inf where no disc reaches. x sorted ascending; the
+    centres best in the path's order (each disc is evaluated only over its window,
+    disc_windows)."""
+    xc, zc = np.asarray(xc, float), np.asarray(zc, float)
     out = np.full(x.shape, np.inf)
-    chunk = 256
-    for i0 in range(0, x.size, chunk):
-        xx = x[i0:i0 + chunk]
-        lo = np.searchsorted(xc, xx[0] - rho, "left")
-        hi = np.searchsorted(xc, xx[-1] + rho, "right")
-        if hi <= lo:
+    if xc.size == 0:
+        return out
+    keep = np.ones(xc.size, bool)  # a centre repeated (a move's end, the next one's start): one disc
+    keep[1:] = (xc[1:] != xc[:-1]) | (zc[1:] != zc[:-1])
+    xc, zc = xc[keep], zc[keep]
+    x_lo, x_hi = disc_windows(xc, zc, rho)
+    i0 = np.searchsorted(x, np.maximum(x_lo, xc - rho))
+    i1 = np.searchsorted(x, np.minimum(x_hi, xc + rho), side="right")
+    counts = np.maximum(i1 - i0, 0)
+    ends = np.cumsum(counts)
+    # the discs in blocks of about BLOCK samples (a centre order far from the path's gives
+    # wide windows: the memory stays bounded)
+    cut = np.searchsorted(ends, np.arange(BLOCK, int(ends[-1]) + BLOCK, BLOCK), side="right")
+    for a, b in zip(np.concatenate([[0], cut]), np.concatenate([cut, [xc.size]])):
+        if b <= a:
             continue
-        d = xx[:, None] - xc[None, lo:hi]
+        c = counts[a:b]
+        total = int(c.sum())
+        if total == 0:
+            continue
+        owner = np.repeat(np.arange(a, b), c)
+        idx = np.repeat(i0[a:b], c) + np.arange(total) - np.repeat(np.cumsum(c) - c, c)
+        d = x[idx] - xc[owner]
         h2 = rho * rho - d * d
-        zz = np.where(h2 >= 0, zc[None, lo:hi] - np.sqrt(np.maximum(h2, 0.0)), np.inf)
-        out[i0:i0 + chunk] = zz.min(axis=1)
+        zz = np.where(h2 >= 0, zc[owner] - np.sqrt(np.maximum(h2, 0.0)), np.inf)
+        np.minimum.at(out, idx, zz)
     return out
 
 

@@ -4,9 +4,10 @@ The programmed path is the nose centre's (toolpath.Toolpath.segments, machine fr
 A round nose of radius rho removes every point within rho of the path, so the surface
 left at radius r is the lowest point any nose position reaches there (machine Z, part in
 -Z): the minimum over (a) each move's offset by rho toward the part and (b) the lower
-half of the nose circle at every vertex, where the moves' offsets leave gaps. In
-closed form per piece, evaluated on a dense grid of radii; a zero nose radius gives the
-programmed contour itself. This includes the fillet the nose leaves in the junction's
+half of the nose circle at every vertex, where the moves' offsets leave gaps (only
+between its two moves' offset directions: _vertex_windows). In closed form per piece,
+evaluated on a dense grid of radii; a zero nose radius gives the programmed contour
+itself. This includes the fillet the nose leaves in the junction's
 inside corner, which it cannot reach.
 """
 

@@ -35,6 +35,33 @@ def lobe_radii(m, k, n=3000, margin=0.5):
     return np.linspace(lo + margin, hi - margin, n)
 
 
+@pytest.mark.parametrize("order", ["path", "shuffled"])
+def test_disc_envelope_is_the_lowest_of_all_discs(case, order):
+    """Each disc is evaluated only over its window (machine_errors.disc_windows): the
+    result is the minimum over every disc at every radius, computed here by brute force,
+    on stretches of the program's real centre path with backlash, an X offset and a centre
+    height (jumps where X reverses, a pip), in the path's order and shuffled."""
+    from lathe_mirror.machine_errors import centre_path, disc_envelope
+
+    errors = MachineErrors(centre_height_mm=0.03, x_offset_mm=0.01, backlash_mm=0.01)
+    xc, zc = centre_path(case["tp"], errors)
+    rho = case["tp"].nose_radius
+    rng = np.random.default_rng(3)
+    m = case["mirror"]
+    for lo, hi in ((-0.1, 0.6), (m.r_junction - 0.5, m.r_junction + 0.5), (m.r_max - 0.6, m.r_max + 0.1)):
+        sel = np.flatnonzero((xc > lo - 2 * rho) & (xc < hi + 2 * rho))
+        x, z = xc[sel], zc[sel]
+        if order == "shuffled":
+            p = rng.permutation(x.size)
+            x, z = x[p], z[p]
+        r = np.sort(rng.uniform(lo, hi, 700))
+        got = disc_envelope(x, z, rho, r)
+        d = r[:, None] - x[None, :]
+        h2 = rho * rho - d * d
+        want = np.where(h2 >= 0, z[None, :] - np.sqrt(np.maximum(h2, 0.0)), np.inf).min(axis=1)
+        assert np.array_equal(got, want), (lo, hi, np.nanmax(np.abs(got - want)))
+
+
 def test_no_error_is_the_closed_form_envelope(case):
     made = machined_with_errors(case["tp"], MachineErrors())
     for k in (0, 1):
