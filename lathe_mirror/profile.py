@@ -274,13 +274,15 @@ def spiral_at_r(r, cr, cz, rad0, rad1, phi0, phi1):
     phi = np.arccos(np.clip((r - cr) / rad0, -1.0, 1.0))
     for _ in range(4):  # Newton on f(phi) = cr + R(phi) cos(phi) - r
         R = rad0 + dR * (phi - phi0)
-        f = cr + R * np.cos(phi) - r
-        df = dR * np.cos(phi) - R * np.sin(phi)
+        cos, sin = np.cos(phi), np.sin(phi)
+        f = cr + R * cos - r
+        df = dR * cos - R * sin
         phi = phi - f / df
     R = rad0 + dR * (phi - phi0)
-    zm = cz + R * np.sin(phi)
-    dzdphi = dR * np.sin(phi) + R * np.cos(phi)
-    drdphi = dR * np.cos(phi) - R * np.sin(phi)
+    cos, sin = np.cos(phi), np.sin(phi)
+    zm = cz + R * sin
+    dzdphi = dR * sin + R * cos
+    drdphi = dR * cos - R * sin
     return zm, dzdphi / drdphi
 
 
