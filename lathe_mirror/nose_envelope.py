@@ -171,11 +171,18 @@ def _piece_move(seg, rho: float, r: np.ndarray, zbest, sbest) -> None:
 WINDOW_PAD = 0.01
 
 
+#: A move's travel counts as along r at a vertex when the r part of its unit tangent there
+#: is at least this (nearer a vertical tangent the vertex keeps its whole lower half).
+ALONG_R = 0.05
+
+
 def _lower_normal_angles(seg, rho: float):
-    """Angles (rad, from -Z toward +r) of the directions from a move's start and end to its
-    offset toward the part (_piece_move's), and a margin for a spiral, whose radial offset
-    crosses the nose circle at its ends at up to that angle; None where the lower half of
-    the nose circle must be kept whole (a vertical move, a move with no offset)."""
+    """For a move: the angles (rad, from -Z toward +r) of the directions from its start and
+    end to its offset toward the part (_piece_move's); a margin for a spiral, whose radial
+    offset crosses the nose circle at its ends at up to that angle; and the way the move
+    travels in r at its start and end (+1, -1, or 0 near a vertical tangent). None where
+    the lower half of the nose circle must be kept whole (a vertical move, a move with no
+    offset)."""
     if isinstance(seg, Line):
         (r0, z0), (r1, z1) = seg.start, seg.end
         dr, dz = r1 - r0, z1 - z0
@@ -186,7 +193,8 @@ def _lower_normal_angles(seg, rho: float):
         if nz > 0:
             nr, nz = -nr, -nz
         a = math.atan2(nr, -nz)
-        return a, a, 0.0
+        way = _way(dr / ln)
+        return a, a, 0.0, way, way
     cr, cz = seg.centre
     R0, R1 = seg.radius, seg.end_radius
     if min(R0, R1) - rho <= 0 or seg.start[1] <= cz or seg.end[1] <= cz:
@@ -194,8 +202,23 @@ def _lower_normal_angles(seg, rho: float):
     a0 = math.atan2(cr - seg.start[0], seg.start[1] - cz)  # toward the centre: (cr - r, cz - Z)
     a1 = math.atan2(cr - seg.end[0], seg.end[1] - cz)
     sweep = abs(seg.sweep)
-    crossing = math.atan(abs(R1 - R0) / (sweep * (min(R0, R1) - rho))) if sweep > 0 else math.pi
-    return a0, a1, 3.0 * crossing
+    if sweep == 0:
+        return None
+    crossing = math.atan(abs(R1 - R0) / (sweep * (min(R0, R1) - rho)))
+    # the travel: (dR cos phi - R sin phi, dR sin phi + R cos phi) per radian, times the sweep's sign
+    dR = (R1 - R0) / seg.sweep
+    ways = []
+    for (r, z), R in ((seg.start, R0), (seg.end, R1)):
+        phi = math.atan2(z - cz, r - cr)
+        vr, vz = dR * math.cos(phi) - R * math.sin(phi), dR * math.sin(phi) + R * math.cos(phi)
+        ways.append(_way(math.copysign(1.0, seg.sweep) * vr / math.hypot(vr, vz)))
+    return a0, a1, 3.0 * crossing, ways[0], ways[1]
+
+
+def _way(tangent_r: float) -> int:
+    """+1 or -1: the way a move travels in r (tangent_r: its unit tangent's r part); 0
+    when it runs within ALONG_R of vertical."""
+    return 0 if abs(tangent_r) < ALONG_R else (1 if tangent_r > 0 else -1)
 
 
 def _vertex_windows(segs, keep: list[int], rho: float, *, ends: bool):
@@ -203,13 +226,16 @@ def _vertex_windows(segs, keep: list[int], rho: float, *, ends: bool):
     which each one's nose circle can be the envelope.
 
     The lower boundary of the nose swept along a path is made of the moves' offsets and,
-    at each vertex, the arc of the nose circle between the two moves' offset directions:
-    anywhere else the circle lies inside the region the nose sweeps along the move beside
-    it (the offset line is tangent to it there). So a vertex between two moves needs only
-    that window of angles (plus WINDOW_PAD, and a spiral's crossing margin); a path's end,
-    a vertical move's ends and a gap keep the whole lower half (-rho .. +rho). ends=True:
-    the kept run's first and last points are left out (contour_profile's offset without
-    the junction)."""
+    at each vertex, the arc of the nose circle the two moves leave exposed: the directions
+    u with u . t <= 0 for both moves' tangents t pointing away from the vertex; anywhere
+    else the circle lies inside the region the nose sweeps along the move beside it (its
+    offset and its far end's circle). Where the path keeps its way in r through the vertex
+    that arc lies between the two moves' offset directions, so such a vertex needs only
+    that window of angles (plus WINDOW_PAD, and a spiral's crossing margin). A path's end,
+    a turn back in r, a tangent near vertical, a vertical move's ends and a gap keep the
+    whole lower half (-rho .. +rho). ends=True: the kept run's first and last points are
+    left out (contour_profile's offset without the junction), and so the vertices next to
+    them keep the whole half too (the end's circle no longer covers theirs)."""
     if not keep:
         return np.empty((0, 2)), np.empty(0), np.empty(0)
     angles = [_lower_normal_angles(segs[i], rho) for i in keep]
@@ -220,13 +246,19 @@ def _vertex_windows(segs, keep: list[int], rho: float, *, ends: bool):
         for point, j, at_end in ((segs[i].start, n - 1, False), (segs[i].end, n + 1, True)):
             pts.append(point)
             joined = 0 <= j < len(keep) and tuple(segs[keep[j]].start if at_end else segs[keep[j]].end) == tuple(point)
-            if not joined or angles[n] is None or angles[j] is None:
+            beside_end = ends and (n + (0 if at_end else -1) == 0 or n + (1 if at_end else 0) == len(keep) - 1)
+            if not joined or beside_end or angles[n] is None or angles[j] is None:
                 lo.append(-half)
                 hi.append(half)
                 continue
-            a = angles[n][1] if at_end else angles[n][0]
-            b = angles[j][0] if at_end else angles[j][1]
-            pad = WINDOW_PAD + max(angles[n][2], angles[j][2])
+            mine, theirs = angles[n], angles[j]
+            a, way = (mine[1], mine[4]) if at_end else (mine[0], mine[3])
+            b, way_j = (theirs[0], theirs[3]) if at_end else (theirs[1], theirs[4])
+            if way == 0 or way != way_j:  # a turn back in r, or a tangent near vertical
+                lo.append(-half)
+                hi.append(half)
+                continue
+            pad = WINDOW_PAD + max(mine[2], theirs[2])
             lo.append(max(-half, min(a, b) - pad))
             hi.append(min(half, max(a, b) + pad))
     pts = np.asarray(pts, float)

@@ -4,13 +4,14 @@ junction's fillet against the corner-wedge hand calculation, and the gouge check
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from lathe_mirror.lathe import Lathe, Tool
-from lathe_mirror.nose_envelope import as_machined, gouge_depth
-from lathe_mirror.path import Arc
+from lathe_mirror.nose_envelope import as_machined, gouge_depth, nose_envelope
+from lathe_mirror.path import Arc, Line
 from lathe_mirror.profile import PathProfile
 from lathe_mirror.toolpath import Strategy, plan_toolpath, profile_errors
 
@@ -67,6 +68,59 @@ def test_envelope_matches_a_brute_force_sweep_on_another_design(design_case, str
         got = m.vertex_z - am.z(r)
         want = brute_envelope(tp, nose, r)
         assert np.max(np.abs(got - want)) < 2e-6, (lo, hi)
+
+
+def _path(segs, r_junction, r_max):
+    """A made-up program (what nose_envelope reads of a Toolpath): the moves, the inner lobe's
+    up to the last, which is the outer lobe's."""
+    mirror = SimpleNamespace(r_junction=r_junction, r_max=r_max, step=1.0, vertex_z=0.0)
+    return SimpleNamespace(mirror=mirror, segments=tuple(segs), lobe_of=("inner",) * (len(segs) - 1) + ("outer",))
+
+
+@pytest.mark.parametrize("z", [1.0, -1.0])
+def test_envelope_where_the_path_turns_back_in_r(z):
+    """A path that turns back in r (a '<', as a valley and as a peak): the nose circle at
+    the turn is exposed outside the angles between the two moves' offsets, so the vertex
+    keeps its whole lower half; against the brute-force sweep (a review's counterexamples:
+    1.5 mm off at r = 0.714 for the valley, 2 mm at r = 2.18 for the peak, before)."""
+    segs = [Line((0.0, 2 * z), (2.0, z)), Line((2.0, z), (1.0, 0.0)), Line((1.0, 0.0), (2.0, -z)),
+            Line((2.0, -z), (5.0, -z)), Line((5.0, -z), (10.0, -z))]
+    tp = SimpleNamespace(**{**vars(_path(segs, 5.0, 10.0)), "nose_radius": 0.4})
+    made = nose_envelope(tp, 0.4)
+    # at the envelope's own samples (no interpolation across the circles' steep sides), none
+    # at a vertex +- rho (where the sampled sweep's reach rounds)
+    r, z, _ = made.lobes[0]
+    pick = np.flatnonzero((r > 0.5) & (r < 2.5))[::40]
+    pick = pick[np.min(np.abs(r[pick, None] - np.array([0.6, 1.4, 1.6, 2.4])), axis=1) > 1e-6]
+    assert np.max(np.abs(-z[pick] - brute_envelope(tp, 0.4, r[pick]))) < 2e-6
+
+
+def test_offset_contour_keeps_the_circle_next_to_a_dropped_end():
+    """contour_profile's envelope (include_junction=False) leaves out the run's end points:
+    the circle of the vertex beside one is then not covered by the end's, and is kept whole.
+    The definition computed here for lines: each move's offset by rho toward -Z and the lower
+    half circle at each interior vertex, the lowest at each radius."""
+    rho = 0.1
+    segs = [Line((0.0, 0.0), (0.036, 0.038)), Line((0.036, 0.038), (0.06, 0.038)), Line((0.06, 0.038), (4.0, -1.0)),
+            Line((4.0, -1.0), (5.0, -1.0)), Line((5.0, -1.0), (10.0, -1.0))]
+    made = nose_envelope(_path(segs, 5.0, 10.0), rho, include_junction=False)
+    r = np.linspace(0.0, 0.25, 501)
+    want = np.full(r.size, np.inf)
+    by_move = np.zeros(r.size, bool)
+    for (r0, z0), (r1, z1) in ((s.start, s.end) for s in segs[:4]):
+        d = math.hypot(r1 - r0, z1 - z0)
+        nr, nz = (z1 - z0) / d, -(r1 - r0) / d  # the normal toward -Z
+        inside = (r >= min(r0, r1) + rho * nr) & (r <= max(r0, r1) + rho * nr)
+        by_move |= inside
+        want = np.where(inside, np.minimum(want, z0 + rho * nz + (z1 - z0) / (r1 - r0) * (r - r0 - rho * nr)), want)
+    for vr, vz in (s.end for s in segs[:3]):
+        reach = np.abs(r - vr) <= rho
+        want = np.where(reach, np.minimum(want, vz - np.sqrt(np.maximum(rho**2 - (r - vr) ** 2, 0))), want)
+    # from where the moves' offsets start (r = 0.0345, the third move's; before it the
+    # envelope extends that offset along its slope)
+    first = np.argmax(by_move)
+    got = -made.z(r)
+    assert np.max(np.abs(got[first:] - want[first:])) < 1e-9
 
 
 def test_the_fillet_in_the_inside_corner(tp02, paper_mirror):
