@@ -114,9 +114,12 @@ def displaced_centres(x: np.ndarray, z: np.ndarray, errors: MachineErrors) -> tu
 
 
 #: Margins that keep each disc's window (disc_windows) a superset of where it can be the
-#: lowest: on the chord ratio (dimensionless) and on the radii (mm).
+#: lowest: on the chord ratio (dimensionless), on the radii (mm), and the depth (mm) inside
+#: a neighbour's disc below which the neighbour does not count as lower (well above the
+#: rounding of the discs' heights, ~1e-14 mm: two centres a few ulps apart cover nothing).
 WINDOW_K_PAD = 1e-9
 WINDOW_X_PAD = 2e-6
+ROUNDING_MM = 1e-11
 #: Disc samples evaluated at once by disc_envelope.
 BLOCK = 1 << 21
 
@@ -126,11 +129,12 @@ def disc_windows(xc: np.ndarray, zc: np.ndarray, rho: float) -> tuple[np.ndarray
     lowest of the discs (lo > hi: nowhere).
 
     A point of disc i's lower half in the direction u (p = c_i + rho u) lies strictly
-    inside the disc about another centre c_j when u . d > |d| / (2 rho), d = c_j - c_i;
-    then disc j is strictly lower at that radius, and p is not the lowest point there. So
-    the lowest disc at any radius is always inside its own window: the directions of the
-    lower half that neither of its neighbours in the given order covers (any order is
-    correct; the path's order makes the windows narrow, about the spacing of the centres).
+    inside the disc about another centre c_j when u . d > |d|^2 / (2 rho), d = c_j - c_i,
+    by u . d - |d|^2 / (2 rho); then disc j is strictly lower at that radius, and p is not
+    the lowest point there. So the lowest disc at any radius is always inside its own
+    window: the directions of the lower half that neither of its neighbours in the given
+    order covers by more than ROUNDING_MM (any order is correct; the path's order makes the
+    windows narrow, about the spacing of the centres).
     """
     n = xc.size
     half = math.pi / 2
@@ -140,9 +144,11 @@ def disc_windows(xc: np.ndarray, zc: np.ndarray, rho: float) -> tuple[np.ndarray
         dx, dz = xc[b] - xc[a], zc[b] - zc[a]  # side 0: to the previous centre, side 1: to the next
         length = np.hypot(dx, dz)
         nb_beta[side, a] = np.arctan2(dz, dx)
-        nb_k[side, a] = np.where(length > 0, length / (2 * rho), np.inf) + WINDOW_K_PAD
+        with np.errstate(divide="ignore"):
+            nb_k[side, a] = length / (2 * rho) + WINDOW_K_PAD + ROUNDING_MM / length  # inf: a repeat
     # directions alpha in [-pi/2, pi/2] (u = (sin a, -cos a)); the neighbour covers
-    # sin(alpha - beta) > k, the open arc beta + (asin k, pi - asin k)
+    # sin(alpha - beta) > k (u . d / |d| > |d| / (2 rho) and the margins), the open arc
+    # beta + (asin k, pi - asin k)
     cuts = [np.full(n, -half), np.full(n, half)]
     for side in (0, 1):
         ok = nb_k[side] < 1
@@ -178,8 +184,8 @@ def disc_envelope(xc: np.ndarray, zc: np.ndarray, rho: float, x: np.ndarray) -> 
     keep[1:] = (xc[1:] != xc[:-1]) | (zc[1:] != zc[:-1])
     xc, zc = xc[keep], zc[keep]
     x_lo, x_hi = disc_windows(xc, zc, rho)
-    i0 = np.searchsorted(x, np.maximum(x_lo, xc - rho))
-    i1 = np.searchsorted(x, np.minimum(x_hi, xc + rho), side="right")
+    i0 = np.searchsorted(x, x_lo)  # beyond the disc's reach (h^2 < 0) it gives inf
+    i1 = np.searchsorted(x, x_hi, side="right")
     counts = np.maximum(i1 - i0, 0)
     ends = np.cumsum(counts)
     # the discs in blocks of about BLOCK samples (a centre order far from the path's gives

@@ -55,11 +55,39 @@ def test_disc_envelope_is_the_lowest_of_all_discs(case, order):
             p = rng.permutation(x.size)
             x, z = x[p], z[p]
         r = np.sort(rng.uniform(lo, hi, 700))
-        got = disc_envelope(x, z, rho, r)
-        d = r[:, None] - x[None, :]
-        h2 = rho * rho - d * d
-        want = np.where(h2 >= 0, z[None, :] - np.sqrt(np.maximum(h2, 0.0)), np.inf).min(axis=1)
+        got, want = disc_envelope(x, z, rho, r), _lowest_of_all(x, z, rho, r)
         assert np.array_equal(got, want), (lo, hi, np.nanmax(np.abs(got - want)))
+
+
+def _lowest_of_all(xc, zc, rho, r):
+    d = r[:, None] - xc[None, :]
+    h2 = rho * rho - d * d
+    return np.where(h2 >= 0, zc[None, :] - np.sqrt(np.maximum(h2, 0.0)), np.inf).min(axis=1)
+
+
+def test_disc_envelope_with_a_centre_an_ulp_off_and_at_the_reach_edges():
+    """Rounding (a review's cases): the corner of a V-shaped centre path repeated one ulp
+    away (an arc's sampled end beside the next move's start) must not hide the corner's
+    disc, and a radius at a disc's reach edge (r = xc +- rho to the last bit) gets the
+    disc's side point; the brute-force minimum of all discs, to the bit."""
+    from lathe_mirror.machine_errors import disc_envelope
+
+    rng = np.random.default_rng(2)
+    rho = 0.2
+    for c in rng.uniform(0.5, 20, (60, 2)):
+        a = c + np.stack([np.linspace(-0.5, 0, 200), np.linspace(0.5, 0, 200)], 1)
+        b = c + np.stack([np.linspace(0, 0.5, 200), np.linspace(0, 0.5, 200)], 1)
+        a[-1] = b[0] = c
+        near = [np.nextafter(c[0], np.inf), np.nextafter(c[1], -np.inf)]
+        p = np.concatenate([a, [near], b])
+        r = np.unique(rng.uniform(c[0] - rho, c[0] + rho, 2000))
+        assert np.array_equal(disc_envelope(p[:, 0], p[:, 1], rho, r), _lowest_of_all(p[:, 0], p[:, 1], rho, r))
+    for _ in range(300):
+        xc, zc = rng.uniform(0, 30, 1), rng.uniform(-3, 0, 1)
+        edges = [xc[0] - rho, xc[0] + rho]
+        r = np.unique([np.nextafter(e, np.inf) if k else e for e in edges for k in (0, 1)]
+                      + [np.nextafter(e, -np.inf) for e in edges])
+        assert np.array_equal(disc_envelope(xc, zc, rho, r), _lowest_of_all(xc, zc, rho, r))
 
 
 def test_no_error_is_the_closed_form_envelope(case):
