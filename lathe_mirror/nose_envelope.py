@@ -247,20 +247,19 @@ def _vertex_windows(segs, keep: list[int], rho: float, *, ends: bool):
             pts.append(point)
             joined = 0 <= j < len(keep) and tuple(segs[keep[j]].start if at_end else segs[keep[j]].end) == tuple(point)
             beside_end = ends and (n + (0 if at_end else -1) == 0 or n + (1 if at_end else 0) == len(keep) - 1)
-            if not joined or beside_end or angles[n] is None or angles[j] is None:
+            mine, theirs = angles[n], (angles[j] if joined else None)
+            whole = beside_end or mine is None or theirs is None
+            if not whole:
+                a, way = (mine[1], mine[4]) if at_end else (mine[0], mine[3])
+                b, way_j = (theirs[0], theirs[3]) if at_end else (theirs[1], theirs[4])
+                whole = way == 0 or way != way_j  # a turn back in r, or a tangent near vertical
+            if whole:
                 lo.append(-half)
                 hi.append(half)
-                continue
-            mine, theirs = angles[n], angles[j]
-            a, way = (mine[1], mine[4]) if at_end else (mine[0], mine[3])
-            b, way_j = (theirs[0], theirs[3]) if at_end else (theirs[1], theirs[4])
-            if way == 0 or way != way_j:  # a turn back in r, or a tangent near vertical
-                lo.append(-half)
-                hi.append(half)
-                continue
-            pad = WINDOW_PAD + max(mine[2], theirs[2])
-            lo.append(max(-half, min(a, b) - pad))
-            hi.append(min(half, max(a, b) + pad))
+            else:
+                pad = WINDOW_PAD + max(mine[2], theirs[2])
+                lo.append(max(-half, min(a, b) - pad))
+                hi.append(min(half, max(a, b) + pad))
     pts = np.asarray(pts, float)
     verts, inv = np.unique(pts, axis=0, return_inverse=True)
     inv = inv.ravel()
