@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .nose_envelope import grid_spans
 from .profile import TabulatedProfile
 
 if TYPE_CHECKING:
@@ -186,20 +187,16 @@ def disc_envelope(xc: np.ndarray, zc: np.ndarray, rho: float, x: np.ndarray) -> 
     x_lo, x_hi = disc_windows(xc, zc, rho)
     i0 = np.searchsorted(x, x_lo)  # beyond the disc's reach (h^2 < 0) it gives inf
     i1 = np.searchsorted(x, x_hi, side="right")
-    counts = np.maximum(i1 - i0, 0)
-    ends = np.cumsum(counts)
+    ends = np.cumsum(np.maximum(i1 - i0, 0))
     # the discs in blocks of about BLOCK samples (a centre order far from the path's gives
     # wide windows: the memory stays bounded)
     cut = np.searchsorted(ends, np.arange(BLOCK, int(ends[-1]) + BLOCK, BLOCK), side="right")
     for a, b in zip(np.concatenate([[0], cut]), np.concatenate([cut, [xc.size]])):
         if b <= a:
             continue
-        c = counts[a:b]
-        total = int(c.sum())
-        if total == 0:
+        owner, idx = grid_spans(i0[a:b], i1[a:b], first=a)
+        if idx.size == 0:
             continue
-        owner = np.repeat(np.arange(a, b), c)
-        idx = np.repeat(i0[a:b], c) + np.arange(total) - np.repeat(np.cumsum(c) - c, c)
         d = x[idx] - xc[owner]
         h2 = rho * rho - d * d
         zz = np.where(h2 >= 0, zc[owner] - np.sqrt(np.maximum(h2, 0.0)), np.inf)

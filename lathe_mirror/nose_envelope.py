@@ -274,21 +274,25 @@ def _vertex_windows(segs, keep: list[int], rho: float, *, ends: bool):
     return verts, verts[:, 0] + rho * np.sin(wlo), verts[:, 0] + rho * np.sin(whi)
 
 
+def grid_spans(i0: np.ndarray, i1: np.ndarray, first: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Piece k's grid indices i0[k] .. i1[k] - 1 (none where i1 <= i0), all flattened:
+    (the piece's number, counted from `first`; the grid index)."""
+    counts = np.maximum(i1 - i0, 0)
+    total = int(counts.sum())
+    owner = np.repeat(np.arange(first, first + counts.size), counts)
+    idx = np.repeat(i0, counts) + np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
+    return owner, idx
+
+
 def _piece_discs(verts: np.ndarray, lo_r: np.ndarray, hi_r: np.ndarray, rho: float, r: np.ndarray,
                  zbest, sbest) -> None:
     """Lower half of the nose circle at each vertex, on the grid r between lo_r and hi_r
     (its window, _vertex_windows; vectorised)."""
     if verts.size == 0:
         return
-    i0 = np.searchsorted(r, lo_r)
-    i1 = np.searchsorted(r, hi_r, side="right")
-    counts = np.maximum(i1 - i0, 0)
-    if counts.sum() == 0:
+    owner, idx = grid_spans(np.searchsorted(r, lo_r), np.searchsorted(r, hi_r, side="right"))
+    if idx.size == 0:
         return
-    owner = np.repeat(np.arange(len(verts)), counts)
-    start = np.repeat(i0, counts)
-    offs = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    idx = start + offs
     dx = r[idx] - verts[owner, 0]
     h = np.sqrt(np.maximum(rho * rho - dx * dx, 0.0))
     z = verts[owner, 1] - h
