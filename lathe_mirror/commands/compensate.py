@@ -41,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from ..shop.programs import shop_program
     from ..shop import options_from_settings
     from .common import check_outputs, output_dir, program_strategy
+    from .measure import touch_off_of
 
     if not args.output:
         raise InputError("-o/--output: compensate writes a program; name a directory")
@@ -55,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
     tp = check_program(settings, mirror, strategy)
     nominal = machine(tp)
     meas = measure(args.file, mirror, nominal, settings.tool.nose_radius, fmt=args.format,
-                   options=FitOptions(), resolution_mm=settings.machine.resolution, toolpath=tp)
+                   options=FitOptions(), resolution_mm=settings.machine.resolution, toolpath=tp,
+                   touch_off=touch_off_of(tp))
     comp = compensation(meas, tp, nominal, program_target(settings, mirror),
                         resolution_mm=settings.machine.resolution, gain=gain)
     tool = dataclasses.replace(settings.tool, nose_radius=round(comp.nose_radius_mm, 3))  # as a tool table takes it

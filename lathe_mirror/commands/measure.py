@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     tp = check_program(settings, mirror, strategy)
     result = measure(args.file, mirror, machine(tp), settings.tool.nose_radius, fmt=args.format,
                      options=FitOptions(conic=args.fit_conic), resolution_mm=settings.machine.resolution,
-                     toolpath=tp)
+                     toolpath=tp, touch_off=touch_off_of(tp))
     out = result.to_dict()
     out["form_tolerance"] = form_verdicts(settings, out["lobes"])
     if args.output:
@@ -64,6 +64,21 @@ def run(args: argparse.Namespace) -> int:
     else:
         _print(out)
     return 0
+
+
+def touch_off_of(toolpath):
+    """The touch-off the program's set-up sheet prescribes (shop.setup.setup_sheet: X on a
+    bore with the nose's +X side when the tool as held can present it, else on an outside
+    diameter; Z on the face with the nose's bottom)."""
+    import math
+
+    from ..measure.diagnose import TouchOff
+    from ..shop.setup import can_touch
+
+    tool = toolpath.held_tool
+    if not can_touch(tool, -math.pi / 2):
+        raise RuntimeError("the tool cannot touch a face with its nose")  # the tool checks refuse it first
+    return TouchOff("bore" if can_touch(tool, 0.0) else "outside")
 
 
 def form_verdicts(settings, lobes: list[dict]) -> list[dict]:
@@ -96,5 +111,6 @@ def _print(out: dict) -> None:
         failed = [k for k, ok in v["checks"].items() if not ok]
         print(f"  {v['name']:5s} against {v['iso10110_5']}, slope < {v['slope_urad']:g} urad: "
               + ("PASS" if v["pass"] else f"FAIL ({', '.join(failed)})"))
+    print(f"  {out['diagnosis']['touch_off']['text']}")
     for c in out["diagnosis"]["corrections"]:
         print(f"  - {c}")

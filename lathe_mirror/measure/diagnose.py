@@ -12,8 +12,15 @@ arcs, the nose's fillet), folded about the fitted axis. In it:
 - the rest, by robust linear least squares over the lobes (the fit's mask, away from the
   pip) on the first-order signatures (Z up, z' the design's slope dz/dr >= 0):
     X offset dx:        z'(r) dx          (the surface moved out in r: an ogive at the centre)
-    nose error dr:      dr (1 + z' - sqrt(1 + z'^2))   (tool set on its tip; the normal
-                        offset dr (cos t + sin t - 1) at the normal's angle t)
+    nose error dr:      dr (1 + sigma z' - sqrt(1 + z'^2)), the tool touched off as its set-up
+                        sheet says (TouchOff): Z with the nose's bottom on the face, so the
+                        centre sits dr higher than the controller believes; X with the nose's
+                        +X side on a bore (sigma = -1: the centre sits dr nearer the axis) or
+                        its -X side on an outside diameter (sigma = +1: dr farther out); the
+                        edge is dr farther from the centre. The height change is the normal
+                        offset dr (sigma cos t + sin t - 1) at the normal's angle t over sin t.
+                        Both columns z' and the nose's differ by dr (sqrt(1 + z'^2) - 1) only:
+                        the wrong convention turns a nose error into an X offset of -/+ 2 dr
     squareness eps:     eps r
     a piston per lobe   (the fit's piston; the step's height)
     backlash b:         -z'(r) b where the program cut r in +X (measure.backlash: only
@@ -46,6 +53,35 @@ MIN_EXPLAINED = 0.5
 
 
 @dataclass(frozen=True)
+class TouchOff:
+    """How the tool's offsets were set (the set-up sheet's convention, shop.setup.Offsets):
+    Z with the nose's bottom on the face (entered: the face + the nose radius); X on a
+    "bore" with the nose's +X side (entered D - 2 rho) or an "outside" diameter with its -X
+    side (D + 2 rho). It decides where a nose radius error puts the nose centre."""
+
+    x_side: str = "bore"
+
+    def __post_init__(self) -> None:
+        if self.x_side not in ("bore", "outside"):
+            raise ValueError(f"touch-off x_side = {self.x_side!r}: allowed bore, outside")
+
+    @property
+    def sigma(self) -> float:
+        """Where a nose radius error dr puts the centre in X: sigma dr (-1 bore, +1 outside)."""
+        return -1.0 if self.x_side == "bore" else 1.0
+
+    def describe(self) -> str:
+        x = ("X on a bore with the nose's +X side (entered D - 2 rho)" if self.x_side == "bore"
+             else "X on an outside diameter with the nose's -X side (entered D + 2 rho)")
+        return f"touch-off as the set-up sheet says: Z on the face with the nose's bottom (entered face + rho), {x}"
+
+    def to_dict(self) -> dict:
+        return {"z": "face, the nose's bottom", "x": ("bore, the nose's +X side" if self.x_side == "bore"
+                                                      else "outside diameter, the nose's -X side"),
+                "x_side": self.x_side, "text": self.describe()}
+
+
+@dataclass(frozen=True)
 class Diagnosis:
     """Set-up errors found in a trace (mm, rad) with their 1-sigma uncertainties, and the
     corrections (one line each)."""
@@ -62,10 +98,14 @@ class Diagnosis:
     programmed_nose_mm: float
     backlash_mm: float | None = None
     backlash_state: str = "unknown"
+    touch_off: TouchOff = TouchOff()
 
     def errors(self) -> MachineErrors:
-        """The machine errors found, as the simulation takes them."""
-        return MachineErrors(centre_height_mm=self.centre_height_mm, x_offset_mm=self.x_offset_mm,
+        """The machine errors found, as the simulation takes them: machine_errors models a
+        nose error touched off on an outside diameter (the centre dr farther out); touched
+        off on a bore it sits dr nearer the axis, the same centre as an X offset 2 dr less."""
+        x_sim = self.x_offset_mm + (self.touch_off.sigma - 1.0) * self.nose_radius_error_mm
+        return MachineErrors(centre_height_mm=self.centre_height_mm, x_offset_mm=x_sim,
                              nose_radius_error_mm=self.nose_radius_error_mm, squareness_rad=self.squareness_rad,
                              backlash_mm=max(self.backlash_mm or 0.0, 0.0))
 
@@ -76,23 +116,26 @@ class Diagnosis:
                 "pip_height_um": self.pip_height_um, "x_offset_mm": self.x_offset_mm,
                 "squareness_rad": self.squareness_rad, "backlash_mm": self.backlash_mm,
                 "backlash": self.backlash_state, "backlash_note": note(self.backlash_state),
-                "sigma": self.sigma, "corrections": list(self.corrections)}
+                "sigma": self.sigma, "corrections": list(self.corrections),
+                "touch_off": self.touch_off.to_dict()}
 
 
-def nose_signature(slope: np.ndarray) -> np.ndarray:
-    """Height change (mm) per mm of nose radius error at design slope dz/dr (tool set on
-    its tip): 1 + z' - sqrt(1 + z'^2)."""
+def nose_signature(slope: np.ndarray, sigma: float = 1.0) -> np.ndarray:
+    """Height change (mm) per mm of nose radius error at design slope dz/dr, the tool
+    touched off in Z on the face and in X on an outside diameter (sigma = +1) or a bore
+    (sigma = -1): 1 + sigma z' - sqrt(1 + z'^2) (module doc)."""
     s = np.abs(np.asarray(slope, float))
-    return 1.0 + s - np.sqrt(1.0 + s * s)
+    return 1.0 + sigma * s - np.sqrt(1.0 + s * s)
 
 
 def diagnose(fit: TraceFit, nominal: Profile, programmed_nose_mm: float, *,
-             resolution_mm: float = 0.005, toolpath=None) -> Diagnosis:
+             resolution_mm: float = 0.005, toolpath=None, touch_off: TouchOff = TouchOff()) -> Diagnosis:
     """The set-up errors in `fit` against the program's nominal as-machined surface
     `nominal` (camera frame) cut with a nose of programmed_nose_mm (module doc).
     resolution_mm: the controller's increment, below which a correction is not worth
     entering. toolpath: the program the part was cut with (its finishing moves' X
-    directions: the backlash; None: not judged)."""
+    directions: the backlash; None: not judged). touch_off: how the offsets were set (the
+    job's set-up sheet): where a nose radius error puts the centre."""
     from scipy.optimize import least_squares
 
     m = fit.mirror
@@ -112,7 +155,7 @@ def diagnose(fit: TraceFit, nominal: Profile, programmed_nose_mm: float, *,
     rs, ds = r[sel], d[sel]
     slope = -dzd(rs)
     inner = rs <= m.r_junction
-    cols = np.stack([inner.astype(float), (~inner).astype(float), slope, rs, nose_signature(slope)], axis=1)
+    cols = np.stack([inner.astype(float), (~inner).astype(float), slope, rs, nose_signature(slope, touch_off.sigma)], axis=1)
     if not np.any(~inner):
         cols = np.delete(cols, 1, axis=1)
     names = ["p_in", "p_out", "dx", "eps", "dr"] if np.any(~inner) else ["p_in", "dx", "eps", "dr"]
@@ -164,7 +207,8 @@ def diagnose(fit: TraceFit, nominal: Profile, programmed_nose_mm: float, *,
     return Diagnosis(centre_height_mm=h if kind != "stub" else -h, centre_pip=kind, pip_height_um=H * 1e3,
                      x_offset_mm=dx, nose_radius_error_mm=dr, nose_radius_mm=programmed_nose_mm + dr,
                      squareness_rad=eps, sigma=sigma, corrections=tuple(corrections),
-                     programmed_nose_mm=programmed_nose_mm, backlash_mm=bl, backlash_state=state)
+                     programmed_nose_mm=programmed_nose_mm, backlash_mm=bl, backlash_state=state,
+                     touch_off=touch_off)
 
 
 def _backlash_line(bl: float | None, state: str, sigma: dict, res: float) -> str:

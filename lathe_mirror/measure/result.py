@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..design import Mirror
 from ..profile import Profile
-from .diagnose import Diagnosis, diagnose
+from .diagnose import Diagnosis, TouchOff, diagnose
 from .fit import FitOptions, TraceFit, fit_trace, lobe_figures, profile_through_axis
 from .readers import AreaMap, read_measurement
 
@@ -31,16 +31,18 @@ class Measurement:
 
 def measure(path: str | Path, mirror: Mirror, nominal: Profile, programmed_nose_mm: float, *,
             fmt: str | None = None, options: FitOptions = FitOptions(),
-            resolution_mm: float = 0.005, toolpath=None) -> Measurement:
+            resolution_mm: float = 0.005, toolpath=None, touch_off: TouchOff = TouchOff()) -> Measurement:
     """Read `path` (readers.MeasuredFormat), fit it against `mirror` and diagnose the
     machine against `nominal`, the program's as-machined surface on a perfect machine cut
     with a nose of programmed_nose_mm (mm); toolpath: that program (its X directions: the
-    backlash; None: backlash not judged)."""
+    backlash; None: backlash not judged); touch_off: how its offsets were set (the set-up
+    sheet's convention)."""
     data = read_measurement(path, fmt)
     areal = isinstance(data, AreaMap)
     trace = profile_through_axis(data, mirror) if areal else data
     fit = fit_trace(trace, mirror, nose_radius_mm=programmed_nose_mm, options=options)
-    dg = diagnose(fit, nominal, programmed_nose_mm, resolution_mm=resolution_mm, toolpath=toolpath)
+    dg = diagnose(fit, nominal, programmed_nose_mm, resolution_mm=resolution_mm, toolpath=toolpath,
+                  touch_off=touch_off)
     if dg.centre_pip is not None:  # the pip is the diagnosis's: the lobe's form figures are about it
         fit = without_pip(fit, 2.0 * abs(dg.centre_height_mm))
     return Measurement(fit, dg, areal)
