@@ -25,29 +25,81 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--format", metavar="FMT", default=None,
                    help="the file's format when its suffix does not say: csv, prf, x3p, datx, dat, surfalize")
     p.add_argument("--fit-conic", action="store_true", help="also fit each lobe's radius R and conic constant k")
-    p.add_argument("--program", default=None, metavar="paper|best",
-                   help="the program the part was cut with (default: [toolpath] strategy)")
+    add_job_flags(p)
     p.set_defaults(func=run)
+
+
+def add_job_flags(p: argparse.ArgumentParser) -> None:
+    """--program STRATEGY and --from DIR: the job the part was cut by."""
+    p.add_argument("--program", default=None, metavar="paper|lattice|arcs|best",
+                   help="the program's strategy the part was cut with (default: [toolpath] strategy; with "
+                   "--from, the job's)")
+    p.add_argument("--from", dest="from_dir", default=None, metavar="DIR",
+                   help="the job the part was cut by, as `compensate -o DIR` wrote it: its job.toml (the "
+                   "configuration, with the nose radius of the tool table) and the re-cut target in its "
+                   "compensate.json; instead of --config")
+
+
+def job_of(args: argparse.Namespace, load_settings):
+    """(settings, strategy, target) of the job the part was cut by: --config and --program,
+    or --from DIR (measure.nextjob); target None: the program's usual one."""
+    from ..enums import BEST, Strategy, parse
+
+    target = None
+    if args.from_dir is None:
+        settings = load_settings(args)
+    else:
+        import json
+        from pathlib import Path
+
+        from ..errors import InputError
+        from ..inputs import read_text
+        from ..measure.nextjob import JOB_JSON, JOB_TOML, target_from_dict
+
+        if args.config is not None:
+            raise InputError(f"--from {args.from_dir} and --config {args.config}: the job directory holds its "
+                             "configuration (job.toml); name one of them")
+        d = Path(args.from_dir)
+        args.config = str(d / JOB_TOML)
+        settings = load_settings(args)
+        src = str(d / JOB_JSON)
+        try:
+            data = json.loads(read_text(src, "--from", 64 << 20))
+            nxt = data["next_job"]
+        except (json.JSONDecodeError, KeyError, TypeError) as exc:
+            raise InputError(f"--from {src}: not a job compensate wrote ({exc.__class__.__name__}: {exc}); "
+                             "allowed: the directory of `compensate -o DIR`") from None
+        target = target_from_dict(nxt.get("target"), settings.mirror(), src)
+        if args.program is None:
+            args.program = nxt.get("strategy")
+    if args.program is None:
+        strategy = settings.toolpath.strategy
+    else:
+        strategy = parse(Strategy, args.program, "--program", aliases={"best": BEST})
+    return settings, strategy, target
 
 
 def run(args: argparse.Namespace) -> int:
     from ..measure.fit import FitOptions
     from ..measure.result import measure
     from ..job import check_program, design, machine
-    from .common import program_strategy
 
-    settings = load(args)
+    settings, strategy, target = job_of(args, load)
     mirror = design(settings)
-    strategy = program_strategy(args.program, settings)
     if args.output:
         from .common import check_outputs
 
         check_outputs(args.output, list(OUTPUTS))
-    tp = check_program(settings, mirror, strategy)
+    tp = check_program(settings, mirror, strategy, target=target)
     result = measure(args.file, mirror, machine(tp), settings.tool.nose_radius, fmt=args.format,
                      options=FitOptions(conic=args.fit_conic), resolution_mm=settings.machine.resolution,
                      toolpath=tp, touch_off=touch_off_of(tp))
+    verdict = refuse_unfit(result, settings, args.file)
     out = result.to_dict()
+    out["job"] = {"strategy": strategy.value, "programmed_nose_radius_mm": settings.tool.nose_radius,
+                  "target": "re-cut (--from)" if target is not None else "the design's usual",
+                  "touch_off": result.diagnosis.touch_off.to_dict()}
+    out["this_part"] = verdict
     out["form_tolerance"] = form_verdicts(settings, out["lobes"])
     if args.output:
         from pathlib import Path
@@ -64,6 +116,22 @@ def run(args: argparse.Namespace) -> int:
     else:
         _print(out)
     return 0
+
+
+def refuse_unfit(result, settings, path) -> dict:
+    """The fit's verdict on whether the trace is this part (measure.judge), against each
+    lobe's form tolerance (iso10110.spec_of); InputError (exit 2) naming what does not fit
+    and its likely cause when it is not: nothing of it reaches a verdict or a re-cut."""
+    from ..errors import InputError
+    from ..iso10110 import spec_of
+    from ..measure.judge import judge
+
+    spec = spec_of(settings)
+    tol = {lb.name: spec.lobe(lb.name).form.pv_um for lb in result.fit.lobes}
+    verdict = judge(result, tol)
+    if verdict["refusal"]:
+        raise InputError(f"{path}: {verdict['refusal']}")
+    return verdict
 
 
 def touch_off_of(toolpath):
@@ -111,6 +179,8 @@ def _print(out: dict) -> None:
         failed = [k for k, ok in v["checks"].items() if not ok]
         print(f"  {v['name']:5s} against {v['iso10110_5']}, slope < {v['slope_urad']:g} urad: "
               + ("PASS" if v["pass"] else f"FAIL ({', '.join(failed)})"))
+    print(f"  the trace is this part: {sum(c['ok'] for c in out['this_part']['checks'])} of "
+          f"{len(out['this_part']['checks'])} checks hold ({', '.join(c['figure'] for c in out['this_part']['checks'][:4])})")
     print(f"  {out['diagnosis']['touch_off']['text']}")
     for c in out["diagnosis"]["corrections"]:
         print(f"  - {c}")

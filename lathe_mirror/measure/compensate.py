@@ -26,6 +26,7 @@ from ..design import Mirror
 from ..machine_errors import machined_with_errors
 from ..profile import ExactProfile, Profile
 from .fit import lobe_figures
+from .nextjob import target_to_dict
 from .result import Measurement
 
 #: The share of the remaining residual a re-cut takes off.
@@ -40,7 +41,7 @@ class Compensation:
     tool table. setup: the set-up corrections (lines for the sheet). residual_pv_um /
     residual_rms_um: per lobe, what the set-up errors leave. recut: whether the residual is
     compensated (False: below the lattice, or nothing left). target: the re-cut's target
-    (None: the program's usual target). gain: the share taken off."""
+    (None: the program's usual target; not re-cut: the one the part was cut from). gain: the share taken off."""
 
     nose_radius_mm: float
     setup: tuple[str, ...]
@@ -53,6 +54,7 @@ class Compensation:
 
     def to_dict(self) -> dict:
         return {"nose_radius_mm": self.nose_radius_mm, "setup": list(self.setup), "gain": self.gain,
+                "target": target_to_dict(self.target),
                 "residual_after_setup": {k: {"pv_um": self.residual_pv_um[k], "rms_um": self.residual_rms_um[k]}
                                          for k in self.residual_pv_um},
                 "residual_compensated": self.recut, "message": self.message}
@@ -81,12 +83,14 @@ def compensation(meas: Measurement, toolpath, nominal: Profile, base_target: Mir
         if lf is not None:
             pv[lf.name], rms[lf.name] = lf.pv_um, lf.rms_um
     setup = tuple(c for c in dg.corrections if not c.startswith(("nose radius:", "centre height: no", "X offset: none", "backlash:")))
-    nose = dg.nose_radius_mm
+    nose = (dg.entries or {}).get("nose_radius_mm", dg.nose_radius_mm)  # as the corrections say
     big = [n for n in pv if pv[n] * 1e-3 >= resolution_mm]
     if not big:
         msg = (f"the residual left by the set-up errors (PV {max(pv.values(), default=0):.2f} um) is below the "
                f"lattice ({resolution_mm * 1e3:g} um): a re-cut cannot place the surface finer; polish instead")
-        return Compensation(nose, setup, pv, rms, False, None, gain, msg)
+        # the program keeps the target it was cut from (a re-cut's stays)
+        keep = base_target if isinstance(base_target, CompensatedMirror) else None
+        return Compensation(nose, setup, pv, rms, False, keep, gain, msg)
     lobes = []
     for k, lobe in enumerate(base_target.lobes):
         sp = splines[k]

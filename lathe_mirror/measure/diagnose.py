@@ -99,6 +99,7 @@ class Diagnosis:
     backlash_mm: float | None = None
     backlash_state: str = "unknown"
     touch_off: TouchOff = TouchOff()
+    entries: dict | None = None  # what the corrections ask the machinist to enter (_corrections)
 
     def errors(self) -> MachineErrors:
         """The machine errors found, as the simulation takes them: machine_errors models a
@@ -117,7 +118,7 @@ class Diagnosis:
                 "squareness_rad": self.squareness_rad, "backlash_mm": self.backlash_mm,
                 "backlash": self.backlash_state, "backlash_note": note(self.backlash_state),
                 "sigma": self.sigma, "corrections": list(self.corrections),
-                "touch_off": self.touch_off.to_dict()}
+                "touch_off": self.touch_off.to_dict(), "entries": self.entries}
 
 
 def nose_signature(slope: np.ndarray, sigma: float = 1.0) -> np.ndarray:
@@ -199,7 +200,7 @@ def diagnose(fit: TraceFit, nominal: Profile, programmed_nose_mm: float, *,
     sigma["explained_fraction"] = explained
     sigma["share_of_residual"] = {"x_offset": share["dx"], "nose_radius_error": share["dr"], "squareness": share["eps"],
                                   **({"backlash": share["bl"]} if "bl" in share else {})}
-    corrections = _corrections(h, kind, dx, dr, eps, programmed_nose_mm, resolution_mm, sigma)
+    corrections, entries = _corrections(h, kind, dx, dr, eps, programmed_nose_mm, resolution_mm, sigma)
     corrections.append(_backlash_line(bl, state, sigma, resolution_mm))
     if explained < MIN_EXPLAINED:
         corrections.append(f"the set-up signatures explain {100 * max(explained, 0):.0f} % of the residual: it is "
@@ -208,7 +209,7 @@ def diagnose(fit: TraceFit, nominal: Profile, programmed_nose_mm: float, *,
                      x_offset_mm=dx, nose_radius_error_mm=dr, nose_radius_mm=programmed_nose_mm + dr,
                      squareness_rad=eps, sigma=sigma, corrections=tuple(corrections),
                      programmed_nose_mm=programmed_nose_mm, backlash_mm=bl, backlash_state=state,
-                     touch_off=touch_off)
+                     touch_off=touch_off, entries=entries)
 
 
 def _backlash_line(bl: float | None, state: str, sigma: dict, res: float) -> str:
@@ -264,9 +265,13 @@ def _pip(r: np.ndarray, d: np.ndarray, fit: TraceFit) -> tuple[float, str | None
     return best[1], best[2], best[3]
 
 
-def _corrections(h, kind, dx, dr, eps, nose0, res, sigma) -> list[str]:
+def _corrections(h, kind, dx, dr, eps, nose0, res, sigma) -> tuple[list[str], dict]:
+    """The lines, and the entries they ask for (mm: the tool's height change, + up; the X
+    zero's move, + toward the axis; the nose radius for the tool table)."""
     out = []
+    made = {"raise_tool_mm": 0.0, "x_zero_toward_axis_mm": 0.0, "nose_radius_mm": nose0}
     if kind is not None:
+        made["raise_tool_mm"] = -h if kind == "cone" else h
         if kind == "cone":
             out.append(f"lower the tool {h:.3f} mm: it cuts {h:.3f} mm above the spindle centre "
                        "(a cone-shaped pip at the centre)")
@@ -277,12 +282,14 @@ def _corrections(h, kind, dx, dr, eps, nose0, res, sigma) -> list[str]:
         out.append("centre height: no pip at the centre (within the trace's spacing)")
     nose = nose0 + dr
     if abs(dr) >= max(3 * sigma["nose_radius_error_mm"], 0.0005):
+        made["nose_radius_mm"] = nose
         out.append(f"nose radius {nose:.3f} mm (programmed {nose0:g} mm): enter it in the tool table "
                    "and re-plan the program for it")
     else:
         out.append(f"nose radius: as programmed ({nose0:g} mm, within {max(3 * sigma['nose_radius_error_mm'], 0.0005):.4f} mm)")
     if abs(dx) >= max(3 * sigma["x_offset_mm"], res / 2):
         way = "toward the axis" if dx > 0 else "away from the axis"
+        made["x_zero_toward_axis_mm"] = dx
         out.append(f"X offset {dx:+.4f} mm: move the tool's X zero {abs(dx):.4f} mm {way} "
                    f"({'an ogive' if dx > 0 else 'a dimple'} at the centre)")
     else:
@@ -290,4 +297,4 @@ def _corrections(h, kind, dx, dr, eps, nose0, res, sigma) -> list[str]:
     if abs(eps) >= max(3 * sigma["squareness_rad"], 5e-6):
         out.append(f"X slide out of square with the spindle by {eps * 1e6:+.1f} urad: realign the cross slide "
                    "(not a set-up entry)")
-    return out
+    return out, made

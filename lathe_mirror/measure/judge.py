@@ -1,0 +1,100 @@
+"""Whether a fitted trace is this part: a fit that judges itself before anything is drawn
+from it (a verdict, a diagnosis, a re-cut).
+
+A trace is taken as this part's profile when all of these hold (each a figure in the
+verdict, each refusal naming what does not fit and its likely cause):
+
+- the points: at least MIN_POINTS, spread in x (not all at one x), and at least
+  MIN_USED_SHARE of them on the lobes where a stylus follows (the fit's mask);
+- the lateral extent: the used points span at least MIN_EXTENT_SHARE of each clear
+  aperture they reach and reach at least one lobe's (a centimetre trace read as mm spans a
+  tenth of it);
+- the residual: each lobe's smoothed residual RMS at most MAX_FORM_RMS_UM (a turned part
+  within its finishing stock: a set-up error of a few hundredths of a mm leaves tens of
+  um; a flat, inverted or foreign trace leaves the sag itself, millimetres), its raw
+  scatter about it at most MAX_NOISE_UM (a stylus on a turned surface), and its shape not
+  below the instrument's floor (a trace with no height at all: PV of the heights under
+  MIN_HEIGHT_SPAN_MM is no profile);
+- the diagnosis within physical bounds: a nose radius between NOSE_RANGE times the
+  programmed one, a centre height and an X offset under MAX_SETUP_MM.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..optics.polishing_curve import clear_aperture
+from .result import Measurement
+
+MIN_POINTS = 200
+MIN_USED_SHARE = 0.5
+MIN_EXTENT_SHARE = 0.5
+MAX_FORM_RMS_UM = 50.0
+MAX_NOISE_UM = 5.0
+MIN_HEIGHT_SPAN_MM = 1e-4
+NOSE_RANGE = (0.5, 2.0)
+MAX_SETUP_MM = 0.5
+
+
+def judge(meas: Measurement, form_pv_um: dict[str, float]) -> dict:
+    """The verdict on `meas`: {"this_part": bool, "checks": [...], "refusal": str | None}.
+    form_pv_um: each lobe's PV tolerance (um, iso10110.spec_of), shown beside its residual."""
+    fit, dg = meas.fit, meas.diagnosis
+    m = fit.mirror
+    x, z = fit.trace.x, fit.trace.z
+    checks: list[dict] = []
+
+    def check(name, ok, figure, cause):
+        checks.append({"check": name, "ok": bool(ok), "figure": figure, "likely_cause": None if ok else cause})
+
+    n = int(x.size)
+    check("points", n >= MIN_POINTS, f"{n} points (at least {MIN_POINTS})",
+          "a trace cut short or a summary table, not a profile")
+    span_x = float(np.ptp(x)) if n else 0.0
+    check("x spread", span_x > 0, f"x spans {span_x:.4g} mm", "one column repeated: the x column is not a position")
+    span_z = float(np.ptp(z)) if n else 0.0
+    check("heights", span_z >= MIN_HEIGHT_SPAN_MM,
+          f"heights span {span_z:.3g} mm (a profile of this part spans its sag)",
+          "heights in the wrong unit or a constant column")
+    used = int(np.count_nonzero(fit.used))
+    share = used / max(n, 1)
+    check("points used", share >= MIN_USED_SHARE, f"{100 * share:.1f} % of the points on the lobes (at least "
+          f"{100 * MIN_USED_SHARE:.0f} %)", "a trace of another part or design (--config), or off the axis")
+    ru = fit.r[fit.used]
+    reached = []
+    for k in (0, 1):
+        lo, hi = clear_aperture(m, k, 0.0)
+        inside = ru[(ru >= lo) & (ru <= hi)]
+        cover = (float(inside.max() - inside.min()) / (hi - lo)) if inside.size > 1 else 0.0
+        if inside.size:
+            reached.append(cover)
+        check(f"{m.lobes[k].name} extent", inside.size == 0 or cover >= MIN_EXTENT_SHARE,
+              f"used points span {100 * cover:.0f} % of r {lo:.2f}..{hi:.2f} mm",
+              "lateral units not mm (a header's unit not honoured: name it, x [um] or x_mm) or a trace "
+              "off the axis")
+    check("lobes reached", bool(reached), f"{len(reached)} of 2 clear apertures reached",
+          "lateral units not mm, or a trace of another design")
+    for lf in fit.lobes:
+        tol = form_pv_um.get(lf.name)
+        check(f"{lf.name} residual", lf.rms_um <= MAX_FORM_RMS_UM,
+              f"RMS {lf.rms_um:.3g} um, PV {lf.pv_um:.3g} um (form tolerance PV {tol if tol is not None else '?'} um; "
+              f"a turned part is within {MAX_FORM_RMS_UM:g} um RMS)",
+              "not this design's surface (flat, inverted, another part) or heights in another unit")
+        check(f"{lf.name} noise", lf.raw_rms_um <= MAX_NOISE_UM,
+              f"scatter about the smoothed residual {lf.raw_rms_um:.3g} um (a stylus on a turned surface: under "
+              f"{MAX_NOISE_UM:g} um)", "noise or a periodic signal, not a profile of a turned part")
+    lo, hi = NOSE_RANGE
+    nose0 = dg.programmed_nose_mm
+    check("nose radius", lo * nose0 <= dg.nose_radius_mm <= hi * nose0,
+          f"{dg.nose_radius_mm:.4f} mm (programmed {nose0:g}: allowed {lo:g} to {hi:g} times)",
+          "a residual the set-up errors do not explain: the trace is not this part")
+    check("centre height", abs(dg.centre_height_mm) < MAX_SETUP_MM,
+          f"{dg.centre_height_mm:+.4f} mm (under {MAX_SETUP_MM:g} mm)", "a pip that is not the tool's")
+    check("X offset", abs(dg.x_offset_mm) < MAX_SETUP_MM,
+          f"{dg.x_offset_mm:+.4f} mm (under {MAX_SETUP_MM:g} mm)", "the trace is not this part")
+    bad = [c for c in checks if not c["ok"]]
+    refusal = None
+    if bad:
+        refusal = ("not a trace of this part: " + "; ".join(f"{c['check']}: {c['figure']}" for c in bad)
+                   + f"; likely cause: {bad[0]['likely_cause']}")
+    return {"this_part": not bad, "checks": checks, "refusal": refusal}

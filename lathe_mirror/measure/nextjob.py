@@ -1,0 +1,106 @@
+"""The next job a re-cut hands on: what `compensate` writes so that the next `measure` and
+`compensate` take it with no hand editing (`--from DIR`).
+
+Two files in the re-cut's directory:
+- job.toml: a configuration every command takes (--config): the one it was run with, the
+  tool's nose radius replaced by the measured one (what the tool table now holds and the
+  program is planned for) and [toolpath] strategy the program's; its comments name what
+  was measured and the corrections made at the machine.
+- compensate.json: the figures, and under "next_job" the program's strategy, the nose
+  radius, the set-up corrections and the re-cut's target (each lobe's offset spline from
+  the design, cut_surface.CompensatedLobe), which a configuration key cannot hold.
+
+`target_from_dict` rebuilds the target against the job's design; a target for another
+design (radius range, lobe names) is refused with one line.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import Any
+
+from ..cut_surface import CompensatedLobe, CompensatedMirror
+from ..design import Mirror
+from ..errors import InputError
+
+#: The files of a job directory (compensate -o DIR; --from DIR).
+JOB_TOML = "job.toml"
+JOB_JSON = "compensate.json"
+
+
+def target_to_dict(target: CompensatedMirror | None) -> dict | None:
+    """The re-cut's target as JSON: each lobe's offset spline (knots mm, coefficients mm)."""
+    if target is None:
+        return None
+    return {"lobes": [{"name": lb.name, "offset_knots_mm": list(lb.offset_knots),
+                       "offset_coef_mm": list(lb.offset_coef)} for lb in target.lobes]}
+
+
+def target_from_dict(data: Any, mirror: Mirror, source: str) -> CompensatedMirror | None:
+    """The target a job directory's compensate.json names, on `mirror` (the job's design);
+    None: the program's usual target."""
+    if data is None:
+        return None
+    try:
+        lobes = []
+        for k, item in enumerate(data["lobes"]):
+            knots = tuple(float(v) for v in item["offset_knots_mm"])
+            coef = tuple(float(v) for v in item["offset_coef_mm"])
+            if item["name"] != mirror.lobes[k].name:
+                raise ValueError(f"lobe {k} is {item['name']!r}")
+            if len(knots) != len(coef) + 4 or not all(map(math.isfinite, knots + coef)):
+                raise ValueError(f"lobe {item['name']}: {len(knots)} knots and {len(coef)} coefficients")
+            if any(b < a for a, b in zip(knots, knots[1:])) or knots[0] < -1e-9 or knots[-1] > mirror.r_max + 1e-9:
+                raise ValueError(f"lobe {item['name']}: knots outside 0..{mirror.r_max:g} mm or not sorted")
+            lobes.append(CompensatedLobe(mirror.lobes[k], offset_knots=knots, offset_coef=coef))
+        if len(lobes) != 2:
+            raise ValueError(f"{len(lobes)} lobes")
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        raise InputError(f"{source}: next_job.target is not a re-cut target of this design ({exc}); "
+                         "allowed: the file compensate wrote, with the configuration beside it") from None
+    return CompensatedMirror(mirror, lobes[0], lobes[1])
+
+
+def job_toml(config: dict, comments: list[str]) -> str:
+    """A configuration dict (settings.dump.to_config) as TOML, `comments` on top. Floats by
+    repr (they read back to the same bits: the same design, the same program)."""
+    lines = [f"# {c}" for c in comments] + [""]
+    lines += _table(config, [])
+    return "\n".join(lines).rstrip("\n") + "\n"
+
+
+def _table(table: dict, path: list[str]) -> list[str]:
+    out = []
+    scalars = {k: v for k, v in table.items() if not isinstance(v, dict)}
+    if scalars and path:
+        out.append(f"[{'.'.join(_key(p) for p in path)}]")
+    out += [f"{_key(k)} = {_value(v)}" for k, v in scalars.items()]
+    if scalars and path:
+        out.append("")
+    for k, v in table.items():
+        if isinstance(v, dict):
+            out += _table(v, path + [k])
+    return out
+
+
+def _key(k: str) -> str:
+    return k if k and all(c.isalnum() or c in "_-" for c in k) else json.dumps(k)
+
+
+def _value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ValueError(f"a configuration holds finite numbers only, got {v!r}")
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + "}"
+    raise TypeError(f"cannot write {type(v).__name__} {v!r} as TOML")
