@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     from ..measure.fit import FitOptions
     from ..measure.nextjob import JOB_JSON, JOB_TOML, job_toml
     from ..measure.result import measure
-    from ..settings.dump import to_config
+    from ..config import read_user
     from ..shop import options_from_settings
     from ..shop.programs import inspection_table, shop_program
     from .common import check_outputs, output_dir
@@ -91,8 +91,11 @@ def run(args: argparse.Namespace) -> int:
     next_job = {"config": JOB_TOML, "strategy": strategy.value, "nose_radius_mm": tool.nose_radius,
                 "touch_off": touch.to_dict(), "set_up_entries": entries, "repeats": repeats,
                 "target": comp.to_dict()["target"]}
-    cfg = to_config(dataclasses.replace(settings, tool=tool))
-    cfg["toolpath"]["strategy"] = strategy.value
+    # the configuration it was run with (what the user set), the tool table's nose and the
+    # program's strategy over it; the defaults stay the defaults
+    cfg = read_user(args.config) if args.config is not None else {}
+    cfg.setdefault("tool", {})["nose_radius"] = tool.nose_radius
+    cfg.setdefault("toolpath", {})["strategy"] = strategy.value
     dg = meas.diagnosis
     comments = [f"lathe-mirror compensate: the next job for {meas.fit.trace.source}",
                 f"measured: nose radius {dg.nose_radius_mm:.4f} mm (programmed {dg.programmed_nose_mm:g}), "

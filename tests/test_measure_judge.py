@@ -1,0 +1,79 @@
+"""`measure` judges whether a trace is this part (measure.judge): traces that are not (the
+fuzz round's: all x equal, flat, sine plus noise, upside down, 50 points, a centimetre
+trace whose header the reader does not know, points within 1.4e-8 mm) are refused with
+exit 2 naming what does not fit, by `measure`, `measure --fit-conic` and `compensate`
+(nothing written); the design's own profile in closed form is taken, with the figures
+that judged it."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from conftest import run_cli
+from shop_model import design_z
+
+
+@pytest.fixture(scope="module")
+def mirror():
+    from lathe_mirror.config import load
+
+    return load(None).mirror()
+
+
+def _csv(path, x, z, head="x [mm],z [mm]"):
+    path.write_text(head + "\n" + "".join(f"{float(a):.10g},{float(b):.10g}\n" for a, b in zip(x, z)))
+    return path
+
+
+def _traces(mirror, d):
+    rng = np.random.default_rng(0)
+    x = np.arange(-mirror.r_max + 0.1, mirror.r_max - 0.1, 0.01)
+    good = design_z(mirror, np.abs(x))
+    i = np.linspace(0, x.size - 1, 50).astype(int)
+    return {
+        "all x equal": (_csv(d / "allx.csv", np.full(x.size, 1.0), good), "x spread"),
+        "flat": (_csv(d / "flat.csv", x, rng.normal(0, 1e-5, x.size)), "heights"),
+        "sine and noise": (_csv(d / "sine.csv", x, 0.01 * np.sin(x) + rng.normal(0, 1e-3, x.size)), "residual"),
+        "upside down": (_csv(d / "upside.csv", x, -good), "residual"),
+        "50 points": (_csv(d / "p50.csv", x[i], good[i]), "points"),
+        "centimetres": (_csv(d / "cm.csv", x / 10, good / 10, "x [cm],z [cm]"), "extent"),
+        "within 1.4e-8 mm": (_csv(d / "tiny.csv", x, 1.4e-8 * rng.random(x.size)), "heights"),
+    }
+
+
+CONIC = ("all x equal", "upside down", "within 1.4e-8 mm")  # --fit-conic too (each run costs seconds)
+CASES = ["all x equal", "flat", "sine and noise", "upside down", "50 points", "centimetres", "within 1.4e-8 mm"]
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_not_this_part_is_refused(mirror, tmp_path, case):
+    path, what = _traces(mirror, tmp_path)[case]
+    for extra in ((), ("--fit-conic",)) if case in CONIC else ((),):
+        res = run_cli("measure", str(path), *extra, "--json")
+        assert res.returncode == 2, (case, extra, res.stdout[-300:], res.stderr)
+        line = res.stderr.strip()
+        assert line.count("\n") == 0 and "Traceback" not in line
+        assert "not a trace of this part" in line or "stylus can follow" in line, line
+        if "not a trace of this part" in line:
+            assert what in line and "likely cause" in line, line
+        assert res.stdout == ""
+    if case == "upside down":  # compensate judges with the same checks, before anything is written
+        res = run_cli("compensate", str(path), "-o", str(tmp_path / "recut"))
+        assert res.returncode == 2 and not (tmp_path / "recut").exists(), res.stderr
+
+
+def test_the_design_itself_is_this_part(mirror, tmp_path):
+    """The closed-form design with 20 nm of noise: every check holds, the residual is the
+    noise (under 0.05 um RMS per lobe), all of each clear aperture spanned."""
+    x = np.arange(-mirror.r_max + 0.01, mirror.r_max - 0.01, 0.002)
+    z = design_z(mirror, np.abs(x)) + np.random.default_rng(1).normal(0, 2e-5, x.size)
+    res = run_cli("measure", str(_csv(tmp_path / "design.csv", x, z)), "--json")
+    assert res.returncode == 0, res.stderr
+    out = json.loads(res.stdout)
+    assert out["this_part"]["this_part"] and all(c["ok"] for c in out["this_part"]["checks"])
+    for lb in out["lobes"]:
+        assert lb["rms_um"] < 0.05
+    assert out["job"]["touch_off"]["x_side"] == "bore"  # the paper's tool: 218..363 deg exposed (shop.setup)
