@@ -77,3 +77,30 @@ def test_the_design_itself_is_this_part(mirror, tmp_path):
     for lb in out["lobes"]:
         assert lb["rms_um"] < 0.05
     assert out["job"]["touch_off"]["x_side"] == "bore"  # the paper's tool: 218..363 deg exposed (shop.setup)
+
+
+def test_a_part_with_large_setup_errors_is_this_part(mirror, tmp_path):
+    """The paper's committed program cut by the shop's own model (tests/shop_model.py) with
+    a nose 0.06 mm too large, the tool 0.1 mm above centre and the X zero 0.05 mm out: far
+    from its tolerance, yet this part; the diagnosis finds each (nose within 3 um, X within
+    5 um, centre height within 10 um)."""
+    import shop_model as sm
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1] / "gcode"
+    g = (root / "mirror_arcs.ngc").read_text()
+    r, z = sm.finish_path(g)
+    side = sm.touch_off_side((root / "mirror_arcs.setup.html").read_text())
+    part = sm.cut(r, z, sm.nose_radius(g), nose_error=0.06, centre_height=0.1, x_offset=0.05, side=side)
+    trace = tmp_path / "part.csv"
+    trace.write_text(sm.trace_csv(part, mirror.r_max, seed=7))
+    res = run_cli("measure", str(trace), "--json")
+    assert res.returncode == 0, res.stderr
+    out = json.loads(res.stdout)
+    assert out["this_part"]["this_part"]
+    assert max(lb["pv_um"] for lb in out["lobes"]) > 20  # far outside the form tolerance
+    assert not any(v["pass"] for v in out["form_tolerance"])
+    dg = out["diagnosis"]
+    assert abs(dg["nose_radius_error_mm"] - 0.06) <= 0.003, dg
+    assert abs(dg["x_offset_mm"] - 0.05) <= 0.005, dg
+    assert abs(dg["centre_height_mm"] - 0.1) <= 0.010, dg

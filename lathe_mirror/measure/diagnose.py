@@ -198,6 +198,7 @@ def diagnose(fit: TraceFit, nominal: Profile, programmed_nose_mm: float, *,
         bl = float(got["bl"]) if keep["bl"] else 0.0
         sigma["backlash_mm"] = float(sd[names.index("bl")])
     sigma["explained_fraction"] = explained
+    sigma["unexplained_rms_um"] = float(np.sqrt(np.mean(res ** 2))) * 1e3  # what no set-up error explains
     sigma["share_of_residual"] = {"x_offset": share["dx"], "nose_radius_error": share["dr"], "squareness": share["eps"],
                                   **({"backlash": share["bl"]} if "bl" in share else {})}
     corrections, entries = _corrections(h, kind, dx, dr, eps, programmed_nose_mm, resolution_mm, sigma)

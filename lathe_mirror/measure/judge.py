@@ -9,12 +9,13 @@ verdict, each refusal naming what does not fit and its likely cause):
 - the lateral extent: the used points span at least MIN_EXTENT_SHARE of each clear
   aperture they reach and reach at least one lobe's (a centimetre trace read as mm spans a
   tenth of it);
-- the residual: each lobe's smoothed residual RMS at most MAX_FORM_RMS_UM (a turned part
-  within its finishing stock: a set-up error of a few hundredths of a mm leaves tens of
-  um; a flat, inverted or foreign trace leaves the sag itself, millimetres), its raw
-  scatter about it at most MAX_NOISE_UM (a stylus on a turned surface), and its shape not
-  below the instrument's floor (a trace with no height at all: PV of the heights under
-  MIN_HEIGHT_SPAN_MM is no profile);
+- the residual: what the set-up errors leave unexplained (the diagnosis's fit) at most
+  MAX_UNEXPLAINED_UM RMS (a turned part's form error is micrometres; a flat, inverted or
+  foreign trace leaves the sag itself, hundreds of um), each lobe's smoothed residual RMS
+  at most MAX_FORM_RMS_UM (a set-up error of a tenth of a mm leaves tens of um; more is not
+  a finished part), its raw scatter about it at most MAX_NOISE_UM (a stylus on a turned
+  surface), and its heights not below the instrument's floor (a trace with no height at
+  all: PV of the heights under MIN_HEIGHT_SPAN_MM is no profile);
 - the diagnosis within physical bounds: a nose radius between NOSE_RANGE times the
   programmed one, a centre height and an X offset under MAX_SETUP_MM.
 """
@@ -29,7 +30,8 @@ from .result import Measurement
 MIN_POINTS = 200
 MIN_USED_SHARE = 0.5
 MIN_EXTENT_SHARE = 0.5
-MAX_FORM_RMS_UM = 50.0
+MAX_UNEXPLAINED_UM = 20.0
+MAX_FORM_RMS_UM = 150.0
 MAX_NOISE_UM = 5.0
 MIN_HEIGHT_SPAN_MM = 1e-4
 NOSE_RANGE = (0.5, 2.0)
@@ -74,6 +76,11 @@ def judge(meas: Measurement, form_pv_um: dict[str, float]) -> dict:
               "off the axis")
     check("lobes reached", bool(reached), f"{len(reached)} of 2 clear apertures reached",
           "lateral units not mm, or a trace of another design")
+    unexplained = float(dg.sigma.get("unexplained_rms_um", 0.0))
+    check("unexplained", unexplained <= MAX_UNEXPLAINED_UM,
+          f"the set-up errors leave {unexplained:.3g} um RMS unexplained (a turned part: under "
+          f"{MAX_UNEXPLAINED_UM:g} um)", "not this design's surface (flat, inverted, another part) or heights in "
+          "another unit")
     for lf in fit.lobes:
         tol = form_pv_um.get(lf.name)
         check(f"{lf.name} residual", lf.rms_um <= MAX_FORM_RMS_UM,
