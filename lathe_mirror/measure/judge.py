@@ -78,8 +78,9 @@ def judge(meas: Measurement, form_pv_um: dict[str, float]) -> dict:
           "lateral units not mm, or a trace of another design")
     unexplained = float(dg.sigma.get("unexplained_rms_um", 0.0))
     check("unexplained", unexplained <= MAX_UNEXPLAINED_UM,
-          f"the set-up errors leave {unexplained:.3g} um RMS unexplained (a turned part: under "
-          f"{MAX_UNEXPLAINED_UM:g} um)", "not this design's surface (flat, inverted, another part) or heights in "
+          (f"the set-up errors leave {unexplained:.3g} um RMS unexplained (a turned part: under "
+           f"{MAX_UNEXPLAINED_UM:g} um)" if np.isfinite(unexplained)
+           else "no points on the lobes away from the centre to read the set-up errors from"), "not this design's surface (flat, inverted, another part) or heights in "
           "another unit")
     for lf in fit.lobes:
         tol = form_pv_um.get(lf.name)
