@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
             say("lathe-mirror run: CAD")
             written["cad"] = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
             written["calib"] = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
-            write_spec(out_dir, settings, spec_of(settings))  # the drawing beside the report (lathe-mirror spec)
+            write_spec(out_dir, settings, spec_of(settings, as_turned=True))  # the drawing beside the report (lathe-mirror spec)
 
         shops: list = []
         data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render,

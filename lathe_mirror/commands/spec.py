@@ -37,7 +37,8 @@ def run(args: argparse.Namespace) -> int:
         from .common import check_outputs
 
         check_outputs(args.output, list(FILES))
-    spec = spec_of(settings, step=SAG_STEP_MM if args.step is None else args.step, process=args.process)
+    spec = spec_of(settings, step=SAG_STEP_MM if args.step is None else args.step, process=args.process,
+                   as_turned=True)
     data = spec.to_dict()
     if args.output:
         write_spec(args.output, settings, spec)

@@ -15,6 +15,7 @@ import io
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..version import __version__
 from .files import write_bytes
 
 if TYPE_CHECKING:
@@ -85,6 +86,8 @@ def _figure(plt, spec: PartSpec, meridian: Meridian, title: str):
     ax.set_xlim(-R - 16, R + 20)
     ax.set_ylim(zmin - 22, zmax + 28)
     _dimensions(ax, spec, meridian, R, zb, zmax)
+    _clear_apertures(ax, spec)
+    _datums_and_frames(ax, spec, meridian, R, zb, zmax)
     ax.set_title("SECTION A-A (through the axis), not to scale: the dimensions govern; mm", fontsize=8, loc="left")
 
     # asphere data and indications
@@ -146,10 +149,21 @@ def _dimensions(ax, spec: PartSpec, meridian: Meridian, R: float, zb: float, zma
     vz = outer.conic.vertex_z
     ax.plot([-2, 2], [vz, vz], color="tab:red", lw=0.7)
     ax.plot([0], [vz], marker="+", color="tab:red")
-    ax.annotate(f"V2: outer lobe's vertex (virtual)\nZ = {vz:.4f}", (0, vz), (-R - 14, zb + 14), fontsize=6,
+    sep = spec.callouts.vertex_separation
+    ax.annotate(f"V2: outer lobe's vertex (virtual)\nZ = {vz:.4f}; V1-V2 {sep.nominal_mm:.4f} \u00b1 {sep.plus_minus_mm:.3f}",
+                (0, vz), (-R - 14, zb + 14), fontsize=6, arrowprops=dict(arrowstyle="-", lw=0.4))
+    ax.annotate("V1: inner vertex, Z = 0 (the sag's origin)", (0, 0), (R * 0.55, 1.5), fontsize=6,
                 arrowprops=dict(arrowstyle="-", lw=0.4))
-    ax.annotate("V1: inner vertex, Z = 0 (datum)", (0, 0), (R * 0.55, 1.5), fontsize=6,
-                arrowprops=dict(arrowstyle="-", lw=0.4))
+    # the step at the junction, with its tolerance
+    st = spec.callouts.step_height
+    zi, zo = spec.junction["z_inner_rim_mm"], spec.junction["z_outer_edge_mm"]
+    _dim(ax, (rj, zi), (rj, zo), f"step {st.nominal_mm:.3f} \u00b1 {st.plus_minus_mm:.3f}", 3, vertical=True,
+         fontsize=5.8)
+    fr = spec.junction.get("fillet_r_mm")
+    if fr is not None:
+        ax.annotate(f"R{spec.junction['fillet_radius_mm']:g} fillet (the tool's nose), r {fr[0]:.3f}..{fr[1]:.3f}: "
+                    "not optical", (rj, 0.5 * (zi + zo)), (R * 0.35, zb + 6), fontsize=5.8,
+                    arrowprops=dict(arrowstyle="->", lw=0.4))
     # indications on the surfaces
     sag_i = float(inner.conic.sag(0.6 * ca_i[1]))
     ax.annotate("lobe 1 (inner)", (0.6 * ca_i[1], -sag_i), (R * 0.45, zmax + 20), fontsize=6.5,
@@ -168,51 +182,63 @@ def _asphere_table(ax, spec: PartSpec) -> None:
     ci, co = inner.conic, outer.conic
     fi, fo = inner.form, outer.form
     rows += [
-        ("surface", "convex conic, ISO 10110-12", "convex conic, ISO 10110-12"),
+        ("surface", "convex conic, A2n = 0", "convex conic, A2n = 0"),
         ("vertex radius R [mm]", f"{ci.R:.6f}", f"{co.R:.6f}"),
         ("curvature c = 1/R [1/mm]", f"{ci.curvature:.8f}", f"{co.curvature:.8f}"),
         ("conic constant k", f"{ci.k:.8f}", f"{co.k:.8f}"),
-        ("aspheric coefficients A2n", "0 (none)", "0 (none)"),
         ("vertex Z [mm] (datum V1)", f"{ci.vertex_z:.4f}", f"{co.vertex_z:.4f} (virtual)"),
         ("clear aperture r [mm]", f"{ci.clear_aperture[0]:.3f} .. {ci.clear_aperture[1]:.3f}",
          f"{co.clear_aperture[0]:.3f} .. {co.clear_aperture[1]:.3f}"),
         ("hyperbola a, b [mm]", f"{ci.a:.5f}, {ci.b:.5f}", f"{co.a:.5f}, {co.b:.5f}"),
         ("focal distance 2e [mm]", f"{ci.focal_distance_2e:.4f}", f"{co.focal_distance_2e:.4f}"),
-        ("3/ form (nm)", fi.iso10110_5.split(";")[0], fo.iso10110_5.split(";")[0]),
-        ("   RMSt / RMSi (nm)", f"< {fi.rms_um * 1e3:.0f} / < {fi.irregularity_rms_um * 1e3:.0f}",
-         f"< {fo.rms_um * 1e3:.0f} / < {fo.irregularity_rms_um * 1e3:.0f}"),
-        ("   slope error RMS", f"< {fi.slope_urad:g} urad / {fi.evaluation_length_mm:g} mm",
-         f"< {fo.slope_urad:g} urad / {fo.evaluation_length_mm:g} mm"),
-        ("   set by", fi.governed_by + " limit", fo.governed_by + " limit"),
+        (f"3/ form (fringes, \u03bb = {fi.wavelength_nm:g} nm)", fi.iso10110_5.split(";")[0],
+         fo.iso10110_5.split(";")[0]),
+        ("   RMSt / RMSi (\u03bb)", " / ".join(fi.iso10110_5.split("; ")[1:3]),
+         " / ".join(fo.iso10110_5.split("; ")[1:3])),
+        ("   slope error RMS", f"< {fi.slope_urad:g} urad / {fi.evaluation_length_mm:g} mm ({fi.governed_by})",
+         f"< {fo.slope_urad:g} urad / {fo.evaluation_length_mm:g} mm ({fo.governed_by})"),
         ("texture (ISO 10110-8)", spec.finish.iso10110_8, spec.finish.iso10110_8),
+        ("imperfections (ISO 10110-7)", spec.callouts.imperfections, spec.callouts.imperfections),
+        ("runout to A B", spec.callouts.geometric[0].frame, spec.callouts.geometric[1].frame),
     ]
     x = (0.0, 0.36, 0.68)
     for i, row in enumerate(rows):
         for j, cell in enumerate(row):
             ax.text(x[j], y, cell, fontsize=7, va="top", weight="bold" if i == 0 else "normal",
                     family="DejaVu Sans Mono" if (j and i) else "DejaVu Sans")
-        y -= 0.033
-        ax.plot([0, 1], [y + 0.008, y + 0.008], color="0.8", lw=0.3)
+        y -= 0.030
+        ax.plot([0, 1], [y + 0.007, y + 0.007], color="0.8", lw=0.3)
     y -= 0.01
     fin = spec.finish
     lines = [
-        "Sag: z(r) = c r\u00b2 / (1 + \u221a(1 - (1 + k) c\u00b2 r\u00b2)), c = 1/R, from each lobe's vertex along the axis,",
+        "Sag: z(r) = c r\u00b2 / (1 + \u221a(1 - (1 + k) c\u00b2 r\u00b2)), c = 1/R, from each lobe's vertex along the axis, "
         "positive into the part (away from the camera). Zemax Even Asphere: radius R, conic k, all alpha_n = 0.",
-        f"3/ form: A = power PV, B = irregularity PV, C = rotationally symmetric irregularity PV, in nm at",
-        f"lambda = {fi.wavelength_nm:g} nm; over the clear aperture of each lobe. Form per lobe, piston and tilt removed.",
+        "3/ form: A = power PV, B = irregularity PV, C = rotationally symmetric irregularity PV, in fringes "
+        f"(\u03bb/2 of height) at the test wavelength \u03bb = {fi.wavelength_nm:g} nm; RMSt, RMSi in \u03bb; over each "
+        f"lobe's clear aperture, piston and tilt removed per lobe. As heights: lobe 1 {fi.iso10110_5_nm}; "
+        f"lobe 2 {fo.iso10110_5_nm}.",
         f"Texture: Rq <= {fin.rq_nm:g} nm RMS in the band {fin.band_mm[0]:g} to {fin.band_mm[1]:g} mm "
-        f"(TIS {fin.tis * 100:.2f} % at {fin.wavelength_nm:g} nm).",
-        f"Turned: feed {fin.feed_mm:g} mm/rev, nose r {fin.nose_radius_mm:g} mm: kinematic Rz {fin.kinematic_rz_um:.3f} um, "
-        f"Ra {fin.kinematic_ra_um:.3f} um;",
+        f"(TIS {fin.tis * 100:.2f} % at {fin.wavelength_nm:g} nm). Turned: feed {fin.feed_mm:g} mm/rev, nose r "
+        f"{fin.nose_radius_mm:g} mm: kinematic Rz {fin.kinematic_rz_um:.3f} um, Ra {fin.kinematic_ra_um:.3f} um; "
         f"the feed marks are a GRATING of period {fin.grating_period_mm:g} mm (1st order at "
         f"{fin.grating_order_angle_mrad:.1f} mrad): "
         + ("polish until no feed mark is visible." if fin.polished else "they remain on the part."),
         f"Junction at r = {spec.junction['r_mm']:.3f} mm: step {spec.junction['step_mm']:.4f} mm, "
         f"{spec.junction['recessed']} lobe recessed; the ring outside the clear apertures is not optical.",
     ]
+    c = spec.callouts
+    lines += [f"{c.imperfections} (ISO 10110-7): {c.imperfection_basis}.",
+              f"Coating: {c.coating}.",
+              f"Vertex separation V1-V2 {c.vertex_separation.nominal_mm:.4f} \u00b1 {c.vertex_separation.plus_minus_mm:.3f},"
+              f" step {c.step_height.nominal_mm:.4f} \u00b1 {c.step_height.plus_minus_mm:.3f}: {c.step_height.basis}."]
+    if spec.as_turned is not None:
+        lines.append(spec.as_turned.note)
     for ln in lines:
-        ax.text(0.0, y, ln, fontsize=6.6, va="top")
-        y -= 0.028
+        bold = ln.startswith("POLISH REQUIRED")
+        for part in _wrap(ln, 150):
+            ax.text(0.0, y, part, fontsize=6.0, va="top", weight="bold" if bold else "normal",
+                    color="tab:red" if bold else "black")
+            y -= 0.0225
 
 
 def _sag_tables(ax, spec: PartSpec) -> None:
@@ -239,27 +265,99 @@ def _title_block(ax, spec: PartSpec, title: str) -> None:
 
     x, y, w, h = 272, 10, 138, 95
     ax.add_patch(plt.Rectangle((x, y), w, h, fill=False, lw=0.8))
+    d = spec.callouts.datums
     rows = [
         ("part", f"{title}: double-lobed hyperbolic mirror"),
         ("material", spec.material),
         ("process", spec.process),
-        ("units", "mm; angles rad; general tolerances ISO 2768-m"),
-        ("datum", "V1 (inner vertex, Z = 0) and the axis A"),
-        ("standard", "ISO 10110-5 (form), -8 (texture), -12 (aspheres)"),
-        ("optical surfaces", "lobes 1 and 2, protected; no burr at the step"),
+        ("units", "mm; angles rad; general tolerances ISO 2768-mK"),
+        ("datums", f"A {d['A']}; B {d['B']}"),
+        ("standard", "ISO 10110-5, -7, -8, -9, -12; ISO 1101"),
+        ("optical surfaces", "lobes 1 and 2, coated (see the coating note); no burr at the step"),
     ]
-    yy = y + h - 5
+    yy = y + h - 4
     for k, v in rows:
-        ax.text(x + 2, yy, k, fontsize=6.5, weight="bold", va="center")
-        ax.text(x + 30, yy, v, fontsize=6.2, va="center", wrap=True)
-        yy -= 7
-        ax.plot([x, x + w], [yy + 3.5, yy + 3.5], color="0.6", lw=0.3)
-    ax.text(x + 2, y + 32, "NOTES", fontsize=7, weight="bold", va="top")
+        ax.text(x + 2, yy, k, fontsize=6.3, weight="bold", va="center")
+        ax.text(x + 27, yy, v, fontsize=5.8, va="center")
+        yy -= 5.6
+        ax.plot([x, x + w], [yy + 2.8, yy + 2.8], color="0.6", lw=0.3)
+    # identity: number, revision, sheet
+    yy -= 1.5
+    ax.text(x + 2, yy, "drawing no.", fontsize=6.3, weight="bold", va="center")
+    ax.text(x + 27, yy, spec.number, fontsize=9, weight="bold", va="center", family="DejaVu Sans Mono")
+    ax.text(x + 78, yy, "rev.", fontsize=6.3, weight="bold", va="center")
+    ax.text(x + 88, yy, spec.revision, fontsize=9, weight="bold", va="center")
+    ax.text(x + 100, yy, "sheet 1 of 1, A3", fontsize=6, va="center")
+    yy -= 4.5
+    ax.plot([x, x + w], [yy, yy], color="0.3", lw=0.5)
+    # approvals
+    cols = (x + 2, x + 27, x + 72, x + 110)
+    yy -= 4
+    for cx, head in zip(cols, ("approval", "name", "signature", "date")):
+        ax.text(cx, yy, head, fontsize=6, weight="bold", va="center")
+    for role, name in (("drawn", f"lathe-mirror {__version__}"), ("checked", ""), ("approved (optics)", ""),
+                       ("approved (shop)", "")):
+        yy -= 5.2
+        ax.plot([x, x + w], [yy + 2.6, yy + 2.6], color="0.6", lw=0.3)
+        ax.text(cols[0], yy, role, fontsize=6, va="center")
+        ax.text(cols[1], yy, name, fontsize=5.8, va="center")
+    ax.plot([x, x + w], [yy - 2.6, yy - 2.6], color="0.6", lw=0.3)
+    for cx in cols[1:]:
+        ax.plot([cx - 1.5, cx - 1.5], [yy - 2.6, yy + 5.2 * 4 + 2.6 + 1.4], color="0.6", lw=0.3)
     notes = [
-        "1. Inspect each lobe's sag against the sag table (probe radii on the set-up sheet).",
-        "2. Form and slope tolerances from the tool's tolerance spec (lathe-mirror spec --json).",
-        "3. No sharp edges except at the step; break body edges 0.2 x 45 deg.",
-        "4. The paper's Table 1 'c' is the focal distance 2e, not a curvature.",
+        "1. Inspect each lobe's sag against the sag table; form per lobe, piston and tilt removed.",
+        "2. Tolerances from the tool's analysis (lathe-mirror spec --json states each basis).",
+        "3. Break body edges 0.2 x 45 deg; no chamfer on the optical face. Table 1's 'c' is 2e.",
     ]
     for i, n in enumerate(notes):
-        ax.text(x + 2, y + 26 - i * 5.5, n, fontsize=5.6, va="top")
+        ax.text(x + 2, y + 12.5 - i * 4.2, n, fontsize=5.3, va="top")
+
+
+def _clear_apertures(ax, spec: PartSpec) -> None:
+    """Each lobe's clear aperture drawn along its surface (ISO 10110: a dash-dot line)."""
+    import numpy as np
+
+    for lb in spec.lobes:
+        c = lb.conic
+        lo, hi = c.clear_aperture
+        r = np.linspace(lo, hi, 200)
+        z = c.vertex_z - c.sag(r)
+        for side in (1.0, -1.0):
+            ax.plot(side * r, z + 0.6, color="tab:green", lw=0.9, ls=(0, (8, 2, 1, 2)))
+    r_out = spec.lobes[1].conic.clear_aperture[1]
+    z_top = max(float(lb.conic.vertex_z - lb.conic.sag(lb.conic.clear_aperture[1])) for lb in spec.lobes)
+    ax.text(-r_out - 14, z_top + 5, "- \u00b7 - clear aperture", fontsize=5.8, color="tab:green")
+
+
+def _datums_and_frames(ax, spec: PartSpec, meridian: Meridian, R: float, zb: float, zmax: float) -> None:
+    """Datum feature symbols A (the back face) and B (the mount) and the feature control
+    frames of the runouts and the perpendicularity (ISO 1101)."""
+    box = dict(boxstyle="square,pad=0.25", fc="white", ec="black", lw=0.6)
+    body = meridian.spec
+
+    def datum(letter, at, to):
+        ax.plot([at[0], to[0]], [at[1], to[1]], color="black", lw=0.5)
+        ax.fill([at[0] - 1.0, at[0] + 1.0, at[0]], [at[1], at[1], at[1] + (0.9 if to[1] > at[1] else -0.9)],
+                color="black")
+        ax.text(to[0], to[1], letter, fontsize=7, weight="bold", ha="center", va="center", bbox=box)
+
+    datum("A", (0.55 * R, zb), (0.55 * R, zb - 9))
+    if body.mount.value == "bore":
+        rm = body.mount_diameter / 2
+        datum("B", (-rm, zb + 0.5 * body.mount_depth), (-rm - 6, zb + 0.5 * body.mount_depth))
+    elif body.mount.value == "boss":
+        rm = body.mount_diameter / 2
+        datum("B", (-rm, zb - 0.5 * body.mount_depth), (-rm - 6, zb - 0.5 * body.mount_depth))
+    else:
+        datum("B", (-R, zb + 2), (-R - 6, zb + 2))
+    g = spec.callouts.geometric
+    ax.text(0.55 * R + 5, zb - 9, g[2].frame, fontsize=6.2, va="center", bbox=box, family="DejaVu Sans")
+    ax.text(-R - 12, zb - 9, f"B: {g[3].frame}", fontsize=6.2, va="center", bbox=box, family="DejaVu Sans")
+    ax.text(-R - 14, zmax + 11, f"lobes 1, 2: {g[0].frame}", fontsize=6.2, va="center", bbox=box)
+
+
+def _wrap(text: str, width: int) -> list[str]:
+    """A long note in lines of at most `width` characters, broken at spaces."""
+    import textwrap
+
+    return textwrap.wrap(text, width) or [""]

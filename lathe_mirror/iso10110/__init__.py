@@ -8,6 +8,10 @@ material and the process.
               closed-form responses)
 - texture.py  Texture: kinematic Ra / Rz, RMS roughness with its spatial band, TIS, the
               feed-mark grating
+- callouts.py the datums (back face, mount) and the runout and perpendicularity to them,
+              the step height and vertex separation with their tolerances, ISO 10110-7
+              imperfections, the ISO 10110-9 coating, the drawing number, and whether the
+              part as turned meets its own form tolerance (polish required)
 
 `part_spec(...)` builds the whole PartSpec from typed objects; `spec_of(settings)` from a
 Settings (what `lathe-mirror spec`, `run` and the measured-profile check call). Lengths in
@@ -21,21 +25,25 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ..errors import InputError
+from ..optics.zones import fillet_band
+from .callouts import REVISION, AsTurned, Callouts, as_turned, callouts, drawing_number
 from .conic import CONVENTION, SAG_STEP_MM, Conic, lobe_conic, mirror_conics
 from .form import FormTolerance, angular_scale, form_tolerances
 from .texture import Texture, texture
 
 if TYPE_CHECKING:
+    from ..body import BodySpec
     from ..design import Mirror
+    from ..job import MachiningJob
     from ..finish import Process
     from ..lathe import Stock
     from ..tolerance.spec import ToleranceSettings
 
-__all__ = ["CONVENTION", "Conic", "FormTolerance", "LobeSpecSheet", "PartSpec", "Texture",
+__all__ = ["CONVENTION", "AsTurned", "Callouts", "Conic", "FormTolerance", "LobeSpecSheet", "PartSpec", "Texture",
            "lobe_conic", "mirror_conics", "part_spec", "spec_of"]
 
 #: The blank's material (the lathe's feeds and the polishing model assume aluminium).
-MATERIAL = "aluminium alloy, turnable and polishable (e.g. 6061-T6 or RSA-6061 for diamond turning)"
+MATERIAL = "aluminium alloy EN AW-6061 T6 (AA 6061-T6), drawn bar, EN 755-2"
 
 
 @dataclass(frozen=True)
@@ -68,6 +76,18 @@ class PartSpec:
     step_mm: float
     junction: dict
     notes: tuple[str, ...]
+    callouts: Callouts
+    as_turned: AsTurned | None = None
+
+    @property
+    def number(self) -> str:
+        """The drawing number (callouts.drawing_number of the part's optical data)."""
+        return drawing_number({"lobes": [lb.to_dict() for lb in self.lobes], "junction": self.junction,
+                               "callouts": self.callouts.to_dict(), "material": self.material})
+
+    @property
+    def revision(self) -> str:
+        return REVISION
 
     def lobe(self, name: str) -> LobeSpecSheet:
         return next(lb for lb in self.lobes if lb.conic.name == name)
@@ -78,14 +98,19 @@ class PartSpec:
                 "sag_step_mm": self.step_mm,
                 "lobes": [lb.to_dict() for lb in self.lobes], "junction": dict(self.junction),
                 "finish": self.finish.to_dict(), "material": self.material, "process": self.process,
-                "notes": list(self.notes)}
+                "notes": list(self.notes), "drawing_number": self.number, "revision": self.revision,
+                "callouts": self.callouts.to_dict(),
+                "as_turned": None if self.as_turned is None else self.as_turned.to_dict()}
 
 
 def part_spec(mirror: Mirror, tolerance: ToleranceSettings, process: Process, *, wavelength_nm: float,
-              step: float = SAG_STEP_MM, material: str = MATERIAL) -> PartSpec:
-    """The PartSpec of `mirror`: conics over the radii the camera uses, sag tables every
-    `step` mm, form tolerances from `tolerance`'s spec and drawn tolerances, the texture of
-    the resolved `process` (finish.Process.resolved) at wavelength_nm (nm)."""
+              body: BodySpec, resolution_mm: float, step: float = SAG_STEP_MM, material: str = MATERIAL,
+              job: MachiningJob | None = None) -> PartSpec:
+    """The PartSpec of `mirror` on the mounting `body`: conics over the radii the camera
+    uses, sag tables every `step` mm, form tolerances from `tolerance`'s spec and drawn
+    tolerances, the texture of the resolved `process` (finish.Process.resolved) at
+    wavelength_nm (nm), the callouts (datums, runout, step and vertex tolerances at the
+    lathe's resolution_mm, mm); with `job`, its part as turned against the form tolerance."""
     if not (isinstance(step, (int, float)) and math.isfinite(step) and 0.001 <= step <= 5.0):
         raise InputError(f"--step = {step!r} mm: allowed 0.001 to 5 mm")
     conics = mirror_conics(mirror)
@@ -98,8 +123,10 @@ def part_spec(mirror: Mirror, tolerance: ToleranceSettings, process: Process, *,
     lobes = tuple(LobeSpecSheet(conic=c, sag_table=tuple(tuple(float(v) for v in row) for row in c.sag_table(step)),
                                 form=f) for c, f in zip(conics, forms))
     zi, zo = mirror.junction_z
+    _, fillet = fillet_band(mirror, tex.nose_radius_mm)
     junction = {"r_mm": mirror.r_junction, "step_mm": abs(mirror.step), "recessed": mirror.recessed,
-                "z_inner_rim_mm": mirror.vertex_z - zi, "z_outer_edge_mm": mirror.vertex_z - zo}
+                "z_inner_rim_mm": mirror.vertex_z - zi, "z_outer_edge_mm": mirror.vertex_z - zo,
+                "fillet_radius_mm": tex.nose_radius_mm, "fillet_r_mm": None if fillet is None else list(fillet)}
     notes = (
         "Form tolerances: the allocation's rule (tolerance.allocation.inverse_sensitivity: each "
         "criterion's margin in squares split evenly among the drawn tolerances) with closed-form "
@@ -108,14 +135,19 @@ def part_spec(mirror: Mirror, tolerance: ToleranceSettings, process: Process, *,
         "figures (conservative when the spec is judged after calibration).",
         "The paper's Table 1 'c' is the focal distance 2e (focal_distance_2e_mm); c here is 1/R.",
     )
+    calls = callouts(mirror, conics, body, tolerance.tolerances, resolution_mm=resolution_mm)
+    turned = None if job is None else as_turned(job, conics, forms, evaluation_length_mm=forms[0].evaluation_length_mm)
     return PartSpec(lobes=lobes, finish=tex, material=material, process=process.label, step_mm=float(step),
-                    junction=junction, notes=notes)
+                    junction=junction, notes=notes, callouts=calls, as_turned=turned)
 
 
-def spec_of(settings, *, step: float = SAG_STEP_MM, process: str | None = None) -> PartSpec:
-    """The PartSpec of a Settings (typed; the [tolerance], [polish], [tool], [machine]
-    sections): the process named (default the first of [polish.process], the configured
-    lathe and tool), resolved with the configured nose, finishing feed and resolution."""
+def spec_of(settings, *, step: float = SAG_STEP_MM, process: str | None = None,
+            as_turned: bool = False) -> PartSpec:
+    """The PartSpec of a Settings (typed; the [tolerance], [polish], [tool], [machine],
+    [cad] sections): the process named (default the first of [polish.process], the
+    configured lathe and tool), resolved with the configured nose, finishing feed and
+    resolution. as_turned: also cut the configured job's part (~1 s) and judge it against
+    its form tolerance (the drawing's polish-required note)."""
     procs = settings.polish.processes
     if process is None:
         proc = procs[0]
@@ -126,5 +158,11 @@ def spec_of(settings, *, step: float = SAG_STEP_MM, process: str | None = None) 
         proc = found[0]
     proc = proc.resolved(nose_radius_mm=settings.tool.nose_radius, feed_mm=settings.machine.feed_finish,
                          resolution_mm=settings.machine.resolution)
-    return part_spec(settings.mirror(), settings.tolerance, proc, wavelength_nm=settings.polish.wavelength_nm,
-                     step=step)
+    mirror = settings.mirror()
+    job = None
+    if as_turned:
+        from ..job import MachiningJob  # lazy: the planner and the envelope only when the part is cut
+
+        job = MachiningJob.from_settings(settings, mirror)
+    return part_spec(mirror, settings.tolerance, proc, wavelength_nm=settings.polish.wavelength_nm,
+                     body=settings.body, resolution_mm=settings.machine.resolution, step=step, job=job)

@@ -32,9 +32,12 @@ tolerances follow for the two lowest forms a lathe leaves: power (z = p r^2 over
 aperture: PV = sqrt(3) d W / 2, RMS about the mean = sqrt(4/45) PV) and one period of
 rotationally symmetric irregularity over W (PV = sqrt(2) d W / pi, RMS = PV / (2 sqrt(2))).
 ISO 10110-5: 3/A(B/C) with A the power's PV, B the irregularity's PV, C = B (a turned
-surface's irregularity is all rotationally symmetric), RMSt the larger RMS and RMSi the
-irregularity's, in nm at the stated wavelength; the slope tolerance per
-SLOPE_EVALUATION_MM of radius.
+surface's irregularity is all rotationally symmetric), in fringe spacings (one fringe =
+lambda / 2 of surface height in a double-pass interferometer) at the stated test
+wavelength, rounded down (a tolerance is never loosened by rounding); RMSt the larger RMS
+and RMSi the irregularity's, in waves (lambda); the slope tolerance per
+SLOPE_EVALUATION_MM of radius. The same figures in nm are kept in the JSON
+(`iso10110_5_nm`) for a shop that reads heights.
 """
 
 from __future__ import annotations
@@ -76,13 +79,26 @@ class FormTolerance:
 
     @property
     def iso10110_5(self) -> str:
-        """The ISO 10110-5 indication: 3/A(B/C); RMSt<..; RMSi<.. in nm, lambda stated."""
+        """The ISO 10110-5 indication: 3/A(B/C) in fringe spacings (lambda / 2), RMSt and
+        RMSi in waves, the test wavelength stated."""
+        lam = self.wavelength_nm
+        a, b = _count(fringes(self.power_pv_um, lam)), _count(fringes(self.irregularity_pv_um, lam))
+        return (f"3/{a}({b}/{b}); RMSt<{_count(waves(self.rms_um, lam))}; "
+                f"RMSi<{_count(waves(self.irregularity_rms_um, lam))}; lambda={lam:g} nm")
+
+    @property
+    def iso10110_5_nm(self) -> str:
+        """The same form tolerance as heights in nm (a note for a shop that reads heights)."""
         a, b = _nm(self.power_pv_um), _nm(self.irregularity_pv_um)
         return (f"3/{a}({b}/{b}); RMSt<{_nm(self.rms_um)}; RMSi<{_nm(self.irregularity_rms_um)} "
-                f"(nm); lambda={self.wavelength_nm:g} nm")
+                f"(nm of surface height)")
 
     def to_dict(self) -> dict:
-        return {"iso10110_5": self.iso10110_5, "pv_um": self.pv_um, "rms_um": self.rms_um,
+        lam = self.wavelength_nm
+        return {"iso10110_5": self.iso10110_5, "iso10110_5_nm": self.iso10110_5_nm,
+                "power_fringes": fringes(self.power_pv_um, lam),
+                "irregularity_fringes": fringes(self.irregularity_pv_um, lam),
+                "test_wavelength_nm": lam, "pv_um": self.pv_um, "rms_um": self.rms_um,
                 "slope_urad": self.slope_urad, "evaluation_length_mm": self.evaluation_length_mm,
                 "power_pv_um": self.power_pv_um, "irregularity_pv_um": self.irregularity_pv_um,
                 "irregularity_rms_um": self.irregularity_rms_um, "wavelength_nm": self.wavelength_nm,
@@ -155,6 +171,26 @@ def _round(v: float) -> float:
         return float(v)
     e = math.floor(math.log10(v)) - 2
     return round(math.floor(v / 10.0**e + 1e-9) * 10.0**e, max(0, -e))
+
+
+def fringes(height_um: float, wavelength_nm: float) -> float:
+    """A surface height (um) in fringe spacings of a double-pass test at wavelength_nm: one
+    fringe is lambda / 2 of height (ISO 10110-5)."""
+    return height_um * 1e3 / (wavelength_nm / 2.0)
+
+
+def waves(height_um: float, wavelength_nm: float) -> float:
+    """A surface height (um) in waves (lambda) at wavelength_nm: ISO 10110-5's RMS unit."""
+    return height_um * 1e3 / wavelength_nm
+
+
+def _count(v: float) -> str:
+    """A fringe or wave count as drawn, rounded down: integers from 10 up, else 0.1, else
+    0.01 (a tolerance is never loosened by rounding)."""
+    for step, digits in ((1.0, 0), (0.1, 1), (0.01, 2)):
+        if v >= 10 * step or step == 0.01:
+            return f"{math.floor(v / step + 1e-9) * step:.{digits}f}"
+    raise AssertionError("unreachable")
 
 
 def _nm(um: float) -> str:
