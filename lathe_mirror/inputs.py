@@ -12,6 +12,10 @@ chunks the interpreter runs its signal handlers, so SIGINT / SIGTERM interrupt a
 `check_input(path, what, limit)` does the same checks without reading, for readers that
 take a path (x3pio, prysm, surfalize, h5py).
 
+`memory_limit()` is the memory (bytes) any one piece of work may take: the environment's
+LATHE_MIRROR_MAX_GIB, default MEMORY_LIMIT_GIB; readers check what a file declares against it
+before inflating anything.
+
 `check_number(value, what, lo, hi, unit)` refuses a number read from an input that is NaN,
 infinite or outside what its quantity allows, naming the input.
 
@@ -33,6 +37,8 @@ from .errors import InputError, num
 CHUNK = 1 << 16
 #: The path that means standard input (only when given explicitly).
 STDIN = "-"
+#: Memory (GiB) one piece of work may take unless LATHE_MIRROR_MAX_GIB says otherwise.
+MEMORY_LIMIT_GIB = 8.0
 
 
 def read_input(path: str | os.PathLike, what: str, limit: int) -> bytes:
@@ -66,6 +72,19 @@ def check_input(path: str | os.PathLike, what: str, limit: int) -> Path:
     fd = _open_regular(p, what, limit)
     os.close(fd)
     return p
+
+
+def memory_limit() -> float:
+    """Bytes of memory one piece of work may take: LATHE_MIRROR_MAX_GIB (GiB), default
+    MEMORY_LIMIT_GIB; InputError naming the variable if it is not a number > 0."""
+    text = os.environ.get("LATHE_MIRROR_MAX_GIB", "")
+    try:
+        value = float(text) if text else MEMORY_LIMIT_GIB
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"environment LATHE_MIRROR_MAX_GIB = {text!r}: allowed a number > 0")
+    return value * 2.0**30
 
 
 def check_number(value: float, what: str, lo: float | None = None, hi: float | None = None,
