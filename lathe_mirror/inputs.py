@@ -19,6 +19,11 @@ before inflating anything.
 `check_number(value, what, lo, hi, unit)` refuses a number read from an input that is NaN,
 infinite or outside what its quantity allows, naming the input.
 
+`check_real(value, what, ...)` and `check_type(value, what, cls, expected)` check the
+arguments of a public function given in Python: a real number (not a string, a bool or
+NaN) within its range, an object of the type the function takes; the line names the
+function and the argument (`what`, e.g. "plan: max_deviation").
+
 Every refusal is an InputError whose one line names the input (`what path`) and what is
 allowed: the command line exits 2.
 """
@@ -103,6 +108,48 @@ def check_number(value: float, what: str, lo: float | None = None, hi: float | N
         hi_t = "inf" if hi is None else num(hi)
         raise InputError(f"{what} = {num(v)}{u}: allowed {lo_t} to {hi_t}{u}")
     return v
+
+
+def check_real(value: object, what: str, lo: float | None = None, hi: float | None = None, unit: str = "", *,
+               above: float | None = None, integer: bool = False) -> float:
+    """A number argument given in Python: a real number (an int or float, numpy's too; not
+    a string or a bool), finite, >= lo (or > above) and <= hi; an int if `integer`.
+    InputError "what = value: ..." otherwise."""
+    import numbers
+
+    u = f" {unit}" if unit else ""
+    kind = "an integer" if integer else "a number"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{what} = {short(value)} ({type(value).__name__}): expected {kind}{u and ' in' + u}")
+    if integer and (not math.isfinite(value) or int(value) != value):
+        raise InputError(f"{what} = {num(value)}: expected an integer")
+    v = int(value) if integer else float(value)
+    if not math.isfinite(v):
+        raise InputError(f"{what} = {num(v)}: must be a finite number")
+    if above is not None and not v > above:
+        raise InputError(f"{what} = {num(v)}{u}: allowed > {num(above)}{u}")
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        allowed = (f">= {num(lo)}{u}" if hi is None else f"<= {num(hi)}{u}" if lo is None
+                   else f"{num(lo)} to {num(hi)}{u}")
+        raise InputError(f"{what} = {num(v)}{u}: allowed {allowed}")
+    return v
+
+
+def check_type(value: object, what: str, cls: type | tuple[type, ...], expected: str):
+    """value if it is an instance of cls, else InputError "what = value (type): expected
+    <expected>" (a swapped or misspelt argument named at the call, not deep inside)."""
+    if not isinstance(value, cls):
+        raise InputError(f"{what} = {short(value)} ({type(value).__name__}): expected {expected}")
+    return value
+
+
+def short(value: object) -> str:
+    """A value as a one-line message shows it: repr, at most about 60 characters."""
+    import reprlib
+
+    r = reprlib.Repr()
+    r.maxstring = r.maxother = 60
+    return " ".join(r.repr(value).split())
 
 
 # --------------------------------------------------------------------------------------
