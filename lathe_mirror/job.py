@@ -86,6 +86,9 @@ class MadeSurface:
     source: str
     polish_time_s: float = 0.0
 
+    def __repr__(self) -> str:
+        return f"MadeSurface({self.source!r})"
+
 
 def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
                  nose_radius: float | None = None, phase: float = 0.0,
@@ -149,6 +152,9 @@ def polishing_curve(profile: Profile, mirror: Mirror, params: PolishParams, *,
     """The made surface's figures against polishing time, and the time params.objective
     chooses (optics.polishing_curve); with a resolved process (process_for) its surface
     finish too."""
+    check_type(profile, "polishing_curve: profile", Profile, "a Profile (made_surface(...).profile)")
+    check_type(mirror, "polishing_curve: mirror", Mirror, "a Mirror (settings.mirror())")
+    check_type(params, "polishing_curve: params", PolishParams, "a PolishParams (settings.polish)")
     return polish_curve(profile, mirror, params, process=process, progress=progress)
 
 
@@ -443,6 +449,9 @@ class MachiningJob:
                 "resolution_mm": self.lathe.resolution, "lattice_phase": self.phase,
                 "polish_time_s": self.polish_time_s, "precompensated": self.target is not None,
                 "max_deviation_mm": self.max_deviation}
+
+    def __repr__(self) -> str:
+        return f"MachiningJob({self.label!r})"
 
 
 def surface_label(name: Surface, job: MachiningJob, *, nose_radius: float = 0.0) -> str:

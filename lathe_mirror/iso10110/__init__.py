@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ..errors import InputError
+from ..inputs import check_real, short
 from .conic import CONVENTION, SAG_STEP_MM, Conic, lobe_conic, mirror_conics
 from .form import FormTolerance, angular_scale, form_tolerances
 from .texture import Texture, texture
@@ -115,7 +116,12 @@ def part_spec(mirror: Mirror, tolerance: ToleranceSettings, process: Process, *,
 def spec_of(settings, *, step: float = SAG_STEP_MM, process: str | None = None) -> PartSpec:
     """The PartSpec of a Settings (typed; the [tolerance], [polish], [tool], [machine]
     sections): the process named (default the first of [polish.process], the configured
-    lathe and tool), resolved with the configured nose, finishing feed and resolution."""
+    lathe and tool), resolved with the configured nose, finishing feed and resolution.
+    step: the sag tables' radial step (mm, > 0)."""
+    if not all(hasattr(settings, k) for k in ("polish", "tolerance", "tool", "machine", "mirror")):
+        raise InputError(f"spec_of: settings = {short(settings)} ({type(settings).__name__}): expected a Settings "
+                         "(lm.load())")
+    check_real(step, "spec_of: step", unit="mm", above=0.0)
     procs = settings.polish.processes
     if process is None:
         proc = procs[0]

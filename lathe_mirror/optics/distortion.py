@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..design import Camera, Mirror
+from ..inputs import check_type
 from ..profile import ExactProfile, Profile
 from .camera import ALIGNED, CameraPose, pixel_centres
 from .trace import RayHits, trace_pixels
@@ -123,6 +124,10 @@ def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = No
     because every pixel of the same image radius shares its meridian trace).
     progress: tqdm bars on stderr for the 3-D traces.
     """
+    check_type(made, "image_displacement: made", Profile, "a Profile (made_surface(...).profile, ExactProfile)")
+    check_type(mirror, "image_displacement: mirror", Mirror, "a Mirror (settings.mirror())")
+    if camera is not None:
+        check_type(camera, "image_displacement: camera", Camera, "a Camera")
     camera = camera or mirror.camera
     pose = pose or ALIGNED
     u, v = pixel_centres(camera)

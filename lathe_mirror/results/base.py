@@ -62,6 +62,14 @@ class Result:
         text = f"{type(self).__name__}({', '.join(parts)})"
         return text if len(text) <= REPR_CHARS else text[:REPR_CHARS - 4] + "...)"
 
+    def __getitem__(self, key: str) -> Any:
+        """The JSON's value at `key` (to_dict()[key]), for code written against the dicts
+        the stages return; attributes are the typed way."""
+        d = self.to_dict()
+        if key not in d:
+            raise ResultError(f"{type(self).__name__}[{key!r}]: no such figure; it has {list(d)[:8]}")
+        return d[key]
+
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {}
         for f in dataclasses.fields(self):
@@ -88,7 +96,12 @@ class Result:
                     and f.default_factory is dataclasses.MISSING]
         if required:
             raise ResultError(f"{cls.__name__}.from_dict: figures missing: {required[:6]}")
-        kw = {names[k].name: _convert(hints[names[k].name], v) for k, v in d.items()}
+        kw = {}
+        for k, v in d.items():
+            try:
+                kw[names[k].name] = _convert(hints[names[k].name], v)
+            except ResultError as exc:  # a nested result's: say where it sits
+                raise ResultError(f"{cls.__name__}.from_dict: {k}: {exc}") from None
         return cls(**kw)
 
 
