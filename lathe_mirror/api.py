@@ -17,7 +17,7 @@ import contextlib
 import dataclasses
 from typing import TYPE_CHECKING
 
-from . import compute
+from .compute import Executor, active, session
 from .design import Camera, Mirror
 from .design_table import design_figures as design_dict
 from .enums import Program, member
@@ -86,9 +86,9 @@ def monte_carlo(settings: Settings, program: Program | str = Program.BEST, *, tr
     program = member(Program, program, "monte_carlo: program")
     changes = {}
     if trials is not None:
-        changes["trials"] = int(check_real(trials, "monte_carlo: trials", lo=1, integer=True))
+        changes["trials"] = int(check_real(trials, "monte_carlo: trials", integer=True))  # range: the key's
     if seed is not None:
-        changes["seed"] = int(check_real(seed, "monte_carlo: seed", lo=0, integer=True))
+        changes["seed"] = int(check_real(seed, "monte_carlo: seed", integer=True))
     if polish_time_s is not None:
         polish_time_s = check_real(polish_time_s, "monte_carlo: polish_time_s", lo=0.0, unit="s")
     if mirror is not None:
@@ -107,10 +107,10 @@ def _executor(settings):
     """The block's executor: the caller's compute.session if one of processes or Dask is
     active, else the one settings.compute names (as a command without --workers or
     --scheduler makes it)."""
-    if type(compute.active()) is not compute.Executor:
+    if type(active()) is not Executor:
         return contextlib.nullcontext()
     cfg = settings.compute
-    return compute.session(cfg.workers or None, cfg.scheduler or None)
+    return session(cfg.workers or None, cfg.scheduler or None)
 
 
 def _check_settings(fn: str, settings) -> None:

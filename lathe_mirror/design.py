@@ -195,10 +195,12 @@ class Mirror:
 
     @property
     def step(self) -> float:
-        """Height of the step at the junction, inner minus outer sheet (mm).
+        """Height of the step at the junction, inner minus outer sheet (mm), signed.
 
         Positive: the inner lobe's rim lies farther from the camera, i.e. the inner lobe is
-        recessed into the part and the outer lobe stands proud toward the camera.
+        recessed into the part and the outer lobe stands proud toward the camera. The
+        figures (design_figures' junction, the part spec) give the step's height, |step|, as
+        `step_mm` beside `recessed`, the lobe it lowers: a drawing dimensions a height.
         """
         zi, zo = self.junction_z
         return zi - zo
@@ -414,7 +416,11 @@ class LobeSpec:
 
 
 def mirror_from_specs(camera: Camera, lobes: tuple[LobeSpec, LobeSpec]) -> Mirror:
-    """The two-lobe mirror of `camera` from the lobes' specs, inner first (Eqs. 3-6)."""
+    """The two-lobe mirror of `camera` from the lobes' specs, inner first (Eqs. 3-6).
+
+    Checks the design's equations (a spec no hyperbola meets, lobes that cannot share the
+    camera: DesignError). The checks load() adds (the lathe, the room, the costs) are
+    settings.checked_mirror's."""
     check_type(camera, "mirror_from_specs: camera", Camera, "a Camera")
     if (not isinstance(lobes, (tuple, list)) or len(lobes) != 2
             or not all(isinstance(s, LobeSpec) for s in lobes)):

@@ -223,6 +223,11 @@ def test_nan_pixels_are_left_out_and_counted(w):
     assert fig.lobe("outer").image_displacement_px.nan_excluded > 0
     table = fig.table()
     assert table["image_displacement_px_nan_excluded"][1] == fig.lobe("outer").image_displacement_px.nan_excluded
+    # the 1-D shortcut (optics.radial, the report's figures) names its dropped pixels too
+    from lathe_mirror.optics.radial import radial_figures
+
+    outer = radial_figures(made.profile, w["m"])["lobes"][1]["image_displacement_px"]
+    assert math.isfinite(outer["rms"]) and outer["nan_excluded"] > 0
 
 
 def test_monte_carlo_honours_the_scheduler(w):
@@ -233,3 +238,39 @@ def test_monte_carlo_honours_the_scheduler(w):
     with pytest.raises(lm.InputError, match="127.0.0.1:9"):
         lm.monte_carlo(s, trials=2, polish_time_s=0.0)
     assert time.monotonic() - t0 < 30.0
+
+
+def test_monte_carlo_table_is_the_csv(w):
+    """MonteCarloResult.table(): one row per trial, the columns of the per-trial CSV
+    (export.trials, the file `tolerance --csv` writes), read back here with the csv module;
+    numbers equal to the CSV's stated precision. Serial ([compute] workers = 1), 4 trials."""
+    import csv
+    import io
+
+    from lathe_mirror.export.trials import trials_csv
+
+    s = dataclasses.replace(w["s"], compute=dataclasses.replace(w["s"].compute, workers=1))
+    res = lm.monte_carlo(s, trials=4, seed=3, polish_time_s=0.0)
+    assert len(repr(res)) < 200 and "trials=4" in repr(res)
+    table = res.table()
+    rows = list(csv.DictReader(io.StringIO(trials_csv([("api", res)]))))
+    assert table.shape == (4,) and list(table.dtype.names) == list(rows[0])
+    assert table["pass"].mean() == pytest.approx(res.yield_fraction)
+    for name in table.dtype.names:
+        for got, row in zip(table[name], rows):
+            want = row[name]
+            if table.dtype[name].kind == "f":
+                assert float(got) == pytest.approx(float(want), rel=1e-11, abs=1e-6), name  # 1e-6 px: the coarsest
+            elif table.dtype[name].kind == "b":
+                assert str(bool(got)).lower() == want.lower() or str(int(got)) == want, (name, got, want)
+            else:
+                assert str(got) == want, (name, got, want)
+
+
+def test_overrides_without_a_source():
+    """load's overrides as (key, value) pairs or a dict, as a script writes them; a value a
+    key refuses still names the key."""
+    assert lm.load(overrides=[("camera.f", 12.0)]).camera.f == 12.0
+    assert lm.load(overrides={"tool.nose_radius": 0.1}).tool.nose_radius == 0.1
+    with pytest.raises(lm.InputError, match="tool.nose_radius"):
+        lm.load(overrides={"tool.nose_radius": -0.1})
