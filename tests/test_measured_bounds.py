@@ -268,3 +268,19 @@ def test_surface_measured_without_a_file_and_with_a_lying_one(command, tmp_path)
     refused([command, "--surface", f"measured:{p}", "-o", str(tmp_path / "o"), "--no-progress"],
             phrases=["big.csv", "z = 1e+300 mm"])
     assert not (tmp_path / "o").exists()
+
+
+def test_a_zipped_areal_format_is_bounded_too(tmp_path, monkeypatch):
+    """surfalize's zip containers (.plux here) are held to the memory limit by their
+    members' declared sizes: 16 MiB of zeros x 8 (float64 working memory: 0.125 GiB)
+    against a limit of 0.1 GiB is refused before surfalize inflates it."""
+    from lathe_mirror.errors import InputError
+    from lathe_mirror.measure.readers import read_measurement
+
+    p = tmp_path / "bomb.plux"
+    with zipfile.ZipFile(p, "w", compression=zipfile.ZIP_DEFLATED) as z:
+        z.writestr("LAYER_0.raw", bytes(16 << 20))
+        z.writestr("index.xml", b"<xml/>")
+    monkeypatch.setenv("LATHE_MIRROR_MAX_GIB", "0.1")
+    with pytest.raises(InputError, match=r"bomb.plux .*LAYER_0.raw.*0.125 GiB.*limit 0.1 GiB"):
+        read_measurement(p)

@@ -11,6 +11,8 @@ read for what it declares before its library is handed the bytes:
         x, y, z with validity bits;
   datx  every link inside the file (no external or soft link), every dataset stored in
         the file (no external storage, no virtual dataset) and its declared shape x itemsize.
+  a zip of surfalize's (.plux, .vk6, ...): its members' declared sizes (check_zip); a
+        format that compresses without declaring the size (.zon's zstd) is not bounded.
 
 The grid's working memory (`BYTES_PER_POINT` per measured point) is checked against
 `memory_limit()` (LATHE_MIRROR_MAX_GIB, the limit the commands' cost estimates use).
@@ -93,6 +95,28 @@ def check_x3p(data: bytes, name: str) -> None:
         big = max(members, key=lambda m: m.file_size)
         raise InputError(f"{name}: its members inflate to {total} bytes ({big.filename!r}: {big.file_size}); "
                          f"its {points}-point grid allows at most {allowed} bytes")
+
+
+def check_zip(data: bytes, name: str) -> None:
+    """A zip container of another format (surfalize's .plux, .vk6, .vk7, ...): its members'
+    declared sizes, inflated and then held as float64 maps (BYTES_PER_POINT / 8 bytes of
+    working memory per inflated byte, at most), within the memory limit. Formats that
+    compress without declaring the size (a zstd stream in .zon) are not bounded here."""
+    import zipfile
+
+    if not data.startswith(b"PK\x03\x04"):
+        return
+    try:
+        members = zipfile.ZipFile(io.BytesIO(data)).infolist()
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError):
+        return
+    total = sum(m.file_size for m in members)
+    need = total * (BYTES_PER_POINT // 8)
+    limit = memory_limit()
+    if need > limit:
+        big = max(members, key=lambda m: m.file_size)
+        raise InputError(f"{name}: its members inflate to {total} bytes ({big.filename!r}: {big.file_size}), which "
+                         f"need about {_gib(need)} of memory; limit {_gib(limit)} (LATHE_MIRROR_MAX_GIB)")
 
 
 def check_hdf5(data: bytes, name: str) -> None:

@@ -144,6 +144,7 @@ def _read_kind(path, data: bytes, kind: MeasuredFormat, name: str) -> Trace | Ar
         return _read_prf(data, name)
     if kind in (MeasuredFormat.DATX, MeasuredFormat.DAT):
         return _read_zygo(path, data, kind, name)
+    bounds.check_zip(data, name)
     return _read_surfalize(data, Path(path).suffix.lower(), name)
 
 
