@@ -73,6 +73,10 @@ class PartSpec:
     def lobe(self, name: str) -> LobeSpecSheet:
         return next(lb for lb in self.lobes if lb.conic.name == name)
 
+    def __repr__(self) -> str:
+        conics = ", ".join(f"{lb.conic.name} R {lb.conic.R:.6g} mm k {lb.conic.k:.6g}" for lb in self.lobes)
+        return f"PartSpec({conics}; {self.material}, {self.process}; sag every {self.step_mm:g} mm)"
+
     def to_dict(self) -> dict:
         return {"convention": CONVENTION,
                 "frame": "machine frame: Z = 0 at the mirror's vertex (the inner lobe's), part in -Z; r the radius",

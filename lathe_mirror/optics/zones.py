@@ -91,6 +91,11 @@ class Zones:
     lobes: tuple[LobeZone, LobeZone]
     step_shadow_px: tuple[float, float]
 
+    def __repr__(self) -> str:
+        used = ", ".join(f"{z.name} {z.used_px[0]:.1f}-{z.used_px[1]:.1f} px" for z in self.lobes)
+        return (f"Zones(nose {self.nose_mm:g} mm + guard {self.guard_mm:g} mm, {self.recessed} recessed; used "
+                f"{used})")
+
     def as_dict(self) -> dict:
         return {"nose_radius_mm": float(self.nose_mm), "guard_mm": float(self.guard_mm),
                 "recessed_lobe": self.recessed,
