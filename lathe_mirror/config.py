@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .errors import ConfigError, InputError
-from .inputs import STDIN, read_text
+from .inputs import STDIN, read_text, short
 from .settings import from_config
 from .settings.keys import declared_defaults
 
@@ -48,12 +48,16 @@ def default_config() -> dict[str, Any]:
 
 
 def load(path: str | Path | None = None, *,
-         overrides: list[tuple[str, Any, str]] | None = None) -> Settings:
+         overrides: list[tuple[str, Any, str]] | dict[str, Any] | None = None) -> Settings:
     """The Settings of a configuration: the defaults, the user's TOML file (if any) merged
-    over them, then `overrides` (dotted key, value, source: e.g. a command-line flag),
-    every key and value checked once (one ConfigError / InputError line naming the key)."""
+    over them, then `overrides` ((dotted key, value) or (dotted key, value, source: e.g. a
+    command-line flag) items, or a dict {dotted key: value}), every key and value checked
+    once (one ConfigError / InputError line naming the key)."""
+    if path is not None and not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"load: path = {short(path)} ({type(path).__name__}): expected a TOML file's path or None")
+    overrides = _overrides(overrides)
     cfg = load_config(path)
-    for dotted, value, source in overrides or ():
+    for dotted, value, source in overrides:
         set_value(cfg, dotted, value, source=source)
     try:
         return from_config(cfg)
@@ -64,6 +68,21 @@ def load(path: str | Path | None = None, *,
             if f"{dotted} =" in text and source not in text:
                 raise type(exc)(f"{source}: {text}") from None
         raise
+
+
+def _overrides(overrides) -> list[tuple[str, Any, str]]:
+    """load's overrides as (key, value, source) items; a source defaults to "overrides"."""
+    if overrides is None:
+        return []
+    items = list(overrides.items()) if isinstance(overrides, dict) else overrides
+    if isinstance(items, (str, bytes)) or not isinstance(items, (list, tuple)):
+        raise InputError(f"load: overrides = {short(overrides)}: expected a list of (key, value) items or a dict")
+    out = []
+    for item in items:
+        if not (isinstance(item, (tuple, list)) and len(item) in (2, 3) and isinstance(item[0], str)):
+            raise InputError(f"load: overrides item {short(item)}: expected (key, value) or (key, value, source)")
+        out.append((item[0], item[1], str(item[2]) if len(item) == 3 else "overrides"))
+    return out
 
 
 #: Environment variable naming a site configuration (e.g. the shop's machine and tools),

@@ -23,7 +23,8 @@ from functools import cached_property
 import numpy as np
 
 from .declared import SLACK, check as check_declared
-from .errors import ConfigError, DesignError
+from .errors import ConfigError, DesignError, InputError
+from .inputs import check_type, short
 
 @dataclass(frozen=True)
 class Camera:
@@ -83,6 +84,15 @@ class Lobe:
     a: float
     b: float
     e: float
+
+    def __post_init__(self) -> None:
+        _lobe_name("Lobe", self.name)
+        key = f"Lobe {self.name}"
+        for k, unit in (("r_top", "mm"), ("r_pixel", "px"), ("h", "mm"), ("a", "mm"), ("b", "mm"), ("e", "mm")):
+            _positive(f"{key}: {k}", getattr(self, k), unit)
+        if not math.isclose(self.e, math.hypot(self.a, self.b), rel_tol=1e-9):
+            raise DesignError(f"{key}: e = {self.e:g} mm must be sqrt(a^2 + b^2) = "
+                              f"{math.hypot(self.a, self.b):g} mm (Eq. 3)")
 
     @property
     def c(self) -> float:
@@ -185,10 +195,12 @@ class Mirror:
 
     @property
     def step(self) -> float:
-        """Height of the step at the junction, inner minus outer sheet (mm).
+        """Height of the step at the junction, inner minus outer sheet (mm), signed.
 
         Positive: the inner lobe's rim lies farther from the camera, i.e. the inner lobe is
-        recessed into the part and the outer lobe stands proud toward the camera.
+        recessed into the part and the outer lobe stands proud toward the camera. The
+        figures (design_figures' junction, the part spec) give the step's height, |step|, as
+        `step_mm` beside `recessed`, the lobe it lowers: a drawing dimensions a height.
         """
         zi, zo = self.junction_z
         return zi - zo
@@ -350,6 +362,9 @@ def design_lobe(
 
 def design_mirror(camera: Camera, inner: Lobe, outer: Lobe) -> Mirror:
     """Assemble two lobes into a mirror, checking they can share the camera."""
+    check_type(camera, "design_mirror: camera", Camera, "a Camera")
+    check_type(inner, "design_mirror: inner", Lobe, "a Lobe (design_lobe)")
+    check_type(outer, "design_mirror: outer", Lobe, "a Lobe (design_lobe)")
     if outer.r_top <= inner.r_top:
         raise DesignError(
             f"lobes.outer.r_top = {outer.r_top:g} mm must exceed lobes.inner.r_top = "
@@ -388,9 +403,30 @@ class LobeSpec:
     a_over_b: float | None = None
     e: float | None = None
 
+    def __post_init__(self) -> None:
+        # the checks design_lobe makes of the numbers, at construction: a spec that
+        # cannot be designed is refused where it is written, with load()'s key names
+        _lobe_name("LobeSpec", self.name)
+        key = f"lobes.{self.name}"
+        _positive(f"{key}.r_top", self.r_top, "mm")
+        _positive(f"{key}.r_pixel", self.r_pixel, "px")
+        for k in ("alpha_deg", "a_over_b", "e"):
+            if getattr(self, k) is not None:
+                _finite(f"{key}.{k}", getattr(self, k))
+
 
 def mirror_from_specs(camera: Camera, lobes: tuple[LobeSpec, LobeSpec]) -> Mirror:
-    """The two-lobe mirror of `camera` from the lobes' specs, inner first (Eqs. 3-6)."""
+    """The two-lobe mirror of `camera` from the lobes' specs, inner first (Eqs. 3-6).
+
+    Checks the design's equations (a spec no hyperbola meets, lobes that cannot share the
+    camera: DesignError). The checks load() adds (the lathe, the room, the costs) are
+    settings.checked_mirror's."""
+    check_type(camera, "mirror_from_specs: camera", Camera, "a Camera")
+    if (not isinstance(lobes, (tuple, list)) or len(lobes) != 2
+            or not all(isinstance(s, LobeSpec) for s in lobes)):
+        raise InputError(f"mirror_from_specs: lobes = {short(lobes)}: expected two LobeSpecs, inner then outer")
+    if [s.name for s in lobes] != ["inner", "outer"]:
+        raise InputError(f"mirror_from_specs: lobes named {[s.name for s in lobes]}: expected inner then outer")
     return design_mirror(camera, *(
         design_lobe(s.name, camera, s.r_top, s.r_pixel, alpha_deg=s.alpha_deg, a_over_b=s.a_over_b, e=s.e)
         for s in lobes))
@@ -465,6 +501,11 @@ def _positive(key: str, value: float, unit: str) -> None:
     _finite(key, value)
     if value <= 0:
         raise DesignError(f"{key} = {value:g} {unit} must be > 0")
+
+
+def _lobe_name(what: str, name: object) -> None:
+    if name not in ("inner", "outer"):
+        raise InputError(f"{what}: name = {short(name)}: allowed 'inner', 'outer'")
 
 
 def _declared(key: str, value) -> None:

@@ -2,7 +2,9 @@
 
 A choice is a `str` Enum, so its value is what a user writes (in TOML or on the command
 line) and what the JSON carries. `parse(Enum, value, key)` turns a user's string into the
-member or raises one InputError line naming the key and the allowed values.
+member or raises one InputError line naming the key and the allowed values. Calling the
+enum does the same from Python: `Strategy("best")`, `Strategy("ARCS")` (a value or a
+member's name, any case) give the member; anything else raises that InputError.
 """
 
 from __future__ import annotations
@@ -15,7 +17,39 @@ from .errors import InputError
 E = TypeVar("E", bound=Enum)
 
 
-class Strategy(str, Enum):
+class Choice(str, Enum):
+    """A named choice: called with a member's value or name (any case) it gives the
+    member; with anything else an InputError naming the enum and the allowed values."""
+
+    @classmethod
+    def _missing_(cls, value):
+        text = str(value).lower()
+        for name, member in cls.__members__.items():
+            if member.value.lower() == text or name.lower() == text:
+                return member
+        allowed = list(dict.fromkeys([m.value for m in cls] + [n.lower() for n in cls.__members__]))
+        raise InputError(f"{cls.__name__} {_short(value)}: allowed {', '.join(allowed)}")
+
+
+def member(enum: type[E], value: object, what: str) -> E:
+    """value as a member of enum (a member, or its value or name in any case, as calling
+    the enum takes it); InputError "what = value: allowed ..." naming the argument."""
+    if isinstance(value, enum):
+        return value
+    try:
+        return enum(value)
+    except ValueError:
+        allowed = list(dict.fromkeys([m.value for m in enum] + [n.lower() for n in enum.__members__]))
+        raise InputError(f"{what} = {_short(value)}: allowed {', '.join(allowed)}") from None
+
+
+def _short(value: object) -> str:
+    import reprlib
+
+    return reprlib.repr(value)
+
+
+class Strategy(Choice):
     """How the exact profile becomes lattice moves (toolpath/). BEST (= ARCS) is the default."""
 
     PAPER = "paper"
@@ -28,7 +62,7 @@ class Strategy(str, Enum):
 BEST = Strategy.BEST
 
 
-class Dialect(str, Enum):
+class Dialect(Choice):
     """G-code dialects: LinuxCNC (checked with its rs274 interpreter) and Fanuc-style."""
 
     LINUXCNC = "linuxcnc"
@@ -40,7 +74,7 @@ class Dialect(str, Enum):
         return "ngc" if self is Dialect.LINUXCNC else "nc"
 
 
-class Surface(str, Enum):
+class Surface(Choice):
     """Named mirror surfaces (job.named_surface): the exact design, references, the
     programmed contour of each strategy, the polished paper program, a measured part (given
     on the command line as measured:FILE), and made: the configured machining job's made
@@ -69,7 +103,7 @@ class Surface(str, Enum):
         return BEST if self is Surface.BEST else Strategy(self.value)
 
 
-class Program(str, Enum):
+class Program(Choice):
     """Which programmed contour a toleranced part is turned from."""
 
     BEST = "best"
@@ -81,14 +115,14 @@ class Program(str, Enum):
         return BEST if self is Program.BEST else Strategy.PAPER
 
 
-class Distribution(str, Enum):
+class Distribution(Choice):
     """How a parameter's tolerance is read when drawing trials."""
 
     NORMAL = "normal"    # the tolerance is a 3-sigma bound of a normal distribution
     UNIFORM = "uniform"  # uniform within +/- the tolerance
 
 
-class Mount(str, Enum):
+class Mount(Choice):
     """How the mirror is held: a blind bore in the back, a boss (spigot), or nothing."""
 
     BORE = "bore"
@@ -96,7 +130,7 @@ class Mount(str, Enum):
     NONE = "none"
 
 
-class StepSchema(str, Enum):
+class StepSchema(Choice):
     """STEP application protocol: AP214 (automotive design; read by nearly everything)
     or AP242 (managed model-based 3D engineering; newer readers)."""
 
@@ -104,14 +138,14 @@ class StepSchema(str, Enum):
     AP242 = "AP242"
 
 
-class Which(str, Enum):
+class Which(Choice):
     """Which mirror a CAD file holds: the design (exact lobes) or the programmed contour."""
 
     DESIGN = "design"
     PROGRAMMED = "programmed"
 
 
-class CadFormat(str, Enum):
+class CadFormat(Choice):
     """CAD output format, by file content."""
 
     STEP = "step"
@@ -119,7 +153,7 @@ class CadFormat(str, Enum):
     DXF = "dxf"
 
 
-class Lap(str, Enum):
+class Lap(Choice):
     """How the polishing lap moves over a lobe (polishing.LapPlan).
 
     FIXED: a lap covering the whole lobe, held still while the part spins (v = omega r:
@@ -135,7 +169,7 @@ class Lap(str, Enum):
     STROKE = "stroke"
 
 
-class Dwell(str, Enum):
+class Dwell(Choice):
     """The dwell-time profile of a stroking lap along r: UNIFORM (a constant stroke speed)
     or FLAT (the non-negative dwell that makes the removal most nearly uniform over the
     lobe's clear aperture, as a deterministic-polishing planner computes it)."""
@@ -144,7 +178,7 @@ class Dwell(str, Enum):
     FLAT = "flat"
 
 
-class PolishObjective(str, Enum):
+class PolishObjective(Choice):
     """The figure that chooses the polishing time (optics.polishing_curve).
 
     STEREO: the calibrated stereo residual (depth error once a per-lobe smooth radial

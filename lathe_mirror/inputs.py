@@ -12,8 +12,17 @@ chunks the interpreter runs its signal handlers, so SIGINT / SIGTERM interrupt a
 `check_input(path, what, limit)` does the same checks without reading, for readers that
 take a path (x3pio, prysm, surfalize, h5py).
 
+`memory_limit()` is the memory (bytes) any one piece of work may take: the environment's
+LATHE_MIRROR_MAX_GIB, default MEMORY_LIMIT_GIB; readers check what a file declares against it
+before inflating anything.
+
 `check_number(value, what, lo, hi, unit)` refuses a number read from an input that is NaN,
 infinite or outside what its quantity allows, naming the input.
+
+`check_real(value, what, ...)` and `check_type(value, what, cls, expected)` check the
+arguments of a public function given in Python: a real number (not a string, a bool or
+NaN) within its range, an object of the type the function takes; the line names the
+function and the argument (`what`, e.g. "plan: max_deviation").
 
 Every refusal is an InputError whose one line names the input (`what path`) and what is
 allowed: the command line exits 2.
@@ -33,6 +42,8 @@ from .errors import InputError, num
 CHUNK = 1 << 16
 #: The path that means standard input (only when given explicitly).
 STDIN = "-"
+#: Memory (GiB) one piece of work may take unless LATHE_MIRROR_MAX_GIB says otherwise.
+MEMORY_LIMIT_GIB = 8.0
 
 
 def read_input(path: str | os.PathLike, what: str, limit: int) -> bytes:
@@ -68,6 +79,19 @@ def check_input(path: str | os.PathLike, what: str, limit: int) -> Path:
     return p
 
 
+def memory_limit() -> float:
+    """Bytes of memory one piece of work may take: LATHE_MIRROR_MAX_GIB (GiB), default
+    MEMORY_LIMIT_GIB; InputError naming the variable if it is not a number > 0."""
+    text = os.environ.get("LATHE_MIRROR_MAX_GIB", "")
+    try:
+        value = float(text) if text else MEMORY_LIMIT_GIB
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"environment LATHE_MIRROR_MAX_GIB = {text!r}: allowed a number > 0")
+    return value * 2.0**30
+
+
 def check_number(value: float, what: str, lo: float | None = None, hi: float | None = None,
                  unit: str = "") -> float:
     """value as a float if it is a finite number within [lo, hi]; else InputError naming
@@ -84,6 +108,48 @@ def check_number(value: float, what: str, lo: float | None = None, hi: float | N
         hi_t = "inf" if hi is None else num(hi)
         raise InputError(f"{what} = {num(v)}{u}: allowed {lo_t} to {hi_t}{u}")
     return v
+
+
+def check_real(value: object, what: str, lo: float | None = None, hi: float | None = None, unit: str = "", *,
+               above: float | None = None, integer: bool = False) -> float:
+    """A number argument given in Python: a real number (an int or float, numpy's too; not
+    a string or a bool), finite, >= lo (or > above) and <= hi; an int if `integer`.
+    InputError "what = value: ..." otherwise."""
+    import numbers
+
+    u = f" {unit}" if unit else ""
+    kind = "an integer" if integer else "a number"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{what} = {short(value)} ({type(value).__name__}): expected {kind}{u and ' in' + u}")
+    if integer and (not math.isfinite(value) or int(value) != value):
+        raise InputError(f"{what} = {num(value)}: expected an integer")
+    v = int(value) if integer else float(value)
+    if not math.isfinite(v):
+        raise InputError(f"{what} = {num(v)}: must be a finite number")
+    if above is not None and not v > above:
+        raise InputError(f"{what} = {num(v)}{u}: allowed > {num(above)}{u}")
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        allowed = (f">= {num(lo)}{u}" if hi is None else f"<= {num(hi)}{u}" if lo is None
+                   else f"{num(lo)} to {num(hi)}{u}")
+        raise InputError(f"{what} = {num(v)}{u}: allowed {allowed}")
+    return v
+
+
+def check_type(value: object, what: str, cls: type | tuple[type, ...], expected: str):
+    """value if it is an instance of cls, else InputError "what = value (type): expected
+    <expected>" (a swapped or misspelt argument named at the call, not deep inside)."""
+    if not isinstance(value, cls):
+        raise InputError(f"{what} = {short(value)} ({type(value).__name__}): expected {expected}")
+    return value
+
+
+def short(value: object) -> str:
+    """A value as a one-line message shows it: repr, at most about 60 characters."""
+    import reprlib
+
+    r = reprlib.Repr()
+    r.maxstring = r.maxother = 60
+    return " ".join(r.repr(value).split())
 
 
 # --------------------------------------------------------------------------------------

@@ -21,10 +21,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .body import MAX_LENGTH, CadModel, design_meridian, programmed_parts
-from .cut_surface import CompensatedMirror, ZeroShiftedMirror
+from .cut_surface import CompensatedMirror, CutSurface, ZeroShiftedMirror
 from .design import Mirror
-from .enums import BEST, Mount, Program, Strategy, Surface
+from .enums import BEST, Mount, Program, Strategy, Surface, member
 from .errors import InputError
+from .inputs import check_real, check_type
 from .finish import Process
 from .lathe import Lathe, Tool
 from .machine_errors import MachineErrors, machined_with_errors
@@ -57,6 +58,7 @@ def plan(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
     a polishing allowance (polishing.compensated_mirror; see program_target). The lattice
     phase holds the surface and moves its zero (cut_surface.ZeroShiftedMirror).
     """
+    strategy = _plan_args("plan", mirror, lathe, tool, strategy, max_deviation, phase, target)
     base: Mirror | CompensatedMirror = mirror if target is None else target
     planned = base if phase == 0.0 else ZeroShiftedMirror(base, zero_shift=phase * lathe.resolution)
     return plan_toolpath(planned, lathe, tool, strategy, max_deviation=max_deviation)
@@ -65,6 +67,9 @@ def plan(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
 def machine(toolpath: Toolpath, nose_radius: float | None = None) -> Profile:
     """Toolpath -> the as-machined surface: the envelope of a nose of nose_radius (mm;
     default the nose the path was planned for) along the programmed moves."""
+    check_type(toolpath, "machine: toolpath", Toolpath, "a Toolpath (plan)")
+    if nose_radius is not None:
+        check_real(nose_radius, "machine: nose_radius", unit="mm", above=0.0)
     return as_machined(toolpath, nose_radius)
 
 
@@ -80,6 +85,9 @@ class MadeSurface:
     toolpath: Toolpath
     source: str
     polish_time_s: float = 0.0
+
+    def __repr__(self) -> str:
+        return f"MadeSurface({self.source!r})"
 
 
 def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
@@ -98,6 +106,16 @@ def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = 
     lathe's set-up errors ([machine.errors], machine_errors.MachineErrors; None or all zero:
     a perfect machine), cut by machine_errors.machined_with_errors.
     """
+    strategy = _plan_args("made_surface", mirror, lathe, tool, strategy, max_deviation, phase, target)
+    if nose_radius is not None:
+        check_real(nose_radius, "made_surface: nose_radius", unit="mm", above=0.0)
+    if polish_params is not None:
+        check_type(polish_params, "made_surface: polish_params", PolishParams, "a PolishParams (settings.polish)")
+    check_real(polish_time_s, "made_surface: polish_time_s", lo=0.0, unit="s")
+    if toolpath is not None:
+        check_type(toolpath, "made_surface: toolpath", Toolpath, "a Toolpath (plan)")
+    if errors is not None:
+        check_type(errors, "made_surface: errors", MachineErrors, "a MachineErrors")
     tp = toolpath if toolpath is not None else plan(mirror, lathe, tool, strategy, max_deviation=max_deviation,
                                                     phase=phase, target=target)
     rho = tool.nose_radius if nose_radius is None else nose_radius
@@ -115,11 +133,28 @@ def made_surface(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = 
     return MadeSurface(profile, tp, source, polish_time_s if polish_params is not None else 0.0)
 
 
+def _plan_args(fn: str, mirror, lathe, tool, strategy, max_deviation, phase, target) -> Strategy:
+    """The arguments plan and made_surface share, checked (InputError naming `fn` and the
+    argument); the strategy as a Strategy (a name such as "best" taken)."""
+    check_type(mirror, f"{fn}: mirror", (Mirror, CutSurface), "a Mirror (settings.mirror())")
+    check_type(lathe, f"{fn}: lathe", Lathe, "a Lathe (settings.machine)")
+    check_type(tool, f"{fn}: tool", Tool, "a Tool (settings.tool)")
+    check_real(max_deviation, f"{fn}: max_deviation", unit="mm", above=0.0)
+    if check_real(phase, f"{fn}: phase", lo=0.0) >= 1.0:
+        raise InputError(f"{fn}: phase = {phase:g}: allowed 0 <= phase < 1 (lattice steps)")
+    if target is not None:
+        check_type(target, f"{fn}: target", CompensatedMirror, "a CompensatedMirror (program_target)")
+    return member(Strategy, strategy, f"{fn}: strategy")
+
+
 def polishing_curve(profile: Profile, mirror: Mirror, params: PolishParams, *,
                     process: Process | None = None, progress: bool = False) -> PolishCurve:
     """The made surface's figures against polishing time, and the time params.objective
     chooses (optics.polishing_curve); with a resolved process (process_for) its surface
     finish too."""
+    check_type(profile, "polishing_curve: profile", Profile, "a Profile (made_surface(...).profile)")
+    check_type(mirror, "polishing_curve: mirror", Mirror, "a Mirror (settings.mirror())")
+    check_type(params, "polishing_curve: params", PolishParams, "a PolishParams (settings.polish)")
     return polish_curve(profile, mirror, params, process=process, progress=progress)
 
 
@@ -313,6 +348,19 @@ class MachiningJob:
     precompensation_s: float = 0.0
     errors: MachineErrors | None = None  # the lathe's set-up errors ([machine.errors]); None: perfect
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "strategy", _plan_args("MachiningJob", self.mirror, self.lathe, self.tool,
+                                                        self.strategy, self.max_deviation, self.phase, self.target))
+        check_real(self.gouge_tolerance, "MachiningJob: gouge_tolerance", lo=0.0, unit="mm")
+        if self.nose_radius is not None:
+            check_real(self.nose_radius, "MachiningJob: nose_radius", unit="mm", above=0.0)
+        if self.polish is not None:
+            check_type(self.polish, "MachiningJob: polish", PolishParams, "a PolishParams (settings.polish)")
+        for k in ("polish_time_s", "precompensation_s"):
+            check_real(getattr(self, k), f"MachiningJob: {k}", lo=0.0, unit="s")
+        if self.errors is not None:
+            check_type(self.errors, "MachiningJob: errors", MachineErrors, "a MachineErrors")
+
     @classmethod
     def from_settings(cls, settings: Settings, mirror: Mirror | None = None, *,
                       strategy: Strategy | None = None) -> MachiningJob:
@@ -401,6 +449,9 @@ class MachiningJob:
                 "resolution_mm": self.lathe.resolution, "lattice_phase": self.phase,
                 "polish_time_s": self.polish_time_s, "precompensated": self.target is not None,
                 "max_deviation_mm": self.max_deviation}
+
+    def __repr__(self) -> str:
+        return f"MachiningJob({self.label!r})"
 
 
 def surface_label(name: Surface, job: MachiningJob, *, nose_radius: float = 0.0) -> str:

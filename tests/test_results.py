@@ -99,7 +99,7 @@ def test_strict_from_dict():
     d["lobes"][0]["unexpected_mm"] = 1.0
     from lathe_mirror.results import DesignFigures
 
-    with pytest.raises(KeyError, match="unexpected_mm"):
+    with pytest.raises(lm.InputError, match="unexpected_mm"):
         DesignFigures.from_dict(d)
 
 

@@ -136,4 +136,9 @@ def surface_arg(text: str | None, flag: str = "--surface"):
 
             raise InputError(f"{flag} measured: name the measured file, measured:FILE")
         return Surface.MEASURED, path
-    return parse(Surface, text, flag), None
+    surface = parse(Surface, text, flag)
+    if surface is Surface.MEASURED:  # the name alone: which file?
+        from ..errors import InputError
+
+        raise InputError(f"{flag} {text}: name the measured file, measured:FILE")
+    return surface, None

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 from ..errors import InputError
 from ..optics.zones import fillet_band
 from .callouts import REVISION, AsTurned, Callouts, as_turned, callouts, drawing_number
+from ..inputs import check_real, short
 from .conic import CONVENTION, SAG_STEP_MM, Conic, lobe_conic, mirror_conics
 from .form import FormTolerance, angular_scale, form_tolerances
 from .texture import Texture, texture
@@ -92,6 +93,10 @@ class PartSpec:
     def lobe(self, name: str) -> LobeSpecSheet:
         return next(lb for lb in self.lobes if lb.conic.name == name)
 
+    def __repr__(self) -> str:
+        conics = ", ".join(f"{lb.conic.name} R {lb.conic.R:.6g} mm k {lb.conic.k:.6g}" for lb in self.lobes)
+        return f"PartSpec({conics}; {self.material}, {self.process}; sag every {self.step_mm:g} mm)"
+
     def to_dict(self) -> dict:
         return {"convention": CONVENTION,
                 "frame": "machine frame: Z = 0 at the mirror's vertex (the inner lobe's), part in -Z; r the radius",
@@ -148,6 +153,10 @@ def spec_of(settings, *, step: float = SAG_STEP_MM, process: str | None = None,
     configured lathe and tool), resolved with the configured nose, finishing feed and
     resolution. as_turned: also cut the configured job's part (~1 s) and judge it against
     its form tolerance (the drawing's polish-required note)."""
+    if not all(hasattr(settings, k) for k in ("polish", "tolerance", "tool", "machine", "mirror")):
+        raise InputError(f"spec_of: settings = {short(settings)} ({type(settings).__name__}): expected a Settings "
+                         "(lm.load())")
+    check_real(step, "spec_of: step", unit="mm", above=0.0)
     procs = settings.polish.processes
     if process is None:
         proc = procs[0]

@@ -3,10 +3,13 @@ diagnosed against the program's nominal part; its figures as the JSON of `measur
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..design import Mirror
+from ..errors import InputError
+from ..inputs import check_real, check_type, short
 from ..profile import Profile
 from .diagnose import Diagnosis, TouchOff, diagnose
 from .fit import FitOptions, TraceFit, fit_trace, lobe_figures, profile_through_axis
@@ -37,6 +40,12 @@ def measure(path: str | Path, mirror: Mirror, nominal: Profile, programmed_nose_
     with a nose of programmed_nose_mm (mm); toolpath: that program (its X directions: the
     backlash; None: backlash not judged); touch_off: how its offsets were set (the set-up
     sheet's convention)."""
+    _check_path(path, "measure: path")
+    check_type(mirror, "measure: mirror", Mirror, "a Mirror (settings.mirror())")
+    check_type(nominal, "measure: nominal", Profile, "a Profile (the program's as-machined surface)")
+    check_real(programmed_nose_mm, "measure: programmed_nose_mm", unit="mm", above=0.0)
+    check_real(resolution_mm, "measure: resolution_mm", unit="mm", above=0.0)
+    check_type(options, "measure: options", FitOptions, "a FitOptions")
     data = read_measurement(path, fmt)
     areal = isinstance(data, AreaMap)
     trace = profile_through_axis(data, mirror) if areal else data
@@ -46,6 +55,11 @@ def measure(path: str | Path, mirror: Mirror, nominal: Profile, programmed_nose_
     if dg.centre_pip is not None:  # the pip is the diagnosis's: the lobe's form figures are about it
         fit = without_pip(fit, 2.0 * abs(dg.centre_height_mm))
     return Measurement(fit, dg, areal)
+
+
+def _check_path(path, what: str) -> None:
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"{what} = {short(path)} ({type(path).__name__}): expected a measured file's path")
 
 
 def without_pip(fit: TraceFit, radius_mm: float) -> TraceFit:

@@ -9,6 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from ..design import Mirror
+from ..errors import InputError
+from ..inputs import check_real, check_type, short
 from ..profile import ExactProfile, Profile
 from .diagnose import centre_pip
 from .fit import FitOptions, TraceFit, fit_trace, profile_through_axis
@@ -50,6 +52,11 @@ class MeasuredProfile(Profile):
 def measured_profile(path: str | Path, mirror: Mirror, *, nose_radius_mm: float, fmt: str | None = None) -> MeasuredProfile:
     """The measured part in `path` (readers.MeasuredFormat) as a surface of `mirror`'s
     design; nose_radius_mm: the programmed nose (the step's masked band)."""
+    if not isinstance(path, (str, Path)):
+        raise InputError(f"measured_profile: path = {short(path)} ({type(path).__name__}): expected a measured "
+                         "file's path")
+    check_type(mirror, "measured_profile: mirror", Mirror, "a Mirror (settings.mirror())")
+    check_real(nose_radius_mm, "measured_profile: nose_radius_mm", unit="mm", above=0.0)
     data = read_measurement(path, fmt)
     trace = profile_through_axis(data, mirror) if isinstance(data, AreaMap) else data
     fit = fit_trace(trace, mirror, nose_radius_mm=nose_radius_mm, options=FitOptions())

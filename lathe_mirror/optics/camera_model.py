@@ -48,6 +48,7 @@ import numpy as np
 
 from ..design import Mirror
 from ..errors import InputError
+from ..inputs import check_type, short
 from ..profile import Profile
 from .camera import ALIGNED, CameraPose
 from .radial import lobe_pixel_radii, weighted_stats
@@ -165,7 +166,10 @@ class Correspondences:
 
 def design_model(mirror: Mirror, k: int, zones=None) -> UnifiedModel:
     """The unified model of lobe k (0 inner, 1 outer) of the design (see the module doc);
-    its valid annulus the zones' used zone when given (valid_annulus_px)."""
+    its valid annulus the zones' used zone when given (valid_annulus_px). k: 0, 1 or the
+    lobe's name ("inner", "outer")."""
+    check_type(mirror, "design_model: mirror", Mirror, "a Mirror (settings.mirror())")
+    k = lobe_index(k, "design_model: k")
     lobe = mirror.lobes[k]
     cam = mirror.camera
     f_px = cam.f / cam.t_pixel
@@ -175,6 +179,16 @@ def design_model(mirror: Mirror, k: int, zones=None) -> UnifiedModel:
     return UnifiedModel(name=lobe.name, xi=2.0 * lobe.a * lobe.e / d, fu=gamma, fv=gamma,
                         cx=(w - 1) / 2.0, cy=(h - 1) / 2.0, image_size=(w, h),
                         annulus_px=valid_annulus_px(mirror, k, zones), viewpoint_z=lobe.focus_z)
+
+
+def lobe_index(k: object, what: str) -> int:
+    """A lobe given as 0 / 1 or by its name, as its index; InputError naming `what`."""
+    names = {"inner": 0, "outer": 1}
+    if isinstance(k, str) and k.lower() in names:
+        return names[k.lower()]
+    if not isinstance(k, bool) and isinstance(k, (int, np.integer)) and int(k) in (0, 1):
+        return int(k)
+    raise InputError(f"{what} = {short(k)}: allowed 0 (inner), 1 (outer) or the name 'inner', 'outer'")
 
 
 def valid_annulus_px(mirror: Mirror, k: int, zones=None) -> tuple[float, float]:

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..design import Camera, Mirror
+from ..inputs import check_type
 from ..profile import ExactProfile, Profile
 from .camera import ALIGNED, CameraPose, pixel_centres
 from .trace import RayHits, trace_pixels
@@ -79,6 +80,8 @@ class DistortionMaps:
 
     def figures(self, zones=None) -> dict:
         """{"lobes": [{"name", "pixels", ..., "<figure>": {"rms", "max"}}, ...]}, inner first.
+        A figure some of whose pixels are NaN is given over its finite pixels, with their
+        count as "nan_excluded" (absent when there are none).
 
         zones (optics.zones.Zones): the figures over each lobe's used zone (the pixels whose
         image radius lies in its used_px: the ring the nose cannot reach left out), as
@@ -121,6 +124,10 @@ def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = No
     because every pixel of the same image radius shares its meridian trace).
     progress: tqdm bars on stderr for the 3-D traces.
     """
+    check_type(made, "image_displacement: made", Profile, "a Profile (made_surface(...).profile, ExactProfile)")
+    check_type(mirror, "image_displacement: mirror", Mirror, "a Mirror (settings.mirror())")
+    if camera is not None:
+        check_type(camera, "image_displacement: camera", Camera, "a Camera")
     camera = camera or mirror.camera
     pose = pose or ALIGNED
     u, v = pixel_centres(camera)
@@ -213,7 +220,13 @@ def _figures_of(mirror: Mirror, camera: Camera, hm: RayHits, he: RayHits, xy: np
 
 
 def _rms_max(x: np.ndarray) -> dict:
+    """{"rms", "max"} of |x| over its finite values; where some are NaN (a made ray that
+    leaves where the exact mirror images nothing: no image point to compare with), they
+    are left out and counted: "nan_excluded"."""
     x = np.asarray(x, float)
-    if x.size == 0:
-        return {"rms": float("nan"), "max": float("nan")}
-    return {"rms": float(np.sqrt(np.mean(x * x))), "max": float(np.max(np.abs(x)))}
+    ok = np.isfinite(x)
+    out = ({"rms": float(np.sqrt(np.mean(x[ok] * x[ok]))), "max": float(np.max(np.abs(x[ok])))} if ok.any()
+           else {"rms": float("nan"), "max": float("nan")})
+    if not ok.all():
+        out["nan_excluded"] = int(x.size - np.count_nonzero(ok))
+    return out

@@ -237,9 +237,9 @@ def radial_figures(profile: Profile, mirror: Mirror, *, camera_dz: float = 0.0,
             "name": lobe.name,
             "pixels": int(np.sum(w[use])),
             "pixels_excluded": int(np.sum(w[~use])),
-            "ray_deviation_deg": weighted_stats(dev[use], w[use]),
-            "image_displacement_px": weighted_stats(disp[use], w[use]),
-            "viewpoint_spread_mm": weighted_stats(spread[use], w[use]),
+            "ray_deviation_deg": weighted_stats(dev[use], w[use], count_nan=True),
+            "image_displacement_px": weighted_stats(disp[use], w[use], count_nan=True),
+            "viewpoint_spread_mm": weighted_stats(spread[use], w[use], count_nan=True),
         })
         if zones is not None:
             u = zones.lobes[k].used_px
@@ -279,15 +279,18 @@ def pooled_rms(parts) -> float:
     return math.sqrt(sum(r**2 * n for r, n in parts) / sum(n for _, n in parts))
 
 
-def weighted_stats(values: np.ndarray, weights: np.ndarray) -> dict:
-    """{"rms", "max"} of |values| with weights (NaNs, i.e. rays lost, are skipped)."""
+def weighted_stats(values: np.ndarray, weights: np.ndarray, *, count_nan: bool = False) -> dict:
+    """{"rms", "max"} of |values| with weights (NaNs, i.e. rays lost, are skipped).
+    count_nan (weights that are pixel counts): the pixels skipped as "nan_excluded", when
+    there are any."""
     v = np.abs(np.asarray(values, dtype=float))
     w = np.asarray(weights, dtype=float)
     ok = np.isfinite(v)
-    if not ok.any():
-        return {"rms": math.nan, "max": math.nan}
-    return {"rms": float(np.sqrt(np.sum(w[ok] * v[ok] ** 2) / np.sum(w[ok]))),
-            "max": float(np.max(v[ok]))}
+    out = ({"rms": float(np.sqrt(np.sum(w[ok] * v[ok] ** 2) / np.sum(w[ok]))), "max": float(np.max(v[ok]))}
+           if ok.any() else {"rms": math.nan, "max": math.nan})
+    if count_nan and not ok.all():
+        out["nan_excluded"] = int(round(float(np.sum(w[~ok]))))
+    return out
 
 
 # --------------------------------------------------------------------------------------

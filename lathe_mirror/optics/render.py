@@ -14,6 +14,7 @@ import numpy as np
 
 from ..design import Camera, Mirror
 from ..errors import InputError
+from ..inputs import check_real, check_type
 from ..profile import Profile
 from .camera import ALIGNED, CameraPose, pixel_centres
 from .scene import Scene, pigment_index, pigment_table
@@ -38,6 +39,12 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
     black; the cost follows their number). progress: a tqdm bar on stderr. Raises
     InputError if no pixel sees the mirror.
     """
+    check_type(profile, "render_image: profile", Profile, "a Profile (made_surface(...).profile, ExactProfile)")
+    check_type(mirror, "render_image: mirror", Mirror, "a Mirror (settings.mirror())")
+    check_type(scene, "render_image: scene", Scene, "a Scene (build_scene(settings.scene))")
+    if camera is not None:
+        check_type(camera, "render_image: camera", Camera, "a Camera")
+    check_real(supersample, "render_image: supersample", lo=1, integer=True)
     camera = camera or mirror.camera
     pose = pose or ALIGNED
     u, v = pixel_centres(camera, supersample=supersample, window=window)

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..inputs import check_type
 
 # Surface ids: the room's six planes, then box faces (by axis and sign of their normal).
 FLOOR, CEILING, X_LO, X_HI, Y_LO, Y_HI = range(6)
@@ -106,6 +107,7 @@ def build_scene(spec: SceneSpec, *, mirror_top: float = 0.0, mirror_radius: floa
     mirror_top (mm): the mirror's highest point above the camera; mirror_radius (mm): its
     rim radius. Raises InputError naming the key on an empty or impossible scene.
     """
+    check_type(spec, "build_scene: spec", SceneSpec, "a SceneSpec (settings.scene)")
     sc = {k: getattr(spec, k) for k in spec.__dataclass_fields__}
     sc["room_centre"] = list(spec.room_centre)
     sc["boxes"] = [{"centre": list(b.centre), "size": list(b.size)} for b in spec.boxes]

@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..design import Mirror
+from ..inputs import check_real, check_type
 from .radial import sensor_radii, used_extent
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -89,6 +90,11 @@ class Zones:
     recessed: str
     lobes: tuple[LobeZone, LobeZone]
     step_shadow_px: tuple[float, float]
+
+    def __repr__(self) -> str:
+        used = ", ".join(f"{z.name} {z.used_px[0]:.1f}-{z.used_px[1]:.1f} px" for z in self.lobes)
+        return (f"Zones(nose {self.nose_mm:g} mm + guard {self.guard_mm:g} mm, {self.recessed} recessed; used "
+                f"{used})")
 
     def as_dict(self) -> dict:
         return {"nose_radius_mm": float(self.nose_mm), "guard_mm": float(self.guard_mm),
@@ -160,6 +166,9 @@ def zones(mirror: Mirror, nose_mm: float, guard_mm: float = 0.0, lattice_mm: flo
     stands on the lattice, up to a step from the design's r_junction, so the pixels whose
     ray passes within lattice_mm of the junction (the made rim of one lobe where the design
     has the other) are in neither lobe's used zone."""
+    check_type(mirror, "zones: mirror", Mirror, "a Mirror (settings.mirror())")
+    for name, value in (("nose_mm", nose_mm), ("guard_mm", guard_mm), ("lattice_mm", lattice_mm)):
+        check_real(value, f"zones: {name}", lo=0.0, unit="mm")
     radii = mirror.image_radii_px
     rj = mirror.r_junction
     recessed, band = fillet_band(mirror, nose_mm + guard_mm if nose_mm > 0 else 0.0)

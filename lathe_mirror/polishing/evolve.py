@@ -11,6 +11,7 @@ import numpy as np
 
 from ..design import Mirror
 from ..errors import InputError
+from ..inputs import check_real, check_type
 from ..profile import ExactProfile, LobeSamples, Profile, SampledProfile
 from .lap import LapPlan, lap_plan
 from .params import ACCURACY, BRIDGE, CONTACT_EVERY, PAD_SIGMAS, PolishParams
@@ -21,7 +22,9 @@ from .params import ACCURACY, BRIDGE, CONTACT_EVERY, PAD_SIGMAS, PolishParams
 
 def polish(profile: Profile, params: PolishParams, time_s: float | None = None) -> SampledProfile:
     """The surface after polishing `profile` for time_s (s per lobe; default params.time_s)."""
-    t = params.time_s if time_s is None else time_s
+    check_type(profile, "polish: profile", Profile, "a Profile (made_surface(...).profile)")
+    check_type(params, "polish: params", PolishParams, "a PolishParams (settings.polish)")
+    t = params.time_s if time_s is None else check_real(time_s, "polish: time_s", lo=0.0, unit="s")
     return polish_series(profile, params, [t])[0]
 
 

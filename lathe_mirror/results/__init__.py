@@ -12,13 +12,15 @@ a result is a table).
 
 from .base import Range, Result, Stat
 from .design import DesignFigures, LobeDesign
-from .made import LobeFigures, MachineFigures, MadeMirror, MirrorFigures, ToolpathFigures, ZoneFigures
+from .made import (DistortionFigures, LobeFigures, MachineFigures, MadeMirror, MirrorFigures, ToolpathFigures,
+                   ZoneFigures)
 from .optics import (CalibrationFigures, DepthAt, DepthCurve, RangeFigures, RangingFigures, RenderFigures,
                      StereoFigures)
 from .polishing import PolishCurveFigures, PolishingStudy
 from .tolerance import MonteCarloFigures, ProgramTolerance, ToleranceAnalysis, Verdict
 
-__all__ = ["CalibrationFigures", "DepthAt", "DepthCurve", "DesignFigures", "LobeDesign", "LobeFigures",
+__all__ = ["CalibrationFigures", "DepthAt", "DepthCurve", "DesignFigures", "DistortionFigures", "LobeDesign",
+           "LobeFigures",
            "MachineFigures", "MadeMirror", "MirrorFigures", "MonteCarloFigures", "PolishCurveFigures",
            "PolishingStudy", "ProgramTolerance", "Range", "RangeFigures", "RangingFigures", "RenderFigures",
            "Result", "Stat", "StereoFigures", "ToleranceAnalysis", "ToolpathFigures", "Verdict", "ZoneFigures"]

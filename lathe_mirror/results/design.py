@@ -47,6 +47,9 @@ class LobeDesign(Result):
 
 @dataclass(**RESULT)
 class Junction(Result):
+    """The step between the lobes (mm): step_mm its height |Mirror.step| (Mirror.step is
+    signed, inner minus outer sheet), recessed the lobe it lowers."""
+
     r: float
     z_inner: float
     z_outer: float

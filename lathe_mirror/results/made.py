@@ -123,6 +123,26 @@ class PixelFigures(Result):
 
 
 @dataclass(**RESULT)
+class DistortionFigures(Result):
+    """A made surface's per-pixel optical figures, lobes inner first (optics.distortion:
+    lm.distortion_figures). `table()`: one row per lobe."""
+
+    lobes: tuple[PixelFigures, ...]
+
+    def lobe(self, name: str) -> PixelFigures:
+        return next(lb for lb in self.lobes if lb.name == name)
+
+    def table(self) -> np.ndarray:
+        figs = ("ray_deviation_deg", "image_displacement_px", "viewpoint_spread_mm")
+        rows = [(lb.name, lb.pixels, lb.pixels_lost, lb.pixels_vignetted,
+                 *(x for f in figs for x in (getattr(lb, f).rms, getattr(lb, f).max, getattr(lb, f).nan_excluded or 0)))
+                for lb in self.lobes]
+        return structured(rows, [("name", "U8"), ("pixels", "i8"), ("pixels_lost", "i8"), ("pixels_vignetted", "i8"),
+                                 *((f"{f}_{s}", "i8" if s == "nan_excluded" else "f8")
+                                   for f in figs for s in ("rms", "max", "nan_excluded"))])
+
+
+@dataclass(**RESULT)
 class LobeFigures(Result):
     """The five figures of one lobe of a made mirror (ARCHITECTURE.md), surface and optics."""
 

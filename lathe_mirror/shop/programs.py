@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 from ..design import Mirror
 from ..enums import BEST, Strategy
 from ..errors import InputError
+from ..inputs import check_type
 from ..iso10110 import spec_of
 from ..job import MachiningJob
 from ..lathe import Stock
@@ -67,6 +68,10 @@ def shop_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
     import math
     from dataclasses import replace
 
+    check_type(toolpath, "shop_program: toolpath", Toolpath, "a Toolpath (plan)")
+    check_type(stock, "shop_program: stock", Stock, "a Stock (settings.stock)")
+    if options is not None:
+        check_type(options, "shop_program: options", ProgramOptions, "a ProgramOptions")
     options = ProgramOptions() if options is None else options
     resume = Resume()  # a program planned again with more passes: simulated from its first finishing pass
     while True:

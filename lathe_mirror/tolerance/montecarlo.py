@@ -169,6 +169,20 @@ class MonteCarloResult:
                 "camera_tilt_x_deg": (t.tilt_x * deg).tolist(), "camera_tilt_y_deg": (t.tilt_y * deg).tolist(),
                 "seat_tilt_x_deg": (t.seat_x * deg).tolist(), "seat_tilt_y_deg": (t.seat_y * deg).tolist()}
 
+    def __repr__(self) -> str:
+        return (f"MonteCarloResult(program={self.program.value}, trials={len(self.trials)}, seed={self.seed}, "
+                f"yield={self.yield_fraction:.4g}, nominal_time_s={self.nominal_time_s:g})")
+
+    def table(self) -> np.ndarray:
+        """One row per trial as a numpy structured array: the CSV's columns (csv_rows;
+        run "api"): the drawn parameters, every raw and calibrated figure, the pass flags."""
+        header, rows = self.csv_rows("api")
+        cols = [np.asarray(c) for c in zip(*rows)] if rows else [np.zeros(0) for _ in header]
+        out = np.empty(len(rows), dtype=[(name, c.dtype) for name, c in zip(header, cols)])
+        for name, c in zip(header, cols):
+            out[name] = c
+        return out
+
     def csv_rows(self, run: str) -> tuple[list[str], list[list]]:
         """Header and one row per trial: the drawn parameters, every raw and calibrated
         figure (per lobe for the lobe figures), the surface figures, the fitted rotation,

@@ -131,6 +131,11 @@ class Toolpath:
     n_points: int
     hand: Hand = Hand.AS_CONFIGURED
 
+    def __repr__(self) -> str:
+        return (f"Toolpath({self.strategy.value}, {len(self.segments)} moves, {self.n_points} of "
+                f"{self.lathe.max_points} points, nose {self.tool.nose_radius:g} mm, lattice "
+                f"{self.lathe.resolution:g} mm, {self.hand.value})")
+
     @property
     def held_tool(self) -> Tool:
         """The tool as the program's hand holds it (flanks mirrored for Hand.OPPOSITE)."""

@@ -28,6 +28,7 @@ import numpy as np
 
 from ...design import Camera, Lobe, Mirror
 from ...errors import InputError
+from ...inputs import check_real, check_type, short
 
 #: Elevations the band is sampled at for its median (centres of equal intervals).
 BAND_SAMPLES = 513
@@ -42,6 +43,11 @@ def r10(mirror: Mirror, band: tuple[float, float] | None = None) -> float:
     Closed form (see the module doc); NaN if a lobe cannot see part of the band. Raises
     InputError if the band is empty.
     """
+    check_type(mirror, "r10: mirror", Mirror, "a Mirror (settings.mirror())")
+    if band is not None and (not isinstance(band, (tuple, list)) or len(band) != 2):
+        raise InputError(f"r10: band = {short(band)}: expected (lowest, highest) elevation in rad")
+    if band is not None:
+        band = tuple(check_real(b, "r10: band", unit="rad") for b in band)
     el = band_elevations(mirror, band)
     per_px = parallax_per_px(mirror, el)
     return float(np.median(R10_FRACTION * mirror.baseline * np.cos(el) / per_px)) * 1e-3
