@@ -23,14 +23,14 @@ def main() -> None:
     from lathe_mirror.config import load
     from lathe_mirror.enums import Dialect, Mount
     from lathe_mirror.export.gcode import format_program
-    from lathe_mirror.shop import options_from_settings, plan_program
+    from lathe_mirror.shop import plan_program
     from lathe_mirror.shop.second import plan_second
     from lathe_mirror.shop.stock import simulate_program
     from lathe_mirror.toolpath import Strategy, plan_toolpath
 
     settings = load()
     mirror = settings.mirror()
-    opts = options_from_settings(settings.toolpath)
+    opts = settings.toolpath
     tp = plan_toolpath(mirror, settings.machine, settings.tool, Strategy.ARCS)
     for mount in (Mount.BORE, Mount.BOSS):
         body = dataclasses.replace(settings.body, mount=mount)

@@ -22,7 +22,7 @@ def main() -> None:
     from lathe_mirror.enums import Dialect
     from lathe_mirror.export.gcode import format_program
     from lathe_mirror.export.setup_sheet import setup_sheet_html
-    from lathe_mirror.shop import options_from_settings, plan_program
+    from lathe_mirror.shop import plan_program
     from lathe_mirror.shop.setup import setup_sheet
     from lathe_mirror.shop.stock import simulate_program
     from lathe_mirror.tolerance.setting import setting_error_costs
@@ -31,7 +31,7 @@ def main() -> None:
     settings = load()
     mirror = settings.mirror()
     lathe, tool, stock = settings.machine, settings.tool, settings.stock
-    opts = options_from_settings(settings.toolpath)
+    opts = settings.toolpath
 
     rows: dict[str, list[float]] = {}
     sims = {}

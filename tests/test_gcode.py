@@ -22,7 +22,8 @@ from lathe_mirror.export.gcode import format_program, program_files
 from lathe_mirror.shop.programs import shop_programs
 from lathe_mirror.lathe import Lathe, Stock, Tool
 from lathe_mirror.path import Arc
-from lathe_mirror.shop import ProgramOptions, plan_program
+from lathe_mirror.shop import plan_program
+from lathe_mirror.toolpath import ToolpathSettings
 from lathe_mirror.toolpath import Strategy, plan_toolpath
 
 REPO = Path(__file__).resolve().parents[1]
@@ -249,7 +250,7 @@ def test_a_gouging_program_is_refused(paper_mirror):
     tp = plan_toolpath(paper_mirror, LATHE, Tool(nose_radius=0.0), Strategy.PAPER)
     # the paper's rounding lies up to ~0.003 mm inside the part: a tighter tolerance refuses it
     with pytest.raises(InputError, match="gouge"):
-        plan_program(tp, STOCK, ProgramOptions(gouge_tolerance=0.001))
+        plan_program(tp, STOCK, ToolpathSettings(gouge_tolerance=0.001))
 
 
 def test_unknown_dialect():
@@ -280,7 +281,7 @@ def test_reference_programs_pass_rs274(tmp_path, name, paper_mirror):
     # no gouge: the 0.2 mm nose swept along rs274's own moves stays out of the part
     pieces = rebuild_points(moves, 3, step=0.004)
     depth = nose_depth_into_part(pieces, 0.2, paper_mirror)
-    assert depth <= ProgramOptions().gouge_tolerance  # the stated tolerance, 0.005 mm
+    assert depth <= ToolpathSettings().gouge_tolerance  # the stated tolerance, 0.005 mm
     # the check sees a gouge: a nose 0.05 mm larger than planned cuts 0.05 mm deeper
     assert abs(nose_depth_into_part(pieces, 0.25, paper_mirror) - (depth + 0.05)) < 1e-3
     # and the header's figure (machining.gouge_depth) agrees with this brute force
@@ -424,7 +425,7 @@ def test_roughing_leaves_the_allowance_and_never_cuts_the_part(tmp_path, paper_m
     mirror is at least half the allowance and at most one roughing depth plus the
     allowance; rapid and roughing moves keep the nose off the finished part."""
     m = paper_mirror
-    rho, allow, depth = 0.2, ProgramOptions().rough_allowance, ProgramOptions().rough_depth
+    rho, allow, depth = 0.2, ToolpathSettings().rough_allowance, ToolpathSettings().rough_depth
     tp = plan_toolpath(m, LATHE, Tool(nose_radius=rho), Strategy.ARCS)
     moves = canonical_moves(rs274(tmp_path, program(tp, STOCK)))
     r = np.arange(0.0, 35.0, 0.01)

@@ -22,12 +22,12 @@ from lathe_mirror.export.gcode import format_program
 from lathe_mirror.lathe import Stock, Tool
 from lathe_mirror.path import Arc
 from lathe_mirror.shop.programs import shop_program
-from lathe_mirror.shop import ProgramOptions
+from lathe_mirror.toolpath import ToolpathSettings
 from lathe_mirror.toolpath import Strategy, check_junction, plan_toolpath
 from lathe_mirror.toolpath.checks import junction_margin
 from lathe_mirror.toolpath.moves import Hand
 
-GOUGE_TOL = ProgramOptions().gouge_tolerance
+GOUGE_TOL = ToolpathSettings().gouge_tolerance
 #: rs274's tool table: every station's offsets zero (the nose centre is programmed).
 TOOLS = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4))
 

@@ -20,7 +20,7 @@ from lathe_mirror.export.gcode import format_program
 from lathe_mirror.lathe import Lathe, Stock, Tool
 from lathe_mirror.path import Arc, Line
 from lathe_mirror.shop.programs import shop_program
-from lathe_mirror.shop import ProgramOptions
+from lathe_mirror.toolpath import ToolpathSettings
 from lathe_mirror.shop.program import Rapid
 from lathe_mirror.shop.stock import SimMove, SimOperation, simulate, simulate_program
 from lathe_mirror.shop.tool_shapes import blade_shape
@@ -28,7 +28,7 @@ from lathe_mirror.toolpath import Strategy, plan_toolpath
 
 REPO = Path(__file__).resolve().parents[1]
 LATHE, STOCK, TOOL = Lathe(), Stock(), Tool()
-OPTIONS = ProgramOptions()
+OPTIONS = ToolpathSettings()
 #: Every station's row (rs274 reports a tool change by its row in the table), T5 the blade.
 TOOLS = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4)) + "T5 P5 X0 Z0 D0\n"
 
@@ -127,16 +127,16 @@ def test_committed_programs_touch_nothing(tmp_path, paper_mirror, name):
     tolerance; each operation removes what a hand count says."""
     events = canonical(rs274(tmp_path, (REPO / "gcode" / name).read_text()))
     # the part-off: the [cad] body's 30 mm, the 0.5 mm back allowance, the 3 mm blade (T5)
-    z_cut = -(30.0 + OPTIONS.back_allowance + OPTIONS.parting_width)
+    z_cut = -(30.0 + OPTIONS.back_allowance_mm + OPTIONS.parting_width_mm)
     sim = simulate(replay(events), paper_mirror, TOOL, LATHE, STOCK, rapid_rate=OPTIONS.rapid_rate,
-                   gouge_tolerance=OPTIONS.gouge_tolerance, shapes={5: blade_shape(OPTIONS.parting_width)},
-                   parting=(z_cut, OPTIONS.parting_width))
+                   gouge_tolerance=OPTIONS.gouge_tolerance, shapes={5: blade_shape(OPTIONS.parting_width_mm)},
+                   parting=(z_cut, OPTIONS.parting_width_mm))
     assert sim.contacts == ()
     # the part-off cuts the blade's slot through the bar: pi R^2 w; the part is off above it
     *ops, parting = sim.operations
     assert parting.station == 5
-    assert parting.removed_volume_mm3 == pytest.approx(math.pi * STOCK.radius**2 * OPTIONS.parting_width, rel=1e-4)
-    assert sim.parted.bounds[1] == pytest.approx(z_cut + OPTIONS.parting_width, abs=1e-9)
+    assert parting.removed_volume_mm3 == pytest.approx(math.pi * STOCK.radius**2 * OPTIONS.parting_width_mm, rel=1e-4)
+    assert sim.parted.bounds[1] == pytest.approx(z_cut + OPTIONS.parting_width_mm, abs=1e-9)
     # face, rough, semi-finish; the finishing passes (at most max_finish_depth each) and the contour
     assert [op.station for op in ops][:3] == [1, 1, 1] and len(ops) >= 5 and {op.station for op in ops[3:]} == {2}
     assert all(op.max_depth_of_cut_mm <= OPTIONS.max_finish_depth + 1e-6 for op in ops[3:])
@@ -465,8 +465,7 @@ def test_a_program_planned_again_is_simulated_from_its_first_finishing_pass(whic
     from the bar, on the paper default and a recessed-outer design."""
     from conftest import RECESSED_OUTER
     from lathe_mirror.config import load
-    from lathe_mirror.shop import options_from_settings
-    from lathe_mirror.shop.plan import plan_program
+        from lathe_mirror.shop.plan import plan_program
     from lathe_mirror.shop.programs import shop_programs
     from lathe_mirror.shop.resume import Resume
     from lathe_mirror.shop.stock import operations_of
@@ -483,7 +482,7 @@ def test_a_program_planned_again_is_simulated_from_its_first_finishing_pass(whic
         assert shop.simulation.contacts == fresh.contacts == ()
         assert shop.simulation.parted.equals(fresh.parted)
         # the first plan (the configured passes) and the final one share their first three operations
-        first = plan_program(shop.program.toolpath, settings.stock, options_from_settings(settings.toolpath),
+        first = plan_program(shop.program.toolpath, settings.stock, settings.toolpath,
                              name=shop.program.name, body=settings.body)
         resume = Resume()
         simulate_program(first, resume=resume)

@@ -39,7 +39,6 @@ def run(args: argparse.Namespace) -> int:
     from ..measure.result import measure
     from ..job import check_program, design, machine, program_target
     from ..shop.programs import shop_program
-    from ..shop import options_from_settings
     from .common import check_outputs, output_dir, program_strategy
 
     if not args.output:
@@ -62,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     # the re-cut: the same checks as every program (plan on the lattice within the budget,
     # gouge), then the stock simulation (shop_program refuses contact)
     recut_tp = check_program(settings, mirror, strategy, tool=tool, target=comp.target)
-    shop = shop_program(recut_tp, settings.stock, options_from_settings(settings.toolpath), name="mirror_recut")
+    shop = shop_program(recut_tp, settings.stock, settings.toolpath, name="mirror_recut")
     notes = tuple(f"Set-up correction from the measured part: {c}" for c in comp.setup) + (comp.message,)
     sheet = dataclasses.replace(shop.sheet, notes=shop.sheet.notes + notes)
 

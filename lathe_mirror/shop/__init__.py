@@ -5,7 +5,8 @@ Layer: after nose_envelope (the gouge check) and before polishing and optics; it
 the toolpath, the lathe, the tool, the stock and the [toolpath] settings, never the
 config dict. shop.programs.shop_program strings it together (plan, simulate, refuse, sheet).
 
-- program.py   ProgramOptions, the program model (Operation, blocks, Program)
+- program.py   the program model (Operation, blocks, Program); its knobs are the
+               [toolpath] section, toolpath.ToolpathSettings
 - plan.py      plan_program: the operations, checked (stock, gouge, travel) and numbered
 - roughing.py  facing through X0, roughing levels (ramped pockets), semi-finish into the
                step's corner, the finishing pass's lead-in and exit, the way home
@@ -27,6 +28,5 @@ config dict. shop.programs.shop_program strings it together (plan, simulate, ref
 """
 
 from .plan import plan_program
-from .program import ProgramOptions, options_from_settings
 
-__all__ = ["ProgramOptions", "options_from_settings", "plan_program"]
+__all__ = ["plan_program"]

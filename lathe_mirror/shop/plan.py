@@ -11,7 +11,8 @@ from ..errors import InputError
 from ..lathe import Stock
 from ..nose_envelope import as_machined, gouge_depth, junction_fillet
 from ..toolpath import check_travel, profile_errors, usable_ranges
-from .program import MAX_BLOCK_NUMBER, Comment, Operation, Program, ProgramOptions
+from ..toolpath import ToolpathSettings
+from .program import MAX_BLOCK_NUMBER, Comment, Operation, Program
 from .roughing import plan_operations
 
 if TYPE_CHECKING:
@@ -19,8 +20,8 @@ if TYPE_CHECKING:
     from ..toolpath import Toolpath
 
 
-def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | None = None, *,
-                 name: str = "mirror", body: BodySpec | None = None) -> Program:
+def plan_program(toolpath: Toolpath, stock: Stock, options: ToolpathSettings | None = None, *,
+                 name: str = "mirror", body: BodySpec | None = None, finish_passes: int = 0) -> Program:
     """The whole program around the finishing contour of `toolpath`.
 
     Facing through X0, roughing levels (pockets ramped), a semi-finish along the profile
@@ -33,7 +34,7 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
     the program ends with the part-off at its length (shop.partoff) and the second
     set-up (shop.second) faces the back and cuts the mount.
     """
-    options = ProgramOptions() if options is None else options
+    options = ToolpathSettings() if options is None else options
     lathe, m = toolpath.lathe, toolpath.mirror
     if stock.radius <= m.r_max:
         raise InputError(f"stock.diameter = {stock.diameter:g} mm: must exceed the mirror's "
@@ -54,14 +55,14 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
             "(more points, a finer machine.resolution or another strategy cut closer)"
         )
     made = as_machined(toolpath)
-    plan = plan_operations(toolpath, stock, options)
+    plan = plan_operations(toolpath, stock, options, finish_passes)
     ops_list, parting = list(plan.operations), None
     if body is not None:
         from .partoff import parting_z, with_partoff  # lazy: shop.partoff off the CLI's start-up path
 
         z = parting_z(body, stock, options, lathe)
         ops_list = with_partoff(ops_list, plan.home, z, stock, options, lathe)
-        parting = (z, options.parting_width)
+        parting = (z, options.parting_width_mm)
     ops = numbered(ops_list)
     prog = Program(name=name, toolpath=toolpath, stock=stock, options=options, operations=ops,
                    home=plan.home, safe_z=plan.safe_z, r_out=plan.r_out, gouge_depth=depth,
