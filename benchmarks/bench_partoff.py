@@ -21,7 +21,8 @@ def main() -> None:
     args = ap.parse_args()
 
     from lathe_mirror.config import load
-    from lathe_mirror.enums import Dialect, Mount
+    from lathe_mirror.enums import Mount
+    from lathe_mirror.export.dialects import DIALECTS
     from lathe_mirror.export.gcode import format_program
     from lathe_mirror.shop import plan_program
     from lathe_mirror.shop.second import plan_second
@@ -45,7 +46,7 @@ def main() -> None:
             sim2 = simulate_program(two)
             t3 = time.perf_counter()
             for prog in (one, two):
-                for d in Dialect:
+                for d in DIALECTS:
                     format_program(prog, d)
             t4 = time.perf_counter()
             for key, dt in (("plan first set-up", t1 - t0), ("simulate first set-up", t2 - t1),

@@ -32,7 +32,6 @@ def run(args: argparse.Namespace) -> int:
     import dataclasses
     from pathlib import Path
 
-    from ..enums import Dialect, parse
     from ..errors import InputError
     from ..measure.compensate import GAIN, compensation
     from ..measure.fit import FitOptions
@@ -45,11 +44,13 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("-o/--output: compensate writes a program; name a directory")
     gain = GAIN if args.gain is None else args.gain
     # --gain is within its range (commands/flags.py, at parsing)
-    dialect = parse(Dialect, args.dialect, "--dialect")
+    from ..export.dialects import dialect as find_dialect
+
+    dialect = find_dialect(args.dialect)
     settings = load(args)
     mirror = design(settings)
     strategy = program_strategy(args.program, settings)
-    names = [f"mirror_recut.{dialect.extension}", "mirror_recut.setup.html", "tools.tbl", "compensate.json"]
+    names = [f"mirror_recut.{dialect.extension}", "mirror_recut.setup.html", dialect.offsets_file, "compensate.json"]
     check_outputs(args.output, names)
     tp = check_program(settings, mirror, strategy)
     nominal = machine(tp)
@@ -66,14 +67,13 @@ def run(args: argparse.Namespace) -> int:
     sheet = dataclasses.replace(shop.sheet, notes=shop.sheet.notes + notes)
 
     from ..export.files import json_text, write_text
-    from ..export.gcode import format_program
+    from ..export.gcode import format_program, offset_table
     from ..export.setup_sheet import setup_sheet_html
 
     d = Path(output_dir(args.output))
     write_text(d / names[0], format_program(shop.program, dialect))
     write_text(d / names[1], setup_sheet_html(sheet))
-    write_text(d / names[2], "".join(
-        t.linuxcnc_table.replace("X<touched>", "X0.000").replace("Z<touched>", "Z0.000") + "\n" for t in sheet.tools))
+    write_text(d / names[2], offset_table(sheet.tools, dialect, diameter_mode=settings.machine.diameter_mode)[1])
     out = {"measurement": meas.to_dict(), "compensation": comp.to_dict(),
            "program": {"file": names[0], "strategy": strategy.value, "nose_radius_mm": tool.nose_radius,
                        "n_points": recut_tp.n_points, "max_points": settings.machine.max_points,

@@ -55,7 +55,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         strategy = settings.toolpath.strategy
     out = None
-    names: list[str] = []
     if args.output:  # the program's and its companions' names, checked before any work
         from .common import check_outputs
         from .flags import check_suffix
@@ -70,25 +69,25 @@ def run(args: argparse.Namespace) -> int:
         # of both, the control's tool table
         names = [out.name, f"{stem}_op2{rest}", f"{stem}.setup.html", chosen.offsets_file]
         check_outputs(out.parent if into_dir else None, names if into_dir else [str(out.parent / n) for n in names])
-    from ..export.gcode import offset_table, sheet_tools
-    from ..export.setup_sheet import setup_sheet_html
+    from ..export.gcode import program_files
     from ..shop.programs import toolpath_result
 
-    mirror = design(settings)
-    shop, result = toolpath_result(settings, mirror, strategy)
+    shop, result = toolpath_result(settings, design(settings), strategy)
     result["dialect"] = chosen.name
-    text = chosen.format(shop.program)
+    # the program, its second set-up's, the sheet of both, the control's tool table
+    files = program_files([shop], (chosen,))
+    text = files[f"{shop.program.name}.{chosen.extension}"]
     if out is not None:
         from ..export.files import write_text
         from .common import output_dir
 
         if into_dir:
             output_dir(out.parent)
-        write_text(out, text)
-        write_text(out.parent / names[1], chosen.format(shop.second))
-        write_text(out.parent / names[2], setup_sheet_html(shop.sheet))
-        table = offset_table(sheet_tools([shop]), chosen, diameter_mode=settings.machine.diameter_mode)[1]
-        write_text(out.parent / names[3], table)
+        renamed = {f"{shop.program.name}.{chosen.extension}": out.name,  # the names asked for
+                   f"{shop.program.name}_op2.{chosen.extension}": f"{stem}_op2{rest}",
+                   f"{shop.program.name}.setup.html": f"{stem}.setup.html"}
+        for name, content in files.items():
+            write_text(out.parent / renamed.get(name, name), content)
     if args.json:
         print_json(result)
     elif not args.output:
@@ -104,8 +103,7 @@ def check(args: argparse.Namespace, settings) -> int:
     from ..export.dialects import dialect, for_file
     from ..inputs import read_text
     from ..job import design
-    from ..shop.check import check_text
-    from ..shop.replay import MAX_PROGRAM_BYTES
+    from ..shop.check import MAX_PROGRAM_BYTES, check_text
 
     # a regular file (or - for stdin) of at most MAX_PROGRAM_BYTES, bounded while reading
     text = read_text(args.check, "--check", MAX_PROGRAM_BYTES)

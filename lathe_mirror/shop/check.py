@@ -15,10 +15,12 @@ from ..toolpath.moves import Hand
 from .partoff import parting_z
 from .program import PARTING_STATION
 from .programs import shop_program
-from .replay import read_program
+from .replay import MAX_PROGRAM_BYTES, read_program
 from .second import FACE_BACK
 from .stock import simulate, simulate_setup
 from .tool_shapes import blade_shape
+
+__all__ = ["MAX_PROGRAM_BYTES", "check_text"]
 
 if TYPE_CHECKING:
     from ..design import Mirror
@@ -35,7 +37,7 @@ def check_text(text: str, settings: Settings, mirror: Mirror, reader: Reader, *,
     ops = read_program(text, lathe, reader, source=source)
     if not ops:
         raise InputError(f"{source}: no moves to simulate")
-    if ops[0].name == FACE_BACK:
+    if ops[0].name.lower() == FACE_BACK:  # its first operation's comment names it (upper case in Fanuc's)
         tp = check_program(settings, mirror, t.strategy)
         su = shop_program(tp, settings.stock, t, body=settings.body).second.setup
         return simulate_setup(ops, su.shapes, lathe, su.start, su.part, su.chuck, rapid_rate=t.rapid_rate,

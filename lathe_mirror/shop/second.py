@@ -147,7 +147,7 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
     r_out = up(R + opts.clearance)
     face_to = body.mount_depth if boss else fa
     face = levels(top, face_to)
-    begin(FACE_BACK, f"face the back: {len(face)} level{'s' if len(face) != 1 else ''} of at most "
+    begin(FACE_BACK, f"{FACE_BACK}: {len(face)} level{'s' if len(face) != 1 else ''} of at most "
             f"{opts.rough_depth:g} mm from the parted face Z{top:.3f} to Z{face_to:g}"
             + (", the boss's end" if boss else f", {fa:g} mm above the back face for its finishing pass"))
     surface = top

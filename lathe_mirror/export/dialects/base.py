@@ -240,7 +240,7 @@ class Writer:
         t_r, t_f = (d.tool_word(st) for st in stations(tp))
         c(f"tools {t_r} roughing, {t_f} finishing: nose radius {tool.nose_radius:g} mm, included "
           f"{math.degrees(tool.included_angle):g} deg, approach {math.degrees(tool.approach_angle):g} deg; "
-          f"offsets set to the NOSE CENTRE ({d.offsets_file}), see {p.name}.setup.html")
+          f"offsets set to the NOSE CENTRE, see {p.name}.setup.html and {d.offsets_file}")
         if tp.held_tool is not tool:
             c(f"tools {t_r} and {t_f}: {tp.hand.describe(tool)}")
         c(f"stock: diameter {stock.diameter:g} mm, face allowance {stock.face_allowance:g} mm, "
@@ -295,8 +295,8 @@ class Writer:
                 c(line)
         for station, what in su.tools:
             c(f"tool {d.tool_word(station)}: {what}")
-        c(f"nose radius {tool.nose_radius:g} mm; offsets set to the NOSE CENTRE ({d.offsets_file}), see "
-          f"{p.name.removesuffix('_op2')}.setup.html")
+        c(f"nose radius {tool.nose_radius:g} mm; offsets set to the NOSE CENTRE, see "
+          f"{p.name.removesuffix('_op2')}.setup.html and {d.offsets_file}")
         c("operations, restart at their first block: "
           + ", ".join(f"{op.name} N{op.number}" for op in p.operations))
         c(f"end position: home {self.xz(p.home)}, Z first, before M30")
