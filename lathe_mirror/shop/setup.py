@@ -239,6 +239,8 @@ def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict,
         f"Cycle time: feeds at the G96 surface speed {lathe.surface_speed:g} m/min with the "
         f"spindle capped at {lathe.spindle_max_rpm} rpm, rapids at {program.options.rapid_rate:g} mm/min; "
         "tool changes and the optional stop are not included.",
+        f"Roughing feed {program.rough_feed:g} mm/rev: machine.feed_rough ({lathe.feed_rough:g} mm/rev), at most "
+        f"half the nose radius per revolution.",
     )
     stick_out = stock.length + stock.face_allowance
     if stick_out > MAX_STICK_OUT_DIAMETERS * stock.diameter:
