@@ -13,7 +13,7 @@ config dict. shop.programs.shop_program strings it together (plan, simulate, ref
 - partoff.py   the part-off: the parting blade (T5) through the axis at the CAD body's
                length plus the back's allowance, before the program's end
 - second.py    the second set-up: the parted part reversed in soft jaws, its back faced
-               and the mount (bore, boss) cut, Z0 on the back face
+               and the mount (bore, boss) cut, the mount's face finished, Z0 on the back face
 - stock.py     the stock simulation (shapely): stock minus the swept tool (each station's
                shape), per-operation removal, depth of cut, chip load, air time, cycle time
                (G96 with the spindle cap); refuses a rapid or the body touching stock, a
@@ -24,7 +24,10 @@ config dict. shop.programs.shop_program strings it together (plan, simulate, ref
 - sim_results.py  what the simulation reports (moves, contacts, figures, the parted part)
 - setup.py     the set-up sheet's model: work zero, stock, tools, offsets for the
                nose-centre convention, centre height, times, pictures' geometry
-- replay.py    a G-code program (either dialect) read back into moves the simulation replays
+- replay.py    a G-code program read back into moves the simulation replays, each line
+               put in the common form by its dialect (export.dialects, handed in)
+- check.py     `toolpath --check`: a written program's text simulated against the set-up
+               it belongs to (the second set-up's by its first operation)
 """
 
 from .plan import plan_program

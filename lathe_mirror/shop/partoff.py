@@ -5,7 +5,9 @@ Machine frame (r, Z), mm, the first set-up's (Z0 at the vertex, part in -Z). The
 controlled point is its tip's corner on the chuck side (-Z): the slot it cuts spans
 [Z, Z + width]; its part side, Z + width, stands the body's length (the back face, or the
 boss's end) plus toolpath.back_allowance_mm below the vertex, rounded down to the lattice.
-It comes down outside the bar, feeds in through the axis (the part is then separate,
+It begins with a program stop (M0): the finished optic comes off next, and the operator
+fits the parts catcher (or stands by to take it by hand once the spindle has stopped). It
+comes down outside the bar, feeds in through the axis (the part is then separate,
 shop.stock's accounting shows it), retracts outward along its own slot and goes home.
 """
 

@@ -9,7 +9,7 @@ pass), each a tuple of Blocks: tool calls, spindle and coolant words, feed rates
 and feed moves, comments, an optional stop, the end. Every block but a comment carries a
 block number (N), the same in every dialect, so a refusal names a block the operator can
 find in either file, and every operation restarts at its own tool call. The dialects are
-export.gcode's; this module only decides what the program does.
+export.dialects'; this module only decides what the program does.
 """
 
 from __future__ import annotations
