@@ -207,3 +207,35 @@ def test_the_dialects_package_names_no_dialect_outside_its_modules():
         src = p.read_text()
         for name in ("dialects.linuxcnc", "dialects.fanuc", "dialects.siemens", "LinuxCNC(", "Fanuc(", "Siemens("):
             assert name not in src, (p, name)
+
+
+def test_rs274_runs_the_program_with_the_table_written_beside_it(tmp_path, shop):
+    """LinuxCNC's interpreter, an outside reader: with rs274's own default table the
+    program stops at the part-off's tool ("Requested tool 5 not found"); with the tools.tbl
+    the project writes it runs to the end, stopping (M0) before the part-off's tool change
+    and optionally (M1) before the finishing tool's."""
+    import os
+    import subprocess
+
+    from conftest import require_program
+
+    _, sh = shop
+    exe = require_program("rs274")
+    files = program_files([sh], ("linuxcnc",))
+    for name in ("mirror_arcs.ngc", "tools.tbl"):
+        (tmp_path / name).write_text(files[name])
+    env = dict(os.environ, HOME=str(tmp_path))
+    bare = subprocess.run([exe, "-g", "mirror_arcs.ngc"], capture_output=True, text=True, cwd=tmp_path, env=env,
+                          timeout=120)
+    assert "Requested tool 5 not found" in bare.stdout + bare.stderr
+    res = subprocess.run([exe, "-t", "tools.tbl", "-g", "mirror_arcs.ngc"], capture_output=True, text=True,
+                         cwd=tmp_path, env=env, timeout=120)
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    events = re.findall(r"(CHANGE_TOOL\(\d\)|OPTIONAL_PROGRAM_STOP|PROGRAM_STOP|PROGRAM_END)", res.stdout)
+    # the table's rows: T1, T2, T5 (rs274 names a tool change by the row)
+    assert events[-3:] == ["PROGRAM_STOP", "CHANGE_TOOL(3)", "PROGRAM_END"]
+    i = events.index("OPTIONAL_PROGRAM_STOP")
+    assert events[i + 1] == "CHANGE_TOOL(2)" and set(events[:i]) == {"CHANGE_TOOL(1)"}
+    assert "PROGRAM_STOP" not in events[:-3]
+    # the roughing feed: half the 0.2 mm nose per revolution (machine.feed_rough 0.15 is more)
+    assert "SET_FEED_RATE(0.1000)" in res.stdout
