@@ -19,6 +19,7 @@ from lathe_mirror.errors import InputError
 from lathe_mirror.export.gcode import format_program
 from lathe_mirror.lathe import Lathe, Stock, Tool
 from lathe_mirror.path import Arc, Line
+from lathe_mirror.shop import plan_program
 from lathe_mirror.shop.programs import shop_program
 from lathe_mirror.toolpath import ToolpathSettings
 from lathe_mirror.shop.program import Rapid
@@ -500,3 +501,13 @@ def test_a_program_planned_again_is_simulated_from_its_first_finishing_pass(whic
             assert len(resume.states) == len(first.operations)
             again = simulate_program(shop.program, resume=resume)
             assert again.figures() == fresh.figures()
+
+
+def test_a_bar_held_too_far_out_is_refused(paper_mirror):
+    """The first set-up's grip: a bar standing out of the jaws more than three of its
+    diameters (76 mm: 228 mm) is refused before any simulation, naming stock.length; the
+    sheet gives the blank's length, the stick-out and 10 mm in the jaws."""
+    tp = plan_toolpath(paper_mirror, LATHE, TOOL, Strategy.ARCS)
+    with pytest.raises(InputError, match=r"stock.length = 230 mm: .* more than 3 bar diameters .* allowed <= 227 mm"):
+        plan_program(tp, Stock(length=230.0), OPTIONS)
+    plan_program(tp, Stock(length=227.0), OPTIONS)  # 228 mm out: the limit

@@ -15,6 +15,11 @@ from ..toolpath import ToolpathSettings
 from .program import MAX_BLOCK_NUMBER, Comment, Operation, Program
 from .roughing import plan_operations
 
+#: Longest stick-out of the bar from the first set-up's jaws, in bar diameters: a bar held
+#: further out without a tailstock chatters and deflects under the roughing cut. (The
+#: second set-up's grip: shop.second, lathe.MIN_GRIP.)
+MAX_STICK_OUT_DIAMETERS = 3.0
+
 if TYPE_CHECKING:
     from ..body import BodySpec
     from ..toolpath import Toolpath
@@ -43,6 +48,11 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ToolpathSettings | N
     if stock.length < rim_depth + options.clearance:
         raise InputError(f"stock.length = {stock.length:g} mm: the mirror is {rim_depth:.3f} mm deep; "
                          f"allowed >= {rim_depth + options.clearance:.3f} mm")
+    stick_out = stock.length + stock.face_allowance
+    if stick_out > MAX_STICK_OUT_DIAMETERS * stock.diameter:
+        raise InputError(f"stock.length = {stock.length:g} mm: the bar would stand {stick_out:g} mm out of the jaws, "
+                         f"more than {MAX_STICK_OUT_DIAMETERS:g} bar diameters ({stock.diameter:g} mm) held without a "
+                         f"tailstock; allowed <= {MAX_STICK_OUT_DIAMETERS * stock.diameter - stock.face_allowance:g} mm")
     if options.home_z < stock.face_allowance + options.clearance:
         raise InputError(f"toolpath.home_z = {options.home_z:g} mm: the end position must be above the "
                          f"stock's face by the clearance; allowed >= "

@@ -22,7 +22,6 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from ..errors import InputError
 from .program import OPPOSITE_ROUGHING_STATION, PARTING_STATION, stations
 from .tool_shapes import INSERT_IC, edge_length
 
@@ -36,8 +35,6 @@ SPINDLE = ("M3: clockwise looking from the headstock along +Z (ISO 6983); the in
            "the oncoming surface (up in a front tool post, down on a rear turret)")
 #: The bar's length in the first set-up's jaws, mm (the blank is the stick-out plus this).
 BAR_GRIP = 10.0
-#: Longest stick-out of the bar from the jaws, in bar diameters, held without a tailstock.
-MAX_STICK_OUT_DIAMETERS = 3.0
 
 #: ISO 1832 shape letters by included angle (deg).
 _SHAPES = {35: "V", 55: "D", 60: "T", 80: "C", 90: "S"}
@@ -242,11 +239,7 @@ def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict,
         f"Roughing feed {program.rough_feed:g} mm/rev: machine.feed_rough ({lathe.feed_rough:g} mm/rev), at most "
         f"half the nose radius per revolution.",
     )
-    stick_out = stock.length + stock.face_allowance
-    if stick_out > MAX_STICK_OUT_DIAMETERS * stock.diameter:
-        raise InputError(f"stock.length = {stock.length:g} mm: the bar would stand {stick_out:g} mm out of the jaws, "
-                         f"more than {MAX_STICK_OUT_DIAMETERS:g} bar diameters ({stock.diameter:g} mm) held without a "
-                         f"tailstock; allowed <= {MAX_STICK_OUT_DIAMETERS * stock.diameter - stock.face_allowance:g} mm")
+    stick_out = stock.length + stock.face_allowance  # at most MAX_STICK_OUT_DIAMETERS bars (shop.plan)
     stock_info = {"diameter_mm": stock.diameter, "face_allowance_mm": stock.face_allowance,
                   "length_mm": stock.length, "deepest_z_mm": deepest,
                   "stick_out_mm": stick_out, "grip_mm": BAR_GRIP, "blank_length_mm": stick_out + BAR_GRIP,
