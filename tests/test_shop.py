@@ -511,3 +511,14 @@ def test_a_bar_held_too_far_out_is_refused(paper_mirror):
     with pytest.raises(InputError, match=r"stock.length = 230 mm: .* more than 3 bar diameters .* allowed <= 227 mm"):
         plan_program(tp, Stock(length=230.0), OPTIONS)
     plan_program(tp, Stock(length=227.0), OPTIONS)  # 228 mm out: the limit
+
+
+def test_roughing_feed_is_half_the_nose_unless_configured(paper_mirror):
+    """machine.feed_rough's default 0.15 mm/rev on a 0.2 mm nose is capped at 0.1 mm/rev
+    (half the nose radius per revolution); a feed_rough the configuration sets otherwise
+    (0.2, or 0.05) is the program's; the finishing feed is untouched."""
+    for lathe, want in ((LATHE, 0.1), (Lathe(feed_rough=0.2), 0.2), (Lathe(feed_rough=0.05), 0.05)):
+        prog = plan_program(plan_toolpath(paper_mirror, lathe, TOOL, Strategy.ARCS), STOCK, OPTIONS)
+        feeds = {op.name: op.feed for op in prog.operations}
+        assert feeds["face"] == feeds["rough"] == feeds["semi-finish"] == want
+        assert feeds["finish"] == lathe.feed_finish

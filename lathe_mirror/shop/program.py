@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 
+from ..declared import key as declared_key
 from ..lathe import FEED_STEP, Stock
 from ..path import Arc, Line, Move
 from ..toolpath.moves import Hand
@@ -47,10 +48,12 @@ def stations(toolpath: Toolpath) -> tuple[int, int]:
     return ROUGHING_STATION, FINISHING_STATION
 
 def rough_feed(lathe: Lathe, tool: Tool) -> float:
-    """The roughing feed, mm/rev: machine.feed_rough, at most half the nose radius (a feed
-    per revolution above it leaves scallops deeper than the allowance can be sure to take,
-    and loads the nose beyond its chip-thickness rating), on the F word's 0.0001 mm/rev."""
-    if tool.nose_radius <= 0.0:
+    """The roughing feed, mm/rev: machine.feed_rough's declared default at most half the
+    nose radius (a feed per revolution above it loads the nose beyond its chip-thickness
+    rating and leaves scallops the allowance may not take), on the F word's 0.0001 mm/rev;
+    a feed_rough configured to another value is taken as given (a configuration that
+    states the default itself gets the cap too)."""
+    if tool.nose_radius <= 0.0 or lathe.feed_rough != declared_key("machine.feed_rough").default:
         return lathe.feed_rough
     return min(lathe.feed_rough, math.floor(tool.nose_radius / 2 / FEED_STEP + 1e-9) * FEED_STEP)
 

@@ -236,8 +236,9 @@ def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict,
         f"Cycle time: feeds at the G96 surface speed {lathe.surface_speed:g} m/min with the "
         f"spindle capped at {lathe.spindle_max_rpm} rpm, rapids at {program.options.rapid_rate:g} mm/min; "
         "tool changes and the optional stop are not included.",
-        f"Roughing feed {program.rough_feed:g} mm/rev: machine.feed_rough ({lathe.feed_rough:g} mm/rev), at most "
-        f"half the nose radius per revolution.",
+        f"Roughing feed {program.rough_feed:g} mm/rev: machine.feed_rough ({lathe.feed_rough:g} mm/rev)"
+        + (", at most half the nose radius per revolution (configure machine.feed_rough to take another)."
+           if program.rough_feed < lathe.feed_rough else "."),
     )
     stick_out = stock.length + stock.face_allowance  # at most MAX_STICK_OUT_DIAMETERS bars (shop.plan)
     stock_info = {"diameter_mm": stock.diameter, "face_allowance_mm": stock.face_allowance,
