@@ -21,16 +21,17 @@ def main() -> None:
     args = ap.parse_args()
 
     from lathe_mirror.config import load
-    from lathe_mirror.enums import Dialect, Mount
+    from lathe_mirror.enums import Mount
+    from lathe_mirror.export.dialects import DIALECTS
     from lathe_mirror.export.gcode import format_program
-    from lathe_mirror.shop import options_from_settings, plan_program
+    from lathe_mirror.shop import plan_program
     from lathe_mirror.shop.second import plan_second
     from lathe_mirror.shop.stock import simulate_program
     from lathe_mirror.toolpath import Strategy, plan_toolpath
 
     settings = load()
     mirror = settings.mirror()
-    opts = options_from_settings(settings.toolpath)
+    opts = settings.toolpath
     tp = plan_toolpath(mirror, settings.machine, settings.tool, Strategy.ARCS)
     for mount in (Mount.BORE, Mount.BOSS):
         body = dataclasses.replace(settings.body, mount=mount)
@@ -45,7 +46,7 @@ def main() -> None:
             sim2 = simulate_program(two)
             t3 = time.perf_counter()
             for prog in (one, two):
-                for d in Dialect:
+                for d in DIALECTS:
                     format_program(prog, d)
             t4 = time.perf_counter()
             for key, dt in (("plan first set-up", t1 - t0), ("simulate first set-up", t2 - t1),

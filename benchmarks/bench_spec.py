@@ -41,7 +41,7 @@ def main() -> None:
     print(f"drawing (PDF {len(data['pdf'])} B + SVG {len(data['svg'])} B): {t_draw:.2f} s")
     n = sum(op.name.startswith("finish") for op in shop.program.operations)
     print(f"shop program, arcs, {n} finishing passes (simulated until each is within "
-          f"{shop.program.options.max_finish_depth:g} mm): {t_shop:.2f} s")
+          f"{shop.program.options.max_finish_depth_mm:g} mm): {t_shop:.2f} s")
 
 
 if __name__ == "__main__":

@@ -19,10 +19,10 @@ def main() -> None:
     args = ap.parse_args()
 
     from lathe_mirror.config import load
-    from lathe_mirror.enums import Dialect
+    from lathe_mirror.export.dialects import DIALECTS
     from lathe_mirror.export.gcode import format_program
     from lathe_mirror.export.setup_sheet import setup_sheet_html
-    from lathe_mirror.shop import options_from_settings, plan_program
+    from lathe_mirror.shop import plan_program
     from lathe_mirror.shop.setup import setup_sheet
     from lathe_mirror.shop.stock import simulate_program
     from lathe_mirror.tolerance.setting import setting_error_costs
@@ -31,7 +31,7 @@ def main() -> None:
     settings = load()
     mirror = settings.mirror()
     lathe, tool, stock = settings.machine, settings.tool, settings.stock
-    opts = options_from_settings(settings.toolpath)
+    opts = settings.toolpath
 
     rows: dict[str, list[float]] = {}
     sims = {}
@@ -51,7 +51,7 @@ def main() -> None:
             sim = timed(f"simulate {st.value}", lambda: simulate_program(prog))
             sim.check()
             sims[st.value] = sim
-            timed(f"write {st.value}", lambda: [format_program(prog, d) for d in Dialect])
+            timed(f"write {st.value}", lambda: [format_program(prog, d) for d in DIALECTS])
             timed(f"sheet {st.value}", lambda: setup_sheet_html(setup_sheet(prog, sim, costs)))
         rows.setdefault("both programs, all steps", []).append(time.perf_counter() - t_all)
     print(f"paper mirror, nose radius {tool.nose_radius:g} mm, {args.repeat} runs")

@@ -62,18 +62,6 @@ class Strategy(Choice):
 BEST = Strategy.BEST
 
 
-class Dialect(Choice):
-    """G-code dialects: LinuxCNC (checked with its rs274 interpreter) and Fanuc-style."""
-
-    LINUXCNC = "linuxcnc"
-    FANUC = "fanuc"
-
-    @property
-    def extension(self) -> str:
-        """File extension of a program in this dialect."""
-        return "ngc" if self is Dialect.LINUXCNC else "nc"
-
-
 class Surface(Choice):
     """Named mirror surfaces (job.named_surface): the exact design, references, the
     programmed contour of each strategy, the polished paper program, a measured part (given

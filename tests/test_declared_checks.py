@@ -17,11 +17,10 @@ from conftest import RECESSED_OUTER
 from lathe_mirror.config import load
 from lathe_mirror.declared import key
 from lathe_mirror.errors import InputError
-from lathe_mirror.shop import options_from_settings
 
 #: (section, field, file key, value in the file, value in the typed field) across modules:
 #: polishing.PolishParams, lathe.Lathe / Tool / Stock, optimize.OptimizeSettings, body.BodySpec
-#: ([cad]), toolpath.ToolpathSettings; shop.ProgramOptions (built from [toolpath]) below.
+#: ([cad]), toolpath.ToolpathSettings (the whole program's knobs too) below.
 CASES = [
     ("polish", "overhang", "polish.overhang", 2.0, 2.0),
     ("polish", "calibration_knot_px", "polish.calibration_knot_px", 2.0, 2.0),
@@ -69,12 +68,12 @@ def test_replace_refuses_with_the_config_files_line(tmp_path, settings, section,
     assert from_file.startswith(f"{name} = ") and f"allowed {declared.text()}" in from_file
 
 
-def test_program_options_refuse_with_the_config_files_line(tmp_path, settings):
-    """shop.ProgramOptions, built from [toolpath] (its fields named without the _mm), says
-    what the file's key gets; the ramp angle in the file's degrees."""
-    base = options_from_settings(settings.toolpath)
+def test_program_knobs_refuse_with_the_config_files_line(tmp_path, settings):
+    """toolpath.ToolpathSettings, the whole program's knobs (shop.plan_program), says what
+    the file's key gets; the ramp angle in the file's degrees."""
+    base = settings.toolpath
     for field, name, file_value, typed_value in (
-            ("path_tolerance", "toolpath.path_tolerance_mm", 0.5, 0.5),
+            ("path_tolerance_mm", "toolpath.path_tolerance_mm", 0.5, 0.5),
             ("ramp_angle", "toolpath.ramp_angle", 60.0, math.radians(60.0)),
             ("rough_depth", "toolpath.rough_depth", 0.01, 0.01)):
         from_file = _config_message(tmp_path, name, file_value)

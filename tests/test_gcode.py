@@ -17,34 +17,37 @@ from committed import gcode_differs, html_differs
 from conftest import require_program, run_cli
 from lathe_mirror.config import load
 from lathe_mirror.errors import InputError
-from lathe_mirror.enums import Dialect, parse
+from lathe_mirror.export.dialects import DIALECTS, dialect as find_dialect
 from lathe_mirror.export.gcode import format_program, program_files
 from lathe_mirror.shop.programs import shop_programs
 from lathe_mirror.lathe import Lathe, Stock, Tool
 from lathe_mirror.path import Arc
-from lathe_mirror.shop import ProgramOptions, plan_program
+from lathe_mirror.shop import plan_program
+from lathe_mirror.toolpath import ToolpathSettings
 from lathe_mirror.toolpath import Strategy, plan_toolpath
 
 REPO = Path(__file__).resolve().parents[1]
 LATHE = Lathe()
 STOCK = Stock()
-#: The tool table: the tools' offsets zero (the nose centre, the blade's corner, is the controlled point).
-TOOLS = ("T1 P1 X0 Z0 D0.4 Q9 ;roughing\nT2 P2 X0 Z0 D0.4 Q9 ;finishing\nT3 P3 X0 Z0 D0.4 Q9\nT4 P4 X0 Z0 D0.4 Q9\n"
-         "T5 P5 X0 Z0 D0 ;parting\n")
+#: The tool table the project writes beside its programs (gcode/tools.tbl: every station the paper
+#: default calls, offsets zero until touched off, the nose centre the controlled point).
+TOOLS = (REPO / "gcode" / "tools.tbl").read_text()
 
 
-def program(tp, stock=STOCK, dialect=Dialect.LINUXCNC, *, options=None) -> str:
+def program(tp, stock=STOCK, dialect="linuxcnc", *, options=None) -> str:
     """The whole program around a toolpath, as text."""
     return format_program(plan_program(tp, stock, options), dialect)
 
 
 def rs274(tmp_path: Path, text: str, tools: str = TOOLS) -> str:
-    """Run LinuxCNC's interpreter on a program; its canonical output (fails on error)."""
+    """Run LinuxCNC's interpreter on a program with its tool table (the one the project
+    wrote into tmp_path beside the program, else `tools`); its canonical output (fails on
+    error, such as a tool the table lacks)."""
     exe = require_program("rs274")
     prog = tmp_path / "prog.ngc"
     prog.write_text(text)
-    # rs274's tool table is read in inches
-    (tmp_path / "tools.tbl").write_text(tools)
+    if not (tmp_path / "tools.tbl").exists():
+        (tmp_path / "tools.tbl").write_text(tools)
     env = dict(os.environ, HOME=str(tmp_path))
     res = subprocess.run([exe, "-t", str(tmp_path / "tools.tbl"), "-g", str(prog)],
                          capture_output=True, text=True, cwd=tmp_path, env=env, timeout=60)
@@ -121,7 +124,7 @@ def plans(paper_mirror):
 @pytest.mark.parametrize("strategy", [Strategy.PAPER, Strategy.LATTICE, Strategy.ARCS])
 def test_rs274_rebuilds_the_contour(tmp_path, plans, strategy, rho):
     tp = plans[(strategy, rho)]
-    out = rs274(tmp_path, program(tp, STOCK, Dialect.LINUXCNC))
+    out = rs274(tmp_path, program(tp, STOCK, "linuxcnc"))
     moves = canonical_contour(out)
     assert len(moves) == len(tp.segments) + 1
     # the lead-in ends at the contour's start
@@ -140,7 +143,7 @@ def test_rs274_rebuilds_the_contour(tmp_path, plans, strategy, rho):
 
 def test_rs274_reports_the_lattice_and_the_setup(tmp_path, plans):
     tp = plans[(Strategy.ARCS, 0.2)]
-    out = rs274(tmp_path, program(tp, STOCK, Dialect.LINUXCNC))
+    out = rs274(tmp_path, program(tp, STOCK, "linuxcnc"))
     assert "SELECT_PLANE(CANON_PLANE_XZ)" in out
     assert "USE_LENGTH_UNITS(CANON_UNITS_MM)" in out
     assert "SET_SPINDLE_MODE(0 3000.0000)" in out  # G96 D: the spindle cap
@@ -162,7 +165,7 @@ def test_rs274_reports_the_lattice_and_the_setup(tmp_path, plans):
 
 def test_every_written_word_is_on_the_lattice(plans):
     tp = plans[(Strategy.ARCS, 0.0)]
-    for dialect in Dialect:
+    for dialect in DIALECTS:
         text = program(tp, STOCK, dialect)
         for word, val in re.findall(r"\b([XZIK])(-?\d+\.\d+)", text):
             step = 0.01 if word == "X" else 0.005  # diameter mode: X = 2r
@@ -171,7 +174,7 @@ def test_every_written_word_is_on_the_lattice(plans):
 
 
 def test_fanuc_dialect_structure(plans):
-    text = program(plans[(Strategy.ARCS, 0.2)], STOCK, Dialect.FANUC)
+    text = program(plans[(Strategy.ARCS, 0.2)], STOCK, "fanuc")
     lines = text.splitlines()
     assert lines[0] == "%" and lines[1].startswith("O1000")
     assert "G21" in lines  # alone in its block, for older controls
@@ -188,7 +191,7 @@ def test_fanuc_dialect_structure(plans):
     assert not any(";" in ln for ln in lines)
     # block numbers: increasing, the same blocks as the LinuxCNC program's
     n_f = [int(ln.split()[0][1:]) for ln in lines if ln.startswith("N")]
-    lc = program(plans[(Strategy.ARCS, 0.2)], STOCK, Dialect.LINUXCNC).splitlines()
+    lc = program(plans[(Strategy.ARCS, 0.2)], STOCK, "linuxcnc").splitlines()
     n_l = [int(ln.split()[0][1:]) for ln in lc if ln.startswith("N")]
     assert n_f == n_l == list(range(1, len(n_f) + 1))
 
@@ -199,8 +202,8 @@ def test_dialects_carry_the_same_moves(plans, tmp_path):
     from lathe_mirror.shop.replay import read_program
 
     tp = plans[(Strategy.PAPER, 0.2)]
-    fanuc = read_program(program(tp, STOCK, Dialect.FANUC), LATHE)
-    canon = canonical_moves(rs274(tmp_path, program(tp, STOCK, Dialect.LINUXCNC)))
+    fanuc = read_program(program(tp, STOCK, "fanuc"), LATHE, DIALECTS["fanuc"])
+    canon = canonical_moves(rs274(tmp_path, program(tp, STOCK, "linuxcnc")))
     mine = [mv for op in fanuc for mv in op.moves]
     assert len(mine) == len(canon)
     # the first two go home from where the machine is (rs274 starts at 0, 0): Z, then X
@@ -219,7 +222,7 @@ def test_header_states_design_machine_tool_budget_and_figures(plans):
     assert "a 48.3584 b 26.8656" in text  # Table 1's a, b of mirror 01
     assert f"{tp.n_points} of 528 points used" in text
     assert "nose radius 0 mm" in text
-    assert "offsets set to the NOSE CENTRE, see mirror.setup.html" in text
+    assert "offsets set to the NOSE CENTRE, see mirror.setup.html and tools.tbl" in text
     # per lobe: the whole lobe, and the radii the camera uses
     assert text.count("whole lobe: normal deviation rms") == 2
     assert text.count("slope error rms") == 4
@@ -249,12 +252,12 @@ def test_a_gouging_program_is_refused(paper_mirror):
     tp = plan_toolpath(paper_mirror, LATHE, Tool(nose_radius=0.0), Strategy.PAPER)
     # the paper's rounding lies up to ~0.003 mm inside the part: a tighter tolerance refuses it
     with pytest.raises(InputError, match="gouge"):
-        plan_program(tp, STOCK, ProgramOptions(gouge_tolerance=0.001))
+        plan_program(tp, STOCK, ToolpathSettings(gouge_tolerance=0.001))
 
 
 def test_unknown_dialect():
     with pytest.raises(InputError, match="allowed linuxcnc, fanuc"):
-        parse(Dialect, "heidenhain", "--dialect")
+        find_dialect("heidenhain")
 
 
 def test_reference_programs_are_current():
@@ -280,7 +283,7 @@ def test_reference_programs_pass_rs274(tmp_path, name, paper_mirror):
     # no gouge: the 0.2 mm nose swept along rs274's own moves stays out of the part
     pieces = rebuild_points(moves, 3, step=0.004)
     depth = nose_depth_into_part(pieces, 0.2, paper_mirror)
-    assert depth <= ProgramOptions().gouge_tolerance  # the stated tolerance, 0.005 mm
+    assert depth <= ToolpathSettings().gouge_tolerance  # the stated tolerance, 0.005 mm
     # the check sees a gouge: a nose 0.05 mm larger than planned cuts 0.05 mm deeper
     assert abs(nose_depth_into_part(pieces, 0.25, paper_mirror) - (depth + 0.05)) < 1e-3
     # and the header's figure (machining.gouge_depth) agrees with this brute force
@@ -398,7 +401,8 @@ def test_cli_json_and_directory_output(tmp_path):
     names = [op["name"] for op in data["shop"]["operations"]]
     assert names[:3] == ["face", "rough", "semi-finish"] and names[-2:] == ["finish", "part-off"]
     assert data["shop"]["contacts"] == [] and data["second_setup"]["contacts"] == []
-    assert [op["name"] for op in data["second_setup"]["operations"]] == ["face back", "bore"]
+    assert [op["name"] for op in data["second_setup"]["operations"]] == ["face back", "bore", "finish back"]
+    assert (tmp_path / "tools.tbl").read_text().splitlines()[0].startswith("T1 P1 X0 Z0 D0.000 Q0")
     # "best" names the default strategy, as in `lathe-mirror render --surface best`
     res = run_cli("toolpath", "--strategy", "best", "--nose-radius", "0", "--json")
     assert res.returncode == 0 and json.loads(res.stdout)["strategy"] == "arcs"
@@ -424,7 +428,7 @@ def test_roughing_leaves_the_allowance_and_never_cuts_the_part(tmp_path, paper_m
     mirror is at least half the allowance and at most one roughing depth plus the
     allowance; rapid and roughing moves keep the nose off the finished part."""
     m = paper_mirror
-    rho, allow, depth = 0.2, ProgramOptions().rough_allowance, ProgramOptions().rough_depth
+    rho, allow, depth = 0.2, ToolpathSettings().rough_allowance, ToolpathSettings().rough_depth
     tp = plan_toolpath(m, LATHE, Tool(nose_radius=rho), Strategy.ARCS)
     moves = canonical_moves(rs274(tmp_path, program(tp, STOCK)))
     r = np.arange(0.0, 35.0, 0.01)
@@ -549,4 +553,4 @@ def test_outer_recessed_step_is_cut_by_the_opposite_hand(tmp_path):
     assert "CHANGE_TOOL(1)" not in out and "PROGRAM_END" in out
     # the second set-up, the back faced and bored with the insert as configured (T1)
     out2 = rs274(tmp_path, (tmp_path / "p_op2.ngc").read_text())
-    assert out2.count("CHANGE_TOOL(1)") == 2 and "PROGRAM_END" in out2
+    assert out2.count("CHANGE_TOOL(1)") == 2 and out2.count("CHANGE_TOOL(2)") == 1 and "PROGRAM_END" in out2

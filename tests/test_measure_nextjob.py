@@ -38,10 +38,11 @@ def test_compensate_writes_the_next_job_whole(trace, tmp_path):
     res = run_cli("compensate", str(trace), "--dialect", "fanuc", "--program", "best", "-o", str(out_dir))
     assert res.returncode == 0, res.stderr
     names = sorted(p.name for p in out_dir.iterdir())
-    assert names == sorted(["mirror_recut.nc", "mirror_recut_op2.nc", "mirror_recut.setup.html", "offsets.txt",
+    assert names == sorted(["mirror_recut.nc", "mirror_recut_op2.nc", "mirror_recut.setup.html", "offsets.nc",
                             "job.toml", "compensate.json"])
-    offsets = (out_dir / "offsets.txt").read_text()
-    assert "offset 02" in offsets and "R 0.200" in offsets
+    offsets = (out_dir / "offsets.nc").read_text()
+    # Fanuc's own form: G10 P10000+n sets geometry offset n, R the nose radius, Q0 the nose centre
+    assert "G10 P10002 R0.200 Q0" in offsets.replace("R0.2 ", "R0.200 ")
     from lathe_mirror.config import load
 
     settings = load(out_dir / "job.toml")  # a configuration every command takes

@@ -17,22 +17,22 @@ import pytest
 
 from conftest import RECESSED_OUTER, require_program, run_cli
 from lathe_mirror.config import load
-from lathe_mirror.enums import Dialect
+from lathe_mirror.export.dialects import DIALECTS
 from lathe_mirror.export.gcode import format_program
 from lathe_mirror.lathe import Stock, Tool
 from lathe_mirror.path import Arc
 from lathe_mirror.shop.programs import shop_program
-from lathe_mirror.shop import ProgramOptions
+from lathe_mirror.toolpath import ToolpathSettings
 from lathe_mirror.toolpath import Strategy, check_junction, plan_toolpath
 from lathe_mirror.toolpath.checks import junction_margin
 from lathe_mirror.toolpath.moves import Hand
 
-GOUGE_TOL = ProgramOptions().gouge_tolerance
+GOUGE_TOL = ToolpathSettings().gouge_tolerance
 #: rs274's tool table: every station's offsets zero (the nose centre is programmed).
 TOOLS = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4))
 
 
-def program(tp, stock, dialect=Dialect.LINUXCNC) -> str:
+def program(tp, stock, dialect="linuxcnc") -> str:
     """The whole program around a toolpath as text, after the stock simulation passed it
     (shop.programs.shop_program refuses a rapid or the insert's body in stock)."""
     return format_program(shop_program(tp, stock).program, dialect)
@@ -187,7 +187,7 @@ def test_the_opposite_hand_cuts_the_outer_step(plans):
 def test_rs274_runs_the_program_and_the_nose_stays_out_of_the_part(tmp_path, plans, mirror, settings, strategy,
                                                                   rho):
     tp = plans[(strategy, rho)]
-    text = program(tp, settings.stock, Dialect.LINUXCNC)
+    text = program(tp, settings.stock, "linuxcnc")
     assert "T3 M6 G43" in text and "T4 M6 G43" in text and "T1 M6" not in text
     assert "OPPOSITE-HAND holder" in text and "cutting from the rim in" in text
     moves, start = canonical(rs274(tmp_path, text))
@@ -219,7 +219,7 @@ def test_roughing_never_cuts_the_part_and_the_held_flanks_clear_it(tmp_path, pla
     holder as configured would run its flank into the inner lobe's rim (the step wall
     faces the rim)."""
     tp = plans[(Strategy.ARCS, 0.2)]
-    moves, _ = canonical(rs274(tmp_path, program(tp, settings.stock, Dialect.LINUXCNC)))
+    moves, _ = canonical(rs274(tmp_path, program(tp, settings.stock, "linuxcnc")))
     first = moves[0][1]
     pieces = sample_moves(moves[1:], first, step=0.01)
     before = [p for p in pieces if not p[1]]
@@ -264,7 +264,7 @@ def test_toolpath_cli_cuts_it(tmp_path):
 
 
 def test_fanuc_calls_the_opposite_hand_stations(plans, settings):
-    text = program(plans[(Strategy.ARCS, 0.2)], settings.stock, Dialect.FANUC)
+    text = program(plans[(Strategy.ARCS, 0.2)], settings.stock, "fanuc")
     assert "T0303" in text and "T0404" in text and "T0101" not in text
 
 

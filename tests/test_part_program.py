@@ -16,16 +16,19 @@ import pytest
 
 from conftest import RECESSED_OUTER, require_program, run_cli
 from lathe_mirror.config import load
+from lathe_mirror.export.dialects import DIALECTS
 from lathe_mirror.shop.replay import read_program
 
 REPO = Path(__file__).resolve().parents[1]
-TOOLS = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4)) + "T5 P5 X0 Z0 D0\n"
 
 
 def rs274(tmp_path: Path, program: Path) -> str:
+    """LinuxCNC's interpreter on a written program with the tool table written beside it
+    (a program that calls a tool the table lacks stops at "Requested tool N not found")."""
     exe = require_program("rs274")
-    (tmp_path / "tools.tbl").write_text(TOOLS)
-    res = subprocess.run([exe, "-t", str(tmp_path / "tools.tbl"), "-g", str(program)], capture_output=True,
+    table = program.parent / "tools.tbl"
+    assert table.is_file(), f"no tools.tbl beside {program}"
+    res = subprocess.run([exe, "-t", str(table), "-g", str(program)], capture_output=True,
                          text=True, cwd=tmp_path, env=dict(os.environ, HOME=str(tmp_path)), timeout=120)
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
     return res.stdout
@@ -57,7 +60,7 @@ def test_committed_fanuc_programs_set_g54_and_return_before_the_first_tool(name)
     assert any("LOOK-AHEAD" in ln for ln in lines[:first_tool])  # the accuracy mode is noted
     # the replay (toolpath --check) takes the return and simulates the rest
     settings = load()
-    ops = read_program((REPO / "gcode" / name).read_text(), settings.machine, source=name)
+    ops = read_program((REPO / "gcode" / name).read_text(), settings.machine, DIALECTS["fanuc"], source=name)
     # the finishing tool, then the parting blade (the part-off)
     assert [op.station for op in ops][:3] == [1, 1, 1] and [op.station for op in ops][-2:] == [2, 5]
 
@@ -67,7 +70,7 @@ def test_g28_elsewhere_is_refused():
     text = re.sub(r"^(N\d+ M30)$", "G28 U0\n\\1", (REPO / "gcode" / "mirror_arcs.nc").read_text(), flags=re.M)
     assert "G28 U0\nN" in text
     with pytest.raises(Exception, match="G28"):
-        read_program(text, settings.machine, source="edited.nc")
+        read_program(text, settings.machine, DIALECTS["fanuc"], source="edited.nc")
 
 
 def test_recessed_outer_with_its_own_path_tolerance_finish_depth_and_spring_pass(tmp_path):
@@ -99,9 +102,10 @@ def test_set_up_sheet_lists_every_operation_the_touch_off_and_the_inspection(tmp
     page = (REPO / "gcode" / "mirror_arcs.setup.html").read_text()
     ops = re.findall(r"<tr><td>([^<]+)</td><td>T\d</td><td>N\d+</td>", page)
     nc = (REPO / "gcode" / "mirror_arcs.nc").read_text()
-    # face, rough, semi-finish, the finishing passes, the part-off; the second set-up's face back and bore
-    assert len(ops) == 3 + len(re.findall(r"^\((?:FINISH PASS \d|FINISH:)", nc, re.M)) + 1 + 2
-    assert ops[-3:] == ["part-off", "face back", "bore"]
+    # face, rough, semi-finish, the finishing passes, the part-off; the second set-up's face back, bore
+    # and the finishing pass on the back face (the face the mirror mounts on)
+    assert len(ops) == 3 + len(re.findall(r"^\((?:FINISH PASS \d|FINISH:)", nc, re.M)) + 1 + 3
+    assert ops[-4:] == ["part-off", "face back", "bore", "finish back"]
     assert "test recess" in page  # the X touch-off on a surface the operator cuts first
     rows = re.findall(r"<tr><td>(inner|outer)</td><td class='n'>([\d.]+)</td><td class='n'>(-?[\d.]+)</td>"
                       r"<td class='n'>([\d.]+)</td>", page)

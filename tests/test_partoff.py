@@ -21,7 +21,8 @@ import shapely
 from conftest import RECESSED_OUTER, require_program
 from lathe_mirror.body import BodySpec, design_meridian
 from lathe_mirror.config import load
-from lathe_mirror.enums import Dialect, Mount
+from lathe_mirror.enums import Mount
+from lathe_mirror.export.dialects import DIALECTS
 from lathe_mirror.errors import InputError
 from lathe_mirror.export.gcode import format_program
 from lathe_mirror.export.setup_sheet import setup_sheet_html
@@ -84,8 +85,21 @@ def test_both_set_ups_touch_nothing_and_the_part_comes_off(made):
     length = body.thickness + (body.mount_depth if body.mount is Mount.BOSS else 0.0)
     assert shop.simulation.parted.bounds[1] == pytest.approx(-(length + opts.back_allowance_mm), abs=0.005)
     ops2 = [op.name for op in shop.second_simulation.operations]
-    assert ops2 == ["face back", {"paper": "bore", "recessed": "bore", "boss": "boss"}[name]]
+    assert ops2 == ["face back", *{"paper": ["bore", "finish back"], "recessed": ["bore", "finish back"],
+                                   "boss": ["boss", "finish mount"]}[name]]
     assert all(op.max_depth_of_cut_mm <= opts.rough_depth + 0.01 for op in shop.second_simulation.operations)
+    # the mount's face finished by the finishing tool (station 2, or 4 in the opposite hand) at the
+    # finishing feed, one pass of toolpath.max_finish_depth_mm
+    fin = shop.second_simulation.operations[-1]
+    assert fin.station == (4 if name == "boss" else 2) and fin.feed_mm_rev == settings.machine.feed_finish
+    if body.mount is Mount.BORE:
+        assert fin.max_depth_of_cut_mm == pytest.approx(opts.max_finish_depth_mm, abs=0.01)  # the annulus from the bore to the part's rim, that thick: pi (R^2 - rm^2) fa
+        R, rm = shop.second.setup.diameter / 2, body.mount_diameter / 2
+        want = math.pi * (R**2 - rm**2) * opts.max_finish_depth_mm
+        assert fin.removed_volume_mm3 == pytest.approx(want, rel=0.02)
+    else:  # the ring's face and the boss's wall; the roughing nose's fillet in the root corner besides
+        assert opts.max_finish_depth_mm - 0.01 <= fin.max_depth_of_cut_mm <= (
+            opts.max_finish_depth_mm + settings.tool.nose_radius)
 
 
 def line_extent(geom, a, b) -> tuple[float, float, float, float]:
@@ -125,8 +139,8 @@ def test_the_finished_part_is_the_cad_body(made):
 def test_rs274_reads_both_set_ups_and_the_fanuc_ones_replay_clean(made, tmp_path):
     name, settings, mirror, shop = made
     body, opts = settings.body, settings.toolpath
-    one = format_program(shop.program, Dialect.LINUXCNC)
-    two = format_program(shop.second, Dialect.LINUXCNC)
+    one = format_program(shop.program, "linuxcnc")
+    two = format_program(shop.second, "linuxcnc")
     if name == "paper":  # the committed files are these
         assert (REPO / "gcode" / "mirror_arcs_op2.ngc").read_text() == two
     out1 = rs274(tmp_path, one)
@@ -139,13 +153,13 @@ def test_rs274_reads_both_set_ups_and_the_fanuc_ones_replay_clean(made, tmp_path
     out2 = rs274(tmp_path, two)
     assert "SET_MOTION_CONTROL_MODE(CANON_CONTINUOUS" in out2  # G64 P in the second program too
     # the Fanuc second program: its own number, G54, Z then X to the reference before the tool
-    nc = format_program(shop.second, Dialect.FANUC)
+    nc = format_program(shop.second, "fanuc")
     lines = nc.splitlines()
     assert lines[1].startswith("O1001") and "G18 G40 G97 G99 G54" in lines
     assert lines.index("G28 W0") < lines.index("G28 U0") < min(i for i, ln in enumerate(lines) if "T0" in ln
                                                               and not ln.startswith("("))
     # read back (toolpath --check's reader) and replayed against the second set-up's stock
-    ops = read_program(nc, settings.machine, source="op2.nc")
+    ops = read_program(nc, settings.machine, DIALECTS["fanuc"], source="op2.nc")
     su = shop.second.setup
     sim = simulate_setup(ops, su.shapes, settings.machine, su.start, su.part, su.chuck,
                          rapid_rate=opts.rapid_rate, gouge_tolerance=opts.gouge_tolerance)
@@ -193,7 +207,7 @@ def test_a_bar_too_short_to_part_off_is_refused(paper_mirror):
 
 
 def test_check_replays_the_second_set_up_against_the_parted_part(tmp_path):
-    """`toolpath --check` knows a second set-up's program by its header and replays it
+    """`toolpath --check` knows a second set-up's program by its first operation and replays it
     against the part the configured program parts off (reversed): the committed one is
     clean; its bore's wall moved 0.5 mm out (X19.6 -> X20.6, past the CAD's 20 mm) cuts
     into the finished part and is refused with one line naming the block."""
@@ -204,7 +218,7 @@ def test_check_replays_the_second_set_up_against_the_parted_part(tmp_path):
     res = run_cli("toolpath", "--check", str(REPO / "gcode" / "mirror_arcs_op2.nc"), "--json")
     assert res.returncode == 0, res.stderr
     data = json.loads(res.stdout)
-    assert data["contacts"] == [] and len(data["operations"]) == 2
+    assert data["contacts"] == [] and len(data["operations"]) == 3  # face back, bore, finish back
     bad = tmp_path / "bad_op2.ngc"
     bad.write_text((REPO / "gcode" / "mirror_arcs_op2.ngc").read_text().replace("X19.600", "X20.600"))
     res = run_cli("toolpath", "--check", str(bad))

@@ -221,7 +221,7 @@ def test_a_signal_before_the_last_rename_leaves_nothing_after_it_everything(tmp_
         assert err.strip() == "lathe-mirror: terminated"
         assert files_under(tmp_path) == {"keep.ngc"} and (tmp_path / "keep.ngc").read_text() == "old program\n"
     else:
-        assert files_under(tmp_path) == {"keep.ngc", "keep.setup.html", "keep_op2.ngc"}  # both set-ups
+        assert files_under(tmp_path) == {"keep.ngc", "keep.setup.html", "keep_op2.ngc", "tools.tbl"}  # both set-ups, the table
         assert (tmp_path / "keep.ngc").read_text().startswith("%\n")
 
 

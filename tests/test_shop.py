@@ -19,8 +19,9 @@ from lathe_mirror.errors import InputError
 from lathe_mirror.export.gcode import format_program
 from lathe_mirror.lathe import Lathe, Stock, Tool
 from lathe_mirror.path import Arc, Line
+from lathe_mirror.shop import plan_program
 from lathe_mirror.shop.programs import shop_program
-from lathe_mirror.shop import ProgramOptions
+from lathe_mirror.toolpath import ToolpathSettings
 from lathe_mirror.shop.program import Rapid
 from lathe_mirror.shop.stock import SimMove, SimOperation, simulate, simulate_program
 from lathe_mirror.shop.tool_shapes import blade_shape
@@ -28,7 +29,9 @@ from lathe_mirror.toolpath import Strategy, plan_toolpath
 
 REPO = Path(__file__).resolve().parents[1]
 LATHE, STOCK, TOOL = Lathe(), Stock(), Tool()
-OPTIONS = ProgramOptions()
+OPTIONS = ToolpathSettings()
+#: The roughing feed: machine.feed_rough, at most half the nose radius per revolution.
+ROUGH_FEED = min(LATHE.feed_rough, TOOL.nose_radius / 2)
 #: Every station's row (rs274 reports a tool change by its row in the table), T5 the blade.
 TOOLS = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4)) + "T5 P5 X0 Z0 D0\n"
 
@@ -127,19 +130,19 @@ def test_committed_programs_touch_nothing(tmp_path, paper_mirror, name):
     tolerance; each operation removes what a hand count says."""
     events = canonical(rs274(tmp_path, (REPO / "gcode" / name).read_text()))
     # the part-off: the [cad] body's 30 mm, the 0.5 mm back allowance, the 3 mm blade (T5)
-    z_cut = -(30.0 + OPTIONS.back_allowance + OPTIONS.parting_width)
+    z_cut = -(30.0 + OPTIONS.back_allowance_mm + OPTIONS.parting_width_mm)
     sim = simulate(replay(events), paper_mirror, TOOL, LATHE, STOCK, rapid_rate=OPTIONS.rapid_rate,
-                   gouge_tolerance=OPTIONS.gouge_tolerance, shapes={5: blade_shape(OPTIONS.parting_width)},
-                   parting=(z_cut, OPTIONS.parting_width))
+                   gouge_tolerance=OPTIONS.gouge_tolerance, shapes={5: blade_shape(OPTIONS.parting_width_mm)},
+                   parting=(z_cut, OPTIONS.parting_width_mm))
     assert sim.contacts == ()
     # the part-off cuts the blade's slot through the bar: pi R^2 w; the part is off above it
     *ops, parting = sim.operations
     assert parting.station == 5
-    assert parting.removed_volume_mm3 == pytest.approx(math.pi * STOCK.radius**2 * OPTIONS.parting_width, rel=1e-4)
-    assert sim.parted.bounds[1] == pytest.approx(z_cut + OPTIONS.parting_width, abs=1e-9)
+    assert parting.removed_volume_mm3 == pytest.approx(math.pi * STOCK.radius**2 * OPTIONS.parting_width_mm, rel=1e-4)
+    assert sim.parted.bounds[1] == pytest.approx(z_cut + OPTIONS.parting_width_mm, abs=1e-9)
     # face, rough, semi-finish; the finishing passes (at most max_finish_depth each) and the contour
     assert [op.station for op in ops][:3] == [1, 1, 1] and len(ops) >= 5 and {op.station for op in ops[3:]} == {2}
-    assert all(op.max_depth_of_cut_mm <= OPTIONS.max_finish_depth + 1e-6 for op in ops[3:])
+    assert all(op.max_depth_of_cut_mm <= OPTIONS.max_finish_depth_mm + 1e-6 for op in ops[3:])
     assert all(op.plunge_mm == 0.0 for op in ops)
     assert all(op.max_part_cut_mm <= OPTIONS.gouge_tolerance for op in ops)
     # everything from the bar's face down to the part is gone: pi R^2 (face - Z) - the part's
@@ -177,13 +180,13 @@ def test_every_strategy_and_nose_is_simulated_clean(paper_mirror, strategy, rho)
     """Every strategy, with a sharp tool and with the paper's nose: planned, simulated
     against the bar, no contact; and the Fanuc program read back from its text replays
     to the same figures (the dialects carry the same moves)."""
-    from lathe_mirror.enums import Dialect
+    from lathe_mirror.export.dialects import DIALECTS
     from lathe_mirror.shop.replay import read_program
 
     tool = Tool(nose_radius=rho)
     shop = shop_program(plan_toolpath(paper_mirror, LATHE, tool, strategy), STOCK, OPTIONS, setting_costs={})
     assert shop.simulation.contacts == ()
-    fanuc = read_program(format_program(shop.program, Dialect.FANUC), LATHE)
+    fanuc = read_program(format_program(shop.program, "fanuc"), LATHE, DIALECTS["fanuc"])
     sim = simulate(fanuc, paper_mirror, tool, LATHE, STOCK, rapid_rate=OPTIONS.rapid_rate,
                    gouge_tolerance=OPTIONS.gouge_tolerance)
     assert sim.contacts == ()
@@ -201,7 +204,7 @@ def test_facing_removes_the_face_through_the_axis(arcs_shop):
     assert face.name == "face"
     assert face.removed_volume_mm3 == pytest.approx(math.pi * STOCK.radius**2 * depth, rel=2e-3)
     assert face.max_depth_of_cut_mm == pytest.approx(depth, abs=2e-3)
-    assert face.max_chip_section_mm2 == pytest.approx(depth * LATHE.feed_rough, abs=1e-3)
+    assert face.max_chip_section_mm2 == pytest.approx(depth * ROUGH_FEED, abs=1e-3)
     stock = face.stock_after
     # flat through X0 (to the nose polygon's lowest vertex: 16 segments a quarter circle)
     assert stock.bounds[3] == pytest.approx(OPTIONS.rough_allowance, abs=1e-3)
@@ -210,10 +213,10 @@ def test_facing_removes_the_face_through_the_axis(arcs_shop):
 def test_roughing_levels_take_the_rough_depth(arcs_shop):
     rough = arcs_shop.simulation.operations[1]
     assert rough.max_depth_of_cut_mm == pytest.approx(OPTIONS.rough_depth, abs=2e-3)
-    assert rough.max_chip_section_mm2 == pytest.approx(OPTIONS.rough_depth * LATHE.feed_rough, abs=1e-3)
+    assert rough.max_chip_section_mm2 == pytest.approx(OPTIONS.rough_depth * ROUGH_FEED, abs=1e-3)
     # 1000 V / (2 pi r) rpm at the largest radius it cuts at full depth: MRR = 2 pi r ap f n
     assert rough.max_removal_rate_cm3_min == pytest.approx(
-        OPTIONS.rough_depth * LATHE.feed_rough * LATHE.surface_speed, rel=1e-3)
+        OPTIONS.rough_depth * ROUGH_FEED * LATHE.surface_speed, rel=1e-3)
 
 
 # --------------------------------------------------------------------------------------
@@ -330,7 +333,7 @@ def test_semi_finish_follows_the_offset_into_the_corner(arcs_shop, paper_mirror)
     # taken in passes of at most toolpath.max_finish_depth_mm each (issue 21)
     fin = [op for op in arcs_shop.simulation.operations if op.name.startswith("finish")]
     assert len(fin) >= 2 and fin[-1].name == "finish"
-    assert all(op.max_depth_of_cut_mm <= OPTIONS.max_finish_depth + 1e-6 for op in fin)
+    assert all(op.max_depth_of_cut_mm <= OPTIONS.max_finish_depth_mm + 1e-6 for op in fin)
 
 
 def test_spring_pass_repeats_the_contour_and_cuts_air(tmp_path, paper_mirror):
@@ -382,7 +385,7 @@ def test_sheet_offsets_put_the_nose_centre_where_the_program_expects_it(tmp_path
         ref_z = centre_at_touch_z + true_off[1]
         ref_x = centre_at_touch_x + true_off[0]
         lines.append(f"T{t.station} P{t.station} X{(ref_x - ex) / 25.4:.9f} Z{(ref_z - ez) / 25.4:.9f} "
-                     f"D{2 * rho / 25.4:.6f} Q{t.offsets.linuxcnc_orientation}")
+                     f"D{2 * rho / 25.4:.6f} Q9")
     out = rs274(tmp_path, format_program(arcs_shop.program), tools="\n".join(lines) + "\n")
     offset = None
     pts = []
@@ -394,7 +397,12 @@ def test_sheet_offsets_put_the_nose_centre_where_the_program_expects_it(tmp_path
     planned = [b.move.end for _, b in arcs_shop.program.motions() if not isinstance(b, Rapid)]
     assert len(pts) == len(planned)
     assert np.abs(np.array(pts) - np.array(planned)).max() < 2e-4  # rs274 prints 4 decimals
-    assert sheet.tools[0].offsets.linuxcnc_orientation == 9 and sheet.tools[0].offsets.fanuc_tip == 0
+    # the tables the project writes say the same: orientation 9 / imaginary tool nose 0, the nose centre
+    from lathe_mirror.export.gcode import offset_table
+
+    assert all(ln.split()[5] == "Q9" for ln in offset_table(tools, "linuxcnc")[1].splitlines())
+    assert [ln for ln in offset_table(tools, "fanuc")[1].splitlines() if ln.startswith("G10")] == [
+        f"G10 P{10000 + t.station} R{rho:g} Q0" for t in tools]
 
 
 def test_sheet_cycle_time_agrees_with_rs274(tmp_path, arcs_shop):
@@ -447,7 +455,8 @@ def test_sheet_centre_height_and_setting_costs(arcs_shop, paper_mirror):
 def test_sheet_is_written_beside_the_program(tmp_path):
     res = run_cli("toolpath", "--dialect", "fanuc", "-o", str(tmp_path / "part.nc"))
     assert res.returncode == 0, res.stderr
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["part.nc", "part.setup.html", "part_op2.nc"]  # and the second set-up
+    # the second set-up's program and the Fanuc offset list too
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["offsets.nc", "part.nc", "part.setup.html", "part_op2.nc"]
     page = (tmp_path / "part.setup.html").read_text()
     assert "Z1.200" in page and "X19.600" in page  # face + 0.2; a 20 mm bore - 0.4
     # one picture for each operation both programs list in their headers (the second set-up's too)
@@ -465,7 +474,6 @@ def test_a_program_planned_again_is_simulated_from_its_first_finishing_pass(whic
     from the bar, on the paper default and a recessed-outer design."""
     from conftest import RECESSED_OUTER
     from lathe_mirror.config import load
-    from lathe_mirror.shop import options_from_settings
     from lathe_mirror.shop.plan import plan_program
     from lathe_mirror.shop.programs import shop_programs
     from lathe_mirror.shop.resume import Resume
@@ -483,7 +491,7 @@ def test_a_program_planned_again_is_simulated_from_its_first_finishing_pass(whic
         assert shop.simulation.contacts == fresh.contacts == ()
         assert shop.simulation.parted.equals(fresh.parted)
         # the first plan (the configured passes) and the final one share their first three operations
-        first = plan_program(shop.program.toolpath, settings.stock, options_from_settings(settings.toolpath),
+        first = plan_program(shop.program.toolpath, settings.stock, settings.toolpath,
                              name=shop.program.name, body=settings.body)
         resume = Resume()
         simulate_program(first, resume=resume)
@@ -493,3 +501,24 @@ def test_a_program_planned_again_is_simulated_from_its_first_finishing_pass(whic
             assert len(resume.states) == len(first.operations)
             again = simulate_program(shop.program, resume=resume)
             assert again.figures() == fresh.figures()
+
+
+def test_a_bar_held_too_far_out_is_refused(paper_mirror):
+    """The first set-up's grip: a bar standing out of the jaws more than three of its
+    diameters (76 mm: 228 mm) is refused before any simulation, naming stock.length; the
+    sheet gives the blank's length, the stick-out and 10 mm in the jaws."""
+    tp = plan_toolpath(paper_mirror, LATHE, TOOL, Strategy.ARCS)
+    with pytest.raises(InputError, match=r"stock.length = 230 mm: .* more than 3 bar diameters .* allowed <= 227 mm"):
+        plan_program(tp, Stock(length=230.0), OPTIONS)
+    plan_program(tp, Stock(length=227.0), OPTIONS)  # 228 mm out: the limit
+
+
+def test_roughing_feed_is_half_the_nose_unless_configured(paper_mirror):
+    """machine.feed_rough's default 0.15 mm/rev on a 0.2 mm nose is capped at 0.1 mm/rev
+    (half the nose radius per revolution); a feed_rough the configuration sets otherwise
+    (0.2, or 0.05) is the program's; the finishing feed is untouched."""
+    for lathe, want in ((LATHE, 0.1), (Lathe(feed_rough=0.2), 0.2), (Lathe(feed_rough=0.05), 0.05)):
+        prog = plan_program(plan_toolpath(paper_mirror, lathe, TOOL, Strategy.ARCS), STOCK, OPTIONS)
+        feeds = {op.name: op.feed for op in prog.operations}
+        assert feeds["face"] == feeds["rough"] == feeds["semi-finish"] == want
+        assert feeds["finish"] == lathe.feed_finish

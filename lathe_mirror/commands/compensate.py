@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "`compensate PART2 --from DIR -o DIR2`.")
     p.add_argument("file", metavar="FILE", help="the measured profile or map of the part")
     add_common(p, output_help="directory for the next job: mirror_recut.ngc / .nc and _op2, its set-up sheet, "
-                              "tools.tbl (LinuxCNC) or offsets.txt (Fanuc), job.toml and compensate.json (required)")
+                              "the control's tool table (tools.tbl, offsets.nc, tools.ini), job.toml and compensate.json (required)")
     p.add_argument("--format", metavar="FMT", default=None,
                    help="the file's format when its suffix does not say: csv, prf, x3p, datx, dat, surfalize")
     add_job_flags(p)
@@ -37,7 +37,6 @@ def run(args: argparse.Namespace) -> int:
     import dataclasses
     from pathlib import Path
 
-    from ..enums import Dialect, parse
     from ..errors import InputError
     from ..job import check_program, design, machine, program_target
     from ..measure.compensate import GAIN, compensation
@@ -45,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     from ..measure.nextjob import JOB_JSON, JOB_TOML, job_toml
     from ..measure.result import measure
     from ..config import read_user
-    from ..shop import options_from_settings
+    from ..export.dialects import dialect as find_dialect
     from ..shop.programs import inspection_table, shop_program
     from .common import check_outputs, output_dir
     from .measure import job_of, touch_off_of
@@ -54,12 +53,12 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("-o/--output: compensate writes the next job; name a directory")
     gain = GAIN if args.gain is None else args.gain
     # --gain is within its range (commands/flags.py, at parsing)
-    dialect = parse(Dialect, args.dialect, "--dialect")
+    dialect = find_dialect(args.dialect)
     settings, strategy, cut_target = job_of(args, load)
     mirror = design(settings)
     ext = dialect.extension
-    table = "tools.tbl" if dialect is Dialect.LINUXCNC else "offsets.txt"
-    names = [f"mirror_recut.{ext}", f"mirror_recut_op2.{ext}", "mirror_recut.setup.html", table, JOB_TOML, JOB_JSON]
+    names = [f"mirror_recut.{ext}", f"mirror_recut_op2.{ext}", "mirror_recut.setup.html", dialect.offsets_file,
+             JOB_TOML, JOB_JSON]
     check_outputs(args.output, names)
     tp = check_program(settings, mirror, strategy, target=cut_target)
     nominal = machine(tp)
@@ -75,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     # the re-cut: the same checks as every program (plan on the lattice within the budget,
     # gouge), then the stock simulation (shop_program refuses contact)
     recut_tp = check_program(settings, mirror, strategy, tool=tool, target=comp.target)
-    shop = shop_program(recut_tp, settings.stock, options_from_settings(settings.toolpath), name="mirror_recut",
+    shop = shop_program(recut_tp, settings.stock, settings.toolpath, name="mirror_recut",
                         inspection=inspection_table(settings), body=settings.body)
     ops = [op.name for op in shop.program.operations]
     finishing = [f"{op.name} (N{op.number})" for op in shop.program.operations if op.name.startswith("finish")]
@@ -107,22 +106,19 @@ def run(args: argparse.Namespace) -> int:
                 touch.describe()]
 
     from ..export.files import json_text, write_text
-    from ..export.gcode import format_program
+    from ..export.gcode import format_program, offset_table
     from ..export.setup_sheet import setup_sheet_html
 
     d = Path(output_dir(args.output))
     write_text(d / names[0], format_program(shop.program, dialect))
     write_text(d / names[1], format_program(shop.second, dialect))
     write_text(d / names[2], setup_sheet_html(sheet))
-    tools = list(sheet.tools) + ([sheet.second.tool] if sheet.second is not None else [])
-    seen, rows = set(), []
-    for t in tools:
-        if t.station in seen:
-            continue
-        seen.add(t.station)
-        rows.append(t.linuxcnc_table.replace("X<touched>", "X0.000").replace("Z<touched>", "Z0.000")
-                    if dialect is Dialect.LINUXCNC else t.fanuc_offset)
-    write_text(d / names[3], "".join(r + "\n" for r in rows))
+    tools, seen = [], set()
+    for t in list(sheet.tools) + (list(sheet.second.tools) if sheet.second is not None else []):
+        if t.station not in seen:  # one row a station (the second set-up reuses the first's)
+            seen.add(t.station)
+            tools.append(t)
+    write_text(d / names[3], offset_table(tools, dialect, diameter_mode=settings.machine.diameter_mode)[1])
     write_text(d / names[4], job_toml(cfg, comments))
     out = {"measurement": meas.to_dict(), "compensation": comp.to_dict(),
            "program": {"files": names[:3], "strategy": strategy.value, "nose_radius_mm": tool.nose_radius,

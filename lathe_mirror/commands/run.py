@@ -37,10 +37,11 @@ def run(args: argparse.Namespace) -> int:
     import sys
     from pathlib import Path
 
-    from ..enums import BEST, Dialect, Strategy
+    from ..enums import BEST, Strategy
     from ..export.cad import REFERENCE_FILES
     from ..export.calib import FILE_NAMES as CALIB_FILES
     from ..export.files import write_text
+    from ..export.dialects import dialects
     from ..export.gcode import program_files
     from ..job import cad_model, check_cad, check_program, check_programs, design
     from ..pipeline import report_figures
@@ -59,9 +60,10 @@ def run(args: argparse.Namespace) -> int:
     cad_dir = Path(args.cad_dir) if args.cad_dir else (Path("cad") if default else out_dir / "cad")
     calib_dir = Path(args.calib_dir) if args.calib_dir else (Path("calib") if default else out_dir / "calib")
     strategies = (Strategy.PAPER, BEST)
-    exts = [d.extension for d in Dialect] + ["setup.html"]
+    exts = [d.extension for d in dialects()] + ["setup.html"]
     programs = [f"mirror_{s.value}{op}.{ext}" for s in strategies for op in ("", "_op2") for ext in exts
                 if not (op and ext == "setup.html")]  # the second set-up's program is on the first's sheet
+    programs += [d.offsets_file for d in dialects()]  # each control's tool table beside its programs
     from ..iso10110 import spec_of
     from .spec import FILES as SPEC_FILES, write_spec
 

@@ -1,7 +1,7 @@
 """Every configuration key, declared once (Key: type, unit, default, range, open or closed
 ends, why, help), below every module that holds a setting: the settings package checks a
 configuration against these declarations, and the typed sections built in Python (Lathe,
-Tool, PolishParams, BodySpec, ProgramOptions, OptimizeSettings, ...) check their fields
+Tool, PolishParams, BodySpec, ToolpathSettings, OptimizeSettings, ...) check their fields
 against the same ones on construction (`check`), so `dataclasses.replace(settings.polish,
 overhang=2.0)` refuses with the line the configuration file gets.
 

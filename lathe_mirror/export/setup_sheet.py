@@ -10,6 +10,8 @@ import html
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..lathe import MIN_GRIP
+from .dialects import dialects
 from .files import write_text
 from .stock_svg import polygons, stock_svg
 
@@ -21,6 +23,9 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
     """The sheet as an HTML page."""
     e = html.escape
     x_unit = "diameter" if sheet.diameter_mode else "radius"
+    ds = dialects()
+    labels = ", ".join(d.label for d in ds)
+    files = [f"{sheet.name}.{d.extension}" for d in ds]
     out = [
         "<!DOCTYPE html>", "<html><head><meta charset='utf-8'>",
         f"<title>Set-up sheet {e(sheet.name)}</title>",
@@ -29,8 +34,9 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
         "text-align:left}th{background:#eee}td.n{text-align:right}svg{max-width:100%;height:auto;display:block}</style>",
         "</head><body>",
         f"<h1>Set-up sheet: {e(sheet.name)}</h1>",
-        f"<p>Programs: {', '.join(f'<code>{e(f)}</code>' for f in sheet.files)} (LinuxCNC, Fanuc; the "
-        f"same block numbers N). Strategy <b>{e(sheet.strategy)}</b>. Estimated cycle time "
+        f"<p>Programs: {', '.join(f'<code>{e(f)}</code>' for f in files)} ({e(labels)}; the "
+        f"same block numbers N), each control's tool data beside them: "
+        f"{', '.join(f'<code>{e(d.offsets_file)}</code>' for d in ds)}. Strategy <b>{e(sheet.strategy)}</b>. Estimated cycle time "
         f"<b>{_time(sheet.cycle_time_s)}</b>"
         + (f"; the second set-up (below) {_time(sheet.second.cycle_time_s)}" if sheet.second is not None else "")
         + ".</p>",
@@ -41,15 +47,11 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
         _row("deepest programmed point", f"Z{sheet.stock['deepest_z_mm']:.3f}"),
         _row("stick-out from the jaws", f"at least {sheet.stock['stick_out_mm']:g} mm (jaws below "
              f"Z-{sheet.stock['length_mm']:g})"),
+        _row("blank length", f"<b>{sheet.stock['blank_length_mm']:g} mm</b>: the stick-out and "
+             f"{sheet.stock['grip_mm']:g} mm in the jaws (the least they grip)"),
         "</table>",
-        "<h2>Tools</h2>", "<table><tr><th>tool</th><th>role</th><th>insert</th><th>holder</th>"
-        "<th>LinuxCNC tool table</th><th>Fanuc offset page</th></tr>",
+        "<h2>Tools</h2>", _tool_table(sheet.tools, sheet.diameter_mode),
     ]
-    for t in sheet.tools:
-        out.append(f"<tr><td>T{t.station} / T{t.station:02d}{t.station:02d}</td><td>{e(t.role)}</td>"
-                   f"<td>{e(t.insert)}</td><td>{e(t.holder)}</td><td><code>{e(t.linuxcnc_table)}</code></td>"
-                   f"<td>{e(t.fanuc_offset)}</td></tr>")
-    out.append("</table>")
     off = sheet.tools[0].offsets
     rho = off.nose_radius
     d_example = 20.0
@@ -65,12 +67,16 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
         _row("X", f"touch {side}, diameter D, and enter <b>X = D {sign} {2 * rho:g}</b> mm "
                   f"(X is the {x_unit}); e.g. D = {d_example:.3f} mm: enter "
                   f"<b>X{off.x_entry(d_example):.3f}</b>. " + _x_surface(sheet, off, d_example)),
-        _row("tip code", f"LinuxCNC orientation Q{off.linuxcnc_orientation} (nose centre), Fanuc "
-                         f"imaginary tip T{off.fanuc_tip} (nose centre); the program uses no nose "
-                         "compensation (G40)"),
+        _row("tip code", "; ".join(f"{e(d.label)} {e(d.tip_code(sheet.tools[0]))}" for d in ds)
+             + " (the nose centre); the program uses no nose compensation (G40)"),
         _row("centre height", f"within &plusmn;{sheet.centre_height_mm:.3f} mm: a tool off centre by h cannot "
                               "cut r &lt; h and leaves a pip of radius h at the vertex; beyond this it "
                               "covers more than the one pixel the vertex images to"),
+        _row("centre height check", f"before the program, face a scrap bar (or this bar's face allowance) "
+                                    f"through X0 with each turning tool in MDI and measure the pip left at the "
+                                    f"centre: its diameter is twice the tool's height error; allowed at most "
+                                    f"<b>{2 * sheet.centre_height_mm:.3f} mm</b> (a tool above centre leaves no "
+                                    "pip but rubs the centre: look for a torn spot instead; shim until neither)"),
         "</table>",
         f"<h2>What a {sheet.setting_costs['delta_mm']:g} mm setting error costs</h2>",
         "<p>The exact mirror turned with one offset off by that much (the turning's own errors "
@@ -147,6 +153,18 @@ def _x_surface(sheet: SetupSheet, off, d_example: float) -> str:
             f"X as above.")
 
 
+def _tool_table(tools, diameter_mode: bool) -> str:
+    """The tools: station, role, insert, holder and its hand, spindle, each dialect's entry."""
+    e, ds = html.escape, dialects()
+    out = ["<table><tr><th>tool</th><th>role</th><th>insert</th><th>holder, hand</th><th>spindle</th>"
+           + "".join(f"<th>{e(d.label)} ({e(d.offsets_file)})</th>" for d in ds) + "</tr>"]
+    for t in tools:
+        out.append(f"<tr><td>{' / '.join(e(d.tool_word(t.station)) for d in ds)}</td><td>{e(t.role)}</td>"
+                   f"<td>{e(t.insert)}</td><td>{e(t.holder)}</td><td>{e(t.spindle)}</td>"
+                   + "".join(f"<td><code>{e(d.offset_entry(t, diameter_mode))}</code></td>" for d in ds) + "</tr>")
+    return "".join(out) + "</table>"
+
+
 def _row(head: str, value: str) -> str:
     return f"<tr><th>{html.escape(head)}</th><td>{value}</td></tr>"
 
@@ -159,15 +177,16 @@ def _time(s: float) -> str:
 def _second_html(sheet: SetupSheet) -> list[str]:
     """The second set-up: programs, work zero, holding, touch-off, tool, operations, pictures."""
     e, sec = html.escape, sheet.second
-    t = sec.tool
+    ds = dialects()
+    files = [f"{sec.name}.{d.extension}" for d in ds]
     out = ["<h2>Second set-up: the back and the mount</h2>",
-           f"<p>Programs: {', '.join(f'<code>{e(f)}</code>' for f in sec.files)} (LinuxCNC, Fanuc), run after "
+           f"<p>Programs: {', '.join(f'<code>{e(f)}</code>' for f in files)} ({e(', '.join(d.label for d in ds))}), run after "
            f"the part-off. Estimated cycle time <b>{_time(sec.cycle_time_s)}</b>; both set-ups "
            f"<b>{_time(sheet.total_time_s)}</b>.</p>", "<table>",
-           _row("work zero", e(sec.work_zero)), _row("holding", e(sec.holding))]
+           _row("work zero", e(sec.work_zero)), _row("holding", e(sec.holding)),
+           _row("grip length", f"{sec.grip_mm:.2f} mm (the least the jaws may grip: {MIN_GRIP:g} mm)")]
     out += [_row("touch-off", e(line)) for line in sec.touch_off]
-    out += [_row("tool", f"T{t.station} / T{t.station:02d}{t.station:02d}: {e(t.insert)}, {e(t.holder)}; "
-                         f"<code>{e(t.linuxcnc_table)}</code>; {e(t.fanuc_offset)}"), "</table>",
+    out += ["</table>", _tool_table(sec.tools, sheet.diameter_mode),
             "<table><tr><th>operation</th><th>tool</th><th>restart at</th><th>feed mm/rev</th>"
             "<th>removed mm&sup3;</th><th>max depth of cut mm</th><th>time</th></tr>"]
     for op in sec.operations:

@@ -18,7 +18,6 @@ from ..declared import SLACK
 from ..design import Mirror
 from ..errors import InputError, num
 from ..optics.scene import build_scene
-from ..shop import options_from_settings
 from ..tolerance.spec import MAX_SAMPLE_RAYS
 from .costs import check_costs
 from .design_checks import check_design
@@ -34,7 +33,6 @@ def validate(settings: Settings) -> Mirror:
     """Refuse (one InputError line naming the key and what is allowed) a Settings that
     cannot exist; return its designed mirror."""
     check_ranges(to_config(settings), slack=SLACK)
-    options_from_settings(settings.toolpath)  # the program's bounds
     check_sample(settings)
     check_scheduler(settings.compute.scheduler)
     mirror = check_design(settings)   # the design's own checks, and a lobe that is no degenerate conic

@@ -5,14 +5,15 @@ Layer: after nose_envelope (the gouge check) and before polishing and optics; it
 the toolpath, the lathe, the tool, the stock and the [toolpath] settings, never the
 config dict. shop.programs.shop_program strings it together (plan, simulate, refuse, sheet).
 
-- program.py   ProgramOptions, the program model (Operation, blocks, Program)
+- program.py   the program model (Operation, blocks, Program); its knobs are the
+               [toolpath] section, toolpath.ToolpathSettings
 - plan.py      plan_program: the operations, checked (stock, gouge, travel) and numbered
 - roughing.py  facing through X0, roughing levels (ramped pockets), semi-finish into the
                step's corner, the finishing pass's lead-in and exit, the way home
 - partoff.py   the part-off: the parting blade (T5) through the axis at the CAD body's
                length plus the back's allowance, before the program's end
 - second.py    the second set-up: the parted part reversed in soft jaws, its back faced
-               and the mount (bore, boss) cut, Z0 on the back face
+               and the mount (bore, boss) cut, the mount's face finished, Z0 on the back face
 - stock.py     the stock simulation (shapely): stock minus the swept tool (each station's
                shape), per-operation removal, depth of cut, chip load, air time, cycle time
                (G96 with the spindle cap); refuses a rapid or the body touching stock, a
@@ -23,10 +24,12 @@ config dict. shop.programs.shop_program strings it together (plan, simulate, ref
 - sim_results.py  what the simulation reports (moves, contacts, figures, the parted part)
 - setup.py     the set-up sheet's model: work zero, stock, tools, offsets for the
                nose-centre convention, centre height, times, pictures' geometry
-- replay.py    a G-code program (either dialect) read back into moves the simulation replays
+- replay.py    a G-code program read back into moves the simulation replays, each line
+               put in the common form by its dialect (export.dialects, handed in)
+- check.py     `toolpath --check`: a written program's text simulated against the set-up
+               it belongs to (the second set-up's by its first operation)
 """
 
 from .plan import plan_program
-from .program import ProgramOptions, options_from_settings
 
-__all__ = ["ProgramOptions", "options_from_settings", "plan_program"]
+__all__ = ["plan_program"]

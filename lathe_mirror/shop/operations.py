@@ -12,14 +12,14 @@ from .program import (Comment, Coolant, Feed, FeedRate, Operation, OptionalStop,
 
 if TYPE_CHECKING:
     from ..lathe import Lathe
-    from .program import ProgramOptions
+    from ..toolpath import ToolpathSettings
 
 
 class Planner(Protocol):
     """What a writer reads of its planner: the lathe, the program's options, home (r, Z)."""
 
     lathe: Lathe
-    opts: ProgramOptions
+    opts: ToolpathSettings
     home: tuple[float, float]
 
 
@@ -79,9 +79,9 @@ class OperationWriter:
         self.blocks.append(Feed(seg))
         self.pos = (float(seg.end[0]), float(seg.end[1]))
 
-    def go_home(self, *, stop: bool) -> None:
+    def go_home(self, *, stop: bool, note: str = "check the part; the finishing tool takes a fresh edge") -> None:
         """Coolant off, up to the home Z, across to the home radius, spindle off; then an
-        optional stop (before a new tool) or the program's end."""
+        optional stop (before a new tool, `note` the comment before it) or the program's end."""
         p = self.p
         if p.opts.coolant:
             self.blocks.append(Coolant(on=False))
@@ -89,7 +89,7 @@ class OperationWriter:
         self.rapid(p.home)
         self.blocks.append(SpindleStop())
         if stop:
-            self.comment("check the part; the finishing tool takes a fresh edge")
+            self.comment(note)
             self.blocks.append(OptionalStop())
         else:
             self.blocks.append(ProgramEnd())

@@ -5,7 +5,9 @@ Machine frame (r, Z), mm, the first set-up's (Z0 at the vertex, part in -Z). The
 controlled point is its tip's corner on the chuck side (-Z): the slot it cuts spans
 [Z, Z + width]; its part side, Z + width, stands the body's length (the back face, or the
 boss's end) plus toolpath.back_allowance_mm below the vertex, rounded down to the lattice.
-It comes down outside the bar, feeds in through the axis (the part is then separate,
+It begins with a program stop (M0): the finished optic comes off next, and the operator
+fits the parts catcher (or stands by to take it by hand once the spindle has stopped). It
+comes down outside the bar, feeds in through the axis (the part is then separate,
 shop.stock's accounting shows it), retracts outward along its own slot and goes home.
 """
 
@@ -17,13 +19,13 @@ from typing import TYPE_CHECKING
 from ..enums import Mount
 from ..errors import InputError
 from ..path import Line
-from .program import (Comment, Coolant, Feed, FeedRate, Operation, ProgramEnd, Rapid, SpindleOn, SpindleStop,
-                      ToolCall, PARTING_STATION)
+from .program import (Comment, Coolant, Feed, FeedRate, Operation, ProgramEnd, ProgramStop, Rapid, SpindleOn,
+                      SpindleStop, ToolCall, PARTING_STATION)
 
 if TYPE_CHECKING:
     from ..body import BodySpec
     from ..lathe import Lathe, Stock
-    from .program import ProgramOptions
+    from ..toolpath import ToolpathSettings
 
 
 def body_length(body: BodySpec) -> float:
@@ -32,15 +34,15 @@ def body_length(body: BodySpec) -> float:
     return body.thickness + (body.mount_depth if body.mount is Mount.BOSS else 0.0)
 
 
-def parting_z(body: BodySpec, stock: Stock, options: ProgramOptions, lathe: Lathe) -> float:
+def parting_z(body: BodySpec, stock: Stock, options: ToolpathSettings, lathe: Lathe) -> float:
     """The blade's programmed Z (its chuck-side corner), on the lattice: the slot's part
     side at least back_allowance below the body's length. InputError (naming
     stock.length) when the slot would reach the chuck's jaws."""
     res = lathe.resolution
-    top = -(body_length(body) + options.back_allowance)  # the slot's part side, at most here
-    z = math.floor((top - options.parting_width) / res + 1e-9) * res
+    top = -(body_length(body) + options.back_allowance_mm)  # the slot's part side, at most here
+    z = math.floor((top - options.parting_width_mm) / res + 1e-9) * res
     if z < -stock.length:
-        need = body_length(body) + options.back_allowance + options.parting_width
+        need = body_length(body) + options.back_allowance_mm + options.parting_width_mm
         raise InputError(f"stock.length = {stock.length:g} mm: the part-off below the body "
                          f"(cad.thickness and its mount, toolpath.back_allowance_mm and the blade's "
                          f"toolpath.parting_width_mm) needs the bar {need:g} mm out of the jaws; allowed >= {need:g} mm")
@@ -48,14 +50,17 @@ def parting_z(body: BodySpec, stock: Stock, options: ProgramOptions, lathe: Lath
 
 
 def partoff_operation(pos: tuple[float, float], home: tuple[float, float], z: float, stock: Stock,
-                      options: ProgramOptions, lathe: Lathe) -> Operation:
+                      options: ToolpathSettings, lathe: Lathe) -> Operation:
     """The part-off from the tool's position `pos` (home): down outside the bar, in
     through the axis at the parting feed, back out, home, M30."""
     res = lathe.resolution
     r_out = math.ceil((stock.radius + options.clearance) / res - 1e-9) * res
-    w = options.parting_width
+    w = options.parting_width_mm
     blocks: list = [Comment(f"part-off: the {w:g} mm blade through the axis at Z{z:.4f} (its chuck-side "
-                            f"corner), {options.back_allowance:g} mm left on the back for the second set-up"),
+                            f"corner), {options.back_allowance_mm:g} mm left on the back for the second set-up"),
+                    Comment("STOP: the finished optic comes off next; fit the parts catcher (or stand by to take the "
+                            "part by hand once the spindle has stopped), then cycle start"),
+                    ProgramStop(),
                     ToolCall(station=PARTING_STATION, role="parting"),
                     SpindleOn(surface_speed=lathe.surface_speed, max_rpm=lathe.spindle_max_rpm)]
     if options.coolant:
@@ -76,7 +81,7 @@ def partoff_operation(pos: tuple[float, float], home: tuple[float, float], z: fl
 
 
 def with_partoff(ops: list[Operation], home: tuple[float, float], z: float, stock: Stock,
-                 options: ProgramOptions, lathe: Lathe) -> list[Operation]:
+                 options: ToolpathSettings, lathe: Lathe) -> list[Operation]:
     """The operations with the part-off before the program's end: the last operation's
     M30 moves to the part-off's end (the tool is home there)."""
     last = ops[-1]

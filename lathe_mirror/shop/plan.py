@@ -11,16 +11,22 @@ from ..errors import InputError
 from ..lathe import Stock
 from ..nose_envelope import as_machined, gouge_depth, junction_fillet
 from ..toolpath import check_travel, profile_errors, usable_ranges
-from .program import MAX_BLOCK_NUMBER, Comment, Operation, Program, ProgramOptions
+from ..toolpath import ToolpathSettings
+from .program import MAX_BLOCK_NUMBER, Comment, Operation, Program
 from .roughing import plan_operations
+
+#: Longest stick-out of the bar from the first set-up's jaws, in bar diameters: a bar held
+#: further out without a tailstock chatters and deflects under the roughing cut. (The
+#: second set-up's grip: shop.second, lathe.MIN_GRIP.)
+MAX_STICK_OUT_DIAMETERS = 3.0
 
 if TYPE_CHECKING:
     from ..body import BodySpec
     from ..toolpath import Toolpath
 
 
-def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | None = None, *,
-                 name: str = "mirror", body: BodySpec | None = None) -> Program:
+def plan_program(toolpath: Toolpath, stock: Stock, options: ToolpathSettings | None = None, *,
+                 name: str = "mirror", body: BodySpec | None = None, finish_passes: int = 0) -> Program:
     """The whole program around the finishing contour of `toolpath`.
 
     Facing through X0, roughing levels (pockets ramped), a semi-finish along the profile
@@ -33,7 +39,7 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
     the program ends with the part-off at its length (shop.partoff) and the second
     set-up (shop.second) faces the back and cuts the mount.
     """
-    options = ProgramOptions() if options is None else options
+    options = ToolpathSettings() if options is None else options
     lathe, m = toolpath.lathe, toolpath.mirror
     if stock.radius <= m.r_max:
         raise InputError(f"stock.diameter = {stock.diameter:g} mm: must exceed the mirror's "
@@ -42,6 +48,11 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
     if stock.length < rim_depth + options.clearance:
         raise InputError(f"stock.length = {stock.length:g} mm: the mirror is {rim_depth:.3f} mm deep; "
                          f"allowed >= {rim_depth + options.clearance:.3f} mm")
+    stick_out = stock.length + stock.face_allowance
+    if stick_out > MAX_STICK_OUT_DIAMETERS * stock.diameter:
+        raise InputError(f"stock.length = {stock.length:g} mm: the bar would stand {stick_out:g} mm out of the jaws, "
+                         f"more than {MAX_STICK_OUT_DIAMETERS:g} bar diameters ({stock.diameter:g} mm) held without a "
+                         f"tailstock; allowed <= {MAX_STICK_OUT_DIAMETERS * stock.diameter - stock.face_allowance:g} mm")
     if options.home_z < stock.face_allowance + options.clearance:
         raise InputError(f"toolpath.home_z = {options.home_z:g} mm: the end position must be above the "
                          f"stock's face by the clearance; allowed >= "
@@ -54,14 +65,14 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
             "(more points, a finer machine.resolution or another strategy cut closer)"
         )
     made = as_machined(toolpath)
-    plan = plan_operations(toolpath, stock, options)
+    plan = plan_operations(toolpath, stock, options, finish_passes)
     ops_list, parting = list(plan.operations), None
     if body is not None:
         from .partoff import parting_z, with_partoff  # lazy: shop.partoff off the CLI's start-up path
 
         z = parting_z(body, stock, options, lathe)
         ops_list = with_partoff(ops_list, plan.home, z, stock, options, lathe)
-        parting = (z, options.parting_width)
+        parting = (z, options.parting_width_mm)
     ops = numbered(ops_list)
     prog = Program(name=name, toolpath=toolpath, stock=stock, options=options, operations=ops,
                    home=plan.home, safe_z=plan.safe_z, r_out=plan.r_out, gouge_depth=depth,

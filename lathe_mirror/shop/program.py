@@ -9,7 +9,7 @@ pass), each a tuple of Blocks: tool calls, spindle and coolant words, feed rates
 and feed moves, comments, an optional stop, the end. Every block but a comment carries a
 block number (N), the same in every dialect, so a refusal names a block the operator can
 find in either file, and every operation restarts at its own tool call. The dialects are
-export.gcode's; this module only decides what the program does.
+export.dialects'; this module only decides what the program does.
 """
 
 from __future__ import annotations
@@ -20,13 +20,13 @@ from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 
-from ..declared import SLACK, check as check_declared
-from ..errors import InputError
-from ..lathe import Stock
+from ..declared import key as declared_key
+from ..lathe import FEED_STEP, Stock
 from ..path import Arc, Line, Move
 from ..toolpath.moves import Hand
 
 if TYPE_CHECKING:
+    from ..lathe import Lathe, Tool
     from ..toolpath import Toolpath, ToolpathSettings
 
 #: Tool stations: the roughing tool and a separate finishing tool with a fresh edge.
@@ -47,75 +47,18 @@ def stations(toolpath: Toolpath) -> tuple[int, int]:
         return OPPOSITE_ROUGHING_STATION, OPPOSITE_FINISHING_STATION
     return ROUGHING_STATION, FINISHING_STATION
 
+def rough_feed(lathe: Lathe, tool: Tool) -> float:
+    """The roughing feed, mm/rev: machine.feed_rough's declared default at most half the
+    nose radius (a feed per revolution above it loads the nose beyond its chip-thickness
+    rating and leaves scallops the allowance may not take), on the F word's 0.0001 mm/rev;
+    a feed_rough configured to another value is taken as given (a configuration that
+    states the default itself gets the cap too)."""
+    if tool.nose_radius <= 0.0 or lathe.feed_rough != declared_key("machine.feed_rough").default:
+        return lathe.feed_rough
+    return min(lathe.feed_rough, math.floor(tool.nose_radius / 2 / FEED_STEP + 1e-9) * FEED_STEP)
+
 #: Largest block number a 5-digit N word carries (Fanuc's format).
 MAX_BLOCK_NUMBER = 99999
-
-
-@dataclass(frozen=True)
-class ProgramOptions:
-    """Knobs of the program around the finishing contour. Lengths in mm, angles in rad.
-
-    rough_depth: depth of each roughing level (more: fewer levels, heavier cuts; the
-      simulation refuses a depth the insert's cutting edge cannot take).
-    rough_allowance: stock the semi-finish leaves on the profile for the finishing pass.
-    clearance: distance of every rapid from the stock and of the retract above a level.
-    gouge_tolerance: deepest the as-machined surface may lie inside the exact part.
-    ramp_angle: slope of ramped entries (into a pocket, onto the contour's start), rad.
-    spring_pass: repeat the finishing contour once more (no stock, removes deflection).
-    coolant: M8 / M9 around the cutting.
-    home_r, home_z: the end (and tool change) position, radius and Z of the nose centre;
-      the program goes there, Z first, before M30 and before the finishing tool.
-    rapid_rate: traverse speed for the cycle-time estimate, mm/min.
-    path_tolerance: the controller's path blending tolerance, mm: LinuxCNC `G64 P.. Q..`
-      (the Fanuc program notes its look-ahead / AI contour mode instead).
-    max_finish_depth: the deepest cut one finishing pass may take, mm: the stock the
-      semi-finish leaves is taken in passes of the finishing tool at offsets
-      rough_allowance (n - k) / n, k = 1 .. n - 1, then the contour (shop.roughing).
-    finish_passes: n (0: the fewest that keep each pass within max_finish_depth on the
-      profile; pipeline.shop_program raises it when the simulation finds a deeper cut,
-      as in an inside corner).
-    parting_width: the parting blade's width, mm (shop.partoff). parting_feed: its feed,
-      mm/rev. back_allowance: stock the part-off leaves on the back for the second
-      set-up to face off, mm.
-    """
-
-    rough_depth: float = 1.0
-    rough_allowance: float = 0.15
-    clearance: float = 2.0
-    gouge_tolerance: float = 0.005
-    ramp_angle: float = math.radians(20.0)
-    spring_pass: bool = False
-    coolant: bool = True
-    home_r: float = 50.0
-    home_z: float = 50.0
-    rapid_rate: float = 5000.0
-    path_tolerance: float = 0.001
-    max_finish_depth: float = 0.1
-    finish_passes: int = 0
-    parting_width: float = 3.0
-    parting_feed: float = 0.05
-    back_allowance: float = 0.5
-
-    def __post_init__(self) -> None:
-        # Bounds keep the planning finite (a level per rough_depth, a ramp leg per
-        # ramp_angle) and the program meaningful: each within its key's declaration
-        # (toolpath.<key>, the angle in the file's degrees), the line load() gives.
-        for key, value in _declared_values(self):
-            check_declared(f"toolpath.{key}", value, slack=SLACK if key == "ramp_angle" else 0.0)
-        for key in ("spring_pass", "coolant"):
-            if not isinstance(getattr(self, key), bool):
-                raise InputError(f"toolpath.{key} = {getattr(self, key)!r}: must be true or false")
-
-
-def options_from_settings(t: ToolpathSettings) -> ProgramOptions:
-    """ProgramOptions of the [toolpath] settings (InputError naming a key out of bounds)."""
-    return ProgramOptions(rough_depth=t.rough_depth, rough_allowance=t.rough_allowance, clearance=t.clearance,
-                          gouge_tolerance=t.gouge_tolerance, ramp_angle=t.ramp_angle,
-                          spring_pass=t.spring_pass, coolant=t.coolant, home_r=t.home_r, home_z=t.home_z,
-                          rapid_rate=t.rapid_rate,
-                          path_tolerance=t.path_tolerance_mm, max_finish_depth=t.max_finish_depth_mm,
-                          parting_width=t.parting_width_mm, parting_feed=t.parting_feed,
-                          back_allowance=t.back_allowance_mm)
 
 
 # --------------------------------------------------------------------------------------
@@ -146,10 +89,12 @@ class ToolCall(Block):
 
 @dataclass(frozen=True)
 class SpindleOn(Block):
-    """Constant surface speed (m/min) with the spindle cap (rev/min), feed per revolution."""
+    """Constant surface speed (m/min) with the spindle cap (rev/min), feed per revolution;
+    clockwise: M3 (ISO 6983: clockwise looking from the headstock along +Z), else M4."""
 
     surface_speed: float
     max_rpm: int
+    clockwise: bool = True
 
 
 @dataclass(frozen=True)
@@ -167,6 +112,12 @@ class SpindleStop(Block):
 @dataclass(frozen=True)
 class OptionalStop(Block):
     """M1: the operator may inspect the part and the edge before finishing."""
+
+
+@dataclass(frozen=True)
+class ProgramStop(Block):
+    """M0: the program waits for the operator (the spindle stopped), e.g. to fit the parts
+    catcher before the part-off; the comment before it says what to do."""
 
 
 @dataclass(frozen=True)
@@ -241,7 +192,7 @@ class Program:
     name: str
     toolpath: Toolpath
     stock: Stock
-    options: ProgramOptions
+    options: ToolpathSettings
     operations: tuple[Operation, ...]
     home: tuple[float, float]
     safe_z: float
@@ -252,6 +203,11 @@ class Program:
     fillet: dict | None
     parting: tuple[float, float] | None = None
     setup: object = None
+
+    @property
+    def rough_feed(self) -> float:
+        """The roughing tool's feed, mm/rev (rough_feed)."""
+        return rough_feed(self.toolpath.lathe, self.toolpath.tool)
 
     def shapes(self) -> dict:
         """{station: tool_shapes.ToolShape} of the tools that are not the turning insert:
@@ -283,13 +239,3 @@ class Program:
                 ("G2" if block.move.clockwise else "G3") if isinstance(block.move, Arc) else "G1")
             text += f" {g} X{x:.{lathe.decimals}f} Z{block.move.end[1]:.{lathe.decimals}f}"
         return text
-
-
-def _declared_values(o: ProgramOptions) -> tuple[tuple[str, object], ...]:
-    """(key under [toolpath], value in the file's unit) of each declared field."""
-    ramp = math.degrees(o.ramp_angle) if isinstance(o.ramp_angle, (int, float)) else o.ramp_angle
-    return (("rough_depth", o.rough_depth), ("rough_allowance", o.rough_allowance), ("clearance", o.clearance),
-            ("gouge_tolerance", o.gouge_tolerance), ("ramp_angle", ramp), ("home_r", o.home_r),
-            ("home_z", o.home_z), ("rapid_rate", o.rapid_rate), ("path_tolerance_mm", o.path_tolerance),
-            ("max_finish_depth_mm", o.max_finish_depth), ("parting_width_mm", o.parting_width),
-            ("parting_feed", o.parting_feed), ("back_allowance_mm", o.back_allowance))

@@ -16,9 +16,8 @@ from ..iso10110 import spec_of
 from ..job import MachiningJob
 from ..lathe import Stock
 from ..tolerance.setting import setting_error_costs
-from ..toolpath import Toolpath
+from ..toolpath import Toolpath, ToolpathSettings
 from .plan import plan_program
-from .program import ProgramOptions, options_from_settings
 from .roughing import finish_allowances
 from .second import plan_second
 from .setup import InspectionRow, setup_sheet
@@ -28,7 +27,6 @@ from .stock import simulate_program
 if TYPE_CHECKING:
     from ..settings import Settings
     from .program import Program as ShopProgramModel
-    from .program import ProgramOptions
     from .setup import SetupSheet
     from .stock import Simulation
 
@@ -52,7 +50,7 @@ class ShopProgram:
     second_simulation: Simulation | None = None
 
 
-def shop_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | None = None, *,
+def shop_program(toolpath: Toolpath, stock: Stock, options: ToolpathSettings | None = None, *,
                  name: str | None = None, setting_costs: dict | None = None,
                  inspection: tuple = (), body=None) -> ShopProgram:
     """The whole program around `toolpath` (shop.plan_program), simulated against the stock
@@ -63,35 +61,35 @@ def shop_program(toolpath: Toolpath, stock: Stock, options: ProgramOptions | Non
     costs (tolerance.setting; computed if None).
 
     The finishing passes: as many as keep the deepest cut of each (the simulation's depth
-    of cut) within options.max_finish_depth; an inside corner takes more than the offset
+    of cut) within options.max_finish_depth_mm; an inside corner takes more than the offset
     step, so the count is raised from the simulated depth (at most MAX_FINISH_PASSES)."""
     import math
-    from dataclasses import replace
 
     check_type(toolpath, "shop_program: toolpath", Toolpath, "a Toolpath (plan)")
     check_type(stock, "shop_program: stock", Stock, "a Stock (settings.stock)")
     if options is not None:
-        check_type(options, "shop_program: options", ProgramOptions, "a ProgramOptions")
-    options = ProgramOptions() if options is None else options
+        check_type(options, "shop_program: options", ToolpathSettings, "a ToolpathSettings (settings.toolpath)")
+    options = ToolpathSettings() if options is None else options
+    passes = 0
     resume = Resume()  # a program planned again with more passes: simulated from its first finishing pass
     while True:
         program = plan_program(toolpath, stock, options, name=name or f"mirror_{toolpath.strategy.value}",
-                               body=body)
+                               body=body, finish_passes=passes)
         sim = simulate_program(program, resume=resume)
         sim.check()
         deepest = max((op.max_depth_of_cut_mm for op in sim.operations if op.name.startswith("finish")),
                       default=0.0)
-        limit = options.max_finish_depth
+        limit = options.max_finish_depth_mm
         if deepest <= limit + 1e-6:
             break
-        n = len(finish_allowances(options)) + 1
+        n = len(finish_allowances(options, passes)) + 1
         need = max(n + 1, math.ceil(n * deepest / limit - 1e-9))
         if need > MAX_FINISH_PASSES:
             raise InputError(f"toolpath.max_finish_depth_mm = {limit:g} mm: a finishing pass of the "
                              f"{toolpath.strategy.value} program cuts {deepest:.3f} mm deep with {n} passes; "
                              f"allowed a depth that {MAX_FINISH_PASSES} passes hold (a larger "
                              "max_finish_depth_mm or a smaller toolpath.rough_allowance)")
-        options = replace(options, finish_passes=need)
+        passes = need
     second = sim2 = None
     if body is not None:
         second = plan_second(program, sim.parted, body, name=f"{program.name}_op2")
@@ -137,7 +135,7 @@ def plan_checks(settings: Settings, mirror: Mirror, *,
     strategy's whole program planned (shop.plan_program: the bar's diameter and length, the
     end position, the block numbers, the part-off below the body). InputError names the
     setting. `run` makes them before any work and simulates in the background."""
-    options = options_from_settings(settings.toolpath)
+    options = settings.toolpath
     job = MachiningJob.from_settings(settings, mirror)
     for strategy in strategies:
         plan_program(job.but(strategy=strategy).toolpath, settings.stock, options, body=settings.body)
@@ -149,9 +147,50 @@ def shop_programs(settings: Settings, mirror: Mirror, *,
     the best), named mirror_<strategy>, with the settings' lathe, tool, stock and knobs,
     each parting off at the [cad] body's length with its second set-up."""
     costs = setting_error_costs(mirror, SETTING_ERROR_MM)
-    options = options_from_settings(settings.toolpath)
+    options = settings.toolpath
     job = MachiningJob.from_settings(settings, mirror)  # polish.precompensate: the polish's allowance
     inspection = inspection_table(settings)
     return [shop_program(job.but(strategy=strategy).toolpath, settings.stock, options, setting_costs=costs,
                          inspection=inspection, body=settings.body)
             for strategy in strategies]
+
+
+def toolpath_result(settings: Settings, mirror: Mirror, strategy: Strategy) -> tuple[ShopProgram, dict]:
+    """`lathe-mirror toolpath`'s work: the strategy's program, checked as every command that
+    uses a program is (job.check_program), planned whole, simulated against the stock and
+    refused if it touches, with its sheet; and its figures (the --json answer): the contour's
+    lattice and budget, the gouge and the fillet, the profile errors of the as-machined
+    surface over the whole lobes, of the contour alone and over the radii the camera uses,
+    and the simulation's figures of both set-ups."""
+    from ..job import check_program
+    from ..nose_envelope import as_machined, contour_profile, gouge_depth, junction_fillet
+    from ..path import Arc
+    from ..toolpath import profile_errors, usable_ranges
+
+    tp = check_program(settings, mirror, strategy)
+    shop = shop_program(tp, settings.stock, settings.toolpath, inspection=inspection_table(settings),
+                        body=settings.body)
+    made = as_machined(tp)
+    figures = profile_errors(made, mirror)
+    contour = profile_errors(contour_profile(tp), mirror) if tp.nose_radius > 0 else figures
+    lathe = settings.machine
+    result = {
+        "strategy": strategy.value,
+        "n_points": tp.n_points,
+        "max_points": lathe.max_points,
+        "resolution_mm": lathe.resolution,
+        "nose_radius_mm": settings.tool.nose_radius,
+        "moves": len(tp.segments),
+        "arcs": sum(1 for s in tp.segments if isinstance(s, Arc)),
+        "gouge_depth_mm": gouge_depth(tp),
+        "junction_fillet": junction_fillet(tp),
+        "lobes": figures["lobes"],
+        "contour_lobes": contour["lobes"],
+        # the radii the camera uses (the step wall hides the inner lobe's rim and with it
+        # the junction fillet): what the image sees of the as-machined surface
+        "usable_lobes": profile_errors(made, mirror, r_ranges=usable_ranges(mirror))["lobes"],
+        "shop": shop.simulation.figures(),
+    }
+    if shop.second is not None:
+        result["second_setup"] = {"name": shop.second.name, **shop.second_simulation.figures()}
+    return shop, result

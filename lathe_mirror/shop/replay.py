@@ -1,6 +1,8 @@
 """A lathe program read back into the moves the stock simulation replays.
 
-Reads the subset of G-code both of our dialects write (and a hand edit of them keeps):
+Reads the subset of G-code the dialects write (and a hand edit of them keeps), each
+line first put in the common form by the program's dialect (export.dialects, handed in as
+the `reader`: its `translate` and its `letters`, the address letters it allows):
 N words, comments in parentheses or after ';', G0 / G1 / G2 / G3 with X, Z, I, K (I, K
 relative to the arc's start: LinuxCNC's G91.1, Fanuc's default), G7 / G8 (X as diameter
 or radius; Fanuc: the machine's setting), G94 / G95 / G99 (feed per minute or per
@@ -15,7 +17,7 @@ without block numbers, "line 130: G0 X0.000 Z3.000".
 
 A program a user may have edited by hand is held to what the simulation can replay
 faithfully, each refusal one line naming the line (and the N number): every word a letter
-of ALLOWED_LETTERS and a finite decimal number (`Xnan`, `X1e5`, `Y2` are refused), X and Z
+of the reader's letters and a finite decimal number (`Xnan`, `X1e5`, `Y2` are refused), X and Z
 within the machine's travel (machine.travel_x, travel_z_min / travel_z_max), I and K
 within MAX_ARC_OFFSET_MM, feeds F above 0 and at most MAX_FEED_MM_REV (a feed move before
 any F is refused), T from 0 to 9999, and at most MAX_MOVES moves (the simulation's time
@@ -26,7 +28,7 @@ from __future__ import annotations
 
 import math
 import re
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from ..errors import InputError, num
 from ..path import Arc, Line
@@ -36,9 +38,18 @@ if TYPE_CHECKING:
     from ..lathe import Lathe
 
 _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
-#: The words a program may have (the two dialects' and a hand edit's): anything else is
-#: refused rather than ignored.
-ALLOWED_LETTERS = frozenset("GMNTSDFXZIKOHPQUW")  # P, Q: G64's tolerances; U, W: only G28 U0 / W0
+
+
+class Reader(Protocol):
+    """What the replay needs of a dialect (export.dialects.Dialect): the address letters its
+    programs may carry (anything else is refused rather than ignored) and the translation
+    of one of its lines into the common form read here."""
+
+    name: str
+    letters: frozenset
+
+    def translate(self, line: str) -> str: ...
+
 #: Largest feed per revolution a program may give (mm/rev; machine.feed_* allow as much).
 MAX_FEED_MM_REV = 500.0
 #: Largest arc centre offset I / K (mm): a lobe's vertex radius is at most 10 000 mm.
@@ -53,10 +64,10 @@ _N = re.compile(r"N\s*(\d{1,9})\b")
 _UNSUPPORTED_G = {"30", "53", "91", "41", "42", "71", "72", "73", "70", "76", "33", "32", "92", "50.1"}
 
 
-def read_program(text: str, lathe: Lathe, *, source: str = "program") -> list[SimOperation]:
-    """The moves of a G-code program, one SimOperation per tool call (named by the comment
-    before it, up to its first ':'). Lengths in mm; feeds in mm/rev."""
-    lines = text.splitlines()
+def read_program(text: str, lathe: Lathe, reader: Reader, *, source: str = "program") -> list[SimOperation]:
+    """The moves of a G-code program in the reader's dialect, one SimOperation per tool call
+    (named by the comment before it, up to its first ':'). Lengths in mm; feeds in mm/rev."""
+    lines = [reader.translate(ln) for ln in text.splitlines()]
     diameter = lathe.diameter_mode
     per_rev = False
     motion = None
@@ -74,7 +85,7 @@ def read_program(text: str, lathe: Lathe, *, source: str = "program") -> list[Si
             continue
         n_word = _N.match(code)
         where = f"{source} line {k}" + (f" (N{n_word.group(1)})" if n_word else "")
-        words = _words(code, where)
+        words = _words(code, where, reader)
         block_no = next((int(float(v)) for w, v in words if w == "N"), None)
         _check_words(words, where, lathe, diameter)
         g = [_g(v) for w, v in words if w == "G"]
@@ -152,19 +163,20 @@ def read_program(text: str, lathe: Lathe, *, source: str = "program") -> list[Si
     return ops
 
 
-def _words(code: str, where: str) -> list[tuple[str, str]]:
+def _words(code: str, where: str, reader: Reader) -> list[tuple[str, str]]:
     """The (letter, number) words of a block (comments removed, upper case): InputError
-    naming the first piece that is not a letter of ALLOWED_LETTERS and a finite decimal."""
+    naming the first piece that is not a letter of the reader's and a finite decimal."""
+    allowed = "".join(sorted(reader.letters))
     words = _WORD.findall(code)
     rest = _WORD.sub(" ", code).split()
     if rest:
         token = rest[0][:20]
-        raise InputError(f"{where}: '{token}' is not a word of this program (a letter of "
-                         f"{''.join(sorted(ALLOWED_LETTERS))} and a finite decimal number)")
+        raise InputError(f"{where}: '{token}' is not a word of this {reader.name} program (a letter of "
+                         f"{allowed} and a finite decimal number)")
     for w, v in words:
-        if w not in ALLOWED_LETTERS:
-            raise InputError(f"{where}: word {w}{v[:20]} is not simulated (allowed letters: "
-                             f"{''.join(sorted(ALLOWED_LETTERS))})")
+        if w not in reader.letters:
+            raise InputError(f"{where}: word {w}{v[:20]} is not simulated in the {reader.name} dialect "
+                             f"(allowed letters: {allowed})")
         if len(v) > 40 or not math.isfinite(float(v)):
             raise InputError(f"{where}: {w}{v[:20]}...: a number of {len(v)} characters")
     return words

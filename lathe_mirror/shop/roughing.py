@@ -41,10 +41,10 @@ import numpy as np
 from ..lathe import Stock
 from ..sheet import Target, solve_rs_for_centre_r
 from .operations import OperationWriter
-from .program import Operation, ProgramOptions, stations
+from .program import Operation, rough_feed, stations
 
 if TYPE_CHECKING:
-    from ..toolpath import Toolpath
+    from ..toolpath import Toolpath, ToolpathSettings
 
 #: Column spacing (mm) of the roughing planner's map of where the nose centre may go.
 GRID = 0.01
@@ -64,9 +64,10 @@ class Plan:
     r_out: float
 
 
-def plan_operations(toolpath: Toolpath, stock: Stock, options: ProgramOptions) -> Plan:
-    """Every operation of the program around `toolpath` (see the module doc)."""
-    return _Planner(toolpath, stock, options).plan()
+def plan_operations(toolpath: Toolpath, stock: Stock, options: ToolpathSettings, finish_passes: int = 0) -> Plan:
+    """Every operation of the program around `toolpath` (see the module doc); finish_passes:
+    see finish_allowances."""
+    return _Planner(toolpath, stock, options, finish_passes).plan()
 
 
 def part_top(mirror, r: np.ndarray) -> np.ndarray:
@@ -92,19 +93,19 @@ def nose_floor(mirror, r: np.ndarray, clearance: float) -> np.ndarray:
     return out
 
 
-def finish_allowances(options: ProgramOptions) -> list[float]:
+def finish_allowances(options: ToolpathSettings, finish_passes: int = 0) -> list[float]:
     """The offsets (mm, decreasing, > 0) of the finishing tool's passes before the contour:
     rough_allowance (n - k) / n for k = 1 .. n - 1, n = finish_passes (0: the fewest passes
     that keep each at most max_finish_depth deep on the profile, ceil(rough_allowance /
     max_finish_depth))."""
     a = options.rough_allowance
-    n = options.finish_passes or max(1, math.ceil(a / options.max_finish_depth - 1e-9))
+    n = finish_passes or max(1, math.ceil(a / options.max_finish_depth_mm - 1e-9))
     return [round(a * (n - k) / n, 6) for k in range(1, n)]
 
 
 class _Planner:
-    def __init__(self, tp: Toolpath, stock: Stock, opts: ProgramOptions) -> None:
-        self.tp, self.stock, self.opts = tp, stock, opts
+    def __init__(self, tp: Toolpath, stock: Stock, opts: ToolpathSettings, finish_passes: int = 0) -> None:
+        self.tp, self.stock, self.opts, self.finish_passes = tp, stock, opts, finish_passes
         self.lathe, self.m = tp.lathe, tp.mirror
         self.res = self.lathe.resolution
         self.rho = tp.nose_radius
@@ -127,7 +128,7 @@ class _Planner:
 
     def plan(self) -> Plan:
         lathe, o = self.lathe, self.opts
-        rough = OperationWriter(self, self.stations[0], "roughing", lathe.feed_rough)
+        rough = OperationWriter(self, self.stations[0], "roughing", rough_feed(lathe, self.tp.tool))
         levels_face, levels_rough, floor_map = self.levels()
         rough.start("face", f"face: {len(levels_face)} level{'s' if len(levels_face) != 1 else ''} from the stock face, through X0",
                     first=True)
@@ -148,11 +149,11 @@ class _Planner:
         self.semi_finish(rough, o.rough_allowance)
         rough.go_home(stop=True)
         fin = OperationWriter(self, self.stations[1], "finishing", lathe.feed_finish, pos=self.home)
-        steps = finish_allowances(o)
+        steps = finish_allowances(o, self.finish_passes)
         n = len(steps) + 1
         for k, d in enumerate(steps, start=1):
             fin.start(f"finish {k}/{n}", f"finish pass {k} of {n}: the profile offset by {d:g} mm "
-                      f"(at most {o.max_finish_depth:g} mm a pass), a fresh edge", first=k == 1)
+                      f"(at most {o.max_finish_depth_mm:g} mm a pass), a fresh edge", first=k == 1)
             self.semi_finish(fin, d)
         fin.start("finish", "finish: the finishing contour, a fresh edge"
                   + (f" (pass {n} of {n})" if n > 1 else ""), first=n == 1)

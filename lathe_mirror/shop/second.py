@@ -11,12 +11,17 @@ under the shoulder the part seats on.
 
 What it cuts, by the CAD body's mount (cad.mount):
 - "bore" or "none": the insert as configured (station 1, it cuts from the axis out)
-  faces the back in levels of at most toolpath.rough_depth through the axis; "bore"
-  then bores the pocket of mount_diameter x mount_depth in levels, each out to the wall
-  (its nose centre a nose radius inside it) and up it.
+  faces the back in levels of at most toolpath.rough_depth through the axis, leaving
+  toolpath.max_finish_depth_mm on the back face; "bore" then bores the pocket of
+  mount_diameter x mount_depth in levels, each out to the wall (its nose centre a nose
+  radius inside it) and up it; the finishing tool (station 2, a fresh edge, the finishing
+  feed) then takes the back face, the face the mirror mounts on, in one pass from the
+  bore's edge (or the axis) out.
 - "boss": the insert in the opposite-hand holder (station 3, it cuts from the outside
   in) faces the boss's end in levels, then turns the ring around the boss down to the
-  back face in levels, each in to the boss's wall and up it.
+  back face in levels, each in to the boss's wall and up it, leaving
+  max_finish_depth_mm on the ring's face and the wall; the finishing tool in its
+  opposite-hand holder (station 4) then takes the ring's face in to the wall and up it.
 The nose leaves its radius as a fillet in the inside corners (the bore's floor, the
 boss's root); every other dimension is on the lattice, rounded away from the part.
 """
@@ -35,12 +40,15 @@ from ..lathe import JAW_GAP, JAW_WIDTH, MIN_GRIP
 from ..toolpath.moves import Hand
 from .operations import OperationWriter
 from .plan import numbered
-from .program import OPPOSITE_ROUGHING_STATION, ROUGHING_STATION, Program
+from .program import (FINISHING_STATION, OPPOSITE_FINISHING_STATION, OPPOSITE_ROUGHING_STATION, ROUGHING_STATION,
+                      Program, rough_feed)
 from .tool_shapes import insert_shape
 
 if TYPE_CHECKING:
     from ..body import BodySpec
 
+#: The name of the second set-up's first operation (shop.check tells its programs by it).
+FACE_BACK = "face back"
 
 
 @dataclass(frozen=True)
@@ -49,7 +57,8 @@ class SecondSetup:
 
     shapes: {station: ToolShape}; start, part, chuck: shapely (r, Z) of this set-up;
     thickness: the body's (mm); top: the parted face's Z (mm) before facing; grip: (Z low,
-    Z high) of the jaws on the outside diameter (mm); station: the tool; mount: its kind.
+    Z high) of the jaws on the outside diameter (mm); station: the roughing tool; finishing:
+    the finishing tool; tools: (station, what it is) of both; mount: its kind.
     """
 
     shapes: dict = field(repr=False)
@@ -62,6 +71,8 @@ class SecondSetup:
     station: int
     mount: Mount
     diameter: float
+    finishing: int = FINISHING_STATION
+    tools: tuple = ()
 
     @property
     def work_zero(self) -> str:
@@ -96,6 +107,8 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
     boss = body.mount is Mount.BOSS
     tool = Hand.OPPOSITE.held(tp.tool) if boss else tp.tool
     station = OPPOSITE_ROUGHING_STATION if boss else ROUGHING_STATION
+    finishing = OPPOSITE_FINISHING_STATION if boss else FINISHING_STATION
+    fa = opts.max_finish_depth_mm  # left on the mount's faces for the finishing pass
     rho = tool.nose_radius
     start = reverse(parted, T)
     top = float(start.bounds[3])
@@ -114,7 +127,8 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
     if home[1] < top + opts.clearance + rho:
         raise InputError(f"toolpath.home_z = {opts.home_z:g} mm: the second set-up's end position must be above "
                          f"the parted face (Z{top:.3f}) by the clearance; allowed >= {top + opts.clearance + rho:g} mm")
-    b = OperationWriter(SimpleNamespace(lathe=lathe, opts=opts, home=home), station, "roughing", lathe.feed_rough)
+    planner = SimpleNamespace(lathe=lathe, opts=opts, home=home)
+    b = OperationWriter(planner, station, "roughing", rough_feed(lathe, tool))
 
     def begin(name: str, note: str) -> None:  # every operation from home, Z first (a restart is safe)
         b.start(name, note, first=True)
@@ -131,11 +145,11 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
         return [round(up(hi - (hi - lo) * k / n + rho), 6) for k in range(1, n + 1)]
 
     r_out = up(R + opts.clearance)
-    face_to = body.mount_depth if boss else 0.0
+    face_to = body.mount_depth if boss else fa
     face = levels(top, face_to)
-    begin("face back", f"face the back: {len(face)} level{'s' if len(face) != 1 else ''} of at most "
+    begin(FACE_BACK, f"{FACE_BACK}: {len(face)} level{'s' if len(face) != 1 else ''} of at most "
             f"{opts.rough_depth:g} mm from the parted face Z{top:.3f} to Z{face_to:g}"
-            + (", the boss's end" if boss else ", the back face"))
+            + (", the boss's end" if boss else f", {fa:g} mm above the back face for its finishing pass"))
     surface = top
     for nc in face:
         safe = up(surface + opts.clearance + rho)
@@ -155,10 +169,10 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
     rm = body.mount_diameter / 2.0
     if body.mount is Mount.BORE:
         wall = down(rm - rho)
-        bore = levels(0.0, -body.mount_depth)
+        bore = levels(fa, -body.mount_depth)
         begin("bore", f"bore the mount: diameter {body.mount_diameter:g} mm, {body.mount_depth:g} mm deep, "
                 f"{len(bore)} levels, each out to the wall and up it")
-        prev = up(rho)
+        prev = up(fa + rho)
         for nc in bore:
             b.rapid((b.pos[0], up(opts.clearance + rho)))
             b.rapid((0.0, b.pos[1]))
@@ -167,8 +181,8 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
             b.feed((wall, prev))
             prev = nc
     elif boss:
-        wall = up(rm + rho)
-        ring = levels(body.mount_depth, 0.0)
+        wall = up(rm + rho + fa)
+        ring = levels(body.mount_depth, fa)
         begin("boss", f"turn the boss: diameter {body.mount_diameter:g} mm, {body.mount_depth:g} mm long, "
                 f"{len(ring)} levels from outside in to its wall, and up it")
         safe = up(body.mount_depth + opts.clearance + rho)
@@ -180,9 +194,36 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
             b.feed((wall, nc))
             b.feed((wall, prev))
             prev = nc
-    b.go_home(stop=False)
+    b.go_home(stop=True, note="check the part; the finishing tool takes the mount's face with a fresh edge")
+    fin = OperationWriter(planner, finishing, "finishing", lathe.feed_finish, pos=home)
+    face_nc = up(rho)  # the nose's bottom on the finished face, Z0
+    if boss:
+        wall_f = up(rm + rho)
+        fin.start("finish mount", f"finish the mount: the ring's face Z0 from outside in to the boss's wall "
+                  f"(diameter {body.mount_diameter:g} mm) and up it, a fresh edge", first=True)
+        fin.rapid((r_out, fin.pos[1]))
+        fin.rapid((r_out, up(face_nc + opts.clearance)))
+        fin.feed((r_out, face_nc))
+        fin.feed((wall_f, face_nc))
+        fin.feed((wall_f, up(body.mount_depth + rho)))
+        fin.rapid((wall_f, up(body.mount_depth + opts.clearance + rho)))
+    else:
+        r0 = down(rm - rho - opts.clearance / 2) if body.mount is Mount.BORE else 0.0
+        r0 = max(r0, 0.0)
+        fin.start("finish back", "finish the back face, the face the mirror mounts on, Z0: one pass "
+                  + (f"from the bore's edge (diameter {body.mount_diameter:g} mm) out" if r0 > 0 else "from the axis out")
+                  + ", a fresh edge", first=True)
+        fin.rapid((r0, fin.pos[1]))
+        fin.rapid((r0, up(face_nc + fa + opts.clearance)))
+        fin.feed((r0, face_nc))
+        fin.feed((r_out, face_nc))
+        fin.rapid((r_out, up(face_nc + fa + opts.clearance)))
+    fin.go_home(stop=False)
+    hand = "in the opposite-hand holder (it cuts from the outside in)" if boss else "held as configured (it cuts from the axis out)"
+    tools = ((station, f"the roughing insert {hand}"), (finishing, f"the finishing insert {hand}, a fresh edge"))
     setup = SecondSetup(shapes={None: insert_shape(tool)}, start=start, part=part, chuck=chuck, thickness=T,
-                        top=top, grip=grip, station=station, mount=body.mount, diameter=2 * R)
-    return Program(name=name, toolpath=tp, stock=stock, options=opts, operations=numbered(b.ops), home=home,
+                        top=top, grip=grip, station=station, mount=body.mount, diameter=2 * R,
+                        finishing=finishing, tools=tools)
+    return Program(name=name, toolpath=tp, stock=stock, options=opts, operations=numbered(b.ops + fin.ops), home=home,
                    safe_z=up(top + opts.clearance + rho), r_out=r_out, gouge_depth=first.gouge_depth,
                    figures=first.figures, used=first.used, fillet=first.fillet, setup=setup)

@@ -30,6 +30,12 @@ if TYPE_CHECKING:
     from .program import Program
     from .stock import Simulation
 
+#: The spindle direction every tool cuts with (M3), as the sheet states it.
+SPINDLE = ("M3: clockwise looking from the headstock along +Z (ISO 6983); the insert's rake face toward "
+           "the oncoming surface (up in a front tool post, down on a rear turret)")
+#: The bar's length in the first set-up's jaws, mm (the blank is the stick-out plus this).
+BAR_GRIP = 10.0
+
 #: ISO 1832 shape letters by included angle (deg).
 _SHAPES = {35: "V", 55: "D", 60: "T", 80: "C", 90: "S"}
 
@@ -40,14 +46,13 @@ class Offsets:
 
     z_touch: what the nose touches for Z and the value to enter (mm); x_touch: the same
     for X (a diameter D, in the program's X convention). z_entry(face_z) and
-    x_entry(diameter) give the numbers; tip codes per dialect.
+    x_entry(diameter) give the numbers; each dialect (export.dialects) names the tip code
+    of the controlled point: the nose centre, or a sharp corner when nose_radius is 0.
     """
 
     nose_radius: float
     diameter_mode: bool
     x_side: str  # "bore" (the nose's +r side touches an inside diameter) or "outside"
-    linuxcnc_orientation: int = 9
-    fanuc_tip: int = 0
 
     def z_entry(self, face_z: float) -> float:
         """Z to enter (mm) with the nose's bottom touching a face at machine Z face_z."""
@@ -62,15 +67,17 @@ class Offsets:
 
 @dataclass(frozen=True)
 class ToolSheet:
-    """One tool's line on the sheet."""
+    """One tool's line on the sheet: its station, role, insert, holder (with its hand),
+    spindle direction, the offsets' convention, and a short label for the tool table's
+    comment. Each dialect writes its table entry from these (export.dialects)."""
 
     station: int
     role: str
     insert: str
     holder: str
     offsets: Offsets
-    linuxcnc_table: str
-    fanuc_offset: str
+    label: str
+    spindle: str = SPINDLE
 
 
 @dataclass(frozen=True)
@@ -91,7 +98,6 @@ class SetupSheet:
 
     name: str
     strategy: str
-    files: tuple[str, ...]
     diameter_mode: bool
     stock: dict
     work_zero: str
@@ -116,15 +122,16 @@ class SetupSheet:
 
 @dataclass(frozen=True)
 class SecondSheet:
-    """The second set-up on the sheet (shop.second): its programs, work zero, holding,
-    the Z and X touch-off, its tool, its operations and time, its stock and part
+    """The second set-up on the sheet (shop.second): its program's name, work zero, holding
+    and grip length (mm), the Z and X touch-off, its tools, its operations and time, its stock and part
     pictures' geometry (this set-up's frame)."""
 
-    files: tuple[str, ...]
+    name: str
     work_zero: str
     holding: str
+    grip_mm: float
     touch_off: tuple[str, ...]
-    tool: ToolSheet
+    tools: tuple[ToolSheet, ...]
     operations: tuple[OperationSheet, ...]
     cycle_time_s: float
     stock_start: object = field(repr=False)
@@ -162,6 +169,20 @@ def can_touch(tool: Tool, direction: float) -> bool:
     return d <= (hi - lo) + 1e-12
 
 
+def holder_text(insert: str, approach: int, x_side: str, opposite: bool) -> str:
+    """The holder and its hand. The as-configured insert's edges run up from its nose at
+    90 + approach and 90 + approach + included deg from +X toward +Z: the right-hand (R)
+    outside-turning seat (edges at approach and approach + included deg) turned 90 deg
+    about the vertical, which keeps the hand; the opposite-hand holder is its mirror image (L)."""
+    kind = "SVJC" if insert.startswith("V") else "ISO style J"
+    if opposite:
+        return (f"{approach} deg approach holder, LEFT hand ({kind}L seat, shank along Z: its body toward the rim), "
+                "the tip toward -Z and -X: it cuts from the rim in (the outer lobe is recessed; its step wall "
+                "faces the rim)")
+    return (f"{approach} deg approach holder, RIGHT hand ({kind}R seat, shank along Z: its body toward the axis), "
+            f"the tip toward -Z and {'+X: it cuts from the axis outward' if x_side == 'bore' else '-X'}")
+
+
 def insert_designation(tool: Tool) -> str:
     """ISO 1832-style insert name: shape, 7 deg clearance, G tolerance, T (hole and chip
     breaker), edge length, 04 thickness, nose radius code (0.2 mm -> 02)."""
@@ -190,22 +211,14 @@ def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict,
     x_side = "bore" if can_touch(tool, 0.0) else "outside"
     offs = Offsets(nose_radius=rho, diameter_mode=lathe.diameter_mode, x_side=x_side)
     approach = 90 + round(math.degrees(tp.tool.approach_angle))
-    shape = insert_designation(tool)[:1]
-    holder = (f"{approach} deg approach holder ({'SVJC' if shape == 'V' else 'ISO style J'} type, hand to "
-              f"suit the turret), the tip toward -Z and {'+X: it cuts from the axis outward' if x_side == 'bore' else '-X'}")
-    if opposite:
-        holder = (f"{approach} deg approach holder of the OPPOSITE HAND ({'SVJC' if shape == 'V' else 'ISO style J'} "
-                  "type mirrored: its body toward the rim), the tip toward -Z and -X: it cuts from the rim in "
-                  "(the outer lobe is recessed; its step wall faces the rim)")
+    insert = insert_designation(tool)
     tools = []
     rough_station, finish_station = stations(tp)
     for station, role in ((rough_station, "roughing"), (finish_station, "finishing, a fresh edge")):
-        insert = insert_designation(tool) + ("" if station == rough_station else " (polished, for aluminium)")
         tools.append(ToolSheet(
-            station=station, role=role, insert=insert, holder=holder, offsets=offs,
-            linuxcnc_table=(f"T{station} P{station} X<touched> Z<touched> D{2 * rho:.3f} Q{offs.linuxcnc_orientation} "
-                            f";{insert_designation(tool)} {role.split(',')[0]}, nose centre"),
-            fanuc_offset=f"offset {station:02d}: X, Z measured, R {rho:.3f}, T {offs.fanuc_tip} (nose centre)"))
+            station=station, role=role, insert=insert + ("" if station == rough_station else " (polished, for aluminium)"),
+            holder=holder_text(insert, approach, x_side, opposite), offsets=offs,
+            label=f"{insert} {role.split(',')[0]}, nose centre" + (", opposite hand" if opposite else "")))
     if program.parting is not None:
         tools.append(blade_sheet(program.parting[1], lathe.diameter_mode))
     ops = []
@@ -223,14 +236,18 @@ def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict,
         f"Cycle time: feeds at the G96 surface speed {lathe.surface_speed:g} m/min with the "
         f"spindle capped at {lathe.spindle_max_rpm} rpm, rapids at {program.options.rapid_rate:g} mm/min; "
         "tool changes and the optional stop are not included.",
+        f"Roughing feed {program.rough_feed:g} mm/rev: machine.feed_rough ({lathe.feed_rough:g} mm/rev)"
+        + (", at most half the nose radius per revolution (configure machine.feed_rough to take another)."
+           if program.rough_feed < lathe.feed_rough else "."),
     )
+    stick_out = stock.length + stock.face_allowance  # at most MAX_STICK_OUT_DIAMETERS bars (shop.plan)
     stock_info = {"diameter_mm": stock.diameter, "face_allowance_mm": stock.face_allowance,
                   "length_mm": stock.length, "deepest_z_mm": deepest,
-                  "stick_out_mm": stock.length + stock.face_allowance,
+                  "stick_out_mm": stick_out, "grip_mm": BAR_GRIP, "blank_length_mm": stick_out + BAR_GRIP,
                   "insert_ic_mm": INSERT_IC}
     return SetupSheet(
         name=program.name, strategy=tp.strategy.value,
-        files=(f"{program.name}.ngc", f"{program.name}.nc"), diameter_mode=lathe.diameter_mode,
+        diameter_mode=lathe.diameter_mode,
         stock=stock_info,
         work_zero=("Z0 at the mirror's vertex (the finished front), part in -Z; the bar's face is "
                    f"Z{stock.face_allowance:g} before facing. X0 on the spindle axis; X words are "
@@ -246,42 +263,35 @@ def blade_sheet(width: float, diameter_mode: bool) -> ToolSheet:
     """The parting blade's line: its controlled point is the tip's corner on the chuck
     side, so Z is touched with the blade's chuck-side face on the bar's face (enter that
     face's Z) and X with its tip on the bar's outside diameter (enter the diameter)."""
-    offs = Offsets(nose_radius=0.0, diameter_mode=diameter_mode, x_side="outside", linuxcnc_orientation=0)
+    offs = Offsets(nose_radius=0.0, diameter_mode=diameter_mode, x_side="outside")
     return ToolSheet(
         station=PARTING_STATION, role="parting off", insert=f"parting blade and insert, {width:g} mm wide",
-        holder="blade holder square to the axis, the blade's tip at centre height, toward -X",
-        offsets=offs,
-        linuxcnc_table=(f"T{PARTING_STATION} P{PARTING_STATION} X<touched> Z<touched> D0 Q0 ;parting blade "
-                        f"{width:g} mm, tip corner on the chuck side"),
-        fanuc_offset=f"offset {PARTING_STATION:02d}: X, Z measured, R 0, T 0 (tip corner on the chuck side)")
+        holder="blade holder square to the axis, the blade's tip at centre height, toward -X; its hand: the "
+               "insert's corner toward the chuck (-Z)",
+        offsets=offs, label=f"parting blade {width:g} mm, tip corner on the chuck side")
 
 
 def second_sheet(program: Program, simulation: Simulation, first_tools: list[ToolSheet]) -> SecondSheet:
-    """The second set-up's part of the sheet (see shop.second)."""
+    """The second set-up's part of the sheet (see shop.second): its roughing and finishing
+    tools (the first set-up's where the station is the same), the touch-off."""
     su, lathe = program.setup, program.toolpath.lathe
     rho = program.toolpath.tool.nose_radius
-    known = next((t for t in first_tools if t.station == su.station), None)
-    if known is not None:
-        tool = known
-        x_touch = (f"X: unchanged from the first set-up (T{su.station}, X0 is the spindle axis in both)")
-    elif su.station == OPPOSITE_ROUGHING_STATION:  # not used by the first program: it touches an OD
-        offs = Offsets(nose_radius=rho, diameter_mode=lathe.diameter_mode, x_side="outside")
-        tool = ToolSheet(
-            station=su.station, role="roughing (second set-up)", insert=insert_designation(program.toolpath.tool),
-            holder="the same insert in an OPPOSITE-HAND holder (its body toward the rim): it cuts from the outside in",
-            offsets=offs,
-            linuxcnc_table=(f"T{su.station} P{su.station} X<touched> Z<touched> D{2 * rho:.3f} Q9 ;opposite hand, "
-                            "nose centre"),
-            fanuc_offset=f"offset {su.station:02d}: X, Z measured, R {rho:.3f}, T 0 (nose centre)")
+    insert = insert_designation(program.toolpath.tool)
+    outside = su.station == OPPOSITE_ROUGHING_STATION  # the opposite hand touches the outside diameter
+    offs = Offsets(nose_radius=rho, diameter_mode=lathe.diameter_mode, x_side="outside" if outside else "bore")
+    approach = 90 + round(math.degrees(program.toolpath.tool.approach_angle))
+    tools = []
+    for station, role in ((su.station, "roughing (second set-up)"), (su.finishing, "finishing (second set-up)")):
+        known = next((t for t in first_tools if t.station == station), None)
+        tools.append(known if known is not None else ToolSheet(
+            station=station, role=role, insert=insert, holder=holder_text(insert, approach, offs.x_side, outside),
+            offsets=offs, label=f"{insert} {role.split(' ')[0]}, nose centre" + (", opposite hand" if outside else "")))
+    if all(any(t.station == k for t in first_tools) for k in (su.station, su.finishing)):
+        x_touch = (f"X: unchanged from the first set-up (T{su.station}, T{su.finishing}; X0 is the spindle axis in both)")
+    elif outside:
         x_touch = (f"X: touch the part's outside diameter D (measured) with the nose's inner side and enter "
                    f"X = D + {2 * rho:g} mm" + (" (X is the diameter)" if lathe.diameter_mode else " (X is the radius: D / 2 + rho)"))
-    else:  # the insert as configured, not used by the first program: it touches a bore
-        offs = Offsets(nose_radius=rho, diameter_mode=lathe.diameter_mode, x_side="bore")
-        tool = ToolSheet(
-            station=su.station, role="roughing (second set-up)", insert=insert_designation(program.toolpath.tool),
-            holder="the insert in a holder of the configured hand: it cuts from the axis out", offsets=offs,
-            linuxcnc_table=(f"T{su.station} P{su.station} X<touched> Z<touched> D{2 * rho:.3f} Q9 ;nose centre"),
-            fanuc_offset=f"offset {su.station:02d}: X, Z measured, R {rho:.3f}, T 0 (nose centre)")
+    else:
         x_touch = (f"X: in MDI cut a test recess into the parted face from the axis out to about D = 20 mm, 0.2 mm "
                    f"deep (the facing removes it), measure D and enter X = D - {2 * rho:g} mm")
     z_touch = (f"Z: measure the part's length L from the mirror's vertex to the parted face; the parted face is at "
@@ -290,7 +300,8 @@ def second_sheet(program: Program, simulation: Simulation, first_tools: list[Too
     ops = tuple(OperationSheet(name=op.name, station=op.station, restart_block=op.number, figures=fig.figures(),
                                stock_after=fig.stock_after, removed=fig.removed)
                 for op, fig in zip(program.operations, simulation.operations))
-    return SecondSheet(files=(f"{program.name}.ngc", f"{program.name}.nc"), work_zero=su.work_zero,
-                       holding=su.holding, touch_off=(z_touch, x_touch), tool=tool, operations=ops,
+    lo, hi = su.grip
+    return SecondSheet(name=program.name, work_zero=su.work_zero, holding=su.holding, grip_mm=hi - lo,
+                       touch_off=(z_touch, x_touch), tools=tuple(tools), operations=ops,
                        cycle_time_s=simulation.cycle_time_s, stock_start=su.start, part=su.part,
                        deepest_z_mm=float(program.points()[:, 1].min()))

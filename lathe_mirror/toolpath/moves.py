@@ -74,8 +74,8 @@ class ToolpathSettings:
     the controller's path blending tolerance (LinuxCNC `G64 P`). max_finish_depth_mm: the
     deepest cut one finishing pass may take. parting_width_mm, parting_feed (mm/rev):
     the parting blade's; back_allowance_mm: stock the part-off leaves on the back for the
-    second set-up. (The program's planner,
-    shop.program.ProgramOptions, bounds them.)
+    second set-up. The whole program's planner (shop.plan_program) takes this section
+    as its knobs.
     """
 
     strategy: Strategy = BEST
