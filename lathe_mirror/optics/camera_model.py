@@ -50,7 +50,7 @@ from ..design import Mirror
 from ..errors import InputError
 from ..profile import Profile
 from .camera import ALIGNED, CameraPose
-from .radial import lobe_pixel_radii, weighted_stats
+from .radial import RADII_PER_LOBE, lobe_pixel_radii, weighted_stats
 from .trace import Fate, trace_pixels
 
 #: Range (mm) from F1 at which a made mirror's rays are given world points: 2 m, the
@@ -206,8 +206,8 @@ def from_lobe_frame(points_lobe: np.ndarray, viewpoint_z: float) -> np.ndarray:
 
 
 def trace_correspondences(profile: Profile, mirror: Mirror, k: int, *,
-                          range_mm: float = DEFAULT_RANGE_MM,
-                          pose: CameraPose = ALIGNED, zones=None) -> Correspondences:
+                          range_mm: float = DEFAULT_RANGE_MM, pose: CameraPose = ALIGNED, zones=None,
+                          max_radii: int = RADII_PER_LOBE) -> Correspondences:
     """Pixel <-> world point pairs of lobe k of a made surface, by the exact tracer.
 
     Pixels: the design's usable annulus of lobe k (optics.radial.lobe_pixel_radii: the
@@ -218,12 +218,13 @@ def trace_correspondences(profile: Profile, mirror: Mirror, k: int, *,
     runs into the step wall are left out (counted in `excluded`). range_mm: the world
     point's distance from F1 along the traced ray (mm; inf: the ray's direction).
     zones: optics.zones.Zones: the lobe's used zone only (the fillet ring left out).
+    max_radii: the most image radii (aligned) a lobe is traced at (radial.RADII_PER_LOBE).
     """
     if not (range_mm > 0):
         raise InputError(f"--range-m {range_mm / 1000.0!r}: must be > 0 (inf: directions)")
     cam = mirror.camera
     lobe = mirror.lobes[k]
-    px = lobe_pixel_radii(mirror, k, zones=zones)
+    px = lobe_pixel_radii(mirror, k, zones=zones, max_radii=max_radii)
     if pose.aligned:
         xy = np.stack([px.radius_px, np.zeros_like(px.radius_px)], axis=-1)
         weight = px.count.astype(float)
@@ -363,16 +364,17 @@ class Stalled:
                 raise StopIteration
 
 
-def made_lobe_figures(profile: Profile, mirror: Mirror, k: int, *,
-                      range_mm: float = DEFAULT_RANGE_MM, pose: CameraPose = ALIGNED, zones=None) -> dict:
+def made_lobe_figures(profile: Profile, mirror: Mirror, k: int, *, range_mm: float = DEFAULT_RANGE_MM,
+                      pose: CameraPose = ALIGNED, zones=None, max_radii: int = RADII_PER_LOBE) -> dict:
     """One lobe of a made surface: the design model's reprojection error and the refit.
 
     Returns {"name", "pixels", "pixels_excluded", "design": {"reprojection_error_px"},
     "refit": {model parameters, "principal_point", "reprojection_error_px"}}. Raises
     InputError when no camera pixel of the lobe's annulus sees the lobe of this surface.
+    max_radii: see trace_correspondences.
     """
     design = design_model(mirror, k, zones)
-    corr = trace_correspondences(profile, mirror, k, range_mm=range_mm, pose=pose, zones=zones)
+    corr = trace_correspondences(profile, mirror, k, range_mm=range_mm, pose=pose, zones=zones, max_radii=max_radii)
     n = int(round(np.sum(corr.weight)))
     if corr.pixels.shape[0] < MIN_SAMPLES:
         what = "pixels" if corr.aligned else f"pixels sampled every {MISALIGNED_STRIDE_PX} px"
