@@ -10,6 +10,7 @@ command accepts (near the limits: minutes and gigabytes each; run it on an idle 
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import os
 import subprocess
@@ -121,4 +122,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     main()

@@ -8,6 +8,7 @@ the timing; the misaligned case traces every 4th pixel in 3-D).
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import math
 import statistics
@@ -49,4 +50,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     main()

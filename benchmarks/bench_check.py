@@ -8,6 +8,7 @@ repeated (air cuts after the first pass), so each move is simulated as a real on
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import os
 import re
@@ -56,4 +57,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     main()

@@ -19,6 +19,7 @@ Prints a table (--markdown: the README's). Writes only into a temporary director
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import json
 import resource
@@ -127,8 +128,8 @@ def one(name: str, text: str, root: Path) -> dict:
 def markdown(rows: list[dict]) -> str:
     head = ("| design | winner r_top in/out mm | R10 m | all exit 0 | nominal: optimize / tolerance | "
             "yield: optimize / tolerance (target 95 %) | image disp. px RMS in, out (as machined): calib / render / "
-            "tolerance / report | spread | judged (polished) px RMS in, out | CPU s |\n"
-            "|---|---|---|---|---|---|---|---|---|---|")
+            "tolerance / report | spread | judged (polished) px RMS in, out | CPU s | CPU in Y |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|")
     lines = [head]
     for r in rows:
         w = r.get("winner", {})
@@ -155,7 +156,8 @@ def markdown(rows: list[dict]) -> str:
         judged = f"{judged[0]:.3f}, {judged[1]:.3f}" if judged else "-"
         cpu = sum(r.get("cpu_seconds", {}).values())
         lines.append(f"| {r['design']} | {rt} | {r.get('r10_m', float('nan')):.4f} | {ok} | {verdict(c)} / "
-                     f"{verdict(t)} | {yld(c)} / {yld(t)} | {quote} | {spread} | {judged} | {cpu:.0f} |")
+                     f"{verdict(t)} | {yld(c)} / {yld(t)} | {quote} | {spread} | {judged} | {cpu:.0f} | "
+                     f"{yardstick.multiple(cpu):.1f} |")
     return "\n".join(lines)
 
 
@@ -172,8 +174,12 @@ def main() -> None:
         for name in names:
             rows.append(one(name, DESIGNS[name][1], root))
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+    for r in rows:  # the times in yardsticks (benchmarks/yardstick.py), beside the seconds
+        r["in_yardsticks"] = {k: {st: yardstick.multiple(v) for st, v in r[k].items()}
+                              for k in ("seconds", "cpu_seconds")}
     print(markdown(rows) if a.markdown else json.dumps(rows, indent=1))
 
 
 if __name__ == "__main__":
+    yardstick.start(json_output=True)
     main()

@@ -8,6 +8,7 @@ simulated part (machine_errors.machined_with_errors) and the nominal part.
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import math
 import tempfile
@@ -62,4 +63,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     main()

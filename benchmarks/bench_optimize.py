@@ -9,6 +9,7 @@ other work skews the wall clock. Writes nothing.
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import json
 import os
@@ -53,4 +54,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     main()

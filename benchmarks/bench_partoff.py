@@ -9,6 +9,7 @@ Run: .venv/bin/python benchmarks/bench_partoff.py [--repeat N]
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import dataclasses
 import statistics
@@ -60,4 +61,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     main()

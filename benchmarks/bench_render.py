@@ -20,6 +20,7 @@ modules it imports (about 0.07 s); an ordinary installation caches them.
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import json
 import os
@@ -104,10 +105,12 @@ def main() -> int:
         "speedup_bytecode_cached": min(pov_t) / min(cached_t),
         "pixels_matching": float(same.mean()),
     }
+    result.update(yardstick.in_yardsticks(result))
     print(json.dumps(result, indent=2))
     shutil.rmtree(work)
     return 0
 
 
 if __name__ == "__main__":
+    yardstick.start(json_output=True)
     sys.exit(main())

@@ -10,12 +10,14 @@ Run: .venv/bin/python benchmarks/bench_run.py [--runs 3] [--no-suite] [--suite-a
 - The test suite as `scripts/test` runs it (`pytest -n auto --dist loadscope --no-loadscope-reorder`),
   wall and CPU time.
 
-Prints a table (seconds). Measure on an idle machine: another job on a 2-core machine
-doubles the figures.
+Prints the yardstick (benchmarks/yardstick.py, timed first in the same run) and a table in
+seconds and in yardsticks: the multiples compare across machines where the seconds do not.
+Measure on an idle machine: another job on a 2-core machine doubles the figures.
 """
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import os
 import resource
@@ -94,10 +96,13 @@ def main() -> None:
         wall, cpu, last = bench_suite(shlex.split(args.suite_args), args.suite_log)
         rows.append(("test suite (pytest -n auto)", wall, cpu, f"{last}; target 180 s"))
 
-    print(f"{'what':<36} {'wall s':>8} {'CPU s':>8}  note")
+    # the same figures in yardsticks (benchmarks/yardstick.py), comparable across machines
+    print(f"{'what':<36} {'wall s':>8} {'CPU s':>8} {'wall Y':>7} {'CPU Y':>7}  note")
     for what, wall, cpu, note in rows:
-        print(f"{what:<36} {wall:8.1f} {cpu:8.1f}  {note}")
+        print(f"{what:<36} {wall:8.1f} {cpu:8.1f} {yardstick.multiple(wall):7.2f} {yardstick.multiple(cpu):7.2f}  "
+              f"{note}")
 
 
 if __name__ == "__main__":
+    yardstick.start()
     main()

@@ -8,6 +8,7 @@ Usage: python benchmarks/bench_settings.py  (prints medians of 5 runs, seconds)
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import dataclasses
 import statistics
 import sys
@@ -68,4 +69,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     main()

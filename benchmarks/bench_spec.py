@@ -9,6 +9,7 @@ Prints the wall-clock time of each piece and the load average (a loaded machine 
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import os
 import time
 
@@ -45,4 +46,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     main()

@@ -12,6 +12,7 @@ both solids and writes both STEP files; the child reports its own phase times.
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import json
 import statistics
@@ -82,4 +83,5 @@ def main() -> int:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     sys.exit(main())

@@ -13,6 +13,7 @@ so every process recompiles the package's modules; an ordinary installation cach
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import json
 import os
@@ -53,7 +54,7 @@ def main() -> int:
         timed("cached", env)  # warm-up: writes the bytecode caches
         cpu["cached"].clear()
         cached = [timed("cached", env) for _ in range(args.repeat)]
-    print(json.dumps({
+    result = {
         "surface": args.surface,
         "sensor_px": [1008, 1018],
         "supersample": figures.get("supersample"),
@@ -63,9 +64,12 @@ def main() -> int:
         "load_average_1min": os.getloadavg()[0],
         "valid_fraction": figures.get("valid_fraction"),
         "range_error_pct": figures.get("range_error_pct"),
-    }, indent=2))
+    }
+    result.update(yardstick.in_yardsticks(result))
+    print(json.dumps(result, indent=2))
     return 0
 
 
 if __name__ == "__main__":
+    yardstick.start(json_output=True)
     sys.exit(main())

@@ -10,6 +10,7 @@ figures the simulation reports (--json FILE: every figure and contact, to compar
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import json
 import tempfile
@@ -84,4 +85,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     main()

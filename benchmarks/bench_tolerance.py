@@ -18,6 +18,7 @@ the scatter) and the largest, and how often the pass / fail verdict agrees.
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import sys
 import time
 
@@ -122,6 +123,7 @@ def bias(n: int, nose_step: float | None = None) -> None:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     if len(sys.argv) > 2 and sys.argv[1] == "--bias":
         bias(int(sys.argv[2]), float(sys.argv[3]) if len(sys.argv) > 3 else None)
     else:

@@ -8,6 +8,7 @@ Prints the median and best of N runs per step, and the figures of each program.
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import statistics
 import time
@@ -67,4 +68,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     main()

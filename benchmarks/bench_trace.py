@@ -18,6 +18,7 @@ march on its own (slow: tens of seconds).
 
 from __future__ import annotations
 
+import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
 import argparse
 import math
 import os
@@ -81,4 +82,5 @@ def main() -> int:
 
 
 if __name__ == "__main__":
+    yardstick.start()
     raise SystemExit(main())

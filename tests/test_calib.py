@@ -538,3 +538,36 @@ def test_a_refit_stops_when_it_stalls_not_while_it_gains():
     gaining = Stalled()
     for k in range(200):
         gaining(SimpleNamespace(cost=1e8 * 0.5 ** k))
+
+
+#: A 12-megapixel camera (issue 34: f 4.4 mm, 1.55 um pixels, 4000 x 3000) with the
+#: paper's lobes scaled to its short side: 117,401 and 252,031 distinct pixel radii.
+TWELVE_MP = {"camera": {"f": 4.4, "t_pixel": 0.00155, "sensor_px": [4000, 3000]},
+             "lobes": {"inner": {"r_pixel": 915.3}, "outer": {"r_pixel": 1500.0}}}
+
+
+def test_a_large_sensor_is_sampled_densely_enough_for_the_figures():
+    """A 12-megapixel lobe is traced at RADII_PER_LOBE radius bins, not at every distinct
+    radius: halving or doubling that density moves its reprojection errors (printed to 4
+    digits) and the pixels they stand for by under 0.1 %."""
+    from lathe_mirror.enums import Surface
+    from lathe_mirror.job import named_surface
+    from lathe_mirror.optics.radial import RADII_PER_LOBE, sensor_radii
+    from lathe_mirror.config import default_config, merge
+    from lathe_mirror.settings import from_config
+
+    settings = from_config(merge(default_config(), TWELVE_MP))
+    mirror = settings.mirror()
+    made = named_surface(Surface.UNIFORM528, mirror, settings)  # facets 1.4 px wide in the image
+    rho, cnt = sensor_radii((4000, 3000))
+    assert rho.size > 4 * RADII_PER_LOBE and cnt.sum() == 12_000_000
+    for k in (0, 1):
+        figs = {n: made_lobe_figures(made, mirror, k, max_radii=n)
+                for n in (RADII_PER_LOBE // 2, RADII_PER_LOBE, 2 * RADII_PER_LOBE)}
+        stated = figs[RADII_PER_LOBE]
+        for n, f in figs.items():
+            assert abs(f["pixels"] - stated["pixels"]) <= 1e-3 * stated["pixels"]
+            for model in ("design", "refit"):
+                for what in ("rms", "max"):
+                    got, want = f[model]["reprojection_error_px"][what], stated[model]["reprojection_error_px"][what]
+                    assert abs(got - want) <= 1e-3 * want, (k, n, model, what, got, want)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from shapely.geometry import box
+from shapely.geometry import Polygon, box
 
 from lathe_mirror.export.stock_svg import MARGIN, PX_PER_MM, nice_step, stock_svg
 
@@ -54,3 +54,16 @@ def test_a_bored_part_keeps_its_hole():
 
 def test_ticks_step_1_2_5():
     assert nice_step(40.0) == 10.0 and nice_step(10.0) == 2.0 and nice_step(3.0) == 0.5
+
+
+def test_a_vertex_doubled_a_few_nanometres_apart_draws_the_same_bytes():
+    # issue 34: on one machine the stock's ring had a vertex twice, 1e-9 mm apart, on
+    # another once, and began at another vertex; the picture must not tell them apart
+    ring = [(0.0, -8.0), (10.0, -8.0), (10.0, -0.5), (4.0, -0.3), (0.0, -0.5)]
+    doubled = ring[:3] + [(10.0 - 1e-9, -0.5 + 1e-9)] + ring[3:]
+    turned = ring[2:] + ring[:2]
+    svgs = {stock_svg(Polygon(r), None, Polygon(ring), (-1.0, 12.0), (-9.0, 1.0), "x", "d")
+            for r in (ring, doubled, turned, turned[::-1])}
+    assert len(svgs) == 1
+    (drawn,) = _paths(svgs.pop(), "#b8b8b8")  # five vertices, the first again to close
+    assert len(drawn) == 6 and abs(_area(drawn) / PX_PER_MM**2 - (10 * 7.5 + 10 * 0.2 / 2)) < 1e-6

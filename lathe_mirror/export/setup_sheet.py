@@ -1,7 +1,7 @@
 """The set-up sheet as one self-contained HTML page (pictures embedded), written beside
 the programs it goes with. It lays out the model it is handed (shop.setup.SetupSheet);
 nothing is computed here but the pictures of the stock after each operation (inline SVG,
-export.stock_svg: coordinates at 0.001 mm, so the same sheet gives the same bytes).
+export.stock_svg: geometry snapped to 0.001 mm, so the same sheet gives the same bytes).
 """
 
 from __future__ import annotations

@@ -51,14 +51,22 @@ from ..errors import InputError
 from ..inputs import check_type, short
 from ..profile import Profile
 from .camera import ALIGNED, CameraPose
-from .radial import lobe_pixel_radii, weighted_stats
+from .radial import RADII_PER_LOBE, lobe_pixel_radii, weighted_stats
 from .trace import Fate, trace_pixels
 
 #: Range (mm) from F1 at which a made mirror's rays are given world points: 2 m, the
 #: report's stereo range.
 DEFAULT_RANGE_MM = 2000.0
-#: Pixel pitch (px) of the sample grid of a misaligned camera (aligned: every pixel).
+#: Pixel pitch (px) of the sample grid of a misaligned camera (aligned: every pixel), and
+#: the most pixel centres a lobe's grid may sample: a lobe of more pixels than
+#: MISALIGNED_SAMPLES x 4^2 is sampled at the wider pitch that keeps it to about that
+#: many (misaligned_stride_px), so a 12-megapixel lobe (4.1 million pixel centres; 12 px)
+#: costs what the paper's does (491,292 and 248,020 centres: 4 px, as before). Its
+#: figures then sample the lobe's facets as the paper's grid does: on the 12-MP design's
+#: outer lobe (uniform528, tilted 0.1 deg) halving or doubling MISALIGNED_SAMPLES moved
+#: the reprojection errors by 0.6 % at most (measured; not a test: 7 s of CPU).
 MISALIGNED_STRIDE_PX = 4
+MISALIGNED_SAMPLES = 32_000
 #: Fewest usable pixel radii (aligned) or samples (misaligned) a lobe needs for a fit.
 MIN_SAMPLES = 16
 
@@ -220,29 +228,32 @@ def from_lobe_frame(points_lobe: np.ndarray, viewpoint_z: float) -> np.ndarray:
 
 
 def trace_correspondences(profile: Profile, mirror: Mirror, k: int, *,
-                          range_mm: float = DEFAULT_RANGE_MM,
-                          pose: CameraPose = ALIGNED, zones=None) -> Correspondences:
+                          range_mm: float = DEFAULT_RANGE_MM, pose: CameraPose = ALIGNED, zones=None,
+                          max_radii: int = RADII_PER_LOBE) -> Correspondences:
     """Pixel <-> world point pairs of lobe k of a made surface, by the exact tracer.
 
     Pixels: the design's usable annulus of lobe k (optics.radial.lobe_pixel_radii: the
     pixel centres whose exact ray lands on the lobe unobstructed). Aligned camera: every
     distinct image radius once, along the +u half-row, weighted by the pixel centres that
-    share it (exact for a surface of revolution). Misaligned: every MISALIGNED_STRIDE_PX-th
-    pixel centre in each direction, traced in 3-D. Pairs whose made ray misses the lobe or
-    runs into the step wall are left out (counted in `excluded`). range_mm: the world
-    point's distance from F1 along the traced ray (mm; inf: the ray's direction).
+    share it (exact for a surface of revolution), at most max_radii of them. Misaligned:
+    every misaligned_stride_px-th pixel centre in each direction, traced in 3-D. Pairs
+    whose made ray misses the lobe or runs into the step wall are left out (counted in
+    `excluded`). range_mm: the world point's distance from F1 along the traced ray (mm;
+    inf: the ray's direction).
     zones: optics.zones.Zones: the lobe's used zone only (the fillet ring left out).
+    max_radii: the most image radii (aligned) a lobe is traced at (radial.RADII_PER_LOBE).
     """
     if not (range_mm > 0):
         raise InputError(f"--range-m {range_mm / 1000.0!r}: must be > 0 (inf: directions)")
     cam = mirror.camera
     lobe = mirror.lobes[k]
-    px = lobe_pixel_radii(mirror, k, zones=zones)
+    # misaligned: the exact radii, which pick the grid's pixel centres (_grid_samples)
+    px = lobe_pixel_radii(mirror, k, zones=zones, max_radii=max_radii if pose.aligned else None)
     if pose.aligned:
         xy = np.stack([px.radius_px, np.zeros_like(px.radius_px)], axis=-1)
         weight = px.count.astype(float)
     else:
-        xy = _grid_samples(mirror, px.radius_px, MISALIGNED_STRIDE_PX)
+        xy = _grid_samples(mirror, px.radius_px, misaligned_stride_px(px))
         weight = np.ones(xy.shape[0])
     hits = trace_pixels(profile, cam, xy, pose=pose)
     use = (hits.fate == (Fate.INNER if k == 0 else Fate.OUTER)) & ~hits.blocked
@@ -377,19 +388,20 @@ class Stalled:
                 raise StopIteration
 
 
-def made_lobe_figures(profile: Profile, mirror: Mirror, k: int, *,
-                      range_mm: float = DEFAULT_RANGE_MM, pose: CameraPose = ALIGNED, zones=None) -> dict:
+def made_lobe_figures(profile: Profile, mirror: Mirror, k: int, *, range_mm: float = DEFAULT_RANGE_MM,
+                      pose: CameraPose = ALIGNED, zones=None, max_radii: int = RADII_PER_LOBE) -> dict:
     """One lobe of a made surface: the design model's reprojection error and the refit.
 
     Returns {"name", "pixels", "pixels_excluded", "design": {"reprojection_error_px"},
     "refit": {model parameters, "principal_point", "reprojection_error_px"}}. Raises
     InputError when no camera pixel of the lobe's annulus sees the lobe of this surface.
+    max_radii: see trace_correspondences.
     """
     design = design_model(mirror, k, zones)
-    corr = trace_correspondences(profile, mirror, k, range_mm=range_mm, pose=pose, zones=zones)
+    corr = trace_correspondences(profile, mirror, k, range_mm=range_mm, pose=pose, zones=zones, max_radii=max_radii)
     n = int(round(np.sum(corr.weight)))
     if corr.pixels.shape[0] < MIN_SAMPLES:
-        what = "pixels" if corr.aligned else f"pixels sampled every {MISALIGNED_STRIDE_PX} px"
+        what = "pixels" if corr.aligned else "pixels of the misaligned camera's sample grid"
         raise InputError(
             f"no camera pixel sees its {design.name} lobe ({n} of {n + corr.excluded} {what} of the "
             "lobe's annulus land on it unobstructed): the surface or [camera_pose] is off the design")
@@ -450,6 +462,12 @@ def design_model_figures(mirror: Mirror, zones=None) -> dict:
 
 # --------------------------------------------------------------------------------------
 # Helpers
+
+
+def misaligned_stride_px(px) -> int:
+    """The misaligned grid's pitch (px) for a lobe of these pixel radii (PixelRadii): at
+    least MISALIGNED_STRIDE_PX, wide enough to sample about MISALIGNED_SAMPLES centres."""
+    return max(MISALIGNED_STRIDE_PX, math.ceil(math.sqrt(float(np.sum(px.count)) / MISALIGNED_SAMPLES)))
 
 
 def _grid_samples(mirror: Mirror, radii_px: np.ndarray, stride: int) -> np.ndarray:

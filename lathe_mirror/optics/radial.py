@@ -5,7 +5,9 @@ ray through a pixel stays in that pixel's meridian plane, so every figure of a p
 (ray deviation, image displacement, viewpoint spread) depends only on its image radius.
 Evaluating each distinct radius of the sensor's pixel centres once, weighted by how many
 pixel centres share it, gives exactly the per-pixel RMS and max (the tests check this
-against the full per-pixel computation) at a fraction of the cost.
+against the full per-pixel computation) at a fraction of the cost. A lobe with more
+distinct radii than RADII_PER_LOBE (a sensor larger than the paper's 1 megapixel) is
+sampled at that many radius bins instead, so its figures cost what the paper's do.
 
 Camera frame (ARCHITECTURE.md): pinhole at the origin, +z up the axis; the meridian is
 (r, z). Lengths in mm, angles in radians; pixels only where a name says `_px`.
@@ -28,6 +30,15 @@ from ..toolpath.metrics import slope_error
 #: |tan(theta) * slope| <= 0.22 on the paper mirror, so 60 reach machine precision for
 #: any mirror whose lobes the camera sees at less than ~60 degrees off axis.
 _MAX_ITER = 60
+#: The most image radii a lobe is evaluated at (lobe_pixel_radii): a lobe with more
+#: distinct pixel-centre radii is cut into this many equal bins (each at its pixels' mean
+#: radius, weighted by their count). The paper's 1-megapixel lobes have 17,884 and 32,858
+#: distinct radii, so they stay exact; a 12-megapixel sensor's (117,401 and 252,031)
+#: are sampled every 0.019 and 0.013 px, about 10 samples across the ~0.2 px a 0.005 mm
+#: lattice step spans in its image, and cost the paper's. Halving or doubling it moves the
+#: calibration's reprojection errors by less than their printed 4 digits
+#: (tests/test_calib.py).
+RADII_PER_LOBE = 40_000
 
 
 @dataclass(frozen=True)
@@ -66,13 +77,15 @@ class MeridianRays:
 
 
 def lobe_pixel_radii(mirror: Mirror, k: int, *, bin_px: float | None = None,
-                     corner_mm: float = 0.0, zones=None) -> PixelRadii:
+                     corner_mm: float = 0.0, zones=None, max_radii: int | None = RADII_PER_LOBE) -> PixelRadii:
     """Image radii of the pixel centres of lobe k's usable annulus, with their counts.
 
     The annuli are the design's (Mirror.image_radii_px): the inner disc, and the outer
     annulus up to the outer lobe's R_pixel; the ring lost on the step wall is neither.
     bin_px: None gives every distinct radius (exact; ~10^5 radii on the paper's sensor);
     a bin width (px) gives bin-centre radii (faster, approximate: for Monte Carlo).
+    max_radii: at most this many radii, in equal bins when there are more (see
+    RADII_PER_LOBE; None: no limit).
     corner_mm: width (mm) of the inner lobe's band next to the step that is not usable,
     e.g. the fillet a nose of that radius leaves in the inside corner; its pixels are
     counted lost like the step wall's (see corner_limit_px).
@@ -97,8 +110,15 @@ def lobe_pixel_radii(mirror: Mirror, k: int, *, bin_px: float | None = None,
     # usable image on any mirror made to this design.
     keep = trace_lobe(mirror.lobes[k], mirror, k, rho).usable
     rho, cnt = rho[keep], cnt[keep]
-    if bin_px is not None:
+    if bin_px is None and max_radii is not None and rho.size > max_radii:
+        edges = np.linspace(lo, hi, max_radii + 1)
+    elif bin_px is not None:
         edges = np.arange(lo, hi + bin_px, bin_px)
+        if max_radii is not None and edges.size - 1 > max_radii:
+            edges = np.linspace(lo, hi, max_radii + 1)
+    else:
+        edges = None
+    if edges is not None:
         idx = np.clip(np.searchsorted(edges, rho, side="right") - 1, 0, edges.size - 2)
         tot = np.bincount(idx, weights=cnt, minlength=edges.size - 1)
         mean = np.bincount(idx, weights=cnt * rho, minlength=edges.size - 1)
@@ -301,11 +321,14 @@ def weighted_stats(values: np.ndarray, weights: np.ndarray, *, count_nan: bool =
 def sensor_radii(sensor_px: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     """Distinct radii (px) of all pixel centres about the sensor centre, with counts."""
     w, h = sensor_px
-    x = np.arange(w) + 0.5 - w / 2.0
-    y = np.arange(h) + 0.5 - h / 2.0
+    # the centres are symmetric about both axes: one quadrant's |x|, |y|, each with how
+    # many centres share it (2, or 1 on an axis), a quarter of the work
+    x, mx = np.unique(np.abs(np.arange(w) + 0.5 - w / 2.0), return_counts=True)
+    y, my = np.unique(np.abs(np.arange(h) + 0.5 - h / 2.0), return_counts=True)
     # 4 (x^2 + y^2) is an integer for half-integer or integer centres: exact uniqueness.
     q = np.rint(4.0 * (x[None, :] ** 2 + y[:, None] ** 2)).astype(np.int64).ravel()
-    uq, cnt = np.unique(q, return_counts=True)
+    uq, inv = np.unique(q, return_inverse=True)
+    cnt = np.bincount(inv.ravel(), weights=(my[:, None] * mx[None, :]).ravel()).astype(np.int64)
     rho = np.sqrt(uq / 4.0)
     rho.setflags(write=False)
     cnt.setflags(write=False)

@@ -35,7 +35,7 @@ from .tool_shapes import (CUTTING_EDGE_FRACTION, INSERT_IC, cutting_zone, edge_l
                           insert_shape, reach_toward_axis)
 from .program import Feed, FeedRate, Rapid
 from .resume import Resume, run_inputs
-from .swept import Swept, sweep_rapids, swept_pieces
+from .swept import Swept, snap, snap_geometry, sweep_rapids, swept_pieces
 
 if TYPE_CHECKING:
     from ..design import Mirror
@@ -144,7 +144,7 @@ def simulate_setup(operations: list[SimOperation], shapes: dict, lathe: Lathe, s
         sim = resume.states[k0].snapshot()
         figs, states = list(resume.figures[:k0]), list(resume.states[:k0])
     else:
-        sim = _Sim(shapes, lathe, start, part, chuck, gouge_tolerance)
+        sim = _Sim(shapes, lathe, *(snap_geometry(g) for g in (start, part, chuck)), gouge_tolerance)
     for op in operations[k0:]:
         if resume is not None:
             states.append(sim.snapshot())
@@ -245,7 +245,7 @@ class _Sim:
     def use(self, station) -> None:
         """Take the tool of `station` (the default shape when it has none of its own)."""
         shape = self.shapes.get(station, self.shapes[None])
-        self.ins_xy, self.cut_xy = shape.outline_xy, shape.cutting_xy
+        self.ins_xy, self.cut_xy = snap(shape.outline_xy), snap(shape.cutting_xy)  # swept's module doc
 
     def separate(self, z: float, width: float):
         """The part above a part-off's slot [z, z + width] (shapely), a contact if stock
@@ -304,13 +304,13 @@ class _Sim:
         part_cut = 0.0
         # the feed pieces, all swept first (what does not depend on the stock)
         feeds = [mv for mv in op.moves if not mv.rapid]
-        pts = [_pieces(mv.move) for mv in feeds]
+        pts = [snap(_pieces(mv.move)) for mv in feeds]
         p_s = np.concatenate([p[:-1] for p in pts]) if pts else np.empty((0, 2))
         p_e = np.concatenate([p[1:] for p in pts]) if pts else np.empty((0, 2))
         p_f = np.concatenate([np.full(len(p) - 1, mv.feed) for mv, p in zip(feeds, pts)]) if pts else np.empty(0)
         p_a = np.zeros(len(p_s))
         swept = swept_pieces(self.ins_xy, self.cut_xy, p_s, p_e, self.part, self.part_boundary, self.chuck)
-        rapids = np.array([[mv.move.start, mv.move.end] for mv in op.moves if mv.rapid], float).reshape(-1, 2, 2)
+        rapids = snap(np.array([[mv.move.start, mv.move.end] for mv in op.moves if mv.rapid], float).reshape(-1, 2, 2))
         rapid_regions = iter(sweep_rapids(self.ins_xy, rapids[:, 0], rapids[:, 1]))
         first = i_feed = 0  # the feed move's first piece, its index in feeds
         for mv in op.moves:

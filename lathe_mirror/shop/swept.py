@@ -5,7 +5,12 @@ whole tool and its cutting part sweep, their bounds, which may touch the chuck, 
 the cutting part reaches into the designed part). Each figure is shapely's own, computed
 as for one piece at a time: vectorised, not approximated.
 
-Machine frame (r, Z), mm; shapely geometry.
+Machine frame (r, Z), mm; shapely geometry. Every coordinate the simulation hands to
+shapely is first snapped to GRID (snap, snap_geometry): the tool's outline (libm's sin
+and cos, GEOS's buffer), an arc's chords and the designed part (numpy's sin, cos and
+sqrt, whose AVX-512 paths differ from its AVX2 ones in the last bit) reach GEOS as the
+same numbers on every machine, and GEOS's own arithmetic is the same everywhere, so the
+stock after each operation is too (issue 34: a last-bit drift had left a vertex doubled).
 """
 
 from __future__ import annotations
@@ -14,6 +19,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+#: The grid (mm) the simulation's inputs are snapped to: a power of two, so snapping is
+#: exact and sums of snapped numbers (a tool placed at a point, mirrored at the axis) stay
+#: on it. 1.5e-8 mm moves a vertex far less than any tolerance of the simulation (a
+#: sliver it opens along a 4 mm flank, 6e-8 mm^2, is 1/17 of shop.stock.AREA_TOL), and a
+#: drift of a few 1e-15 mm crosses one of its rounding boundaries with a chance of about
+#: 4e-7 a coordinate.
+GRID = 2.0 ** -26
 #: Half-width (mm) of the boxes a hull is cut at the axis with.
 _BIG = 1e4
 #: A shape's vertex at a piece's start is inside the swept hull when both its edges face
@@ -24,6 +36,18 @@ MIN_REDUCED = 1e-3
 #: whose vertices are then sticks out of the zone by less than its perimeter x this in
 #: area, far below shop.stock.AREA_TOL.
 PLANE_TOL = 1e-9
+
+
+def snap(xy) -> np.ndarray:
+    """Coordinates (any shape, mm) rounded to the nearest multiple of GRID."""
+    return np.round(np.asarray(xy, dtype=float) / GRID) * GRID
+
+
+def snap_geometry(geom):
+    """A shapely geometry with its coordinates snapped (snap); the same rings otherwise."""
+    import shapely
+
+    return shapely.transform(geom, snap)
 
 
 def fold(hulls: np.ndarray) -> np.ndarray:
