@@ -143,12 +143,12 @@ def _optics_stages(data: ReportData, made: dict, mirror, settings, steps, render
              "polished": job.but(strategy=Strategy.PAPER, polish_time_s=polish_time_s)}
     data.mirrors = {}
     for name in MIRRORS:  # which part each mirror is
-        fig = mirror_figures(made[name], mirror, zn)
+        fig = mirror_figures(made[name], mirror, zn, edge_mm=settings.polish.clear_edge_mm)
         data.mirrors[name] = dataclasses.replace(
             fig, polish_time_s=polish_time_s if name == "polished" else None,
             made_mirror="the exact design" if parts[name] is None else parts[name].label)
     if measured is not None:  # report --surface measured:FILE: the part that came back
-        data.mirrors["measured"] = dataclasses.replace(mirror_figures(measured, mirror, zn),
+        data.mirrors["measured"] = dataclasses.replace(mirror_figures(measured, mirror, zn, edge_mm=settings.polish.clear_edge_mm),
                                                        made_mirror=f"the measured part: {measured!r}")
     data.made_mirror = MadeMirror.from_dict(job.to_dict())  # the made mirror every command describes by default
     data.calibration = CalibrationFigures.from_dict(

@@ -50,7 +50,7 @@ from ..design import Mirror
 from ..errors import InputError
 from ..profile import Profile
 from .camera import ALIGNED, CameraPose
-from .radial import lobe_pixel_radii, weighted_stats
+from .radial import ideal_radius_px, in_lobe_range, lobe_pixel_radii, weighted_stats
 from .trace import Fate, trace_pixels
 
 #: Range (mm) from F1 at which a made mirror's rays are given world points: 2 m, the
@@ -232,6 +232,9 @@ def trace_correspondences(profile: Profile, mirror: Mirror, k: int, *,
         weight = np.ones(xy.shape[0])
     hits = trace_pixels(profile, cam, xy, pose=pose)
     use = (hits.fate == (Fate.INNER if k == 0 else Fate.OUTER)) & ~hits.blocked
+    # a ray that left the lobe's range has no pixel in its model: lost, not a residual
+    d = hits.direction
+    use &= in_lobe_range(mirror, k, ideal_radius_px(lobe, cam, np.arctan2(d[..., 2], np.hypot(d[..., 0], d[..., 1]))))
     f1 = np.array([0.0, 0.0, lobe.focus_z])
     p, o = hits.point[use], hits.direction[use]
     if math.isinf(range_mm):

@@ -36,6 +36,7 @@ import numpy as np
 from ..design import Camera, Mirror
 from ..profile import ExactProfile, Profile
 from .camera import ALIGNED, CameraPose, pixel_centres
+from .radial import in_lobe_range
 from .trace import RayHits, trace_pixels
 
 LOBE_NAMES = ("inner", "outer")
@@ -52,7 +53,9 @@ class DistortionMaps:
     viewpoint_spread_mm: mm. vignetted: the pixel is vignetted by the mirror itself (the
     EXACT mirror's reflected ray runs into the step: a property of the design, so every
     made surface is judged on the same usable pixels); blocked: the vignetted pixels the
-    made mirror still sends to their lobe. Figures are NaN where not usable.
+    made mirror still sends to their lobe. left_range: the made mirror sends the pixel to
+    its lobe, but in a direction the exact lobe images outside its designed annulus
+    (optics.radial.in_lobe_range): lost, not usable. Figures are NaN where not usable.
     """
 
     camera: Camera
@@ -65,6 +68,7 @@ class DistortionMaps:
     viewpoint_spread_mm: np.ndarray
     blocked: np.ndarray
     vignetted: np.ndarray
+    left_range: np.ndarray
 
     @property
     def annulus(self) -> np.ndarray:
@@ -91,10 +95,13 @@ class DistortionMaps:
                 in_lobe = in_lobe & (self.radius_px >= lo) & (self.radius_px <= hi)
             use = in_lobe & self.usable
             clear = use & ~self.blocked
+            left = in_lobe & self.left_range & ~self.vignetted
             entry = {
                 "name": name,
                 "pixels": int(clear.sum()),
                 "pixels_lost": int((in_lobe & ~self.usable).sum()),
+                "pixels_left_range": int(left.sum()),
+                "left_range_pct": float(100.0 * left.sum() / max(int((in_lobe & ~self.vignetted).sum()), 1)),
                 "pixels_vignetted": int((use & self.blocked).sum()),
                 "with_vignetted": {"pixels": int(use.sum())},
             }
@@ -189,6 +196,14 @@ def viewpoint_distance(point: np.ndarray, direction: np.ndarray, focus_z: float)
 def _figures_of(mirror: Mirror, camera: Camera, hm: RayHits, he: RayHits, xy: np.ndarray) -> dict:
     lobe = he.lobe
     usable = (lobe >= 0) & (hm.fate == he.fate)
+    # a made ray the exact lobe would image outside its annulus has left the lobe's range
+    # (optics.radial.LOBE_RANGE_SLACK_PX): lost, never a displacement beyond the sensor
+    left = np.zeros(lobe.shape, bool)
+    for k in (0, 1):
+        m = usable & (lobe == k)
+        img = exact_image_point(mirror, k, hm.direction[m], camera)
+        left[m] = ~in_lobe_range(mirror, k, np.hypot(img[:, 0], img[:, 1]), camera)
+    usable &= ~left
     cosang = np.clip(np.sum(hm.direction * he.direction, axis=-1), -1.0, 1.0)
     sinang = np.linalg.norm(np.cross(hm.direction, he.direction), axis=-1)
     deviation = np.arctan2(sinang, cosang)
@@ -209,7 +224,8 @@ def _figures_of(mirror: Mirror, camera: Camera, hm: RayHits, he: RayHits, xy: np
     deviation = np.where(usable, deviation, np.nan)
     return {"lobe": lobe, "usable": usable, "ray_deviation_rad": deviation,
             "image_displacement_px": disp, "radial_px": radial,
-            "viewpoint_spread_mm": spread, "blocked": he.blocked & usable, "vignetted": he.blocked}
+            "viewpoint_spread_mm": spread, "blocked": he.blocked & usable, "vignetted": he.blocked,
+            "left_range": left}
 
 
 def _rms_max(x: np.ndarray) -> dict:

@@ -24,7 +24,7 @@ from ..path import Arc, Line
 from ..profile import ExactProfile, Profile
 from ..results.base import Range, Stat, plain
 from ..results.design import DesignFigures
-from ..results.made import (LobeFigures, MachineFigures, MadeMirror, MirrorFigures, Moves, PixelFigures,
+from ..results.made import (EdgeFigures, LobeFigures, MachineFigures, MadeMirror, MirrorFigures, Moves, PixelFigures,
                             SurfaceErrors, ToolFigures, ToolpathFigures, ZoneFigures)
 from ..results.optics import DEPTH_REPORT_M  # noqa: F401 (re-exported: the report's range)
 from ..results.optics import (CalibrationFigures, ErrorCurve, ImageDifference, RangeFigures, RangingFigures,
@@ -116,7 +116,7 @@ class ReportData:
         return out
 
 
-def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> MirrorFigures:
+def mirror_figures(profile: Profile, mirror: Mirror, zones=None, *, edge_mm: float = 0.0) -> MirrorFigures:
     """The five figures per lobe (ARCHITECTURE.md), surface and optics.
 
     Surface figures: toolpath.profile_errors. Optical figures: over the pixels each lobe
@@ -125,10 +125,11 @@ def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> MirrorFigure
     the tests check); those per-pixel figures (with the pixels the step wall vignettes
     counted too under "with_vignetted") are kept alongside (`optics_distortion`).
     zones (optics.zones.Zones): the optical figures over each lobe's used zone (the ring
-    the nose cannot reach left out), its image radii under "zone_px".
+    the nose cannot reach left out), its image radii under "zone_px". edge_mm
+    (polish.clear_edge_mm): the edge band's own figures (optics.radial.radial_figures).
     """
     surf = profile_errors(profile, mirror)
-    rad = radial_figures(profile, mirror, zones=zones)
+    rad = radial_figures(profile, mirror, zones=zones, edge_mm=edge_mm)
     full = image_displacement(profile, mirror).figures(zones)  # over the same zones as the radial figures
     lobes = []
     for s, o, f in zip(surf["lobes"], rad["lobes"], full["lobes"]):
@@ -139,7 +140,9 @@ def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> MirrorFigure
             image_displacement_px=Stat.from_dict(o["image_displacement_px"]),
             viewpoint_spread_mm=Stat.from_dict(o["viewpoint_spread_mm"]),
             pixels=o["pixels"], pixels_excluded=o["pixels_excluded"],
+            pixels_left_range=o["pixels_left_range"], left_range_pct=o["left_range_pct"],
             zone_px=Range.from_dict(o["zone_px"]) if "zone_px" in o else None,
+            edge=EdgeFigures.from_dict(o["edge"]) if "edge" in o else None,
             optics_distortion=PixelFigures.from_dict(f)))
     return MirrorFigures(lobes=tuple(lobes))
 

@@ -144,14 +144,30 @@ def _programs_table(programs: list | None) -> str:
 
 
 def _mirrors_table(m: dict[str, MirrorFigures]) -> str:
-    head = "<tr><th>mirror</th><th>lobe</th>" + "".join(f"<th>{k} (RMS / max)</th>" for k in FIVE) + "</tr>"
+    head = ("<tr><th>mirror</th><th>lobe</th>" + "".join(f"<th>{k} (RMS / max)</th>" for k in FIVE)
+            + "<th>pixels lost: ray left the lobe's range (% of the lobe's)</th>"
+            "<th>edge band: image displacement px (RMS / max), its pixels</th></tr>")
     body = ""
     for name, fig in m.items():
         for lb in fig.lobes:
             label = f"{name}<br><small>{html.escape(fig.made_mirror)}</small>" if fig.made_mirror is not None else name
+            edge = "" if lb.edge is None else \
+                f"{_fmt(lb.edge.image_displacement_px)}, {lb.edge.pixels} ({_fmt(lb.edge.band_mm)} mm band)"
             body += f"<tr><td>{label}</td><td>{lb.name}</td>" + "".join(
-                f"<td>{_fmt(getattr(lb, k))}</td>" for k in FIVE) + "</tr>"
-    return f"<table>{head}{body}</table>"
+                f"<td>{_fmt(getattr(lb, k))}</td>" for k in FIVE) + \
+                f"<td>{lb.pixels_left_range} ({_pct(lb.left_range_pct)} %)</td><td>{edge}</td></tr>"
+    return (f"{table_note()}<table>{head}{body}</table>")
+
+
+def table_note() -> str:
+    """What the mirrors' optical figures are measured against, beside them."""
+    return ("<p>Optical figures over each lobe's used zone: the made mirror against the exact design "
+            "(image displacement: where the exact lobe images the direction the made surface sends the "
+            "pixel to, minus the pixel; no calibration; scene at infinity). A pixel whose made ray the exact "
+            "lobe would image outside the lobe's annulus (more than half a pixel) has left the lobe's range: "
+            "counted lost, not a displacement. The edge band (polish.clear_edge_mm from the step and the rim) "
+            "is also shown on its own. Normal deviation: the made surface against the exact design along its "
+            "normal, over each whole lobe.</p>")
 
 
 def _depth_table(st: StereoFigures) -> str:
