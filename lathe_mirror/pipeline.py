@@ -172,10 +172,10 @@ def _optics_stages(data: ReportData, made: dict, mirror, settings, steps, render
     data.curves = report_curves(made, mirror)
     steps.start("renders")
     if renders:
-        data.images, data.renders = render_mirrors(made, mirror, settings)
+        data.images, data.renders = render_mirrors(made, mirror, settings, zn)
     steps.done()
 
     steps.start("ranging")
     if renders:
-        data.ranging, data.range_maps = ranging_figures(made, mirror, settings)
+        data.ranging, data.range_maps = ranging_figures(made, mirror, settings, zn)
     steps.done()

@@ -14,6 +14,7 @@ from ..design import Mirror
 from ..enums import BEST, Strategy
 from ..job import MachiningJob, scene_for
 from ..nose_envelope import contour_profile
+from ..optics.defocus import blur_figures, blur_map, defocus_image, grow_mask, lens_for
 from ..optics.distortion import image_displacement, usable_annulus
 from ..optics.radial import lobe_pixel_radii, radial_displacement, radial_figures, used_extent
 from ..optics.ranging.resolution import resolution_table
@@ -27,7 +28,7 @@ from ..results.design import DesignFigures
 from ..results.made import (EdgeFigures, LobeFigures, MachineFigures, MadeMirror, MirrorFigures, Moves, PixelFigures,
                             SurfaceErrors, ToolFigures, ToolpathFigures, ZoneFigures)
 from ..results.optics import DEPTH_REPORT_M  # noqa: F401 (re-exported: the report's range)
-from ..results.optics import (CalibrationFigures, ErrorCurve, ImageDifference, RangeFigures, RangingFigures,
+from ..results.optics import (CalibrationFigures, DefocusFigures, ErrorCurve, ImageDifference, RangeFigures, RangingFigures,
                               RenderFigures, ResolutionTable, StereoFigures)
 from ..results.polishing import PolishingStudy
 from ..results.tolerance import ToleranceAnalysis, Verdict
@@ -199,19 +200,30 @@ def strategy_table(job: MachiningJob):
     return made, machine_table, tuple(table)
 
 
-def render_mirrors(made: dict, mirror: Mirror, settings: Settings):
-    """Each mirror's image of the paper's room, and each made image's difference to the exact."""
+def report_lens(mirror: Mirror, settings: Settings):
+    """The lens the report's images are blurred by, and each pixel's blur circle (px):
+    optics.defocus, as `render` and `stereo` blur theirs."""
+    lens = lens_for(mirror, settings.optimize.focus_range_m * 1000.0)
+    return lens, blur_map(mirror, lens)
+
+
+def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None):
+    """Each mirror's image of the paper's room (blurred by the lens, optics.defocus), and
+    each made image's difference to the exact."""
     scene = scene_for(settings, mirror)
-    images = {name: render_image(made[name], mirror, scene) for name in MIRRORS}
+    lens, blur = report_lens(mirror, settings)
+    images = {name: defocus_image(render_image(made[name], mirror, scene), blur) for name in MIRRORS}
     # Over the lobes' usable annuli, as `lathe-mirror render` states it (the one definition):
     # the step-vignetted band and the frame outside the mirror only dilute the difference.
     mask = usable_annulus(mirror)
     stats = {name: ImageDifference.from_dict(image_difference(images["exact"], images[name], mask=mask))
              for name in MIRRORS if name != "exact"}
-    return images, RenderFigures(against_exact=stats)
+    return images, RenderFigures(against_exact=stats,
+                                 defocus=DefocusFigures.from_dict(blur_figures(mirror, lens, zones)))
 
 
-def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings) -> tuple[RangingFigures, RangeMaps]:
+def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings,
+                    zones=None) -> tuple[RangingFigures, RangeMaps]:
     """Range from the image for each of MIRRORS (optics.ranging, the [stereo] settings,
     aligned camera): figures per mirror against the room's true range, the resolution
     table at the exact mirror's achieved disparity precision, and the range maps (m,
@@ -220,11 +232,12 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
     grid, match = prepare(mirror, st.params)
     scene = scene_for(settings, mirror)
     truth = true_range(mirror, scene, grid)
-    mask = image_mask(mirror, grid, match.num_disparities)
+    lens, blur = report_lens(mirror, settings)
+    mask = grow_mask(image_mask(mirror, grid, match.num_disparities), blur)
     mirrors, maps = {}, {}
     precision = math.nan
     for name in MIRRORS:  # exact first: its disparity error is the matcher's precision
-        image = render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask)
+        image = defocus_image(render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask), blur)
         result = stereo_range(image, mirror, st.params)
         fig = RangeFigures.from_dict(range_figures(result, truth, mirror,
                                                    precision_px=None if name == "exact" else precision))
@@ -237,12 +250,13 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
     figures = RangingFigures(
         definition="range error = 100 (R - R_true) / R_true, R from the stereo centre triangulated from "
                    "StereoSGBM disparities of the two lobes' panoramas (rendered at supersample "
-                   f"{st.supersample}), R_true the room along the outer lobe's pixel ray; over the common "
-                   "band's pixels with a range (valid_fraction of them)",
+                   f"{st.supersample}, blurred by the lens's defocus: `defocus`), R_true the room along the "
+                   "outer lobe's pixel ray; over the common band's pixels with a range (valid_fraction of them)",
         supersample=st.supersample,
         matcher_precision_px=precision,
         resolution=ResolutionTable.from_dict(table),
         mirrors=mirrors,
+        defocus=DefocusFigures.from_dict(blur_figures(mirror, lens, zones)),
     )
     return figures, RangeMaps(maps=maps, band_deg=tuple(math.degrees(x) for x in grid.band))
 

@@ -74,8 +74,9 @@ def render_html(data: ReportData) -> str:
         mirrors_table=_mirrors_table(data.mirrors),
         profile_plot=img("profile_error", "height error along the meridian"),
         images=img("images", "renders side by side"),
-        renders_table=_kv_table({f"{k}: {m}": v for k, d in data.renders.against_exact.items()
-                                 for m, v in d.to_dict().items()}) if data.renders else "",
+        renders_table=(f"<p>{_defocus_text(data.renders.defocus)}</p>" + _kv_table(
+            {f"{k}: {m}": v for k, d in data.renders.against_exact.items() for m, v in d.to_dict().items()}))
+        if data.renders else "",
         displacement_plot=img("displacement", "image displacement against image radius"),
         polishing_section=_polishing_html(data.polishing, img),
         depth_table=_depth_table(data.stereo),
@@ -246,7 +247,7 @@ def _ranging_html(rg: RangingFigures | None, img) -> str:
     exact = rg.mirrors["exact"]
     starved = ", ".join(f"{k} {_pct(100 * v.valid_fraction)} %" for k, v in exact.valid_by_surface.items()
                         if v.pixels)
-    return (f"<p>{html.escape(rg.definition)}. One pixel of disparity (one image pixel in each lobe) stands "
+    return (f"<p>{html.escape(rg.definition)}. {_defocus_text(rg.defocus)} One pixel of disparity (one image pixel in each lobe) stands "
             f"for {exact.parallax_per_px_deg:.3f} deg of parallax (band median): R10 = "
             f"{res.r10_m:.3f} m. The matcher's precision on the exact mirror (median |disparity error|): "
             f"{rg.matcher_precision_px:.3f} panorama px of {exact.grid.elevation_step_deg:.4f} deg. Ranged on the "
@@ -257,6 +258,17 @@ def _ranging_html(rg: RangingFigures | None, img) -> str:
             + img("range_error", "range error against range with the resolution model")
             + f"<p>Resolution model: the range error one pixel of disparity causes, and the matcher's "
             f"precision, against range and elevation.</p><table>{rhead}{rbody}</table>")
+
+
+def _defocus_text(d) -> str:
+    """One sentence: the lens and each lobe's blur circle the images carry."""
+    if d is None:
+        return ""
+    lobes = "; ".join(f"{lb.name} {_fmt(lb.blur_px['min'])} to {_fmt(lb.blur_px['max'])} px (mean "
+                      f"{_fmt(lb.blur_px['mean'])})" for lb in d.lobes)
+    return html.escape(f"The images carry the lens's defocus (thin lens f/{d.lens.f_number:g} focused at "
+                       f"{d.lens.focus_mm:.1f} mm, scene {d.lens.object_range_mm / 1000.0:g} m from the "
+                       f"viewpoints): blur circle diameter {lobes} over each lobe's used zone.")
 
 
 def _polishing_html(p: PolishingStudy, img) -> str:
