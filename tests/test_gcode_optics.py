@@ -144,3 +144,36 @@ def test_the_programs_image_traced_from_rs274_is_renders_zone_by_zone(sharp):
     r_in = rho[(maps.lobe == 0) & maps.usable & (rho <= zn.lobes[0].used_px[1])]
     assert float(np.sqrt(np.mean(inner**2))) == pytest.approx(0.092, abs=0.001)
     assert float(np.sqrt(np.mean(inner[r_in > 270.0] ** 2))) == pytest.approx(0.22, abs=0.005)
+
+
+def test_gcode_header_and_report_give_one_normal_deviation(paper_config, tmp_path):
+    """Issue 35 #12: with polish.precompensate the program cuts the design lowered by the
+    polish's planned removal; the header's normal deviation is against the design, as
+    report.json's (toolpaths' as_machined), and the figure against the program's own target
+    stands beside it, named. Against the design, checked here by brute force: the distance
+    of the made surface's points to a dense sampling of the design's outer sheet."""
+    import re
+
+    from lathe_mirror.report.analysis import strategy_table
+
+    settings = from_config(merge(paper_config, {"polish": {"precompensate": True}}))
+    m = settings.mirror()
+    job = MachiningJob.from_settings(settings, m)
+    tp = job.but(strategy=BEST).toolpath
+    head = "\n".join(ln for ln in program(tp, settings.stock).splitlines() if ln.startswith("("))
+    design = re.search(r"as machined outer, whole lobe, against the design: normal deviation rms (\S+) max", head)
+    target = re.search(r"as machined outer, whole lobe, against this program's target \[the design lowered by the "
+                       r"polish's planned removal\]: normal deviation rms (\S+) max", head)
+    assert design and target
+    _, _, table = strategy_table(job)
+    report = next(r for r in table if r.best).as_machined.lobes[1].normal_deviation_mm.rms
+    assert float(design.group(1)) == pytest.approx(report, rel=0.01)  # printed to 3 digits
+    assert float(target.group(1)) < 0.01 * float(design.group(1))  # the program holds its target
+    # brute force: made points (uniform r on the outer lobe) to the nearest of 400k design points
+    made = job.but(strategy=BEST).made().profile
+    r = np.linspace(m.r_junction, m.r_max, 401)[1:]
+    z = made.z(r)
+    rs = np.linspace(m.r_junction - 1.0, m.r_max + 1.0, 400001)
+    zs = m.outer.z(rs)
+    dist = [float(np.min(np.hypot(rs - ri, zs - zi))) for ri, zi in zip(r, z)]
+    assert float(np.sqrt(np.mean(np.square(dist)))) == pytest.approx(float(design.group(1)), rel=0.02)

@@ -47,6 +47,25 @@ RESOLUTION_RANGES_M = (0.5, 1.0, 1.5, 2.0, 3.0)
 RESOLUTION_ELEVATIONS_DEG = (-20.0, -10.0, 0.0)
 
 
+#: What each shared figure is measured against (report.json's "definitions"): one
+#: definition per name, the same in every output (the G-code header says it beside its own).
+FIGURE_DEFINITIONS = {
+    "normal_deviation_mm": "the made surface against the DESIGN's sheet (never a program's pre-compensated "
+                           "target), the distance along the sheet's normal; mirrors and toolpaths: over each "
+                           "whole lobe (r 0..r_junction, r_junction..r_max), the junction fillet included",
+    "slope_error_rad": "the angle between the made surface's and the design's normals at the same r; over each "
+                       "whole lobe, as normal_deviation_mm",
+    "image_displacement_px": "where the exact design images the direction the made surface sends a pixel's ray "
+                             "(the scene at infinity: directions), minus the pixel; aligned camera, no calibration; "
+                             "over each lobe's used zone (zones); a ray the exact lobe would image outside the "
+                             "lobe's annulus is lost (pixels_left_range), not a displacement",
+    "reprojection_error_px": "calibration: the design's camera model projecting world points on each made ray at "
+                             "range_m from the lobe's viewpoint, minus the pixel (at infinity it is "
+                             "image_displacement_px)",
+    "blur_px": "the thin-lens blur circle's diameter at each pixel (renders and ranging; defocus)",
+}
+
+
 @dataclass(frozen=True, slots=True)
 class ReportCurves:
     """The curves the plots draw (arrays, not in the JSON): each made mirror's height error
@@ -76,6 +95,7 @@ class ReportData:
 
     design: DesignFigures
     notes: tuple[str, ...] = ()
+    definitions: dict[str, str] | None = None
     spec: PartSpec | None = None
     machine: MachineFigures | None = None
     toolpaths: tuple[ToolpathFigures, ...] | None = None
@@ -98,7 +118,7 @@ class ReportData:
     plots: dict[str, bytes] = dataclasses.field(default_factory=dict)
 
     #: report.json's sections, in order (None: not computed, left out)
-    SECTIONS = ("notes", "design", "spec", "machine", "toolpaths", "polishing", "zones", "mirrors", "made_mirror",
+    SECTIONS = ("notes", "definitions", "design", "spec", "machine", "toolpaths", "polishing", "zones", "mirrors", "made_mirror",
                 "calibration", "stereo", "renders", "ranging", "tolerance", "verdict", "shop", "outputs")
 
     @property
