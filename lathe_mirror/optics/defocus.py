@@ -14,8 +14,8 @@ both usable annuli) for scene points `object_range` from each viewpoint
 
 The blurred image is the sharp one averaged over a uniform disc of each pixel's own
 diameter (the geometric blur of a thin lens; diffraction and aberrations left out). A
-spatially varying disc is made from a few fixed discs: the image is convolved (FFT) with
-discs of BAND diameters that bracket the map's diameters, and each pixel takes the linear
+spatially varying disc is made from a few fixed discs: the image is convolved (OpenCV) with
+discs of band diameters that bracket the map's diameters, and each pixel takes the linear
 blend of the two bands around its own diameter; no loop per pixel.
 
 Pixels outside both lobes' images (the ring lost on the step wall, the sensor's corners
@@ -142,37 +142,29 @@ def defocus_image(image: np.ndarray, diameter_px: np.ndarray) -> np.ndarray:
     (diameter_px, (H, W) px): the bands' disc convolutions blended linearly in diameter
     (module doc; zero beyond the image's border). Same shape and dtype; the same input
     gives the same bytes."""
-    from scipy import fft as sfft
+    import cv2  # lazy: OpenCV only where an image is blurred (render, stereo, the report)
 
-    img = np.asarray(image, np.float32)
+    img = np.ascontiguousarray(image, np.float32)
     d = np.asarray(diameter_px, float)
     if d.shape != img.shape[:2]:
         raise ValueError(f"defocus_image: diameters {d.shape} are not the image's {img.shape[:2]}")
     bands = band_diameters(float(d.max()))
     if len(bands) == 1:
         return np.asarray(image, np.uint8).copy()
-    h, w = d.shape
-    # one forward transform, an inverse per band: zero-padded past the widest disc (no wrap)
-    reach = disc_kernel(bands[-1]).shape[0]
-    shape = (sfft.next_fast_len(h + reach, real=True), sfft.next_fast_len(w + reach, real=True))
-    spectrum = sfft.rfft2(img, s=shape, axes=(0, 1), workers=1)
-    # each pixel's two bands and its weight on the upper one (a linear blend in diameter)
-    edges = np.asarray(bands)
-    j = np.clip(np.searchsorted(edges, d, side="right") - 1, 0, len(bands) - 2)
-    t = np.clip((d - edges[j]) / (edges[j + 1] - edges[j]), 0.0, 1.0).astype(np.float32)
+    d32 = d.astype(np.float32)
     out = np.zeros_like(img)
     for b, db in enumerate(bands):
-        weight = np.where(j == b, 1.0 - t, 0.0) + np.where(j + 1 == b, t, 0.0)
+        # band b's hat: 1 at its diameter, 0 at its neighbours' (a linear blend in diameter)
+        rise = np.float32(1.0) if b == 0 else (d32 - bands[b - 1]) / np.float32(db - bands[b - 1])
+        fall = np.float32(1.0) if b == len(bands) - 1 else (bands[b + 1] - d32) / np.float32(bands[b + 1] - db)
+        weight = np.clip(np.minimum(rise, fall), 0.0, 1.0)
         if not weight.any():
             continue
-        if db < 1.0:  # a disc within the pixel: the pixel itself
-            blurred = img
-        else:
-            k = disc_kernel(db).astype(np.float32)
-            n = k.shape[0] // 2
-            blurred = sfft.irfft2(spectrum * sfft.rfft2(k, s=shape, workers=1)[:, :, None], s=shape,
-                                  axes=(0, 1), workers=1)[n:n + h, n:n + w]
-        out += weight.astype(np.float32)[..., None] * blurred
+        # a disc within the pixel is the pixel itself; the disc is symmetric, so OpenCV's
+        # correlation is the convolution (zero beyond the border, as the sensor's edge)
+        blurred = img if db < 1.0 else cv2.filter2D(img, -1, disc_kernel(db).astype(np.float32),
+                                                   borderType=cv2.BORDER_CONSTANT)
+        out += weight[..., None] * blurred
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 
