@@ -32,6 +32,7 @@ import numpy as np
 from ..design import Camera, Mirror
 from .camera import pixel_centres
 from .focus import defocus, lobe_blur_px
+from .radial import sensor_radii
 
 #: Disc diameters (px) the varying blur blends between: every pixel up to 4 px, then
 #: steps of 25 % (the blend of two discs 25 % apart is within a few percent of the disc
@@ -105,8 +106,6 @@ def blur_figures(mirror: Mirror, lens: Lens, zones=None) -> dict:
     """The blur per lobe, JSON-ready: {"lens": Lens, "lobes": [{"name", "blur_px": {"min",
     "max", "mean"}}]}, over each lobe's pixel centres of its used zone (zones:
     optics.zones.Zones) or designed annulus, each pixel once."""
-    from .radial import sensor_radii
-
     rho, cnt = sensor_radii(tuple(int(n) for n in mirror.camera.sensor_px))
     radii = mirror.image_radii_px
     lobes = []
