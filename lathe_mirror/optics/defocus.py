@@ -147,9 +147,9 @@ def defocus_image(image: np.ndarray, diameter_px: np.ndarray) -> np.ndarray:
     d = np.asarray(diameter_px, float)
     if d.shape != img.shape[:2]:
         raise ValueError(f"defocus_image: diameters {d.shape} are not the image's {img.shape[:2]}")
-    bands = band_diameters(float(d.max()))
-    if len(bands) == 1:
+    if not float(d.max()) > 1.0:  # every disc within its pixel: the image as traced
         return np.asarray(image, np.uint8).copy()
+    bands = band_diameters(float(d.max()))
     d32 = d.astype(np.float32)
     out = np.zeros_like(img)
     for b, db in enumerate(bands):
