@@ -341,6 +341,8 @@ def refit(model: UnifiedModel, corr: Correspondences, *, fit_centre: bool | None
     coef, _ = linear_part(start)
     x0 = [start, coef[0], coef[1] / coef[0], coef[2] / coef[0]] + (list(coef[3:5]) if centre else [])
     lo = [xi_lo, 1e-6, -np.inf, -np.inf] + ([-np.inf, -np.inf] if centre else [])
+    if not x0[1] > lo[1]:  # no camera's gamma (pairs that leave the valley's shape): the design's start
+        x0 = [max(model.xi, xi_lo), model.fu, model.k1, model.k2] + ([model.cx, model.cy] if centre else [])
     sol = least_squares(residuals, np.asarray(x0, float), jac=jacobian, bounds=(lo, np.inf),
                         method="dogbox", x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200,
                         callback=Stalled())
