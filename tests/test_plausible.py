@@ -72,12 +72,16 @@ def test_a_ray_that_leaves_its_lobe_is_lost_not_displaced(paper_mirror):
     # the edge band holds every pixel that left (they all meet the rolled rim)
     assert rad["edge"]["pixels_left_range"] == expected
     assert rad["edge"]["pixels"] + rad["edge"]["pixels_left_range"] <= int(px.count.sum())
-    per_pixel = image_displacement(prof, m).figures()["lobes"][1]
+    per_pixel = image_displacement(prof, m).figures(edge_mm=0.5)["lobes"][1]
     # per pixel, a ray the rolled rim sends past the rim changes its fate first (lost, not
     # left): the lost pixels are the same set
     assert per_pixel["pixels_lost"] == rad["pixels_excluded"]
     assert 0 < per_pixel["pixels_left_range"] <= expected
     assert per_pixel["image_displacement_px"]["max"] == pytest.approx(rad["image_displacement_px"]["max"], rel=1e-9)
+    # the edge band per pixel (render's) as radially: the same pixels, the same figure
+    assert per_pixel["edge"]["pixels"] == rad["edge"]["pixels"]
+    assert per_pixel["edge"]["image_displacement_px"]["rms"] == pytest.approx(
+        rad["edge"]["image_displacement_px"]["rms"], rel=1e-9)
 
 
 @pytest.fixture(scope="module")

@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
         "supersample": n,
         "pose": {"decentre_mm": list(pose.decentre), "axial_offset_mm": pose.axial_offset,
                  "tilt_deg": [math.degrees(t) for t in pose.tilt]},
-        **maps.figures(zn),
+        **maps.figures(zn, edge_mm=settings.polish.clear_edge_mm),
         "zones": zn.as_dict(),
         "image_difference": diff,
         "defocus": blur_figures(mirror, lens, zn),
@@ -169,6 +169,14 @@ def format_figures(fig: dict) -> str:
         cells = [f"{lobe[k]['rms']:.4g} / {lobe[k]['max']:.4g}" for k in
                  ("ray_deviation_deg", "image_displacement_px", "viewpoint_spread_mm")]
         lines.append(f"{lobe['name']:8s}{lobe['pixels']:>9d}{cells[0]:>24s}{cells[1]:>26s}{cells[2]:>24s}")
+    lost = [f"{lb['name']} {lb['pixels_left_range']} ({lb['left_range_pct']:.3g} %)" for lb in fig["lobes"]]
+    lines.append("pixels lost, their ray left the lobe's range (never a displacement): " + ", ".join(lost))
+    edges = [f"{lb['name']} {lb['edge']['pixels']} px, {lb['edge']['image_displacement_px']['rms']:.4g} / "
+             f"{lb['edge']['image_displacement_px']['max']:.4g} px" for lb in fig["lobes"]
+             if "edge" in lb and lb["edge"]["pixels"]]
+    if edges:
+        lines.append(f"edge band ({fig['lobes'][0]['edge']['band_mm']:g} mm from the step and the rim) on its own, "
+                     "image disp. px rms/max: " + "; ".join(edges))
     if "defocus" in fig:
         lines.append(defocus_line(fig["defocus"]))
     d = fig["image_difference"]

@@ -36,7 +36,7 @@ import numpy as np
 from ..design import Camera, Mirror
 from ..profile import ExactProfile, Profile
 from .camera import ALIGNED, CameraPose, pixel_centres
-from .radial import in_lobe_range
+from .radial import edge_mask, in_lobe_range
 from .trace import RayHits, trace_pixels
 
 LOBE_NAMES = ("inner", "outer")
@@ -55,10 +55,12 @@ class DistortionMaps:
     made surface is judged on the same usable pixels); blocked: the vignetted pixels the
     made mirror still sends to their lobe. left_range: the made mirror sends the pixel to
     its lobe, but in a direction the exact lobe images outside its designed annulus
-    (optics.radial.in_lobe_range): lost, not usable. Figures are NaN where not usable.
+    (optics.radial.in_lobe_range): lost, not usable. hit_radius_mm: where the made ray meets
+    the surface (mm from the axis; NaN where it misses). Figures are NaN where not usable.
     """
 
     camera: Camera
+    mirror: Mirror
     lobe: np.ndarray
     usable: np.ndarray
     radius_px: np.ndarray
@@ -69,6 +71,7 @@ class DistortionMaps:
     blocked: np.ndarray
     vignetted: np.ndarray
     left_range: np.ndarray
+    hit_radius_mm: np.ndarray
 
     @property
     def annulus(self) -> np.ndarray:
@@ -81,12 +84,14 @@ class DistortionMaps:
         """The usable pixels' values of figure `name` for lobe k (1-D)."""
         return getattr(self, name)[(self.lobe == k) & self.usable]
 
-    def figures(self, zones=None) -> dict:
+    def figures(self, zones=None, edge_mm: float = 0.0) -> dict:
         """{"lobes": [{"name", "pixels", ..., "<figure>": {"rms", "max"}}, ...]}, inner first.
 
         zones (optics.zones.Zones): the figures over each lobe's used zone (the pixels whose
         image radius lies in its used_px: the ring the nose cannot reach left out), as
-        optics.radial.radial_figures(..., zones=) gives them; "zone_px" states it."""
+        optics.radial.radial_figures(..., zones=) gives them; "zone_px" states it. edge_mm > 0:
+        the pixels whose made ray meets the lobe within edge_mm of its edges (a polished
+        part's turned-down edge, optics.radial.edge_mask) on their own under "edge"."""
         lobes = []
         for k, name in enumerate(LOBE_NAMES):
             in_lobe = self.lobe == k
@@ -115,6 +120,12 @@ class DistortionMaps:
             if zones is not None:
                 lo, hi = zones.lobes[k].used_px
                 entry["zone_px"] = {"min": float(lo), "max": float(hi)}
+            if edge_mm > 0:
+                with np.errstate(invalid="ignore"):
+                    band = in_lobe & ~self.vignetted & edge_mask(self.mirror, k, self.hit_radius_mm, edge_mm)
+                entry["edge"] = {"band_mm": float(edge_mm), "pixels": int((band & clear).sum()),
+                                 "pixels_left_range": int((band & self.left_range).sum()),
+                                 "image_displacement_px": _rms_max(self.image_displacement_px[band & clear])}
             lobes.append(entry)
         return {"lobes": lobes}
 
@@ -146,7 +157,7 @@ def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = No
         xy = np.stack([u, v], axis=-1)
         hm, he = (trace_pixels(p, camera, xy, pose=pose, progress=progress) for p in (made, exact))
         maps = _figures_of(mirror, camera, hm, he, xy)
-    return DistortionMaps(camera=camera, radius_px=np.hypot(u, v), **maps)
+    return DistortionMaps(camera=camera, mirror=mirror, radius_px=np.hypot(u, v), **maps)
 
 
 def usable_annulus(mirror: Mirror, camera: Camera | None = None, *,
@@ -225,7 +236,8 @@ def _figures_of(mirror: Mirror, camera: Camera, hm: RayHits, he: RayHits, xy: np
     return {"lobe": lobe, "usable": usable, "ray_deviation_rad": deviation,
             "image_displacement_px": disp, "radial_px": radial,
             "viewpoint_spread_mm": spread, "blocked": he.blocked & usable, "vignetted": he.blocked,
-            "left_range": left}
+            "left_range": left,
+            "hit_radius_mm": np.where(hm.fate == he.fate, np.hypot(hm.point[..., 0], hm.point[..., 1]), np.nan)}
 
 
 def _rms_max(x: np.ndarray) -> dict:
