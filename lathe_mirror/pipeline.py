@@ -46,6 +46,7 @@ from .optics.zones import zones_for
 from .profile import ExactProfile, Profile
 from .progress import Stages
 from .report.analysis import (
+    FIGURE_DEFINITIONS,
     MIRRORS,
     ReportData,
     mirror_figures,
@@ -92,6 +93,7 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
              "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
     data = ReportData(design=DesignFigures.from_dict(design_figures(mirror)),
                       notes=(TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)),
+                      definitions=dict(FIGURE_DEFINITIONS),
                       spec=spec_of(settings))  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
     steps.done()
 
@@ -143,12 +145,12 @@ def _optics_stages(data: ReportData, made: dict, mirror, settings, steps, render
              "polished": job.but(strategy=Strategy.PAPER, polish_time_s=polish_time_s)}
     data.mirrors = {}
     for name in MIRRORS:  # which part each mirror is
-        fig = mirror_figures(made[name], mirror, zn)
+        fig = mirror_figures(made[name], mirror, zn, edge_mm=settings.polish.clear_edge_mm)
         data.mirrors[name] = dataclasses.replace(
             fig, polish_time_s=polish_time_s if name == "polished" else None,
             made_mirror="the exact design" if parts[name] is None else parts[name].label)
     if measured is not None:  # report --surface measured:FILE: the part that came back
-        data.mirrors["measured"] = dataclasses.replace(mirror_figures(measured, mirror, zn),
+        data.mirrors["measured"] = dataclasses.replace(mirror_figures(measured, mirror, zn, edge_mm=settings.polish.clear_edge_mm),
                                                        made_mirror=f"the measured part: {measured!r}")
     data.made_mirror = MadeMirror.from_dict(job.to_dict())  # the made mirror every command describes by default
     data.calibration = CalibrationFigures.from_dict(
@@ -172,10 +174,10 @@ def _optics_stages(data: ReportData, made: dict, mirror, settings, steps, render
     data.curves = report_curves(made, mirror)
     steps.start("renders")
     if renders:
-        data.images, data.renders = render_mirrors(made, mirror, settings)
+        data.images, data.renders = render_mirrors(made, mirror, settings, zn)
     steps.done()
 
     steps.start("ranging")
     if renders:
-        data.ranging, data.range_maps = ranging_figures(made, mirror, settings)
+        data.ranging, data.range_maps = ranging_figures(made, mirror, settings, zn)
     steps.done()

@@ -224,7 +224,7 @@ def test_header_states_design_machine_tool_budget_and_figures(plans):
     assert "nose radius 0 mm" in text
     assert "offsets set to the NOSE CENTRE, see mirror.setup.html and tools.tbl" in text
     # per lobe: the whole lobe, and the radii the camera uses
-    assert text.count("whole lobe: normal deviation rms") == 2
+    assert text.count("whole lobe, against the design: normal deviation rms") == 2
     assert text.count("slope error rms") == 4
 
 
@@ -234,8 +234,9 @@ def test_header_gives_the_used_zone_beside_the_whole_lobe(plans, paper_mirror):
     which the step wall cuts short of the fillet (Mirror.fov_usable)."""
     tp = plans[(Strategy.ARCS, 0.2)]
     head = "\n".join(ln for ln in program(tp, STOCK).splitlines() if ln.startswith("("))
-    whole = re.search(r"as machined inner, whole lobe: .* slope error rms \S+ max (\S+) rad", head)
-    used = re.search(r"as machined inner, used r 0.000\.\.(\S+) mm: .* slope error rms \S+ max (\S+) rad", head)
+    whole = re.search(r"as machined inner, whole lobe, against the design: .* slope error rms \S+ max (\S+) rad", head)
+    used = re.search(r"as machined inner, used r 0.000\.\.(\S+) mm, against the design: .* slope error rms \S+ max "
+                     r"(\S+) rad", head)
     assert float(whole.group(1)) > 1.0  # the fillet: the nose's side, nearly vertical
     assert float(used.group(2)) < 2e-3  # the turned hyperbola itself
     assert abs(float(used.group(1)) - 17.931) < 0.001  # see test_toolpath's hand calculation

@@ -207,7 +207,14 @@ def test_render_command_writes_images_figures_and_is_reproducible(tmp_path):
     mirror = from_config(cfg).mirror()
     scene = build_scene(from_config(cfg).scene, mirror_top=mirror.outer.h, mirror_radius=mirror.r_max)
     ours = render_image(named_surface(Surface("uniform528"), mirror, from_config(cfg)), mirror, scene)
+    # as the camera records it: blurred by the lens's defocus (optics.defocus; test_defocus.py)
+    from lathe_mirror.optics.defocus import blur_map, defocus_image, lens_for
+
+    ours = defocus_image(ours, blur_map(mirror, lens_for(mirror, 2000.0)))
     assert np.array_equal(np.asarray(Image.open(out / "uniform528.png")), ours)
+    assert fig["defocus"]["lens"] == {"f_number": 8.0, "focus_mm": pytest.approx(136.0137, abs=1e-4),
+                                      "object_range_mm": 2000.0}
+    assert "defocus (thin lens f/8" in run_cli("render", "--surface", "uniform528", "--no-progress").stdout
 
 
 @pytest.mark.parametrize("args, toml, words", [

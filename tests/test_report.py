@@ -295,3 +295,36 @@ def test_report_cli_no_progress_keeps_stderr_empty_and_gives_the_same_json(tmp_p
     a.pop("renders", None)
     a.pop("ranging", None)  # ranging renders too: --no-render skips it
     assert (tmp_path / "out" / "report.json").read_text() == dumps(a)
+
+def test_one_sentence_per_headline_and_one_definition_per_figure(report):
+    """The headline names the part each answer row judges (its label: program, nose, polish
+    time) and whether calibrated, with the scene range of each figure; the calibration table
+    puts the image displacement at infinity (section 4's number, the same cell text) beside
+    its reprojection at 2 m; report.json says what each shared figure is measured against;
+    the blur the renders and the ranging carry is stated per lobe."""
+    page = render_html(report)
+    f = report.figures
+    tol = f["tolerance"]
+    calibrated = "after calibration" if tol["spec"]["calibrated"] else "uncalibrated"
+    for name, t in tol["programs"].items():
+        label = html.escape(t["made_mirror"]["label"])
+        minutes = f"polished {t['made_mirror']['polish_time_s'] / 60:g} min"
+        assert re.search(f"The answer&#x27;s {name} program row judges {re.escape(label)} .*{minutes}.*{calibrated}"
+                         f": its image displacement with the scene at infinity, its disparity and depth error at "
+                         f"{tol['spec']['depth_range_m']:g} m", page), name
+    assert html.escape(f["made_mirror"]["label"]) in page
+    from lathe_mirror.report.cells import fmt
+
+    for name in ("paper", "best", "polished"):
+        for lb in f["mirrors"][name]["lobes"]:
+            cell = fmt(report.mirrors[name].lobe(lb["name"]).image_displacement_px)
+            assert f"<td>{cell}</td>" in page  # in section 4 and again in section 10
+            assert page.count(f"<td>{cell}</td>") >= 2
+    assert "world points at 2 m</th><th>the same at infinity" in page
+    d = f["definitions"]
+    assert "against the DESIGN" in d["normal_deviation_mm"] and "at infinity" in d["image_displacement_px"]
+    for section in ("renders", "ranging"):
+        blur = f[section]["defocus"]
+        assert blur["lens"]["f_number"] == 8.0 and [lb["name"] for lb in blur["lobes"]] == ["inner", "outer"]
+        assert blur["lobes"][0]["blur_px"]["max"] == pytest.approx(6.64, abs=0.01)  # test_defocus's hand value
+    assert "blur circle diameter inner" in page

@@ -81,7 +81,12 @@ def run(args: argparse.Namespace) -> int:
         from .common import output_dir
 
         out = output_dir(args.output)
-    made_img = render_image(made, mirror, scene, pose=pose, supersample=n, progress=progress)
+    # the lens's defocus (optics.defocus): every image as the camera records it
+    from ..optics.defocus import blur_figures, blur_map, defocus_image, lens_for
+
+    lens = lens_for(mirror, settings.optimize.focus_range_m * 1000.0)
+    blur = blur_map(mirror, lens)
+    made_img = defocus_image(render_image(made, mirror, scene, pose=pose, supersample=n, progress=progress), blur)
     surface = surface.value
     files = []
     if args.image_only:
@@ -94,8 +99,8 @@ def run(args: argparse.Namespace) -> int:
     from ..optics.distortion import image_displacement
 
     maps = image_displacement(made, mirror, pose=pose, progress=progress)
-    exact_img = made_img if surface == "exact" and nose == 0 else render_image(
-        exact, mirror, scene, pose=pose, supersample=n, progress=progress)
+    exact_img = made_img if surface == "exact" and nose == 0 else defocus_image(render_image(
+        exact, mirror, scene, pose=pose, supersample=n, progress=progress), blur)
     # Over the lobes' usable annuli, as the distortion figures: the step-vignetted band is
     # black in both images and would only dilute the difference.
     # maps.annulus: the design's own pixels (optics.distortion.usable_annulus, the report's)
@@ -107,9 +112,10 @@ def run(args: argparse.Namespace) -> int:
         "supersample": n,
         "pose": {"decentre_mm": list(pose.decentre), "axial_offset_mm": pose.axial_offset,
                  "tilt_deg": [math.degrees(t) for t in pose.tilt]},
-        **maps.figures(zn),
+        **maps.figures(zn, edge_mm=settings.polish.clear_edge_mm),
         "zones": zn.as_dict(),
         "image_difference": diff,
+        "defocus": blur_figures(mirror, lens, zn),
         "image_radii_px": {k: {"min": v[0], "max": v[1]} for k, v in mirror.image_radii_px.items()},
     }
     if out is not None:
@@ -163,12 +169,31 @@ def format_figures(fig: dict) -> str:
         cells = [f"{lobe[k]['rms']:.4g} / {lobe[k]['max']:.4g}" for k in
                  ("ray_deviation_deg", "image_displacement_px", "viewpoint_spread_mm")]
         lines.append(f"{lobe['name']:8s}{lobe['pixels']:>9d}{cells[0]:>24s}{cells[1]:>26s}{cells[2]:>24s}")
+    lost = [f"{lb['name']} {lb['pixels_left_range']} ({lb['left_range_pct']:.3g} %)" for lb in fig["lobes"]]
+    lines.append("pixels lost, their ray left the lobe's range (never a displacement): " + ", ".join(lost))
+    edges = [f"{lb['name']} {lb['edge']['pixels']} px, {lb['edge']['image_displacement_px']['rms']:.4g} / "
+             f"{lb['edge']['image_displacement_px']['max']:.4g} px" for lb in fig["lobes"]
+             if "edge" in lb and lb["edge"]["pixels"]]
+    if edges:
+        lines.append(f"edge band ({fig['lobes'][0]['edge']['band_mm']:g} mm from the step and the rim) on its own, "
+                     "image disp. px rms/max: " + "; ".join(edges))
+    if "defocus" in fig:
+        lines.append(defocus_line(fig["defocus"]))
     d = fig["image_difference"]
     lines.append(f"image difference against the exact mirror (usable annuli): RMS {d['rms']:.3f} grey levels, "
                  f"SSIM {d['ssim']:.4f}")
     for f in fig.get("files", []):
         lines.append(f"wrote {f}")
     return "\n".join(lines)
+
+
+def defocus_line(fig: dict) -> str:
+    """One line: the lens and the blur circle per lobe (optics.defocus.blur_figures)."""
+    lens = fig["lens"]
+    lobes = "; ".join(f"{lb['name']} {lb['blur_px']['min']:.2f} to {lb['blur_px']['max']:.2f} px "
+                      f"(mean {lb['blur_px']['mean']:.2f})" for lb in fig["lobes"])
+    return (f"defocus (thin lens f/{lens['f_number']:g} focused at {lens['focus_mm']:.1f} mm, scene "
+            f"{lens['object_range_mm'] / 1000.0:g} m from the viewpoints): blur circle {lobes}; the images are blurred by it")
 
 
 def _check_sees_mirror(profile, mirror, pose) -> None:

@@ -69,8 +69,16 @@ def run(args: argparse.Namespace) -> int:
 
             preload()  # pyplot's import overlaps the render and the matching
         stages.start("render")
-        image = render_image(made, mirror, scene, pose=pose, supersample=st.supersample,
-                             pixels=image_mask(mirror, grid, match.num_disparities))
+        # the lens's defocus (optics.defocus): the matcher sees the image as the camera records
+        # it; the render reaches as far past the mask as the blur does
+        from ..optics.defocus import blur_figures, blur_map, defocus_image, grow_mask, lens_for
+        from ..optics.zones import zones_for
+
+        lens = lens_for(mirror, settings.optimize.focus_range_m * 1000.0)
+        blur = blur_map(mirror, lens)
+        image = defocus_image(render_image(made, mirror, scene, pose=pose, supersample=st.supersample,
+                                           pixels=grow_mask(image_mask(mirror, grid, match.num_disparities), blur)),
+                              blur)
         stages.done()
         stages.start("match")
         result = stereo_range(image, mirror, st.params)
@@ -78,7 +86,8 @@ def run(args: argparse.Namespace) -> int:
         stages.start("truth")
         truth = true_range(mirror, scene, grid)
         figures = {"surface": surface.value, "made_mirror": surface_label(surface, job), "supersample": st.supersample,
-                   "camera_pose_aligned": pose.aligned, **range_figures(result, truth, mirror)}
+                   "camera_pose_aligned": pose.aligned, **range_figures(result, truth, mirror),
+                   "defocus": blur_figures(mirror, lens, zones_for(settings, mirror))}
         precision = figures["disparity_error_px"]["precision"]
         curve = {**error_curve(result, truth, mirror, precision), "precision_px": precision}
         figures["error_curve"] = curve
@@ -160,6 +169,10 @@ def format_figures(fig: dict) -> str:
         lines.append(f"{b['range_m'][0]:>4.1f}-{b['range_m'][1]:<4.1f}  {b['pixels']:>9d}{100 * b['valid_fraction']:>10.1f}"
                      f"{r['median']:>10.2f}{r['rms']:>9.2f}{r['signed_median']:>+10.2f}{b['model_1px_pct']:>14.1f}"
                      f"{b['model_matcher_pct']:>17.2f}")
+    if "defocus" in fig:
+        from .render import defocus_line
+
+        lines.append(defocus_line(fig["defocus"]))
     vs = fig["valid_by_surface"]
     lines.append("ranged by surface: " + ", ".join(f"{k} {100 * v['valid_fraction']:.1f} % of {v['pixels']} px"
                                                    for k, v in vs.items() if v["pixels"]))

@@ -51,7 +51,7 @@ from ..errors import InputError
 from ..inputs import check_type, short
 from ..profile import Profile
 from .camera import ALIGNED, CameraPose
-from .radial import RADII_PER_LOBE, lobe_pixel_radii, weighted_stats
+from .radial import RADII_PER_LOBE, ideal_radius_px, in_lobe_range, lobe_pixel_radii, weighted_stats
 from .trace import Fate, trace_pixels
 
 #: Range (mm) from F1 at which a made mirror's rays are given world points: 2 m, the
@@ -156,7 +156,8 @@ class Correspondences:
     pixels: (N, 2) px, OpenCV convention. points: (N, 3) world points in the lobe frame, mm
     (unit directions when range_mm is inf). weight: pixel centres each pair stands for.
     excluded: pixel centres of the design's usable annulus whose made ray misses the lobe
-    or runs into the step wall.
+    or runs into the step wall. in_range: the pairs whose ray stays in the lobe's range
+    (optics.radial.in_lobe_range; None: all).
     """
 
     lobe: int
@@ -166,6 +167,15 @@ class Correspondences:
     excluded: int
     range_mm: float
     aligned: bool
+    in_range: np.ndarray | None = None
+
+    def within_range(self) -> "Correspondences":
+        """The pairs whose ray stays in the lobe's range; the others counted excluded."""
+        if self.in_range is None or self.in_range.all():
+            return self
+        keep = self.in_range
+        return replace(self, pixels=self.pixels[keep], points=self.points[keep], weight=self.weight[keep],
+                       excluded=self.excluded + int(round(np.sum(self.weight[~keep]))), in_range=None)
 
 
 # --------------------------------------------------------------------------------------
@@ -257,6 +267,9 @@ def trace_correspondences(profile: Profile, mirror: Mirror, k: int, *,
         weight = np.ones(xy.shape[0])
     hits = trace_pixels(profile, cam, xy, pose=pose)
     use = (hits.fate == (Fate.INNER if k == 0 else Fate.OUTER)) & ~hits.blocked
+    # a ray that left the lobe's range has no pixel in the design's model (in_range)
+    d = hits.direction[use]
+    in_range = in_lobe_range(mirror, k, ideal_radius_px(lobe, cam, np.arctan2(d[:, 2], np.hypot(d[:, 0], d[:, 1]))))
     f1 = np.array([0.0, 0.0, lobe.focus_z])
     p, o = hits.point[use], hits.direction[use]
     if math.isinf(range_mm):
@@ -272,7 +285,7 @@ def trace_correspondences(profile: Profile, mirror: Mirror, k: int, *,
     pixels = xy[use] + np.array([(w - 1) / 2.0, (h - 1) / 2.0])
     return Correspondences(lobe=k, pixels=pixels, points=lobe_pts, weight=weight[use],
                            excluded=int(round(np.sum(weight[~use]))), range_mm=float(range_mm),
-                           aligned=pose.aligned)
+                           aligned=pose.aligned, in_range=in_range)
 
 
 def reprojection_error(model: UnifiedModel, corr: Correspondences) -> dict:
@@ -363,6 +376,8 @@ def refit(model: UnifiedModel, corr: Correspondences, *, fit_centre: bool | None
     coef, _ = linear_part(start)
     x0 = [start, coef[0], coef[1] / coef[0], coef[2] / coef[0]] + (list(coef[3:5]) if centre else [])
     lo = [xi_lo, 1e-6, -np.inf, -np.inf] + ([-np.inf, -np.inf] if centre else [])
+    if not x0[1] > lo[1]:  # no camera's gamma (pairs that leave the valley's shape): the design's start
+        x0 = [max(model.xi, xi_lo), model.fu, model.k1, model.k2] + ([model.cx, model.cy] if centre else [])
     sol = least_squares(residuals, np.asarray(x0, float), jac=jacobian, bounds=(lo, np.inf),
                         method="dogbox", x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200,
                         callback=Stalled())
@@ -392,20 +407,25 @@ def made_lobe_figures(profile: Profile, mirror: Mirror, k: int, *, range_mm: flo
                       pose: CameraPose = ALIGNED, zones=None, max_radii: int = RADII_PER_LOBE) -> dict:
     """One lobe of a made surface: the design model's reprojection error and the refit.
 
+    The design model's figure and the pixel counts leave out the pairs whose ray left the
+    lobe's range (lost, never a reprojection error past the annulus: optics.radial); the
+    refit, what a calibration of the made part recovers, is fitted to and judged on every
+    pair that lands, as the tolerance analysis's calibration is.
     Returns {"name", "pixels", "pixels_excluded", "design": {"reprojection_error_px"},
     "refit": {model parameters, "principal_point", "reprojection_error_px"}}. Raises
     InputError when no camera pixel of the lobe's annulus sees the lobe of this surface.
     max_radii: see trace_correspondences.
     """
     design = design_model(mirror, k, zones)
-    corr = trace_correspondences(profile, mirror, k, range_mm=range_mm, pose=pose, zones=zones, max_radii=max_radii)
+    landed = trace_correspondences(profile, mirror, k, range_mm=range_mm, pose=pose, zones=zones, max_radii=max_radii)
+    corr = landed.within_range()
     n = int(round(np.sum(corr.weight)))
     if corr.pixels.shape[0] < MIN_SAMPLES:
         what = "pixels" if corr.aligned else "pixels of the misaligned camera's sample grid"
         raise InputError(
             f"no camera pixel sees its {design.name} lobe ({n} of {n + corr.excluded} {what} of the "
             "lobe's annulus land on it unobstructed): the surface or [camera_pose] is off the design")
-    fitted = refit(design, corr)
+    fitted = refit(design, landed)
     return {
         "name": design.name,
         "pixels": n,
@@ -413,7 +433,7 @@ def made_lobe_figures(profile: Profile, mirror: Mirror, k: int, *, range_mm: flo
         "design": {"reprojection_error_px": reprojection_error(design, corr)},
         "refit": {**model_dict(fitted),
                   "principal_point": "fixed at the sensor centre" if corr.aligned else "fitted",
-                  "reprojection_error_px": reprojection_error(fitted, corr)},
+                  "reprojection_error_px": reprojection_error(fitted, landed)},
     }
 
 

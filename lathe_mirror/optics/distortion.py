@@ -37,6 +37,7 @@ from ..design import Camera, Mirror
 from ..inputs import check_type
 from ..profile import ExactProfile, Profile
 from .camera import ALIGNED, CameraPose, pixel_centres
+from .radial import edge_mask, in_lobe_range
 from .trace import RayHits, trace_pixels
 
 LOBE_NAMES = ("inner", "outer")
@@ -53,10 +54,14 @@ class DistortionMaps:
     viewpoint_spread_mm: mm. vignetted: the pixel is vignetted by the mirror itself (the
     EXACT mirror's reflected ray runs into the step: a property of the design, so every
     made surface is judged on the same usable pixels); blocked: the vignetted pixels the
-    made mirror still sends to their lobe. Figures are NaN where not usable.
+    made mirror still sends to their lobe. left_range: the made mirror sends the pixel to
+    its lobe, but in a direction the exact lobe images outside its designed annulus
+    (optics.radial.in_lobe_range): lost, not usable. hit_radius_mm: where the made ray meets
+    the surface (mm from the axis; NaN where it misses). Figures are NaN where not usable.
     """
 
     camera: Camera
+    mirror: Mirror
     lobe: np.ndarray
     usable: np.ndarray
     radius_px: np.ndarray
@@ -66,6 +71,8 @@ class DistortionMaps:
     viewpoint_spread_mm: np.ndarray
     blocked: np.ndarray
     vignetted: np.ndarray
+    left_range: np.ndarray
+    hit_radius_mm: np.ndarray
 
     @property
     def annulus(self) -> np.ndarray:
@@ -78,14 +85,16 @@ class DistortionMaps:
         """The usable pixels' values of figure `name` for lobe k (1-D)."""
         return getattr(self, name)[(self.lobe == k) & self.usable]
 
-    def figures(self, zones=None) -> dict:
+    def figures(self, zones=None, edge_mm: float = 0.0) -> dict:
         """{"lobes": [{"name", "pixels", ..., "<figure>": {"rms", "max"}}, ...]}, inner first.
         A figure some of whose pixels are NaN is given over its finite pixels, with their
         count as "nan_excluded" (absent when there are none).
 
         zones (optics.zones.Zones): the figures over each lobe's used zone (the pixels whose
         image radius lies in its used_px: the ring the nose cannot reach left out), as
-        optics.radial.radial_figures(..., zones=) gives them; "zone_px" states it."""
+        optics.radial.radial_figures(..., zones=) gives them; "zone_px" states it. edge_mm > 0:
+        the pixels whose made ray meets the lobe within edge_mm of its edges (a polished
+        part's turned-down edge, optics.radial.edge_mask) on their own under "edge"."""
         lobes = []
         for k, name in enumerate(LOBE_NAMES):
             in_lobe = self.lobe == k
@@ -94,10 +103,13 @@ class DistortionMaps:
                 in_lobe = in_lobe & (self.radius_px >= lo) & (self.radius_px <= hi)
             use = in_lobe & self.usable
             clear = use & ~self.blocked
+            left = in_lobe & self.left_range & ~self.vignetted
             entry = {
                 "name": name,
                 "pixels": int(clear.sum()),
                 "pixels_lost": int((in_lobe & ~self.usable).sum()),
+                "pixels_left_range": int(left.sum()),
+                "left_range_pct": float(100.0 * left.sum() / max(int((in_lobe & ~self.vignetted).sum()), 1)),
                 "pixels_vignetted": int((use & self.blocked).sum()),
                 "with_vignetted": {"pixels": int(use.sum())},
             }
@@ -111,6 +123,12 @@ class DistortionMaps:
             if zones is not None:
                 lo, hi = zones.lobes[k].used_px
                 entry["zone_px"] = {"min": float(lo), "max": float(hi)}
+            if edge_mm > 0:
+                with np.errstate(invalid="ignore"):
+                    band = in_lobe & ~self.vignetted & edge_mask(self.mirror, k, self.hit_radius_mm, edge_mm)
+                entry["edge"] = {"band_mm": float(edge_mm), "pixels": int((band & clear).sum()),
+                                 "pixels_left_range": int((band & self.left_range).sum()),
+                                 "image_displacement_px": _rms_max(self.image_displacement_px[band & clear])}
             lobes.append(entry)
         return {"lobes": lobes}
 
@@ -146,7 +164,7 @@ def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = No
         xy = np.stack([u, v], axis=-1)
         hm, he = (trace_pixels(p, camera, xy, pose=pose, progress=progress) for p in (made, exact))
         maps = _figures_of(mirror, camera, hm, he, xy)
-    return DistortionMaps(camera=camera, radius_px=np.hypot(u, v), **maps)
+    return DistortionMaps(camera=camera, mirror=mirror, radius_px=np.hypot(u, v), **maps)
 
 
 def usable_annulus(mirror: Mirror, camera: Camera | None = None, *,
@@ -196,6 +214,14 @@ def viewpoint_distance(point: np.ndarray, direction: np.ndarray, focus_z: float)
 def _figures_of(mirror: Mirror, camera: Camera, hm: RayHits, he: RayHits, xy: np.ndarray) -> dict:
     lobe = he.lobe
     usable = (lobe >= 0) & (hm.fate == he.fate)
+    # a made ray the exact lobe would image outside its annulus has left the lobe's range
+    # (optics.radial.LOBE_RANGE_SLACK_PX): lost, never a displacement beyond the sensor
+    left = np.zeros(lobe.shape, bool)
+    for k in (0, 1):
+        m = usable & (lobe == k)
+        img = exact_image_point(mirror, k, hm.direction[m], camera)
+        left[m] = ~in_lobe_range(mirror, k, np.hypot(img[:, 0], img[:, 1]), camera)
+    usable &= ~left
     cosang = np.clip(np.sum(hm.direction * he.direction, axis=-1), -1.0, 1.0)
     sinang = np.linalg.norm(np.cross(hm.direction, he.direction), axis=-1)
     deviation = np.arctan2(sinang, cosang)
@@ -216,7 +242,9 @@ def _figures_of(mirror: Mirror, camera: Camera, hm: RayHits, he: RayHits, xy: np
     deviation = np.where(usable, deviation, np.nan)
     return {"lobe": lobe, "usable": usable, "ray_deviation_rad": deviation,
             "image_displacement_px": disp, "radial_px": radial,
-            "viewpoint_spread_mm": spread, "blocked": he.blocked & usable, "vignetted": he.blocked}
+            "viewpoint_spread_mm": spread, "blocked": he.blocked & usable, "vignetted": he.blocked,
+            "left_range": left,
+            "hit_radius_mm": np.where(hm.fate == he.fate, np.hypot(hm.point[..., 0], hm.point[..., 1]), np.nan)}
 
 
 def _rms_max(x: np.ndarray) -> dict:

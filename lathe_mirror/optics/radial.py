@@ -26,6 +26,14 @@ from ..design import Camera, Lobe, Mirror
 from ..profile import Profile
 from ..toolpath.metrics import slope_error
 
+#: How far (px) past its lobe's designed annulus the exact lobe may image a made ray's
+#: direction and the pixel still counts: half a pixel, so a direction imaged onto the
+#: annulus's edge pixel is that pixel's. Beyond, the ray has left the lobe's range: the
+#: lobe's model has no pixel for it (a polished rim's roll-off sends rays up to the
+#: asymptote, where the exact lobe's image radius runs to infinity), so the pixel is
+#: counted lost (pixels_left_range), never as a displacement larger than the annulus.
+LOBE_RANGE_SLACK_PX = 0.5
+
 #: Fixed-point iterations of the ray-surface intersection; each contracts the error by
 #: |tan(theta) * slope| <= 0.22 on the paper mirror, so 60 reach machine precision for
 #: any mirror whose lobes the camera sees at less than ~60 degrees off axis.
@@ -155,6 +163,39 @@ def corner_limit_px(mirror: Mirror, corner_mm: float) -> float:
     return float(mirror.camera.image_radius_px(r / float(mirror.inner.z(r))))
 
 
+def lobe_range_px(mirror: Mirror, k: int) -> tuple[float, float]:
+    """Image radii (px) of lobe k's designed annulus (Mirror.image_radii_px: the inner
+    disc, the outer annulus), the range a made ray's image may land in, give or take
+    LOBE_RANGE_SLACK_PX."""
+    radii = mirror.image_radii_px
+    return radii["inner_disc"] if k == 0 else radii["outer_annulus"]
+
+
+def in_lobe_range(mirror: Mirror, k: int, ideal_px: np.ndarray, camera: Camera | None = None) -> np.ndarray:
+    """Where the exact lobe k images a made ray's direction (ideal_px, px of `camera`,
+    default the design's; NaN past the asymptote) within its designed annulus, give or
+    take LOBE_RANGE_SLACK_PX."""
+    lo, hi = lobe_range_px(mirror, k)
+    if camera is not None:  # the annulus in this camera's pixels (the same angles)
+        scale = (camera.f / camera.t_pixel) / (mirror.camera.f / mirror.camera.t_pixel)
+        lo, hi = lo * scale, hi * scale
+    x = np.asarray(ideal_px, float)
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(x) & (x >= lo - LOBE_RANGE_SLACK_PX) & (x <= hi + LOBE_RANGE_SLACK_PX)
+
+
+def edge_mask(mirror: Mirror, k: int, r: np.ndarray, edge_mm: float) -> np.ndarray:
+    """Where lobe radii r (mm) lie within edge_mm of lobe k's edges: the step (the inner
+    lobe's rim, the outer lobe's inner edge) and the outer rim; the axis is no edge. The
+    band a polish turns down (polish.clear_edge_mm): its own zone figure."""
+    r = np.asarray(r, float)
+    if edge_mm <= 0:
+        return np.zeros(r.shape, bool)
+    if k == 0:
+        return r >= mirror.r_junction - edge_mm
+    return (r <= mirror.r_junction + edge_mm) | (r >= mirror.r_max - edge_mm)
+
+
 def trace_lobe(profile: Profile | Lobe, mirror: Mirror, k: int, radius_px: np.ndarray, *,
                camera_dz: float = 0.0) -> MeridianRays:
     """Reflect the camera rays of image radii radius_px (px) off lobe k of a surface.
@@ -223,14 +264,17 @@ def radial_displacement(profile: Profile, mirror: Mirror, k: int, radius_px: np.
     the pixel to, minus where the pixel is. NaN where the made ray misses lobe k (lost).
     """
     rays = trace_lobe(profile, mirror, k, radius_px, camera_dz=camera_dz)
-    d = ideal_radius_px(mirror.lobes[k], mirror.camera, rays.elevation) - radius_px
-    # Rays that miss their lobe carry no image of it: NaN. (Vignetting is judged on the
-    # exact design's pixels, lobe_pixel_radii: the same pixel set for every made surface.)
-    return np.where(rays.ok, d, np.nan)
+    ideal = ideal_radius_px(mirror.lobes[k], mirror.camera, rays.elevation)
+    d = ideal - radius_px
+    # Rays that miss their lobe, or leave its range, carry no image of it: NaN. (Vignetting
+    # is judged on the exact design's pixels, lobe_pixel_radii: the same pixel set for
+    # every made surface.)
+    return np.where(rays.ok & in_lobe_range(mirror, k, ideal), d, np.nan)
 
 
 def radial_figures(profile: Profile, mirror: Mirror, *, camera_dz: float = 0.0,
-                   bin_px: float | None = None, corner_mm: float = 0.0, zones=None) -> dict:
+                   bin_px: float | None = None, corner_mm: float = 0.0, zones=None,
+                   edge_mm: float = 0.0) -> dict:
     """Per-lobe ray_deviation_deg, image_displacement_px, viewpoint_spread_mm ({rms, max}).
 
     RMS and max over the pixel centres of each lobe's usable annulus (each distinct radius
@@ -239,14 +283,23 @@ def radial_figures(profile: Profile, mirror: Mirror, *, camera_dz: float = 0.0,
     the ones the step vignettes on the exact design) and the made ray lands on the lobe:
     the rule of optics.distortion's usable annulus. corner_mm, zones: see lobe_pixel_radii
     (zones: each lobe's used zone, its "zone_px" given).
+
+    A made ray the exact lobe would image outside the lobe's designed annulus (in_lobe_range)
+    has left the lobe's range: counted lost, "pixels_left_range" (and its share of the
+    lobe's pixels, "left_range_pct"), not a displacement. edge_mm > 0: the figures of the
+    pixels whose made ray meets the lobe within edge_mm of its edges (edge_mask: a polished
+    part's turned-down rim and roll-off at the step) again on their own, under "edge"
+    (they stay in the lobe's figures too).
     """
     lobes = []
     for k, lobe in enumerate(mirror.lobes):
         px = lobe_pixel_radii(mirror, k, bin_px=bin_px, corner_mm=corner_mm, zones=zones)
         made = trace_lobe(profile, mirror, k, px.radius_px, camera_dz=camera_dz)
         exact = trace_lobe(lobe, mirror, k, px.radius_px)
-        use = made.ok
-        disp = ideal_radius_px(lobe, mirror.camera, made.elevation) - px.radius_px
+        ideal = ideal_radius_px(lobe, mirror.camera, made.elevation)
+        left = made.ok & ~in_lobe_range(mirror, k, ideal)
+        use = made.ok & ~left
+        disp = ideal - px.radius_px
         # atan2(|cross|, dot) keeps precision for tiny angles where arccos loses it.
         dev = np.degrees(np.arctan2(np.abs(made.o_r * exact.o_z - made.o_z * exact.o_r),
                                     made.o_r * exact.o_r + made.o_z * exact.o_z))
@@ -257,10 +310,17 @@ def radial_figures(profile: Profile, mirror: Mirror, *, camera_dz: float = 0.0,
             "name": lobe.name,
             "pixels": int(np.sum(w[use])),
             "pixels_excluded": int(np.sum(w[~use])),
+            "pixels_left_range": int(np.sum(w[left])),
+            "left_range_pct": float(100.0 * np.sum(w[left]) / max(float(np.sum(w)), 1.0)),
             "ray_deviation_deg": weighted_stats(dev[use], w[use], count_nan=True),
             "image_displacement_px": weighted_stats(disp[use], w[use], count_nan=True),
             "viewpoint_spread_mm": weighted_stats(spread[use], w[use], count_nan=True),
         })
+        if edge_mm > 0:
+            band = made.ok & edge_mask(mirror, k, made.r, edge_mm)
+            lobes[-1]["edge"] = {"band_mm": float(edge_mm), "pixels": int(np.sum(w[band & use])),
+                                 "pixels_left_range": int(np.sum(w[band & left])),
+                                 "image_displacement_px": weighted_stats(disp[band & use], w[band & use])}
         if zones is not None:
             u = zones.lobes[k].used_px
             lobes[-1]["zone_px"] = {"min": float(u[0]), "max": float(u[1])}

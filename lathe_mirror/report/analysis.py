@@ -14,6 +14,7 @@ from ..design import Mirror
 from ..enums import BEST, Strategy
 from ..job import MachiningJob, scene_for
 from ..nose_envelope import contour_profile
+from ..optics.defocus import blur_figures, blur_map, defocus_image, grow_mask, lens_for
 from ..optics.distortion import image_displacement, usable_annulus
 from ..optics.radial import lobe_pixel_radii, radial_displacement, radial_figures, used_extent
 from ..optics.ranging.resolution import resolution_table
@@ -24,10 +25,10 @@ from ..path import Arc, Line
 from ..profile import ExactProfile, Profile
 from ..results.base import Range, Stat, plain
 from ..results.design import DesignFigures
-from ..results.made import (LobeFigures, MachineFigures, MadeMirror, MirrorFigures, Moves, PixelFigures,
+from ..results.made import (EdgeFigures, LobeFigures, MachineFigures, MadeMirror, MirrorFigures, Moves, PixelFigures,
                             SurfaceErrors, ToolFigures, ToolpathFigures, ZoneFigures)
 from ..results.optics import DEPTH_REPORT_M  # noqa: F401 (re-exported: the report's range)
-from ..results.optics import (CalibrationFigures, ErrorCurve, ImageDifference, RangeFigures, RangingFigures,
+from ..results.optics import (CalibrationFigures, DefocusFigures, ErrorCurve, ImageDifference, RangeFigures, RangingFigures,
                               RenderFigures, ResolutionTable, StereoFigures)
 from ..results.polishing import PolishingStudy
 from ..results.tolerance import ToleranceAnalysis, Verdict
@@ -44,6 +45,25 @@ MIRRORS = ("exact", "paper", "best", "polished")
 #: Ranges (m) and elevations (deg) of the report's resolution table.
 RESOLUTION_RANGES_M = (0.5, 1.0, 1.5, 2.0, 3.0)
 RESOLUTION_ELEVATIONS_DEG = (-20.0, -10.0, 0.0)
+
+
+#: What each shared figure is measured against (report.json's "definitions"): one
+#: definition per name, the same in every output (the G-code header says it beside its own).
+FIGURE_DEFINITIONS = {
+    "normal_deviation_mm": "the made surface against the DESIGN's sheet (never a program's pre-compensated "
+                           "target), the distance along the sheet's normal; mirrors and toolpaths: over each "
+                           "whole lobe (r 0..r_junction, r_junction..r_max), the junction fillet included",
+    "slope_error_rad": "the angle between the made surface's and the design's normals at the same r; over each "
+                       "whole lobe, as normal_deviation_mm",
+    "image_displacement_px": "where the exact design images the direction the made surface sends a pixel's ray "
+                             "(the scene at infinity: directions), minus the pixel; aligned camera, no calibration; "
+                             "over each lobe's used zone (zones); a ray the exact lobe would image outside the "
+                             "lobe's annulus is lost (pixels_left_range), not a displacement",
+    "reprojection_error_px": "calibration: the design's camera model projecting world points on each made ray at "
+                             "range_m from the lobe's viewpoint, minus the pixel (at infinity it is "
+                             "image_displacement_px)",
+    "blur_px": "the thin-lens blur circle's diameter at each pixel (renders and ranging; defocus)",
+}
 
 
 @dataclass(frozen=True, slots=True)
@@ -75,6 +95,7 @@ class ReportData:
 
     design: DesignFigures
     notes: tuple[str, ...] = ()
+    definitions: dict[str, str] | None = None
     spec: PartSpec | None = None
     machine: MachineFigures | None = None
     toolpaths: tuple[ToolpathFigures, ...] | None = None
@@ -97,7 +118,7 @@ class ReportData:
     plots: dict[str, bytes] = dataclasses.field(default_factory=dict)
 
     #: report.json's sections, in order (None: not computed, left out)
-    SECTIONS = ("notes", "design", "spec", "machine", "toolpaths", "polishing", "zones", "mirrors", "made_mirror",
+    SECTIONS = ("notes", "definitions", "design", "spec", "machine", "toolpaths", "polishing", "zones", "mirrors", "made_mirror",
                 "calibration", "stereo", "renders", "ranging", "tolerance", "verdict", "shop", "outputs")
 
     @property
@@ -116,7 +137,7 @@ class ReportData:
         return out
 
 
-def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> MirrorFigures:
+def mirror_figures(profile: Profile, mirror: Mirror, zones=None, *, edge_mm: float = 0.0) -> MirrorFigures:
     """The five figures per lobe (ARCHITECTURE.md), surface and optics.
 
     Surface figures: toolpath.profile_errors. Optical figures: over the pixels each lobe
@@ -125,10 +146,11 @@ def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> MirrorFigure
     the tests check); those per-pixel figures (with the pixels the step wall vignettes
     counted too under "with_vignetted") are kept alongside (`optics_distortion`).
     zones (optics.zones.Zones): the optical figures over each lobe's used zone (the ring
-    the nose cannot reach left out), its image radii under "zone_px".
+    the nose cannot reach left out), its image radii under "zone_px". edge_mm
+    (polish.clear_edge_mm): the edge band's own figures (optics.radial.radial_figures).
     """
     surf = profile_errors(profile, mirror)
-    rad = radial_figures(profile, mirror, zones=zones)
+    rad = radial_figures(profile, mirror, zones=zones, edge_mm=edge_mm)
     full = image_displacement(profile, mirror).figures(zones)  # over the same zones as the radial figures
     lobes = []
     for s, o, f in zip(surf["lobes"], rad["lobes"], full["lobes"]):
@@ -139,7 +161,9 @@ def mirror_figures(profile: Profile, mirror: Mirror, zones=None) -> MirrorFigure
             image_displacement_px=Stat.from_dict(o["image_displacement_px"]),
             viewpoint_spread_mm=Stat.from_dict(o["viewpoint_spread_mm"]),
             pixels=o["pixels"], pixels_excluded=o["pixels_excluded"],
+            pixels_left_range=o["pixels_left_range"], left_range_pct=o["left_range_pct"],
             zone_px=Range.from_dict(o["zone_px"]) if "zone_px" in o else None,
+            edge=EdgeFigures.from_dict(o["edge"]) if "edge" in o else None,
             optics_distortion=PixelFigures.from_dict(f)))
     return MirrorFigures(lobes=tuple(lobes))
 
@@ -196,19 +220,30 @@ def strategy_table(job: MachiningJob):
     return made, machine_table, tuple(table)
 
 
-def render_mirrors(made: dict, mirror: Mirror, settings: Settings):
-    """Each mirror's image of the paper's room, and each made image's difference to the exact."""
+def report_lens(mirror: Mirror, settings: Settings):
+    """The lens the report's images are blurred by, and each pixel's blur circle (px):
+    optics.defocus, as `render` and `stereo` blur theirs."""
+    lens = lens_for(mirror, settings.optimize.focus_range_m * 1000.0)
+    return lens, blur_map(mirror, lens)
+
+
+def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None):
+    """Each mirror's image of the paper's room (blurred by the lens, optics.defocus), and
+    each made image's difference to the exact."""
     scene = scene_for(settings, mirror)
-    images = {name: render_image(made[name], mirror, scene) for name in MIRRORS}
+    lens, blur = report_lens(mirror, settings)
+    images = {name: defocus_image(render_image(made[name], mirror, scene), blur) for name in MIRRORS}
     # Over the lobes' usable annuli, as `lathe-mirror render` states it (the one definition):
     # the step-vignetted band and the frame outside the mirror only dilute the difference.
     mask = usable_annulus(mirror)
     stats = {name: ImageDifference.from_dict(image_difference(images["exact"], images[name], mask=mask))
              for name in MIRRORS if name != "exact"}
-    return images, RenderFigures(against_exact=stats)
+    return images, RenderFigures(against_exact=stats,
+                                 defocus=DefocusFigures.from_dict(blur_figures(mirror, lens, zones)))
 
 
-def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings) -> tuple[RangingFigures, RangeMaps]:
+def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings,
+                    zones=None) -> tuple[RangingFigures, RangeMaps]:
     """Range from the image for each of MIRRORS (optics.ranging, the [stereo] settings,
     aligned camera): figures per mirror against the room's true range, the resolution
     table at the exact mirror's achieved disparity precision, and the range maps (m,
@@ -217,11 +252,12 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
     grid, match = prepare(mirror, st.params)
     scene = scene_for(settings, mirror)
     truth = true_range(mirror, scene, grid)
-    mask = image_mask(mirror, grid, match.num_disparities)
+    lens, blur = report_lens(mirror, settings)
+    mask = grow_mask(image_mask(mirror, grid, match.num_disparities), blur)
     mirrors, maps = {}, {}
     precision = math.nan
     for name in MIRRORS:  # exact first: its disparity error is the matcher's precision
-        image = render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask)
+        image = defocus_image(render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask), blur)
         result = stereo_range(image, mirror, st.params)
         fig = RangeFigures.from_dict(range_figures(result, truth, mirror,
                                                    precision_px=None if name == "exact" else precision))
@@ -234,12 +270,13 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
     figures = RangingFigures(
         definition="range error = 100 (R - R_true) / R_true, R from the stereo centre triangulated from "
                    "StereoSGBM disparities of the two lobes' panoramas (rendered at supersample "
-                   f"{st.supersample}), R_true the room along the outer lobe's pixel ray; over the common "
-                   "band's pixels with a range (valid_fraction of them)",
+                   f"{st.supersample}, blurred by the lens's defocus: `defocus`), R_true the room along the "
+                   "outer lobe's pixel ray; over the common band's pixels with a range (valid_fraction of them)",
         supersample=st.supersample,
         matcher_precision_px=precision,
         resolution=ResolutionTable.from_dict(table),
         mirrors=mirrors,
+        defocus=DefocusFigures.from_dict(blur_figures(mirror, lens, zones)),
     )
     return figures, RangeMaps(maps=maps, band_deg=tuple(math.degrees(x) for x in grid.band))
 

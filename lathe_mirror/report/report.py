@@ -74,19 +74,44 @@ def render_html(data: ReportData) -> str:
         mirrors_table=_mirrors_table(data.mirrors),
         profile_plot=img("profile_error", "height error along the meridian"),
         images=img("images", "renders side by side"),
-        renders_table=_kv_table({f"{k}: {m}": v for k, d in data.renders.against_exact.items()
-                                 for m, v in d.to_dict().items()}) if data.renders else "",
+        renders_table=(f"<p>{_defocus_text(data.renders.defocus)}</p>" + _kv_table(
+            {f"{k}: {m}": v for k, d in data.renders.against_exact.items() for m, v in d.to_dict().items()}))
+        if data.renders else "",
         displacement_plot=img("displacement", "image displacement against image radius"),
         polishing_section=_polishing_html(data.polishing, img),
         depth_table=_depth_table(data.stereo),
         depth_plot=img("depth_error", "depth error against range"),
         tolerance_section=tolerance_html(data.tolerance, img),
-        calibration_table=_calibration_table(data.calibration),
+        calibration_table=_calibration_table(data.calibration, data.mirrors),
         ranging_section=_ranging_html(data.ranging, img),
         spec_section=spec_html(data.spec),
+        headline=headline_html(data),
         summary=summary_html(data.tolerance),
         notes="".join(f"<li>{html.escape(n)}</li>" for n in data.notes),
     )
+
+
+def headline_html(data: ReportData) -> str:
+    """One sentence per headline: which part each headline figure describes (program, nose,
+    polish time, calibrated or not) and at which scene range; the made mirror the other
+    sections describe by default."""
+    parts = []
+    tol = data.tolerance
+    if tol is not None:
+        spec = tol.spec
+        for name, t in tol.programs.items():
+            mm = t.made_mirror
+            parts.append(
+                f"The answer's {name} program row judges {mm.label} ({mm.program} program, nose "
+                f"{mm.nose_radius_mm:g} mm, polished {mm.polish_time_s / 60:g} min), "
+                f"{'after calibration' if spec.calibrated else 'uncalibrated'}: its image displacement with the "
+                f"scene at infinity, its disparity and depth error at {spec.depth_range_m:g} m.")
+    if data.made_mirror is not None:
+        parts.append(f"The other sections name the part of each figure; the made mirror by default is "
+                     f"{data.made_mirror.label}, uncalibrated: image "
+                     "figures with the scene at infinity, the calibration's reprojection at its stated range, "
+                     "surface figures against the design.")
+    return "".join(f"<p class='answer'>{html.escape(p)}</p>" for p in parts)
 
 
 def _kv_table(d: dict) -> str:
@@ -111,6 +136,8 @@ def _toolpath_table(rows: tuple[ToolpathFigures, ...]) -> str:
     head = ("<tr><th>strategy</th><th>points</th><th>G1</th><th>G2/G3</th>"
             "<th>lobe</th><th>programmed slope error rad (RMS / max)</th><th>programmed normal deviation mm</th>"
             "<th>as-machined slope error rad</th><th>as-machined normal deviation mm</th></tr>")
+    note = ("<p>Every figure against the design (a pre-compensated program's part too: its G-code header "
+            "gives it against the program's own target as well), over each whole lobe.</p>")
     body = ""
     for r in rows:
         for k in (0, 1):
@@ -120,7 +147,7 @@ def _toolpath_table(rows: tuple[ToolpathFigures, ...]) -> str:
                      f"<td>{r.moves.g1 if k == 0 else ''}</td><td>{r.moves.g2_g3 if k == 0 else ''}</td>"
                      f"<td>{p.name}</td><td>{_fmt(p.slope_error_rad)}</td><td>{_fmt(p.normal_deviation_mm)}</td>"
                      f"<td>{_fmt(a.slope_error_rad)}</td><td>{_fmt(a.normal_deviation_mm)}</td></tr>")
-    return f"<table>{head}{body}</table>"
+    return f"{note}<table>{head}{body}</table>"
 
 
 def _programs_table(programs: list | None) -> str:
@@ -144,14 +171,30 @@ def _programs_table(programs: list | None) -> str:
 
 
 def _mirrors_table(m: dict[str, MirrorFigures]) -> str:
-    head = "<tr><th>mirror</th><th>lobe</th>" + "".join(f"<th>{k} (RMS / max)</th>" for k in FIVE) + "</tr>"
+    head = ("<tr><th>mirror</th><th>lobe</th>" + "".join(f"<th>{k} (RMS / max)</th>" for k in FIVE)
+            + "<th>pixels lost: ray left the lobe's range (% of the lobe's)</th>"
+            "<th>edge band: image displacement px (RMS / max), its pixels</th></tr>")
     body = ""
     for name, fig in m.items():
         for lb in fig.lobes:
             label = f"{name}<br><small>{html.escape(fig.made_mirror)}</small>" if fig.made_mirror is not None else name
+            edge = "" if lb.edge is None else \
+                f"{_fmt(lb.edge.image_displacement_px)}, {lb.edge.pixels} ({_fmt(lb.edge.band_mm)} mm band)"
             body += f"<tr><td>{label}</td><td>{lb.name}</td>" + "".join(
-                f"<td>{_fmt(getattr(lb, k))}</td>" for k in FIVE) + "</tr>"
-    return f"<table>{head}{body}</table>"
+                f"<td>{_fmt(getattr(lb, k))}</td>" for k in FIVE) + \
+                f"<td>{lb.pixels_left_range} ({_pct(lb.left_range_pct)} %)</td><td>{edge}</td></tr>"
+    return (f"{table_note()}<table>{head}{body}</table>")
+
+
+def table_note() -> str:
+    """What the mirrors' optical figures are measured against, beside them."""
+    return ("<p>Optical figures over each lobe's used zone: the made mirror against the exact design "
+            "(image displacement: where the exact lobe images the direction the made surface sends the "
+            "pixel to, minus the pixel; no calibration; scene at infinity). A pixel whose made ray the exact "
+            "lobe would image outside the lobe's annulus (more than half a pixel) has left the lobe's range: "
+            "counted lost, not a displacement. The edge band (polish.clear_edge_mm from the step and the rim) "
+            "is also shown on its own. Normal deviation: the made surface against the exact design along its "
+            "normal, over each whole lobe.</p>")
 
 
 def _depth_table(st: StereoFigures) -> str:
@@ -164,7 +207,7 @@ def _depth_table(st: StereoFigures) -> str:
             f"{rows}</table>")
 
 
-def _calibration_table(cal: CalibrationFigures | None) -> str:
+def _calibration_table(cal: CalibrationFigures | None, mirrors: dict[str, MirrorFigures] | None = None) -> str:
     """Each lobe's unified model and, per made mirror, the design model's reprojection error
     and what the refitted model leaves."""
     if not cal:
@@ -176,17 +219,19 @@ def _calibration_table(cal: CalibrationFigures | None) -> str:
                    f"<td>{_fmt(lb.annulus_px.min)} to {_fmt(lb.annulus_px.max)}</td></tr>"
                    for lb in cal.design.lobes)
     dz = cal.design.t_cn_cnm1_mm[2]
-    made_head = ("<tr><th>mirror</th><th>lobe</th><th>design model: reprojection error px (RMS / max)</th>"
+    rng = next(iter(cal.made.values())).range_m if cal.made else 0
+    made_head = ("<tr><th>mirror</th><th>lobe</th><th>design model: reprojection error px (RMS / max), world "
+                 f"points at {_fmt(rng)} m</th><th>the same at infinity: image displacement px (section 4)</th>"
                  "<th>refit xi, gamma px, k1, k2</th><th>refit: reprojection error px (RMS / max)</th></tr>")
     made_rows = ""
     for name, m in cal.made.items():
         for lb in m.lobes:
             r = lb.refit
+            inf = "" if not mirrors or name not in mirrors else _fmt(mirrors[name].lobe(lb.name).image_displacement_px)
             made_rows += (f"<tr><td>{html.escape(name)}</td><td>{lb.name}</td>"
-                          f"<td>{_fmt(lb.design.reprojection_error_px)}</td>"
+                          f"<td>{_fmt(lb.design.reprojection_error_px)}</td><td>{inf}</td>"
                           f"<td>{r.xi:.5g}, {r.gamma_px:.6g}, {r.k1:.3g}, {r.k2:.3g}</td>"
                           f"<td>{_fmt(r.reprojection_error_px)}</td></tr>")
-    rng = next(iter(cal.made.values())).range_m if cal.made else 0
     return (f"<p>{html.escape(cal.design.frame)}. The design is an exact calibration (unified "
             f"model, no distortion); the viewpoints are {_fmt(dz)} mm apart along the axis (Kalibr's "
             f"T_cn_cnm1).</p><table>{head}{rows}</table>"
@@ -230,7 +275,7 @@ def _ranging_html(rg: RangingFigures | None, img) -> str:
     exact = rg.mirrors["exact"]
     starved = ", ".join(f"{k} {_pct(100 * v.valid_fraction)} %" for k, v in exact.valid_by_surface.items()
                         if v.pixels)
-    return (f"<p>{html.escape(rg.definition)}. One pixel of disparity (one image pixel in each lobe) stands "
+    return (f"<p>{html.escape(rg.definition)}. {_defocus_text(rg.defocus)} One pixel of disparity (one image pixel in each lobe) stands "
             f"for {exact.parallax_per_px_deg:.3f} deg of parallax (band median): R10 = "
             f"{res.r10_m:.3f} m. The matcher's precision on the exact mirror (median |disparity error|): "
             f"{rg.matcher_precision_px:.3f} panorama px of {exact.grid.elevation_step_deg:.4f} deg. Ranged on the "
@@ -241,6 +286,17 @@ def _ranging_html(rg: RangingFigures | None, img) -> str:
             + img("range_error", "range error against range with the resolution model")
             + f"<p>Resolution model: the range error one pixel of disparity causes, and the matcher's "
             f"precision, against range and elevation.</p><table>{rhead}{rbody}</table>")
+
+
+def _defocus_text(d) -> str:
+    """One sentence: the lens and each lobe's blur circle the images carry."""
+    if d is None:
+        return ""
+    lobes = "; ".join(f"{lb.name} {_fmt(lb.blur_px['min'])} to {_fmt(lb.blur_px['max'])} px (mean "
+                      f"{_fmt(lb.blur_px['mean'])})" for lb in d.lobes)
+    return html.escape(f"The images carry the lens's defocus (thin lens f/{d.lens.f_number:g} focused at "
+                       f"{d.lens.focus_mm:.1f} mm, scene {d.lens.object_range_mm / 1000.0:g} m from the "
+                       f"viewpoints): blur circle diameter {lobes} over each lobe's used zone.")
 
 
 def _polishing_html(p: PolishingStudy, img) -> str:

@@ -114,6 +114,8 @@ class PixelFigures(Result):
     name: str
     pixels: int
     pixels_lost: int
+    pixels_left_range: int
+    left_range_pct: float
     pixels_vignetted: int
     with_vignetted: VignettedFigures
     ray_deviation_deg: Stat
@@ -143,8 +145,22 @@ class DistortionFigures(Result):
 
 
 @dataclass(**RESULT)
+class EdgeFigures(Result):
+    """A lobe's edge band (polish.clear_edge_mm at the step and the rim: a polished part's
+    turned-down edge) on its own: its pixels, those whose ray left the lobe's range, and
+    their image displacement (px)."""
+
+    band_mm: float
+    pixels: int
+    pixels_left_range: int
+    image_displacement_px: Stat
+
+
+@dataclass(**RESULT)
 class LobeFigures(Result):
-    """The five figures of one lobe of a made mirror (ARCHITECTURE.md), surface and optics."""
+    """The five figures of one lobe of a made mirror (ARCHITECTURE.md), surface and optics.
+    pixels_excluded counts the pixels whose made ray misses the lobe or leaves its range
+    (pixels_left_range, left_range_pct of the lobe's pixels: lost, optics.radial)."""
 
     name: str
     slope_error_rad: Stat
@@ -154,7 +170,10 @@ class LobeFigures(Result):
     viewpoint_spread_mm: Stat
     pixels: int
     pixels_excluded: int
+    pixels_left_range: int
+    left_range_pct: float
     zone_px: Range | None = omitted()
+    edge: EdgeFigures | None = omitted()
     optics_distortion: PixelFigures
 
 

@@ -153,8 +153,33 @@ class ImageDifference(Result):
 
 
 @dataclass(**RESULT)
+class LensFigures(Result):
+    """The lens the images are blurred by (optics.defocus.Lens)."""
+
+    f_number: float
+    focus_mm: float
+    object_range_mm: float
+
+
+@dataclass(**RESULT)
+class LobeBlur(Result):
+    name: str
+    blur_px: dict[str, float]
+
+
+@dataclass(**RESULT)
+class DefocusFigures(Result):
+    """The thin-lens blur circle per lobe (px) the images carry (optics.defocus.blur_figures)."""
+
+    lens: LensFigures
+    lobes: tuple[LobeBlur, ...]
+    definition: str
+
+
+@dataclass(**RESULT)
 class RenderFigures(Result):
     against_exact: dict[str, ImageDifference]
+    defocus: DefocusFigures | None = omitted()
 
 
 # -- range from the image --------------------------------------------------------------
@@ -275,3 +300,4 @@ class RangingFigures(Result):
     matcher_precision_px: float
     resolution: ResolutionTable
     mirrors: dict[str, RangeFigures]
+    defocus: DefocusFigures | None = omitted()

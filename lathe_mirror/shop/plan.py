@@ -76,10 +76,22 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ToolpathSettings | N
     ops = numbered(ops_list)
     prog = Program(name=name, toolpath=toolpath, stock=stock, options=options, operations=ops,
                    home=plan.home, safe_z=plan.safe_z, r_out=plan.r_out, gouge_depth=depth,
-                   figures=profile_errors(made, m), used=profile_errors(made, m, r_ranges=usable_ranges(m.design)),
+                   figures=as_machined_figures(made, m), used=profile_errors(made, m.design,
+                                                                             r_ranges=usable_ranges(m.design)),
                    fillet=junction_fillet(toolpath), parting=parting)
     check_travel(prog.points(), lathe, what="the program")
     return prog
+
+
+def as_machined_figures(made, target) -> dict:
+    """The as-machined part's profile errors over whole lobes against the design (the one
+    definition every output uses: report.json's too); when the program cuts another target
+    (polish.precompensate: the design lowered by the polish's planned removal), also
+    against that target, under "against_target"."""
+    out = profile_errors(made, target.design)
+    if target is not target.design:
+        out["against_target"] = profile_errors(made, target)["lobes"]
+    return out
 
 
 def numbered(ops: list[Operation]) -> tuple[Operation, ...]:

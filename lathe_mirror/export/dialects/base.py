@@ -257,8 +257,12 @@ class Writer:
               f"{fillet['height_mm']:.3f} mm up the wall; the whole-lobe figures include it")
         for lobe in p.figures["lobes"]:
             nd, se = lobe["normal_deviation_mm"], lobe["slope_error_rad"]
-            c(f"as machined {lobe['name']}, whole lobe: normal deviation rms {nd['rms']:.2e} max "
+            c(f"as machined {lobe['name']}, whole lobe, against the design: normal deviation rms {nd['rms']:.2e} max "
               f"{nd['max']:.2e} mm, slope error rms {se['rms']:.2e} max {se['max']:.2e} rad")
+        for lobe in p.figures.get("against_target", ()):
+            nd = lobe["normal_deviation_mm"]
+            c(f"as machined {lobe['name']}, whole lobe, against this program's target [the design lowered by the "
+              f"polish's planned removal]: normal deviation rms {nd['rms']:.2e} max {nd['max']:.2e} mm")
         if m.step > 0:
             inner_hi = p.used["lobes"][0]["r_range_mm"]["max"]
             hidden = fillet is not None and fillet["r_start_mm"] >= inner_hi
@@ -271,7 +275,7 @@ class Writer:
               + ("; the fillet lies there, out of the image" if hidden else ""))
         for lobe in p.used["lobes"]:
             nd, se, rr = lobe["normal_deviation_mm"], lobe["slope_error_rad"], lobe["r_range_mm"]
-            c(f"as machined {lobe['name']}, used r {rr['min']:.3f}..{rr['max']:.3f} mm: normal deviation "
+            c(f"as machined {lobe['name']}, used r {rr['min']:.3f}..{rr['max']:.3f} mm, against the design: normal deviation "
               f"rms {nd['rms']:.2e} max {nd['max']:.2e} mm, slope error rms {se['rms']:.2e} max {se['max']:.2e} rad")
         if p.parting is not None:
             z, w = p.parting
