@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..design import Camera, Lobe
-from ..profile import ExactProfile, Profile
+from ..profile import ExactProfile, Profile, TabulatedProfile
 from .camera import ALIGNED, CameraPose, ray_directions
 from .rays import ROOT_TOL_MM, Fate, RayHits, azimuth, polyline_vertices
 from .trace3d import WALL_JUMP_MM, trace_rays
@@ -83,139 +83,365 @@ def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None 
         radii = np.asarray(radii_px, float)
         pixels_xy = np.stack([radii, np.zeros_like(radii)], axis=-1)
     pixels_xy = np.asarray(pixels_xy, float)
-    u, v = pixels_xy[..., 0], pixels_xy[..., 1]
     if not pose.aligned:
-        origin, d = ray_directions(camera, u, v, pose)
+        origin, d = ray_directions(camera, pixels_xy[..., 0], pixels_xy[..., 1], pose)
         return trace_rays(profile, origin, d, progress=progress)
-    rho = np.hypot(u, v)
-    t = rho * (camera.t_pixel / camera.f)
-    m = meridian_hits(profile, t)
-    cos, sin = azimuth(u, v, rho)
-    point = np.stack([m.r * cos, m.r * sin, m.z], axis=-1)
-    direction = np.stack([m.out_r * cos, m.out_r * sin, m.out_z], axis=-1)
-    return RayHits(fate=m.fate, point=point, direction=direction, blocked=m.blocked)
+    shape = pixels_xy.shape[:-1]
+    xy = pixels_xy.reshape(-1, 2)
+    n = xy.shape[0]
+    merid = _Meridian(profile)
+    fate, blocked = np.empty(n, dtype=np.int8), np.empty(n, dtype=bool)
+    point, direction = np.empty((n, 3)), np.empty((n, 3))
+    t_over_px = camera.t_pixel / camera.f
+    for a in range(0, n, _BLOCK):
+        b = min(a + _BLOCK, n)
+        u, v = xy[a:b, 0], xy[a:b, 1]
+        rho = u * u
+        rho += v * v
+        np.sqrt(rho, out=rho)  # not np.hypot: 50 ns a ray, most of the tracer's time
+        fate[a:b], r, z, out_r, out_z, blocked[a:b] = merid.block(rho * t_over_px)
+        if rho.all():  # off the principal point (always, for pixel centres)
+            cos, sin = u / rho, v / rho
+        else:
+            cos, sin = azimuth(u, v, rho)
+        p, d = point[a:b], direction[a:b]
+        np.multiply(r, cos, out=p[:, 0])
+        np.multiply(r, sin, out=p[:, 1])
+        p[:, 2] = z
+        np.multiply(out_r, cos, out=d[:, 0])
+        np.multiply(out_r, sin, out=d[:, 1])
+        d[:, 2] = out_z
+    return RayHits(fate=fate.reshape(shape), point=point.reshape(*shape, 3),
+                   direction=direction.reshape(*shape, 3), blocked=blocked.reshape(shape))
 
 
 def meridian_hits(profile: Profile, t: np.ndarray) -> MeridianHits:
     """Where camera rays r = t z (t >= 0) meet the profile, and how they reflect. Exact."""
     t = np.asarray(t, dtype=float)
-    rj, r_max = profile.r_junction, profile.r_max
-    r_out0 = np.nextafter(rj, np.inf)  # the first radius of the outer lobe
-    zi_j, zo_j, z_rim = (float(profile.z(np.array(x))) for x in (rj, r_out0, r_max))
-    if not (zi_j > 0 and zo_j > 0 and z_rim > 0):
-        raise ValueError("meridian_hits: the profile must lie above the camera (z > 0)")
-
-    # Classify by the ray's height where it reaches the junction and the rim (h monotone).
-    fate = np.full(t.shape, Fate.MISS, dtype=np.int8)
-    inner = t * zi_j <= rj
-    fate[inner] = Fate.INNER
-    wall = ~inner & (t * zo_j <= rj)
-    fate[wall] = Fate.WALL
-    outer = ~inner & ~wall & (t * z_rim <= r_max)
-    fate[outer] = Fate.OUTER
-
-    r = np.full(t.shape, np.nan)
-    for k, mask in ((0, inner), (1, outer)):
-        if mask.any():
-            r[mask] = _meridian_root(profile, t[mask], k)
-    r[outer] = np.maximum(r[outer], r_out0)  # a root at the junction belongs to the outer lobe
-    hit = inner | outer
-    z = np.full(t.shape, np.nan)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z[hit] = np.where(t[hit] > 0, r[hit] / t[hit], profile.z(np.zeros(1))[0])  # on the ray
-
-    # Mirror reflection out = d - 2 (d.n) n in the meridian plane, n = (s, -1) / |.|.
-    s = np.full(t.shape, np.nan)
-    s[hit] = profile.slope(r[hit])
-    norm_d = np.sqrt(1.0 + t * t)
-    dr, dz = t / norm_d, 1.0 / norm_d
-    norm_n = np.sqrt(1.0 + s * s)
-    nr, nz = s / norm_n, -1.0 / norm_n
-    dot = dr * nr + dz * nz
-    out_r, out_z = dr - 2.0 * dot * nr, dz - 2.0 * dot * nz
-
-    # Rays leaving the inner lobe cross r = r_junction (on the far side if out_r < 0); there
-    # the material of the outer lobe starts at zo_j, and the outer sheet rises faster than
-    # any reflected ray beyond (convex lobe), so that crossing decides.
-    blocked = np.zeros(t.shape, dtype=bool)
-    if inner.any():
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ri, zi, ori, ozi = r[inner], z[inner], out_r[inner], out_z[inner]
-            z_at_wall = zi + (np.sign(ori) * rj - ri) * ozi / ori
-        blocked[inner] = (ori != 0) & (z_at_wall > zo_j)
-    return MeridianHits(t=t, fate=fate, r=r, z=z, out_r=out_r, out_z=out_z, blocked=blocked)
+    flat = t.reshape(-1)
+    n = flat.size
+    merid = _Meridian(profile)
+    fate, blocked = np.empty(n, dtype=np.int8), np.empty(n, dtype=bool)
+    r, z, out_r, out_z = (np.empty(n) for _ in range(4))
+    for a in range(0, n, _BLOCK):
+        b = min(a + _BLOCK, n)
+        fate[a:b], r[a:b], z[a:b], out_r[a:b], out_z[a:b], blocked[a:b] = merid.block(flat[a:b])
+    return MeridianHits(t=t, fate=fate.reshape(t.shape), r=r.reshape(t.shape), z=z.reshape(t.shape),
+                        out_r=out_r.reshape(t.shape), out_z=out_z.reshape(t.shape),
+                        blocked=blocked.reshape(t.shape))
 
 
 # --------------------------------------------------------------------------------------
-# Meridian roots
+# The meridian tracer, a block of rays at a time
+
+#: Rays per block: the block's ~20 temporaries (8 bytes a ray each) stay in a core's L2
+#: cache, where a whole-sensor array (8 MB) would go to memory at every step.
+_BLOCK = 1 << 13
 
 
-def _meridian_root(profile: Profile, t: np.ndarray, k: int) -> np.ndarray:
-    """Radius (mm) where rays r = t z meet lobe k of the profile (the root exists)."""
-    lobe = profile.mirror.lobes[k] if isinstance(profile, ExactProfile) else None
-    if isinstance(lobe, Lobe):  # a design lobe: closed form (a compensated sheet is not a hyperbola)
-        return t * _sheet_height(lobe, t)
+def _per_fate(inner: float, outer: float) -> np.ndarray:
+    """A lobe constant per Fate code (INNER, OUTER, WALL, MISS): NaN off the lobes, so
+    whatever is computed from it for a wall or a missed ray is NaN."""
+    return np.array([inner, outer, np.nan, np.nan])
+
+
+class _Meridian:
+    """A profile's junction and rim, and its lobes' solver, set up once per call."""
+
+    def __init__(self, profile: Profile):
+        self.profile = profile
+        self.rj, self.r_max = rj, r_max = profile.r_junction, profile.r_max
+        self.r_out0 = np.nextafter(rj, np.inf)  # the first radius of the outer lobe
+        self.zi_j, self.zo_j, self.z_rim = (float(profile.z(np.array(x))) for x in (rj, self.r_out0, r_max))
+        if not (self.zi_j > 0 and self.zo_j > 0 and self.z_rim > 0):
+            raise ValueError("meridian_hits: the profile must lie above the camera (z > 0)")
+        self.z_axis = profile.z(np.zeros(1))[0]
+        # a root at the junction belongs to the outer lobe; NaN off the lobes
+        self.r_min = _per_fate(-np.inf, self.r_out0)
+        self.solve = _solver(profile, self.r_min)
+
+    def block(self, t: np.ndarray) -> tuple[np.ndarray, ...]:
+        """fate, r, z, out_r, out_z, blocked of the rays r = t z (t 1-D)."""
+        # Classify by the ray's height where it reaches the junction and the rim (h monotone).
+        inner = t * self.zi_j <= self.rj
+        fate = np.where(t * self.z_rim <= self.r_max, np.int8(Fate.OUTER), np.int8(Fate.MISS))
+        np.copyto(fate, np.int8(Fate.WALL), where=t * self.zo_j <= self.rj)
+        np.copyto(fate, np.int8(Fate.INNER), where=inner)
+        lobe = fate.astype(np.intp)
+
+        norm_d = t * t
+        norm_d += 1.0
+        np.sqrt(norm_d, out=norm_d)
+        r, s = self.solve(t, norm_d, lobe)  # NaN off the lobes
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = r / t  # on the ray
+        if not t.all():
+            z[t == 0] = self.z_axis
+        past = r > self.rj
+        past &= inner
+        if past.any():  # a root rounded past the junction: the slope profile.slope gives there
+            s[past] = self.profile.slope(r[past])
+
+        # Mirror reflection out = d - 2 (d.n) n in the meridian plane, d = (t, 1) / norm_d,
+        # n = (s, -1) / sqrt(1 + s^2): out = (t - g s, 1 + g) / norm_d, g = 2 (t s - 1) / (1 + s^2).
+        g = t * s
+        g -= 1.0
+        g += g
+        h = s * s
+        h += 1.0
+        g /= h
+        inv_d = np.divide(1.0, norm_d, out=norm_d)
+        out_z = g + 1.0
+        out_z *= inv_d
+        out_r = np.multiply(g, s, out=g)
+        np.subtract(t, out_r, out=out_r)
+        out_r *= inv_d
+
+        # Rays leaving the inner lobe cross r = r_junction (on the far side if out_r < 0);
+        # there the material of the outer lobe starts at zo_j, and the outer sheet rises
+        # faster than any reflected ray beyond (convex lobe), so that crossing decides.
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z_at_wall = np.sign(out_r, out=h)
+            z_at_wall *= self.rj
+            z_at_wall -= r
+            z_at_wall *= out_z
+            z_at_wall /= out_r
+            z_at_wall += z
+        blocked = z_at_wall > self.zo_j
+        blocked &= out_r != 0
+        blocked &= inner
+        return fate, r, z, out_r, out_z, blocked
+
+
+# --------------------------------------------------------------------------------------
+# The lobes' roots and slopes: r (NaN off the lobes) and dZ/dr there, for all rays at once
+
+
+def _solver(profile: Profile, r_min: np.ndarray):
+    """The fastest exact solver the profile allows: both lobes' hyperbolic sheets in closed
+    form, both lobes' polylines by one table search, else lobe by lobe (Newton)."""
+    sheets = profile.mirror.lobes if isinstance(profile, ExactProfile) else (None, None)
+    if all(type(x) is Lobe for x in sheets) and type(profile).slope is ExactProfile.slope:
+        return _Sheets(sheets, r_min)
+    vertices = [polyline_vertices(profile, k) for k in (0, 1)]
+    if None not in vertices:
+        q = [np.maximum.accumulate(rs / zs) for rs, zs in vertices]
+        if q[0][-1] <= q[1][0]:  # one table for both lobes, in order of the ray's slope t
+            return _Polylines(profile, vertices, q, r_min)
+    return _ByLobe(profile, r_min)
+
+
+class _Sheets:
+    """Rays r = t z meet the upper sheet (z - e)^2 / a^2 - r^2 / b^2 = 1 at
+    z = b^2 / (e - a sqrt(1 + t^2)), the stable root of A z^2 - 2 e z + b^2 = 0. There
+    dZ/dr = a r / (b^2 sqrt(1 + r^2 / b^2)) = (a / b)^2 r / (z - e) (on the sheet,
+    sqrt(1 + r^2 / b^2) = (z - e) / a)."""
+
+    def __init__(self, lobes: tuple[Lobe, Lobe], r_min: np.ndarray):
+        i, o = lobes
+        self.b2, self.e, self.a = (_per_fate(x, y) for x, y in ((i.b**2, o.b**2), (i.e, o.e), (i.a, o.a)))
+        self.k = _per_fate((i.a / i.b) ** 2, (o.a / o.b) ** 2)
+        self.r_min = r_min
+
+    def __call__(self, t: np.ndarray, norm_d: np.ndarray, lobe: np.ndarray):
+        e = self.e.take(lobe)
+        z = self.a.take(lobe)
+        z *= norm_d
+        np.subtract(e, z, out=z)
+        np.divide(self.b2.take(lobe), z, out=z)
+        r = z * t
+        np.maximum(r, self.r_min.take(lobe), out=r)
+        z -= e
+        s = self.k.take(lobe)
+        s *= r
+        s /= z
+        return r, s
+
+
+class _Polylines:
+    """Both lobes' polylines (vertices rs, zs) as one table. On segment j the ray r = t z
+    meets z = zs_j + m (r - rs_j) at r = t (zs_j - m rs_j) / (1 - t m); the segment is the
+    last whose vertex has r / z <= t (r / z increases along a lobe, see the module doc, and
+    from the inner lobe to the outer), clipped to the ray's lobe, whose end segments extend
+    beyond its ends. A TabulatedProfile's slope is interpolated on the same segment when the
+    root lies in it (as np.interp does, to the bit), else by the profile."""
+
+    def __init__(self, profile: Profile, vertices, q, r_min: np.ndarray):
+        self.profile, self.r_min = profile, r_min
+        n0, n1 = (rs.size for rs, _ in vertices)
+        self.rs, zs = (np.concatenate(x) for x in zip(*vertices))
+        self.search = _Search(np.concatenate(q))
+        self.lo = np.array([0, n0, 0, 0], dtype=np.intp)
+        self.hi = np.array([n0 - 2, n0 + n1 - 2, 0, 0], dtype=np.intp)
+        dr = self.rs[1:] - self.rs[:-1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            self.m = (zs[1:] - zs[:-1]) / dr
+            self.c = zs[:-1] - self.m * self.rs[:-1]
+        self.step = dr <= 0  # a vertical step in the table: the ray meets it there
+        self.step[n0 - 1] = False  # not a segment: the gap between the lobes
+        self.any_step = bool(self.step.any())
+        self.ss = None
+        if type(profile).slope is TabulatedProfile.slope and vertices[0][0][-1] <= profile.r_junction:
+            self.ss = np.concatenate([profile.lobes[0][2], profile.lobes[1][2]])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                self.ds = (self.ss[1:] - self.ss[:-1]) / dr
+
+    def __call__(self, t: np.ndarray, norm_d: np.ndarray, lobe: np.ndarray):
+        j = self.search(t)
+        np.clip(j, self.lo.take(lobe), self.hi.take(lobe), out=j)
+        den = self.m[j]
+        den *= t
+        np.subtract(1.0, den, out=den)
+        r = self.c[j]
+        r *= t
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r /= den
+        if self.any_step:
+            r = np.where(self.step[j], self.rs[j], r)
+        np.maximum(r, self.r_min.take(lobe), out=r)
+        if self.ss is None:
+            return r, _slope_on_lobes(self.profile, r, lobe)
+        r0 = self.rs[j]
+        fits = r0 <= r
+        fits &= r < self.rs[j + 1]
+        s = r - r0
+        s *= self.ds[j]
+        s += self.ss[j]
+        redo = ~fits
+        redo &= lobe <= Fate.OUTER
+        if redo.any():  # a root on a segment's end or beyond the table: np.interp's own choice
+            s[redo] = self.profile.slope(r[redo])
+        return r, s
+
+
+class _Search:
+    """searchsorted(q, t, side="right") - 1 on a non-decreasing table q, about 4x faster
+    than numpy's binary search on tables of 10^4-10^5 entries: a uniform grid of buckets
+    over q gives each t a start index, a few vectorised steps advance it, and the rays the
+    steps leave unresolved (a crowded bucket, t beyond the table) go to searchsorted."""
+
+    def __init__(self, q: np.ndarray):
+        self.q, n = q, q.size
+        span = float(q[-1] - q[0])
+        self.q0, self.n_buckets = float(q[0]), n
+        self.scale = n / span if span > 0 else 0.0
+        starts = np.searchsorted(q, q[0] + np.arange(n) * (span / n), side="right") - 1
+        self.starts = starts.astype(np.intp)
+        crowd = int(np.max(np.diff(np.append(starts, n - 1)), initial=0))
+        self.steps = min(max(crowd, 1), 3)
+        self.padded = np.concatenate([q, np.full(self.steps + 1, np.inf)])
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        x = t - self.q0
+        x *= self.scale
+        np.fmax(x, 0.0, out=x)  # fmax/fmin: a NaN t goes to bucket 0 (then searchsorted)
+        np.fmin(x, self.n_buckets - 1, out=x)
+        j = self.starts[x.astype(np.intp)]
+        for _ in range(self.steps):
+            j += self.padded[j + 1] <= t
+        ok = self.padded[j] <= t
+        ok &= self.padded[j + 1] > t
+        if not ok.all():
+            bad = np.flatnonzero(~ok)
+            j[bad] = np.searchsorted(self.q, t[bad], side="right") - 1
+        return j
+
+
+def _slope_on_lobes(profile: Profile, r: np.ndarray, lobe: np.ndarray) -> np.ndarray:
+    """profile.slope at the hits (NaN elsewhere)."""
+    s = np.full(r.shape, np.nan)
+    hit = np.flatnonzero(lobe <= Fate.OUTER)
+    s[hit] = profile.slope(r[hit])
+    return s
+
+
+class _ByLobe:
+    """Lobe by lobe, for any profile: each lobe's rays to its own root (closed form on a
+    design sheet, the polyline's segment, else Newton)."""
+
+    def __init__(self, profile: Profile, r_min: np.ndarray):
+        self.profile, self.r_min = profile, r_min
+        self.roots = tuple(_lobe_root(profile, k) for k in (0, 1))
+
+    def __call__(self, t: np.ndarray, norm_d: np.ndarray, lobe: np.ndarray):
+        r = np.full(t.shape, np.nan)
+        for k, root in enumerate(self.roots):
+            idx = np.flatnonzero(lobe == k)
+            if idx.size:
+                r[idx] = np.maximum(root(t[idx], norm_d[idx]), self.r_min[k])
+        return r, _slope_on_lobes(self.profile, r, lobe)
+
+
+def _lobe_root(profile: Profile, k: int):
+    """Lobe k's root of r = t Z(r): closed form on a design lobe (a compensated sheet is not
+    a hyperbola), the segment on a polyline, else Newton."""
+    sheet = profile.mirror.lobes[k] if isinstance(profile, ExactProfile) else None
+    if type(sheet) is Lobe:
+        b2, e, a = sheet.b**2, sheet.e, sheet.a
+        return lambda t, norm_d: t * (b2 / (e - a * norm_d))
     vertices = polyline_vertices(profile, k)
     if vertices is not None:
-        return _polyline_root(*vertices, t)
-    return _newton_root(profile, t, k)
+        return _polyline_root(*vertices)
+    return _NewtonRoot(profile, k)
 
 
-def _polyline_root(rs: np.ndarray, zs: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Where rays r = t z meet the polyline through (rs, zs) (rs non-decreasing), mm.
-
-    The segment is found by a binary search on the vertices' r / z (increasing along a
-    lobe, see the module doc); the end segments extend beyond the ends.
-    """
+def _polyline_root(rs: np.ndarray, zs: np.ndarray):
+    """Where rays r = t z meet the polyline through (rs, zs) (rs non-decreasing), mm: the
+    segment by a binary search on the vertices' r / z; the end segments extend."""
     q = np.maximum.accumulate(rs / zs)
-    j = np.clip(np.searchsorted(q, t, side="right") - 1, 0, rs.size - 2)
-    dr = rs[j + 1] - rs[j]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        m = (zs[j + 1] - zs[j]) / dr
-        r = t * (zs[j] - m * rs[j]) / (1.0 - t * m)
-    return np.where(dr > 0, r, rs[j])  # a vertical step in the table: the ray meets it there
 
-
-def _sheet_height(lobe: Lobe, t: np.ndarray) -> np.ndarray:
-    """Height z (mm) where the ray r = t z meets the lobe's upper sheet (closed form)."""
-    return lobe.b**2 / (lobe.e - lobe.a * np.sqrt(1.0 + t * t))
-
-
-def _newton_root(profile: Profile, t: np.ndarray, k: int, *, table: int = 2049,
-                 max_iter: int = 100) -> np.ndarray:
-    """Root of h(r) = t Z(r) - r on lobe k: table bracket, then safeguarded Newton."""
-    lo_r, hi_r = profile.lobe_range(k)
-    if k == 1:
-        lo_r = np.nextafter(lo_r, np.inf)
-    rs = np.linspace(lo_r, hi_r, table)
-    q = np.maximum.accumulate(rs / profile.z(rs))
-    j = np.clip(np.searchsorted(q, t, side="right") - 1, 0, table - 2)
-    lo, hi = rs[j], rs[j + 1]
-    h_lo = t * profile.z(lo) - lo
-    h_hi = t * profile.z(hi) - hi
-    bad = ~((h_lo >= 0) & (h_hi <= 0))  # a non-monotone table: fall back to the whole lobe
-    lo = np.where(bad, lo_r, lo)
-    hi = np.where(bad, hi_r, hi)
-    h_lo = np.where(bad, t * profile.z(lo) - lo, h_lo)
-    h_hi = np.where(bad, t * profile.z(hi) - hi, h_hi)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.where(h_lo == h_hi, 0.5 * (lo + hi), lo + (hi - lo) * h_lo / (h_lo - h_hi))
-    x = np.clip(x, lo, hi)
-    active = np.arange(t.size)
-    for _ in range(max_iter):
-        xa, ta = x[active], t[active]
-        h = ta * profile.z(xa) - xa
-        dh = ta * profile.slope(xa) - 1.0
-        la, ha = lo[active], hi[active]
-        la = np.where(h > 0, xa, la)
-        ha = np.where(h > 0, ha, xa)
+    def root(t: np.ndarray, norm_d: np.ndarray) -> np.ndarray:
+        j = np.clip(np.searchsorted(q, t, side="right") - 1, 0, rs.size - 2)
+        dr = rs[j + 1] - rs[j]
         with np.errstate(divide="ignore", invalid="ignore"):
-            nx = xa - h / dh
-        outside = ~((nx >= la) & (nx <= ha)) | ~np.isfinite(nx)
-        nx = np.where(outside, 0.5 * (la + ha), nx)
-        lo[active], hi[active], x[active] = la, ha, nx
-        done = (np.abs(nx - xa) <= ROOT_TOL_MM) | (h == 0) | (ha - la <= ROOT_TOL_MM)
-        active = active[~done]
-        if active.size == 0:
-            break
-    return x
+            m = (zs[j + 1] - zs[j]) / dr
+            r = t * (zs[j] - m * rs[j]) / (1.0 - t * m)
+        return np.where(dr > 0, r, rs[j])  # a vertical step in the table: the ray meets it there
+    return root
+
+
+class _NewtonRoot:
+    """Root of h(r) = t Z(r) - r on lobe k of any profile: a table brackets it (built once
+    per call), then safeguarded Newton, vectorised, to ROOT_TOL_MM."""
+
+    def __init__(self, profile: Profile, k: int, *, table: int = 2049, max_iter: int = 100):
+        self.profile, self.max_iter = profile, max_iter
+        lo_r, hi_r = profile.lobe_range(k)
+        if k == 1:
+            lo_r = np.nextafter(lo_r, np.inf)
+        self.lo_r, self.hi_r = lo_r, hi_r
+        self.rs = np.linspace(lo_r, hi_r, table)
+        self.q = np.maximum.accumulate(self.rs / profile.z(self.rs))
+
+    def __call__(self, t: np.ndarray, norm_d: np.ndarray) -> np.ndarray:
+        profile, rs = self.profile, self.rs
+        j = np.clip(np.searchsorted(self.q, t, side="right") - 1, 0, rs.size - 2)
+        lo, hi = rs[j], rs[j + 1]
+        h_lo = t * profile.z(lo) - lo
+        h_hi = t * profile.z(hi) - hi
+        bad = ~((h_lo >= 0) & (h_hi <= 0))  # a non-monotone table: fall back to the whole lobe
+        lo = np.where(bad, self.lo_r, lo)
+        hi = np.where(bad, self.hi_r, hi)
+        h_lo = np.where(bad, t * profile.z(lo) - lo, h_lo)
+        h_hi = np.where(bad, t * profile.z(hi) - hi, h_hi)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = np.where(h_lo == h_hi, 0.5 * (lo + hi), lo + (hi - lo) * h_lo / (h_lo - h_hi))
+        x = np.clip(x, lo, hi)
+        active = np.arange(t.size)
+        for _ in range(self.max_iter):
+            xa, ta = x[active], t[active]
+            h = ta * profile.z(xa) - xa
+            dh = ta * profile.slope(xa) - 1.0
+            la, ha = lo[active], hi[active]
+            la = np.where(h > 0, xa, la)
+            ha = np.where(h > 0, ha, xa)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                nx = xa - h / dh
+            outside = ~((nx >= la) & (nx <= ha)) | ~np.isfinite(nx)
+            nx = np.where(outside, 0.5 * (la + ha), nx)
+            lo[active], hi[active], x[active] = la, ha, nx
+            done = (np.abs(nx - xa) <= ROOT_TOL_MM) | (h == 0) | (ha - la <= ROOT_TOL_MM)
+            active = active[~done]
+            if active.size == 0:
+                break
+        return x
