@@ -100,11 +100,13 @@ def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None 
         rho += v * v
         np.sqrt(rho, out=rho)  # not np.hypot: 50 ns a ray, most of the tracer's time
         fate[a:b], r, z, out_r, out_z, blocked[a:b] = merid.block(rho * t_over_px)
-        if rho.all():  # off the principal point (always, for pixel centres)
-            cos, sin = u / rho, v / rho
+        p, d = point[a:b], direction[a:b]
+        if rho.all():  # off the principal point (always, for pixel centres): r cos = u (r / rho)
+            r /= rho
+            out_r /= rho
+            cos, sin = u, v
         else:
             cos, sin = azimuth(u, v, rho)
-        p, d = point[a:b], direction[a:b]
         np.multiply(r, cos, out=p[:, 0])
         np.multiply(r, sin, out=p[:, 1])
         p[:, 2] = z
@@ -139,6 +141,20 @@ def meridian_hits(profile: Profile, t: np.ndarray) -> MeridianHits:
 _BLOCK = 1 << 13
 
 
+#: Fate by the number of thresholds t_in <= t_wall <= t_rim that t is below.
+_FATE_BY_COUNT = np.array([Fate.MISS, Fate.OUTER, Fate.WALL, Fate.INNER], dtype=np.int8)
+
+
+def _threshold(r: float, z: float) -> float:
+    """The largest t with t * z <= r in floating point (z > 0)."""
+    t = r / z
+    while t * z > r:
+        t = np.nextafter(t, -np.inf)
+    while np.nextafter(t, np.inf) * z <= r:
+        t = np.nextafter(t, np.inf)
+    return float(t)
+
+
 def _per_fate(inner: float, outer: float) -> np.ndarray:
     """A lobe constant per Fate code (INNER, OUTER, WALL, MISS): NaN off the lobes, so
     whatever is computed from it for a wall or a missed ray is NaN."""
@@ -156,23 +172,31 @@ class _Meridian:
         if not (self.zi_j > 0 and self.zo_j > 0 and self.z_rim > 0):
             raise ValueError("meridian_hits: the profile must lie above the camera (z > 0)")
         self.z_axis = profile.z(np.zeros(1))[0]
+        # t z <= r_junction and t z <= r_max as t <= a threshold: the same test to the bit
+        # (t z rounds monotonically in t), one comparison a ray instead of two
+        t_in = _threshold(rj, self.zi_j)
+        t_wall = max(_threshold(rj, self.zo_j), t_in)
+        self.t_fate = (t_in, t_wall, max(_threshold(r_max, self.z_rim), t_wall))
         # a root at the junction belongs to the outer lobe; NaN off the lobes
         self.r_min = _per_fate(-np.inf, self.r_out0)
-        self.solve = _solver(profile, self.r_min)
+        self.solve = _solver(profile, self.r_min, t_in)
 
     def block(self, t: np.ndarray) -> tuple[np.ndarray, ...]:
         """fate, r, z, out_r, out_z, blocked of the rays r = t z (t 1-D)."""
-        # Classify by the ray's height where it reaches the junction and the rim (h monotone).
-        inner = t * self.zi_j <= self.rj
-        fate = np.where(t * self.z_rim <= self.r_max, np.int8(Fate.OUTER), np.int8(Fate.MISS))
-        np.copyto(fate, np.int8(Fate.WALL), where=t * self.zo_j <= self.rj)
-        np.copyto(fate, np.int8(Fate.INNER), where=inner)
+        # Classify by the ray's height where it reaches the junction and the rim (h
+        # monotone): inner if t zi_j <= r_junction, else the wall if t zo_j <= r_junction,
+        # else the outer lobe if t z_rim <= r_max, else a miss (and a NaN t).
+        t_in, t_wall, t_rim = self.t_fate
+        inner = t <= t_in
+        count = inner.view(np.int8) + (t <= t_wall).view(np.int8)
+        count += (t <= t_rim).view(np.int8)
+        fate = _FATE_BY_COUNT.take(count)
         lobe = fate.astype(np.intp)
 
         norm_d = t * t
         norm_d += 1.0
         np.sqrt(norm_d, out=norm_d)
-        r, s = self.solve(t, norm_d, lobe)  # NaN off the lobes
+        r, s = self.solve(t, norm_d, lobe, inner)  # NaN off the lobes
         with np.errstate(divide="ignore", invalid="ignore"):
             z = r / t  # on the ray
         if not t.all():
@@ -217,17 +241,15 @@ class _Meridian:
 # The lobes' roots and slopes: r (NaN off the lobes) and dZ/dr there, for all rays at once
 
 
-def _solver(profile: Profile, r_min: np.ndarray):
+def _solver(profile: Profile, r_min: np.ndarray, t_in: float):
     """The fastest exact solver the profile allows: both lobes' hyperbolic sheets in closed
     form, both lobes' polylines by one table search, else lobe by lobe (Newton)."""
     sheets = profile.mirror.lobes if isinstance(profile, ExactProfile) else (None, None)
     if all(type(x) is Lobe for x in sheets) and type(profile).slope is ExactProfile.slope:
         return _Sheets(sheets, r_min)
-    vertices = [polyline_vertices(profile, k) for k in (0, 1)]
-    if None not in vertices:
-        q = [np.maximum.accumulate(rs / zs) for rs, zs in vertices]
-        if q[0][-1] <= q[1][0]:  # one table for both lobes, in order of the ray's slope t
-            return _Polylines(profile, vertices, q, r_min)
+    lobes = _polyline_lobes(profile, t_in)
+    if lobes is not None:
+        return _Polylines(profile, lobes, r_min)
     return _ByLobe(profile, r_min)
 
 
@@ -243,7 +265,7 @@ class _Sheets:
         self.k = _per_fate((i.a / i.b) ** 2, (o.a / o.b) ** 2)
         self.r_min = r_min
 
-    def __call__(self, t: np.ndarray, norm_d: np.ndarray, lobe: np.ndarray):
+    def __call__(self, t: np.ndarray, norm_d: np.ndarray, lobe: np.ndarray, inner: np.ndarray):
         e = self.e.take(lobe)
         z = self.a.take(lobe)
         z *= norm_d
@@ -259,54 +281,58 @@ class _Sheets:
 
 
 class _Polylines:
-    """Both lobes' polylines (vertices rs, zs) as one table. On segment j the ray r = t z
-    meets z = zs_j + m (r - rs_j) at r = t (zs_j - m rs_j) / (1 - t m); the segment is the
-    last whose vertex has r / z <= t (r / z increases along a lobe, see the module doc, and
-    from the inner lobe to the outer), clipped to the ray's lobe, whose end segments extend
-    beyond its ends. A TabulatedProfile's slope is interpolated on the same segment when the
-    root lies in it (as np.interp does, to the bit), else by the profile."""
+    """Both lobes' polylines (vertices rs, zs) as one table of segments, inner then outer.
+    On a segment z = zs_j + m (r - rs_j), so the ray r = t z meets it at
+    r = t (zs_j - m rs_j) / (1 - t m). A ray's segment is its lobe's last whose first vertex
+    has r / z <= t (r / z increases along a lobe, see the module doc), the lobe's end
+    segments extending beyond its ends: one search on a key per segment (the vertex's r / z;
+    -inf for the first segment of the inner lobe; for the outer lobe's first, the next float
+    above every inner ray's t: every outer ray's t reaches it) finds that for both lobes at
+    once. A TabulatedProfile's slope is interpolated on the same segment when the root lies
+    in it (the same arithmetic as np.interp, to the bit), else by the profile."""
 
-    def __init__(self, profile: Profile, vertices, q, r_min: np.ndarray):
+    def __init__(self, profile: Profile, lobes: list[tuple], r_min: np.ndarray):
         self.profile, self.r_min = profile, r_min
-        n0, n1 = (rs.size for rs, _ in vertices)
-        self.rs, zs = (np.concatenate(x) for x in zip(*vertices))
-        self.search = _Search(np.concatenate(q))
-        self.lo = np.array([0, n0, 0, 0], dtype=np.intp)
-        self.hi = np.array([n0 - 2, n0 + n1 - 2, 0, 0], dtype=np.intp)
-        dr = self.rs[1:] - self.rs[:-1]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            self.m = (zs[1:] - zs[:-1]) / dr
-            self.c = zs[:-1] - self.m * self.rs[:-1]
-        self.step = dr <= 0  # a vertical step in the table: the ray meets it there
-        self.step[n0 - 1] = False  # not a segment: the gap between the lobes
-        self.any_step = bool(self.step.any())
-        self.ss = None
-        if type(profile).slope is TabulatedProfile.slope and vertices[0][0][-1] <= profile.r_junction:
-            self.ss = np.concatenate([profile.lobes[0][2], profile.lobes[1][2]])
+        self.search = _Search(np.concatenate([key for *_, key in lobes]))
+        self.m, self.c, self.r_lo, self.r_hi = [], [], [], []
+        for rs, zs, _ in lobes:
+            dr = rs[1:] - rs[:-1]
             with np.errstate(divide="ignore", invalid="ignore"):
-                self.ds = (self.ss[1:] - self.ss[:-1]) / dr
+                m = (zs[1:] - zs[:-1]) / dr
+            self.m.append(m)
+            self.c.append(zs[:-1] - m * rs[:-1])
+            self.r_lo.append(rs[:-1])
+            self.r_hi.append(rs[1:])
+        self.m, self.c, self.r_lo, self.r_hi = (np.concatenate(x) for x in (self.m, self.c, self.r_lo, self.r_hi))
+        self.step = self.r_hi <= self.r_lo  # a vertical step in the table: the ray meets it there
+        self.any_step = bool(self.step.any())
+        self.ds = None
+        if type(profile).slope is TabulatedProfile.slope and lobes[0][0][-1] <= profile.r_junction:
+            ss = [profile.lobes[k][2] for k in (0, 1)]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                self.ds = np.concatenate([(x[1:] - x[:-1]) / (rs[1:] - rs[:-1]) for x, (rs, *_) in zip(ss, lobes)])
+            self.s_lo = np.concatenate([x[:-1] for x in ss])
 
-    def __call__(self, t: np.ndarray, norm_d: np.ndarray, lobe: np.ndarray):
+    def __call__(self, t: np.ndarray, norm_d: np.ndarray, lobe: np.ndarray, inner: np.ndarray):
         j = self.search(t)
-        np.clip(j, self.lo.take(lobe), self.hi.take(lobe), out=j)
-        den = self.m[j]
+        den = self.m.take(j)
         den *= t
         np.subtract(1.0, den, out=den)
-        r = self.c[j]
+        r = self.c.take(j)
         r *= t
         with np.errstate(divide="ignore", invalid="ignore"):
             r /= den
         if self.any_step:
-            r = np.where(self.step[j], self.rs[j], r)
+            r = np.where(self.step.take(j), self.r_lo.take(j), r)
         np.maximum(r, self.r_min.take(lobe), out=r)
-        if self.ss is None:
+        if self.ds is None:
             return r, _slope_on_lobes(self.profile, r, lobe)
-        r0 = self.rs[j]
+        r0 = self.r_lo.take(j)
         fits = r0 <= r
-        fits &= r < self.rs[j + 1]
-        s = r - r0
-        s *= self.ds[j]
-        s += self.ss[j]
+        fits &= r < self.r_hi.take(j)
+        s = np.subtract(r, r0, out=r0)
+        s *= self.ds.take(j)
+        s += self.s_lo.take(j)
         redo = ~fits
         redo &= lobe <= Fate.OUTER
         if redo.any():  # a root on a segment's end or beyond the table: np.interp's own choice
@@ -314,36 +340,56 @@ class _Polylines:
         return r, s
 
 
-class _Search:
-    """searchsorted(q, t, side="right") - 1 on a non-decreasing table q, about 4x faster
-    than numpy's binary search on tables of 10^4-10^5 entries: a uniform grid of buckets
-    over q gives each t a start index, a few vectorised steps advance it, and the rays the
-    steps leave unresolved (a crowded bucket, t beyond the table) go to searchsorted."""
+def _polyline_lobes(profile: Profile, t_in: float) -> list[tuple] | None:
+    """(rs, zs, search keys) of both lobes if both are polylines whose keys, inner then
+    outer, do not decrease (else None)."""
+    lobes = []
+    for k in (0, 1):
+        vertices = polyline_vertices(profile, k)
+        if vertices is None:
+            return None
+        rs, zs = vertices
+        q = np.maximum.accumulate(rs / zs)
+        first = -np.inf if k == 0 else np.nextafter(t_in, np.inf)
+        lobes.append((rs, zs, np.concatenate([[first], q[1:-1]])))
+    keys = np.concatenate([key for *_, key in lobes])
+    return lobes if bool(np.all(keys[1:] >= keys[:-1])) else None
 
-    def __init__(self, q: np.ndarray):
-        self.q, n = q, q.size
-        span = float(q[-1] - q[0])
-        self.q0, self.n_buckets = float(q[0]), n
-        self.scale = n / span if span > 0 else 0.0
-        starts = np.searchsorted(q, q[0] + np.arange(n) * (span / n), side="right") - 1
-        self.starts = starts.astype(np.intp)
-        crowd = int(np.max(np.diff(np.append(starts, n - 1)), initial=0))
-        self.steps = min(max(crowd, 1), 3)
-        self.padded = np.concatenate([q, np.full(self.steps + 1, np.inf)])
+
+class _Search:
+    """searchsorted(keys, t, side="right") - 1 on non-decreasing keys (keys[0] = -inf,
+    the rest finite), several times faster than numpy's binary search on 10^4-10^5 keys: a
+    uniform grid of buckets (twice as many as keys) over the keys' range, each key counted
+    in the bucket the same arithmetic puts a ray in (monotone in t, so a ray's index is the
+    keys in the buckets before its own, plus the key in its own bucket if that is <= t:
+    exact, no margin at a bucket's edge); the rays of a bucket with two keys or more go to
+    searchsorted. A NaN t gets some index."""
+
+    def __init__(self, keys: np.ndarray):
+        self.keys, finite = keys, keys[1:]
+        self.n_buckets = nb = 2 * max(finite.size, 1)
+        self.lo = float(finite[0]) if finite.size else 0.0
+        span = float(finite[-1]) - self.lo if finite.size else 0.0
+        self.scale = nb / span if span > 0 else 0.0
+        count = np.bincount(self._bucket(finite), minlength=nb)
+        before = np.cumsum(count) - count  # finite keys in the buckets below; +1 for -inf, -1
+        self.split = np.append(finite, np.inf).take(before)  # the first key in or after the bucket
+        self.starts = np.where(count > 1, -keys.size - 1, before)  # negative: to searchsorted
+
+    def _bucket(self, t: np.ndarray) -> np.ndarray:
+        x = t - self.lo
+        x *= self.scale
+        np.fmax(x, 0.0, out=x)  # fmax/fmin: a NaN t to bucket 0
+        np.fmin(x, self.n_buckets - 1, out=x)
+        return x.astype(np.intp)
 
     def __call__(self, t: np.ndarray) -> np.ndarray:
-        x = t - self.q0
-        x *= self.scale
-        np.fmax(x, 0.0, out=x)  # fmax/fmin: a NaN t goes to bucket 0 (then searchsorted)
-        np.fmin(x, self.n_buckets - 1, out=x)
-        j = self.starts[x.astype(np.intp)]
-        for _ in range(self.steps):
-            j += self.padded[j + 1] <= t
-        ok = self.padded[j] <= t
-        ok &= self.padded[j + 1] > t
-        if not ok.all():
-            bad = np.flatnonzero(~ok)
-            j[bad] = np.searchsorted(self.q, t[bad], side="right") - 1
+        b = self._bucket(t)
+        j = self.starts.take(b)
+        j += self.split.take(b) <= t
+        if j.min() < 0:
+            bad = np.flatnonzero(j < 0)
+            j[bad] = np.searchsorted(self.keys, t[bad], side="right") - 1
         return j
 
 
@@ -363,7 +409,7 @@ class _ByLobe:
         self.profile, self.r_min = profile, r_min
         self.roots = tuple(_lobe_root(profile, k) for k in (0, 1))
 
-    def __call__(self, t: np.ndarray, norm_d: np.ndarray, lobe: np.ndarray):
+    def __call__(self, t: np.ndarray, norm_d: np.ndarray, lobe: np.ndarray, inner: np.ndarray):
         r = np.full(t.shape, np.nan)
         for k, root in enumerate(self.roots):
             idx = np.flatnonzero(lobe == k)
