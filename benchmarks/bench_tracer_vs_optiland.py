@@ -12,8 +12,8 @@ strategy as machined (tabulated tool-nose envelopes). optiland traces, with
 `Surface.trace(rays, record=False)`, each lobe's rays on that lobe's conic (a standard
 surface, R = b^2 / a, k = -(1 + b^2 / a^2), vertex at e + a above the pinhole, reflective):
 the sorting is done for it outside the clock and it skips the wall and miss rays, so the
-ratio on the sensor rows is conservative; the row "exact, lobe rays" gives the project
-the very rays optiland traces (788,440 of the paper default's), in the sensor's order. optiland can only trace the exact conic: the made surfaces' rows
+ratio on the sensor rows is conservative; the rows "lobe rays" give the project the very
+rays optiland traces (788,440 of the paper default's), in the sensor's order. optiland can only trace the exact conic: the made surfaces' rows
 compare the project on the made profile with optiland on the exact conic (what a
 conic-only tracer would cost on the same rays).
 
@@ -232,8 +232,8 @@ def main() -> int:
                 other.close()
                 print("  the tracers disagree by more than 1e-9: the comparison is void")
                 return 1
-        rows = [(f"{name}, sensor", prof, xy) for name, prof in surfaces]
-        rows.insert(1, ("exact, lobe rays", surfaces[0][1], xy_lobes))
+        rows = [(f"{name}, {which}", prof, rays) for name, prof in surfaces
+                for which, rays in (("sensor", xy), ("lobe rays", xy_lobes))]
         best = {name: (math.inf, math.inf) for name, *_ in rows + [("optiland", None)]}
         for _ in range(args.repeat):
             for name, prof, rays in rows:
