@@ -11,10 +11,12 @@ Two paths, one answer:
       A = 1 - t^2 a^2 / b^2:  A z^2 - 2 e z + b^2 = 0, upper sheet z = b^2 / (e - a sqrt(1 + t^2)),
       the stable form of (e + sqrt(e^2 - A b^2)) / A;
     - polylines (the paper's 528 points): closed form per segment, z = z_j + m (r - r_j)
-      gives r = t (z_j - m r_j) / (1 - t m); the segment is found by a binary search on
-      the vertices' r / z (increasing along a lobe for the same reason h is monotone);
+      gives r = t (z_j - m r_j) / (1 - t m); the segment is found by a search on the
+      vertices' r / z (increasing along a lobe for the same reason h is monotone), both
+      lobes in one bucketed table;
     - any other Profile (arcs, as-machined, polished): bracketed, safeguarded Newton on
       h(r), vectorised, to 1e-12 mm.
+  The roots are in optics.meridian_roots; the rays go through in blocks that stay in cache.
 * General (3-D), for a misaligned camera (optics.trace3d): the lobe's quadric in closed
   form on its mirror's sheet, then safeguarded Newton on a made profile, all rays at once;
   a march for the few rays near a steep feature.
@@ -33,9 +35,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..design import Camera, Lobe
-from ..profile import ExactProfile, Profile
+from ..design import Camera
+from ..profile import Profile
 from .camera import ALIGNED, CameraPose, ray_directions
+from .meridian_roots import lobe_solver, per_fate
 from .rays import ROOT_TOL_MM, Fate, RayHits, azimuth, polyline_vertices
 from .trace3d import WALL_JUMP_MM, trace_rays
 
@@ -83,139 +86,149 @@ def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None 
         radii = np.asarray(radii_px, float)
         pixels_xy = np.stack([radii, np.zeros_like(radii)], axis=-1)
     pixels_xy = np.asarray(pixels_xy, float)
-    u, v = pixels_xy[..., 0], pixels_xy[..., 1]
     if not pose.aligned:
-        origin, d = ray_directions(camera, u, v, pose)
+        origin, d = ray_directions(camera, pixels_xy[..., 0], pixels_xy[..., 1], pose)
         return trace_rays(profile, origin, d, progress=progress)
-    rho = np.hypot(u, v)
-    t = rho * (camera.t_pixel / camera.f)
-    m = meridian_hits(profile, t)
-    cos, sin = azimuth(u, v, rho)
-    point = np.stack([m.r * cos, m.r * sin, m.z], axis=-1)
-    direction = np.stack([m.out_r * cos, m.out_r * sin, m.out_z], axis=-1)
-    return RayHits(fate=m.fate, point=point, direction=direction, blocked=m.blocked)
+    shape = pixels_xy.shape[:-1]
+    xy = pixels_xy.reshape(-1, 2)
+    n = xy.shape[0]
+    merid = _Meridian(profile)
+    fate, blocked = np.empty(n, dtype=np.int8), np.empty(n, dtype=bool)
+    point, direction = np.empty((n, 3)), np.empty((n, 3))
+    t_over_px = camera.t_pixel / camera.f
+    for a in range(0, n, _BLOCK):
+        b = min(a + _BLOCK, n)
+        u, v = xy[a:b, 0], xy[a:b, 1]
+        rho = u * u
+        rho += v * v
+        np.sqrt(rho, out=rho)  # not np.hypot: 50 ns a ray, most of the tracer's time
+        fate[a:b], r, z, out_r, out_z, blocked[a:b] = merid.block(rho * t_over_px)
+        p, d = point[a:b], direction[a:b]
+        if rho.all():  # off the principal point (always, for pixel centres): r cos = u (r / rho)
+            r /= rho
+            out_r /= rho
+            cos, sin = u, v
+        else:
+            cos, sin = azimuth(u, v, rho)
+        np.multiply(r, cos, out=p[:, 0])
+        np.multiply(r, sin, out=p[:, 1])
+        p[:, 2] = z
+        np.multiply(out_r, cos, out=d[:, 0])
+        np.multiply(out_r, sin, out=d[:, 1])
+        d[:, 2] = out_z
+    return RayHits(fate=fate.reshape(shape), point=point.reshape(*shape, 3),
+                   direction=direction.reshape(*shape, 3), blocked=blocked.reshape(shape))
 
 
 def meridian_hits(profile: Profile, t: np.ndarray) -> MeridianHits:
     """Where camera rays r = t z (t >= 0) meet the profile, and how they reflect. Exact."""
     t = np.asarray(t, dtype=float)
-    rj, r_max = profile.r_junction, profile.r_max
-    r_out0 = np.nextafter(rj, np.inf)  # the first radius of the outer lobe
-    zi_j, zo_j, z_rim = (float(profile.z(np.array(x))) for x in (rj, r_out0, r_max))
-    if not (zi_j > 0 and zo_j > 0 and z_rim > 0):
-        raise ValueError("meridian_hits: the profile must lie above the camera (z > 0)")
-
-    # Classify by the ray's height where it reaches the junction and the rim (h monotone).
-    fate = np.full(t.shape, Fate.MISS, dtype=np.int8)
-    inner = t * zi_j <= rj
-    fate[inner] = Fate.INNER
-    wall = ~inner & (t * zo_j <= rj)
-    fate[wall] = Fate.WALL
-    outer = ~inner & ~wall & (t * z_rim <= r_max)
-    fate[outer] = Fate.OUTER
-
-    r = np.full(t.shape, np.nan)
-    for k, mask in ((0, inner), (1, outer)):
-        if mask.any():
-            r[mask] = _meridian_root(profile, t[mask], k)
-    r[outer] = np.maximum(r[outer], r_out0)  # a root at the junction belongs to the outer lobe
-    hit = inner | outer
-    z = np.full(t.shape, np.nan)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z[hit] = np.where(t[hit] > 0, r[hit] / t[hit], profile.z(np.zeros(1))[0])  # on the ray
-
-    # Mirror reflection out = d - 2 (d.n) n in the meridian plane, n = (s, -1) / |.|.
-    s = np.full(t.shape, np.nan)
-    s[hit] = profile.slope(r[hit])
-    norm_d = np.sqrt(1.0 + t * t)
-    dr, dz = t / norm_d, 1.0 / norm_d
-    norm_n = np.sqrt(1.0 + s * s)
-    nr, nz = s / norm_n, -1.0 / norm_n
-    dot = dr * nr + dz * nz
-    out_r, out_z = dr - 2.0 * dot * nr, dz - 2.0 * dot * nz
-
-    # Rays leaving the inner lobe cross r = r_junction (on the far side if out_r < 0); there
-    # the material of the outer lobe starts at zo_j, and the outer sheet rises faster than
-    # any reflected ray beyond (convex lobe), so that crossing decides.
-    blocked = np.zeros(t.shape, dtype=bool)
-    if inner.any():
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ri, zi, ori, ozi = r[inner], z[inner], out_r[inner], out_z[inner]
-            z_at_wall = zi + (np.sign(ori) * rj - ri) * ozi / ori
-        blocked[inner] = (ori != 0) & (z_at_wall > zo_j)
-    return MeridianHits(t=t, fate=fate, r=r, z=z, out_r=out_r, out_z=out_z, blocked=blocked)
+    flat = t.reshape(-1)
+    n = flat.size
+    merid = _Meridian(profile)
+    fate, blocked = np.empty(n, dtype=np.int8), np.empty(n, dtype=bool)
+    r, z, out_r, out_z = (np.empty(n) for _ in range(4))
+    for a in range(0, n, _BLOCK):
+        b = min(a + _BLOCK, n)
+        fate[a:b], r[a:b], z[a:b], out_r[a:b], out_z[a:b], blocked[a:b] = merid.block(flat[a:b])
+    return MeridianHits(t=t, fate=fate.reshape(t.shape), r=r.reshape(t.shape), z=z.reshape(t.shape),
+                        out_r=out_r.reshape(t.shape), out_z=out_z.reshape(t.shape),
+                        blocked=blocked.reshape(t.shape))
 
 
 # --------------------------------------------------------------------------------------
-# Meridian roots
+# The meridian tracer, a block of rays at a time
+
+#: Rays per block: the block's ~20 temporaries (8 bytes a ray each) stay in a core's L2
+#: cache, where a whole-sensor array (8 MB) would go to memory at every step.
+_BLOCK = 1 << 13
 
 
-def _meridian_root(profile: Profile, t: np.ndarray, k: int) -> np.ndarray:
-    """Radius (mm) where rays r = t z meet lobe k of the profile (the root exists)."""
-    lobe = profile.mirror.lobes[k] if isinstance(profile, ExactProfile) else None
-    if isinstance(lobe, Lobe):  # a design lobe: closed form (a compensated sheet is not a hyperbola)
-        return t * _sheet_height(lobe, t)
-    vertices = polyline_vertices(profile, k)
-    if vertices is not None:
-        return _polyline_root(*vertices, t)
-    return _newton_root(profile, t, k)
+#: Fate by the number of thresholds t_in <= t_wall <= t_rim that t is below.
+_FATE_BY_COUNT = np.array([Fate.MISS, Fate.OUTER, Fate.WALL, Fate.INNER], dtype=np.int8)
 
 
-def _polyline_root(rs: np.ndarray, zs: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Where rays r = t z meet the polyline through (rs, zs) (rs non-decreasing), mm.
-
-    The segment is found by a binary search on the vertices' r / z (increasing along a
-    lobe, see the module doc); the end segments extend beyond the ends.
-    """
-    q = np.maximum.accumulate(rs / zs)
-    j = np.clip(np.searchsorted(q, t, side="right") - 1, 0, rs.size - 2)
-    dr = rs[j + 1] - rs[j]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        m = (zs[j + 1] - zs[j]) / dr
-        r = t * (zs[j] - m * rs[j]) / (1.0 - t * m)
-    return np.where(dr > 0, r, rs[j])  # a vertical step in the table: the ray meets it there
+def _threshold(r: float, z: float) -> float:
+    """The largest t with t * z <= r in floating point (z > 0)."""
+    t = r / z
+    while t * z > r:
+        t = np.nextafter(t, -np.inf)
+    while np.nextafter(t, np.inf) * z <= r:
+        t = np.nextafter(t, np.inf)
+    return float(t)
 
 
-def _sheet_height(lobe: Lobe, t: np.ndarray) -> np.ndarray:
-    """Height z (mm) where the ray r = t z meets the lobe's upper sheet (closed form)."""
-    return lobe.b**2 / (lobe.e - lobe.a * np.sqrt(1.0 + t * t))
+class _Meridian:
+    """A profile's junction and rim, and its lobes' solver, set up once per call."""
 
+    def __init__(self, profile: Profile):
+        self.profile = profile
+        self.rj, self.r_max = rj, r_max = profile.r_junction, profile.r_max
+        self.r_out0 = np.nextafter(rj, np.inf)  # the first radius of the outer lobe
+        self.zi_j, self.zo_j, self.z_rim = (float(profile.z(np.array(x))) for x in (rj, self.r_out0, r_max))
+        if not (self.zi_j > 0 and self.zo_j > 0 and self.z_rim > 0):
+            raise ValueError("meridian_hits: the profile must lie above the camera (z > 0)")
+        self.z_axis = profile.z(np.zeros(1))[0]
+        # t z <= r_junction and t z <= r_max as t <= a threshold: the same test to the bit
+        # (t z rounds monotonically in t), one comparison a ray instead of two
+        t_in = _threshold(rj, self.zi_j)
+        t_wall = max(_threshold(rj, self.zo_j), t_in)
+        self.t_fate = (t_in, t_wall, max(_threshold(r_max, self.z_rim), t_wall))
+        # a root at the junction belongs to the outer lobe; NaN off the lobes
+        self.r_min = per_fate(-np.inf, self.r_out0)
+        self.solve = lobe_solver(profile, self.r_min, t_in)
 
-def _newton_root(profile: Profile, t: np.ndarray, k: int, *, table: int = 2049,
-                 max_iter: int = 100) -> np.ndarray:
-    """Root of h(r) = t Z(r) - r on lobe k: table bracket, then safeguarded Newton."""
-    lo_r, hi_r = profile.lobe_range(k)
-    if k == 1:
-        lo_r = np.nextafter(lo_r, np.inf)
-    rs = np.linspace(lo_r, hi_r, table)
-    q = np.maximum.accumulate(rs / profile.z(rs))
-    j = np.clip(np.searchsorted(q, t, side="right") - 1, 0, table - 2)
-    lo, hi = rs[j], rs[j + 1]
-    h_lo = t * profile.z(lo) - lo
-    h_hi = t * profile.z(hi) - hi
-    bad = ~((h_lo >= 0) & (h_hi <= 0))  # a non-monotone table: fall back to the whole lobe
-    lo = np.where(bad, lo_r, lo)
-    hi = np.where(bad, hi_r, hi)
-    h_lo = np.where(bad, t * profile.z(lo) - lo, h_lo)
-    h_hi = np.where(bad, t * profile.z(hi) - hi, h_hi)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.where(h_lo == h_hi, 0.5 * (lo + hi), lo + (hi - lo) * h_lo / (h_lo - h_hi))
-    x = np.clip(x, lo, hi)
-    active = np.arange(t.size)
-    for _ in range(max_iter):
-        xa, ta = x[active], t[active]
-        h = ta * profile.z(xa) - xa
-        dh = ta * profile.slope(xa) - 1.0
-        la, ha = lo[active], hi[active]
-        la = np.where(h > 0, xa, la)
-        ha = np.where(h > 0, ha, xa)
+    def block(self, t: np.ndarray) -> tuple[np.ndarray, ...]:
+        """fate, r, z, out_r, out_z, blocked of the rays r = t z (t 1-D)."""
+        # Classify by the ray's height where it reaches the junction and the rim (h
+        # monotone): inner if t zi_j <= r_junction, else the wall if t zo_j <= r_junction,
+        # else the outer lobe if t z_rim <= r_max, else a miss (and a NaN t).
+        t_in, t_wall, t_rim = self.t_fate
+        inner = t <= t_in
+        count = inner.view(np.int8) + (t <= t_wall).view(np.int8)
+        count += (t <= t_rim).view(np.int8)
+        fate = _FATE_BY_COUNT.take(count)
+        lobe = fate.astype(np.intp)
+
+        norm_d = t * t
+        norm_d += 1.0
+        np.sqrt(norm_d, out=norm_d)
+        r, s = self.solve(t, norm_d, lobe, inner)  # NaN off the lobes
         with np.errstate(divide="ignore", invalid="ignore"):
-            nx = xa - h / dh
-        outside = ~((nx >= la) & (nx <= ha)) | ~np.isfinite(nx)
-        nx = np.where(outside, 0.5 * (la + ha), nx)
-        lo[active], hi[active], x[active] = la, ha, nx
-        done = (np.abs(nx - xa) <= ROOT_TOL_MM) | (h == 0) | (ha - la <= ROOT_TOL_MM)
-        active = active[~done]
-        if active.size == 0:
-            break
-    return x
+            z = r / t  # on the ray
+        if not t.all():
+            z[t == 0] = self.z_axis
+        past = r > self.rj
+        past &= inner
+        if past.any():  # a root rounded past the junction: the slope profile.slope gives there
+            s[past] = self.profile.slope(r[past])
+
+        # Mirror reflection out = d - 2 (d.n) n in the meridian plane, d = (t, 1) / norm_d,
+        # n = (s, -1) / sqrt(1 + s^2): out = (t - g s, 1 + g) / norm_d, g = 2 (t s - 1) / (1 + s^2).
+        g = t * s
+        g -= 1.0
+        g += g
+        h = s * s
+        h += 1.0
+        g /= h
+        inv_d = np.divide(1.0, norm_d, out=norm_d)
+        out_z = g + 1.0
+        out_z *= inv_d
+        out_r = np.multiply(g, s, out=g)
+        np.subtract(t, out_r, out=out_r)
+        out_r *= inv_d
+
+        # Rays leaving the inner lobe cross r = r_junction (on the far side if out_r < 0);
+        # there the material of the outer lobe starts at zo_j, and the outer sheet rises
+        # faster than any reflected ray beyond (convex lobe), so that crossing decides.
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z_at_wall = np.sign(out_r, out=h)
+            z_at_wall *= self.rj
+            z_at_wall -= r
+            z_at_wall *= out_z
+            z_at_wall /= out_r
+            z_at_wall += z
+        blocked = z_at_wall > self.zo_j
+        blocked &= out_r != 0
+        blocked &= inner
+        return fate, r, z, out_r, out_z, blocked
