@@ -4,7 +4,7 @@
 functions below (load_config, merge, set_value) check names and types only; settings/
 checks the values and builds the typed sections.
 
-The defaults are the declared keys' (settings/keys*.py; `lathe_mirror/data/*.toml` show
+The defaults are the declared keys' (lathe_mirror/declared/keys_*.py; `lathe_mirror/data/*.toml` show
 them, generated with each key's help and range: `paper.toml` holds the paper's design). A
 user's file may override any part of them; it may not add keys the defaults do not have (except the exclusive design
 choices below), change a value's type, or give a non-finite number. Every rejection is a

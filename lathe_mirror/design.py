@@ -23,6 +23,7 @@ from functools import cached_property
 import numpy as np
 
 from .declared import SLACK, check as check_declared
+from .declared.section import build, defaults, setting
 from .errors import ConfigError, DesignError
 
 @dataclass(frozen=True)
@@ -34,10 +35,10 @@ class Camera:
     (the design does not use it; the optimiser's thin-lens focus model does).
     """
 
-    f: float = 16.0
-    t_pixel: float = 0.009
-    sensor_px: tuple[int, int] = (1008, 1018)
-    f_number: float = 8.0
+    f: float = setting("camera.f")
+    t_pixel: float = setting("camera.t_pixel")
+    sensor_px: tuple[int, int] = setting("camera.sensor_px")
+    f_number: float = setting("camera.f_number")
 
     def __post_init__(self) -> None:
         # The [camera] declarations (lathe_mirror.declared): the line `load()` gives for the
@@ -382,11 +383,16 @@ class LobeSpec:
     alpha_deg (Table 1's rim angle above F1's horizon, deg), a_over_b, or e (mm)."""
 
     name: str
-    r_top: float
-    r_pixel: float
-    alpha_deg: float | None = None
-    a_over_b: float | None = None
-    e: float | None = None
+    r_top: float = setting("lobes.*.r_top", required=True)
+    r_pixel: float = setting("lobes.*.r_pixel", required=True)
+    alpha_deg: float | None = setting("lobes.*.alpha_deg", default=None)
+    a_over_b: float | None = setting("lobes.*.a_over_b", default=None)
+    e: float | None = setting("lobes.*.e", default=None)
+
+    @classmethod
+    def declared(cls, name: str) -> LobeSpec:
+        """The lobe `name` ("inner", "outer") with its declared defaults (the paper's)."""
+        return build(cls, defaults(), star=name, name=name)
 
 
 def mirror_from_specs(camera: Camera, lobes: tuple[LobeSpec, LobeSpec]) -> Mirror:

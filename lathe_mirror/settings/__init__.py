@@ -12,7 +12,8 @@ The package's modules:
   keys           every key and what it allows (RANGES, check_ranges)
   design_checks  a lobe that is a proper hyperbola, a common stereo band, assembly tolerances
   costs          what the keys cost (time, memory), refused above the limits
-  load           from_config: the dict's sections -> Settings, every check in order
+  load           from_config: the dict -> Settings (each section from its declared fields)
+  dump           to_config: Settings -> the dict (the same fields back, in the file's units)
 
 Bounds (issue 14): every key has a documented range (RANGES; README "Ranges of every
 key"), and what a key costs where a hard bound would be arbitrary is estimated from the

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..body import BodySpec, CadSettings
+from ..declared.section import choice, flag, nested, setting
 from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
 from ..enums import Surface
 from ..lathe import Lathe, Stock, Tool
@@ -33,9 +34,9 @@ class RenderSettings:
     surface rendered by default, and the nose radius (mm; > 0: the as-machined surface of
     a tool of that radius along its own program)."""
 
-    supersample: int = 1
-    surface: Surface = Surface.PAPER
-    nose_radius: float = 0.0
+    supersample: int = setting("render.supersample")
+    surface: Surface = setting("render.surface", choice(Surface))
+    nose_radius: float = setting("render.nose_radius")
 
 
 @dataclass(frozen=True)
@@ -44,10 +45,10 @@ class StereoSettings:
     (N x N rays per pixel: the matcher's sub-pixel precision needs anti-aliased edges), how
     an image is ranged (StereoParams), and whether the point cloud is binary PLY."""
 
-    surface: Surface = Surface.EXACT
-    supersample: int = 2
-    params: StereoParams = field(default_factory=StereoParams)
-    ply_binary: bool = True
+    surface: Surface = setting("stereo.surface", choice(Surface))
+    supersample: int = setting("stereo.supersample")
+    params: StereoParams = nested(StereoParams)
+    ply_binary: bool = setting("stereo.ply_format", flag("binary", "ascii"))
 
 
 @dataclass(frozen=True)
@@ -56,8 +57,8 @@ class ComputeSettings:
     evaluations) runs. workers: processes on this machine (0: all cores). scheduler: ""
     runs local processes; else the address of a Dask scheduler, "tcp://HOST:PORT"."""
 
-    workers: int = 0
-    scheduler: str = ""
+    workers: int = setting("compute.workers")
+    scheduler: str = setting("compute.scheduler")
 
 
 @dataclass(frozen=True)
@@ -77,23 +78,24 @@ class Settings:
     compute: where heavy work runs (local processes or a Dask scheduler).
     """
 
-    camera: Camera
-    lobes: tuple[LobeSpec, LobeSpec]
-    machine: Lathe = field(default_factory=Lathe)
-    tool: Tool = field(default_factory=Tool)
-    stock: Stock = field(default_factory=Stock)
-    toolpath: ToolpathSettings = field(default_factory=ToolpathSettings)
-    body: BodySpec = field(default_factory=BodySpec)
-    cad: CadSettings = field(default_factory=CadSettings)
-    polish: PolishParams = field(default_factory=PolishParams)
-    scene: SceneSpec | None = None
-    render: RenderSettings = field(default_factory=RenderSettings)
-    pose: CameraPose = field(default_factory=CameraPose)
-    tolerance: ToleranceSettings | None = None
-    stereo: StereoSettings = field(default_factory=StereoSettings)
-    optimize: OptimizeSettings = field(default_factory=OptimizeSettings)
-    machine_errors: MachineErrors = field(default_factory=MachineErrors)
-    compute: ComputeSettings = field(default_factory=ComputeSettings)
+    camera: Camera = nested(Camera)
+    lobes: tuple[LobeSpec, LobeSpec] = field(default_factory=lambda: (LobeSpec.declared("inner"),
+                                                                      LobeSpec.declared("outer")))
+    machine: Lathe = nested(Lathe)
+    tool: Tool = nested(Tool)
+    stock: Stock = nested(Stock)
+    toolpath: ToolpathSettings = nested(ToolpathSettings)
+    body: BodySpec = nested(BodySpec)
+    cad: CadSettings = nested(CadSettings)
+    polish: PolishParams = nested(PolishParams)
+    scene: SceneSpec | None = nested(SceneSpec)
+    render: RenderSettings = nested(RenderSettings)
+    pose: CameraPose = nested(CameraPose)
+    tolerance: ToleranceSettings | None = nested(ToleranceSettings)
+    stereo: StereoSettings = nested(StereoSettings)
+    optimize: OptimizeSettings = nested(OptimizeSettings)
+    machine_errors: MachineErrors = nested(MachineErrors)
+    compute: ComputeSettings = nested(ComputeSettings)
 
     def __post_init__(self) -> None:
         validate(self)  # the one validation, however the Settings was built

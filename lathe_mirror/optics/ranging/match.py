@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...declared.section import setting
 from ...errors import InputError
 
 
@@ -43,17 +44,17 @@ class MatchParams:
     on the paper's room against 1.0).
     """
 
-    block_size: int = 7
+    block_size: int = setting("stereo.block_size")
     num_disparities: int = 16
-    uniqueness_ratio: int = 10
-    speckle_window: int = 100
-    speckle_range: int = 2
-    lr_max_diff: float = 1.0
+    uniqueness_ratio: int = setting("stereo.uniqueness_ratio")
+    speckle_window: int = setting("stereo.speckle_window")
+    speckle_range: int = setting("stereo.speckle_range")
+    lr_max_diff: float = setting("stereo.lr_max_diff")
     p1: int = 8
     p2: int = 32
-    texture_threshold: float = 4.0
-    support_px: int = 40
-    contrast: float = 0.25
+    texture_threshold: float = setting("stereo.texture_threshold")
+    support_px: int = setting("stereo.support_px")
+    contrast: float = setting("stereo.contrast")
 
     def __post_init__(self) -> None:
         if not (isinstance(self.block_size, int) and self.block_size >= 1 and self.block_size % 2 == 1
