@@ -20,7 +20,7 @@ from enum import Enum
 from typing import Any
 
 from ..enums import parse
-from . import KEYS, RANGES
+from . import KEYS, RANGES, SLACK, check
 
 #: Metadata names on a dataclass field.
 KEY, CONV, NESTED = "declared_key", "declared_conv", "declared_nested"
@@ -185,3 +185,18 @@ def keyed(cls: type) -> dict[str, str]:
         elif KEY in f.metadata:
             out[f.name] = f.metadata[KEY]
     return out
+
+
+def check_fields(obj: Any) -> None:
+    """ConfigError, the line `load()` gives, unless each field that names a key holds a
+    value its declaration allows (written back in the file's units; nested sections are
+    their own to check)."""
+    for f in dataclasses.fields(obj):
+        if KEY in f.metadata and "*" not in f.metadata[KEY]:
+            value = getattr(obj, f.name)
+            try:
+                value = _plain(f.metadata[CONV].dump(value))
+            except (TypeError, ValueError):
+                pass  # not a number: declared.check names the key and what it allows
+            if value is not None:
+                check(f.metadata[KEY], value, slack=SLACK)
