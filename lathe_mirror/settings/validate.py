@@ -11,12 +11,15 @@ the room (optics.scene.build_scene) and the costs (costs.check_costs).
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from typing import TYPE_CHECKING
 
 from ..declared import SLACK
 from ..design import Mirror
 from ..errors import InputError, num
+from ..enums import Surface
+from ..job import check_cad, check_program, check_programs
 from ..optics.scene import build_scene
 from ..shop import options_from_settings
 from ..tolerance.spec import MAX_SAMPLE_RAYS
@@ -64,3 +67,42 @@ def check_scheduler(scheduler: str) -> None:
     if scheduler and not re.fullmatch(r"tcp://[A-Za-z0-9._\-\[\]:]+:[0-9]{1,5}", scheduler):
         raise InputError(f"compute.scheduler = {scheduler!r}: allowed \"\" (local processes) or a Dask "
                          "scheduler's address tcp://HOST:PORT")
+
+
+def check_commands(settings: Settings, mirror: Mirror | None = None) -> None:
+    """What the commands check before their work, on the design and its programs, all at
+    once: `lathe-mirror design` runs it, so a configuration is valid for every command or
+    for none. The junction, the polishing times and the tolerances' bounds
+    (job.check_programs, tolerance and report), the CAD body (job.check_cad, cad and run),
+    the configured program and each toleranced one planned and held to the gouge
+    tolerance (job.check_program: toolpath, cad, stereo, tolerance), the render's own nose
+    (render). Plans up to three programs (~0.1-0.5 s each)."""
+    mirror = settings.mirror() if mirror is None else mirror
+    check_render_nose(settings, mirror)
+    check_programs(settings, mirror)
+    check_cad(settings, mirror)
+    strategies = {settings.toolpath.strategy}
+    for surface in (settings.render.surface, settings.stereo.surface):
+        strategies.add(settings.toolpath.strategy if surface is Surface.MADE else surface.strategy)
+    if settings.tolerance is not None:
+        strategies |= {program.strategy for program in settings.tolerance.programs}
+    for strategy in sorted(strategies - {None}, key=lambda s: s.value):
+        check_program(settings, mirror, strategy)
+
+
+def check_render_nose(settings: Settings, mirror: Mirror) -> None:
+    """render.nose_radius > 0 (render --nose-radius): the render's program cut with that
+    nose exists (the junction it must reach, the gouge tolerance), the refusal naming
+    render.nose_radius."""
+    nose = settings.render.nose_radius
+    if nose <= 0:
+        return
+    surface = settings.render.surface
+    strategy = settings.toolpath.strategy if surface is Surface.MADE else surface.strategy
+    if strategy is None:
+        return
+    try:
+        check_program(settings, mirror, strategy, tool=dataclasses.replace(settings.tool, nose_radius=nose))
+    except InputError as exc:
+        raise InputError(f"render.nose_radius = {num(nose)} mm: the render's program cut with that nose is "
+                         f"refused: {exc}") from None
