@@ -52,9 +52,11 @@ def load(path: str | Path | None = None, *,
     """The Settings of a configuration: the defaults, the user's TOML file (if any) merged
     over them, then `overrides` (dotted key, value, source: e.g. a command-line flag),
     every key and value checked once (one ConfigError / InputError line naming the key)."""
-    cfg = load_config(path)
+    cfg, given = _load_config(path)
     for dotted, value, source in overrides or ():
         set_value(cfg, dotted, value, source=source)
+        given.add(dotted)
+    follow_stock(cfg, given)
     try:
         return from_config(cfg)
     except InputError as exc:
@@ -74,13 +76,45 @@ SITE_CONFIG_VAR = "LATHE_MIRROR_CONFIG"
 def load_config(path: str | Path | None = None) -> dict[str, Any]:
     """Defaults, with the site file ($LATHE_MIRROR_CONFIG, if set) and the user's TOML file
     (if any) merged over them in that order and validated."""
+    return _load_config(path)[0]
+
+
+def _load_config(path: str | Path | None) -> tuple[dict[str, Any], set[str]]:
+    """load_config's dict and the dotted keys the site and user files gave."""
     cfg = default_config()
+    given: set[str] = set()
     site = os.environ.get(SITE_CONFIG_VAR, "")
     if site:
-        cfg = merge(cfg, _parse(site, f"{SITE_CONFIG_VAR}={site}"), source=site)
-    if path is None:
-        return cfg
-    return merge(cfg, _parse(path, f"--config {path}"), source=str(path))
+        table = _parse(site, f"{SITE_CONFIG_VAR}={site}")
+        cfg = merge(cfg, table, source=site)
+        given |= _dotted(table)
+    if path is not None:
+        table = _parse(path, f"--config {path}")
+        cfg = merge(cfg, table, source=str(path))
+        given |= _dotted(table)
+    return cfg, given
+
+
+def _dotted(table: dict[str, Any], prefix: str = "") -> set[str]:
+    out: set[str] = set()
+    for k, v in table.items():
+        out |= _dotted(v, f"{prefix}{k}.") if isinstance(v, dict) else {f"{prefix}{k}"}
+    return out
+
+
+def follow_stock(cfg: dict[str, Any], given: set[str]) -> None:
+    """The body follows the bar unless its keys are given: cad.blank_diameter is the [stock]
+    diameter, and cad.thickness the declared one or, when the bar is shorter, what its
+    length leaves below the part-off (stock.length less toolpath.parting_width_mm and
+    toolpath.back_allowance_mm, and a boss's length)."""
+    cad, stock, tp = cfg["cad"], cfg["stock"], cfg["toolpath"]
+    if "cad.blank_diameter" not in given:
+        cad["blank_diameter"] = stock["diameter"]
+    if "cad.thickness" not in given:
+        boss = cad["mount_depth"] if cad["mount"] == "boss" else 0.0
+        room = stock["length"] - tp["parting_width_mm"] - tp["back_allowance_mm"] - boss
+        if 0 < room < cad["thickness"]:
+            cad["thickness"] = room
 
 
 def _parse(path: str | Path, name: str) -> dict[str, Any]:

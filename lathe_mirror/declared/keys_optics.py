@@ -82,7 +82,9 @@ KEYS: tuple[Key, ...] = (
               'paper | lattice | arcs | best | polished')),
     Key('render.nose_radius', 0.0, 'mm', 0.0, 5.0,
         help="> 0: the as-machined surface of a tool of this nose radius, mm (0: a program's contour; made: the "
-             '[tool] nose)'),
+             '[tool] nose)',
+        hi_depends=True,
+        depends="the junction (the design's step), as tool.nose_radius"),
     Key('stereo.surface', 'made',
         choices='any render.surface name',
         help='the mirror ranged: any render --surface name (made, exact, paper, best, polished, ...)'),
