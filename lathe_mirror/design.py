@@ -109,6 +109,17 @@ class Lobe:
         """Height of the sheet's vertex (r = 0), e + a (mm)."""
         return self.e + self.a
 
+    @property
+    def vertex_radius(self) -> float:
+        """The ISO 10110-12 vertex radius of curvature R = b^2 / a (mm): from the vertex the
+        sheet's sag a (sqrt(1 + r^2 / b^2) - 1) is the conic of R and conic_constant."""
+        return self.b**2 / self.a
+
+    @property
+    def conic_constant(self) -> float:
+        """The ISO 10110-12 conic constant k = -(1 + b^2 / a^2) (< -1: a hyperbola)."""
+        return -(1.0 + (self.b / self.a) ** 2)
+
     def z(self, r: np.ndarray | float) -> np.ndarray:
         """Height of the sheet at radius r (mm): e + a sqrt(1 + r^2 / b^2)."""
         r = np.asarray(r, dtype=float)
@@ -393,6 +404,15 @@ class LobeSpec:
     def declared(cls, name: str) -> LobeSpec:
         """The lobe `name` ("inner", "outer") with its declared defaults (the paper's)."""
         return build(cls, defaults(), star=name, name=name)
+
+
+def conic_sag(r: np.ndarray | float, R: float, k: float) -> np.ndarray:
+    """ISO 10110-12 sag (mm) at radius r (mm) of the conic of vertex radius R (mm) and
+    conic constant k: c r^2 / (1 + sqrt(1 - (1 + k) c^2 r^2)), c = 1 / R (the root's
+    argument held at 0 beyond the conic's reach, where a fit's trial R, k may wander)."""
+    r = np.asarray(r, dtype=float)
+    c = 1.0 / R
+    return c * r * r / (1.0 + np.sqrt(np.maximum(1.0 - (1.0 + k) * c * c * r * r, 0.0)))
 
 
 def mirror_from_specs(camera: Camera, lobes: tuple[LobeSpec, LobeSpec]) -> Mirror:

@@ -181,7 +181,7 @@ def calibrated_depth_error(profile: Profile, mirror: Mirror, ranges_m: Sequence[
     ux, uz = np.cos(elev)[None, :], np.sin(elev)[None, :]
     ranges_mm = ranges_m * 1e3
     r_made = x[..., 0] * ux + (x[..., 1] - stereo_centre_z(mirror)) * uz
-    return DepthCurve(ranges_m, elev, 100.0 * (r_made - ranges_mm[:, None]) / ranges_mm[:, None])
+    return DepthCurve.of(ranges_m, elev, 100.0 * (r_made - ranges_mm[:, None]) / ranges_mm[:, None])
 
 
 def depth_rms_pct(curve: DepthCurve, range_m: float) -> float:
