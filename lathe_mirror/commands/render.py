@@ -40,9 +40,9 @@ def run(args: argparse.Namespace) -> int:
 
     from ..enums import Surface
     from ..optics.render import image_difference, render_image
-    from ..job import MachiningJob, check_program, design, named_surface, scene_for, surface_label
+    from ..job import (MachiningJob, check_program, check_render_nose, design, named_surface, scene_for,
+                       surface_label)
     from ..profile import ExactProfile
-    from ..settings.validate import check_render_nose
 
     from .common import surface_arg
 

@@ -21,8 +21,8 @@ exact, viewpoint spread included) cross at X; the error is optics.stereo's,
 cap each point at stereo.FAILED_PCT. With nothing absorbed (knot_px None) it is
 stereo.depth_error_curve itself.
 
-How it relates to the tolerance issue's calibration-aware criteria (lathe_mirror/tolerance/,
-the `tolerance` branch): both ask what depth error survives a calibration on the made part.
+How it relates to the tolerance analysis' calibration-aware criteria (lathe_mirror/tolerance/):
+both ask what depth error survives a calibration on the made part.
 This one models the calibration as a per-lobe smooth radial map in the image (what a
 generic radial model absorbs on an aligned camera: the smooth form a polish or a tool
 offset leaves, down to a few tens of pixels); a refit of the unified camera model (xi,

@@ -19,7 +19,7 @@ from ..profile import ExactProfile
 from .keys import H_RANGE, MAX_VERTEX_RADIUS, MIN_VERTEX_RADIUS
 
 if TYPE_CHECKING:
-    from .model import Settings
+    from .sections import Sections as Settings
 
 
 def check_design(settings: Settings) -> Mirror:

@@ -16,7 +16,7 @@ from ..declared.section import dump
 
 if TYPE_CHECKING:
     from ..design import Camera, LobeSpec
-    from .model import Settings
+    from .sections import Sections as Settings
 
 
 def design_config(camera: Camera, lobes: tuple[LobeSpec, ...]) -> dict[str, Any]:

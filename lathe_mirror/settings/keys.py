@@ -40,8 +40,7 @@ MAX_VERTEX_RADIUS = 10_000.0
 #: Most roughing levels (Z passes) one program may have: ~100 bytes of G-code each.
 MAX_ROUGH_LEVELS = 20_000
 
-#: (KEYS, RANGES, key: the declarations, lathe_mirror.declared.) Range: the name kept from
-#: issue 14's table of ranges (a Key has the `text()`, `why` and `allows()` its Range had).
+#: A declared key's other name (its `text()`, `why` and `allows()` are a range's).
 Range = Key
 
 __all__ = ["H_RANGE", "KEYS", "MAX_ROUGH_LEVELS", "MAX_VERTEX_RADIUS", "MIN_VERTEX_RADIUS", "RANGES", "Range",

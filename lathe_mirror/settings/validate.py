@@ -11,7 +11,6 @@ the room (optics.scene.build_scene) and the costs (costs.check_costs).
 
 from __future__ import annotations
 
-import dataclasses
 import re
 from typing import TYPE_CHECKING
 
@@ -19,7 +18,7 @@ from ..declared import SLACK
 from ..design import Mirror
 from ..errors import InputError, num
 from ..enums import Surface
-from ..job import check_cad, check_program, check_programs
+from ..job import check_cad, check_program, check_programs, check_render_nose
 from ..optics.scene import build_scene
 from ..shop import options_from_settings
 from ..shop.partoff import parting_z
@@ -31,7 +30,7 @@ from .dump import to_config
 from .keys import check_ranges
 
 if TYPE_CHECKING:
-    from .model import Settings
+    from .sections import Sections as Settings
 
 
 
@@ -123,21 +122,3 @@ def check_processes(settings: Settings) -> None:
                 raise
             raise InputError(f"{exc} (polish.process.{p.name} takes {' and '.join(taken)} from the "
                              "configuration)") from None
-
-
-def check_render_nose(settings: Settings, mirror: Mirror) -> None:
-    """render.nose_radius > 0 (render --nose-radius): the render's program cut with that
-    nose exists (the junction it must reach, the gouge tolerance), the refusal naming
-    render.nose_radius."""
-    nose = settings.render.nose_radius
-    if nose <= 0:
-        return
-    surface = settings.render.surface
-    strategy = settings.toolpath.strategy if surface is Surface.MADE else surface.strategy
-    if strategy is None:
-        return
-    try:
-        check_program(settings, mirror, strategy, tool=dataclasses.replace(settings.tool, nose_radius=nose))
-    except InputError as exc:
-        raise InputError(f"render.nose_radius = {num(nose)} mm: the render's program cut with that nose is "
-                         f"refused: {exc}") from None
