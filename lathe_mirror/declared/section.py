@@ -51,6 +51,8 @@ def _tupled(v: Any, where: str = "") -> Any:
 
 #: A list as a tuple (the default conversion).
 PLAIN = Conv(_tupled, _plain)
+
+
 def _back(v: float) -> float:
     # 15 significant digits: a value the file gave comes back as written through a unit
     # conversion and its inverse (math.degrees(math.radians(3.0)) is 3.0000000000000004).
