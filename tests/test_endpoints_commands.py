@@ -155,3 +155,25 @@ def test_the_fuzz_rounds_cases_are_refused_by_design_and_their_command(toml, com
         assert key in proc.stderr and "Traceback" not in proc.stderr
         assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.toml"]  # nothing written
+
+
+def test_every_documented_uniqueness_ratio_runs_the_matcher():
+    """stereo.uniqueness_ratio's documented ends (0 and 99 %) run OpenCV's 3-way matcher on
+    a textured pair shifted by 5 px and find that shift (100 divides by zero in it: SIGFPE,
+    exit 136, so it is refused by load with one line)."""
+    import numpy as np
+
+    from lathe_mirror.declared import key
+    from lathe_mirror.optics.ranging.match import MatchParams, match
+
+    rng = np.random.default_rng(7)
+    right = rng.uniform(0.0, 255.0, (48, 160))
+    left = np.roll(right, 5, axis=1)  # left x sees right x - 5
+    k = key("stereo.uniqueness_ratio")
+    for ratio in (k.lo, k.hi):
+        d = match(left, right, MatchParams(uniqueness_ratio=ratio))
+        inner = d[8:-8, 40:-8]
+        assert np.nanmedian(inner) == pytest.approx(5.0, abs=0.25), ratio
+    with pytest.raises(InputError) as exc:
+        from_config(_with(k, 100))
+    assert "stereo.uniqueness_ratio = 100" in str(exc.value) and "0 to 99" in str(exc.value)
