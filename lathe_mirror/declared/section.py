@@ -191,8 +191,8 @@ def keyed(cls: type) -> dict[str, str]:
 
 def check_fields(obj: Any) -> None:
     """ConfigError, the line `load()` gives, unless each field that names a key holds a
-    value its declaration allows (written back in the file's units; nested sections are
-    their own to check)."""
+    value its declaration allows (written back in the file's units, and read again: a
+    named choice must be one of its names; nested sections are their own to check)."""
     for f in dataclasses.fields(obj):
         if KEY in f.metadata and "*" not in f.metadata[KEY]:
             value = getattr(obj, f.name)
@@ -202,3 +202,4 @@ def check_fields(obj: Any) -> None:
                 pass  # not a number: declared.check names the key and what it allows
             if value is not None:
                 check(f.metadata[KEY], value, slack=SLACK)
+                f.metadata[CONV].load(value, f.metadata[KEY])  # a named choice: one of its names

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..body import BodySpec, CadSettings
-from ..declared.section import choice, flag, nested, setting
+from ..declared.section import check_fields, choice, flag, nested, setting
 from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
 from ..enums import Surface
 from ..lathe import Lathe, Stock, Tool
@@ -39,6 +39,9 @@ class RenderSettings:
     surface: Surface = setting("render.surface", choice(Surface))
     nose_radius: float = setting("render.nose_radius")
 
+    def __post_init__(self) -> None:
+        check_fields(self)  # each field within its key's declaration: the line load() gives
+
 
 @dataclass(frozen=True)
 class StereoSettings:
@@ -51,6 +54,9 @@ class StereoSettings:
     params: StereoParams = nested(StereoParams)
     ply_binary: bool = setting("stereo.ply_format", flag("binary", "ascii"))
 
+    def __post_init__(self) -> None:
+        check_fields(self)  # each field within its key's declaration: the line load() gives
+
 
 @dataclass(frozen=True)
 class ComputeSettings:
@@ -60,6 +66,9 @@ class ComputeSettings:
 
     workers: int = setting("compute.workers")
     scheduler: str = setting("compute.scheduler")
+
+    def __post_init__(self) -> None:
+        check_fields(self)  # each field within its key's declaration: the line load() gives
 
 
 @dataclass(frozen=True)
