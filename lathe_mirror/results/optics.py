@@ -86,6 +86,11 @@ class DepthCurve(Result):
                                                  for k in ("rms", "max", "median", "failed", "lost")}),
                    signed_error_pct=tuple(tuple(float(v) for v in row) for row in err))
 
+    @property
+    def error_pct(self) -> np.ndarray:
+        """The signed depth error (%) as an array, (len(ranges_m), len(elevations_deg))."""
+        return np.asarray(self.signed_error_pct, dtype=float).reshape(len(self.ranges_m), len(self.elevations_deg))
+
     def at(self, range_m: float) -> dict:
         """|Depth error| (%) over the elevations at one range (m), each point capped at
         FAILED_PCT and a lost point (NaN) counted at FAILED_PCT: {"rms", "median", "max"};
