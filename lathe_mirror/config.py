@@ -21,6 +21,8 @@ import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from .declared.section import build
+from .design import Camera, LobeSpec, mirror_from_specs
 from .errors import ConfigError, InputError
 from .inputs import STDIN, read_text
 from .settings import from_config
@@ -106,15 +108,28 @@ def follow_stock(cfg: dict[str, Any], given: set[str]) -> None:
     """The body follows the bar unless its keys are given: cad.blank_diameter is the [stock]
     diameter, and cad.thickness the declared one or, when the bar is shorter, what its
     length leaves below the part-off (stock.length less toolpath.parting_width_mm and
-    toolpath.back_allowance_mm, and a boss's length)."""
+    toolpath.back_allowance_mm, and a boss's length) if that still holds the mirror's depth
+    and cad.min_wall (else the declared one stays, and the part-off's check names
+    stock.length)."""
     cad, stock, tp = cfg["cad"], cfg["stock"], cfg["toolpath"]
     if "cad.blank_diameter" not in given:
         cad["blank_diameter"] = stock["diameter"]
     if "cad.thickness" not in given:
         boss = cad["mount_depth"] if cad["mount"] == "boss" else 0.0
         room = stock["length"] - tp["parting_width_mm"] - tp["back_allowance_mm"] - boss
-        if 0 < room < cad["thickness"]:
+        if room < cad["thickness"] and room >= _face_depth(cfg) + cad["min_wall"]:
             cad["thickness"] = room
+
+
+def _face_depth(cfg: dict[str, Any]) -> float:
+    """The designed face's depth below its vertex (mm; inf when the design does not exist:
+    from_config then says why)."""
+    try:
+        mirror = mirror_from_specs(build(Camera, cfg), tuple(build(LobeSpec, cfg, star=n, name=n)
+                                                             for n in ("inner", "outer")))
+    except (InputError, ValueError, ArithmeticError):
+        return math.inf
+    return float(mirror.depth)
 
 
 def _parse(path: str | Path, name: str) -> dict[str, Any]:

@@ -10,6 +10,7 @@ import time
 import pytest
 
 from lathe_mirror.config import load
+from lathe_mirror.errors import InputError
 from lathe_mirror.job import cad_model
 
 from conftest import run_cli
@@ -44,9 +45,13 @@ def test_a_body_the_configuration_sets_is_kept(tmp_path):
 
 def test_the_thickness_fits_a_short_bar(tmp_path):
     """A 30 mm bar: the body is what is left above the part-off, 30 - 3 (blade) - 0.5 (back
-    allowance) = 26.5 mm; a 40 mm bar keeps the declared 30 mm (36.5 mm would fit)."""
+    allowance) = 26.5 mm; a 40 mm bar keeps the declared 30 mm (36.5 mm would fit); a 22 mm
+    bar leaves 18.5 mm, less than the paper mirror's 19.78 mm depth plus the 2 mm wall, so
+    the declared 30 mm stays and the refusal names the bar."""
     assert _load(tmp_path, "[stock]\nlength = 30.0\n").body.thickness == 26.5
     assert _load(tmp_path, "[stock]\nlength = 40.0\n").body.thickness == 30.0
+    with pytest.raises(InputError, match=r"^stock\.length = 22 mm: .* needs the bar 33\.5 mm"):
+        _load(tmp_path, "[stock]\nlength = 22.0\n")
 
 
 @pytest.mark.parametrize("text, keys", [
