@@ -4,7 +4,7 @@
 functions below (load_config, merge, set_value) check names and types only; settings/
 checks the values and builds the typed sections.
 
-The defaults are the declared keys' (settings/keys*.py; `lathe_mirror/data/*.toml` show
+The defaults are the declared keys' (lathe_mirror/declared/keys_*.py; `lathe_mirror/data/*.toml` show
 them, generated with each key's help and range: `paper.toml` holds the paper's design). A
 user's file may override any part of them; it may not add keys the defaults do not have (except the exclusive design
 choices below), change a value's type, or give a non-finite number. Every rejection is a
@@ -21,6 +21,8 @@ import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from .declared.section import build
+from .design import Camera, LobeSpec, mirror_from_specs
 from .errors import ConfigError, InputError
 from .inputs import STDIN, read_text, short
 from .settings import from_config
@@ -56,9 +58,11 @@ def load(path: str | Path | None = None, *,
     if path is not None and not isinstance(path, (str, os.PathLike)):
         raise InputError(f"load: path = {short(path)} ({type(path).__name__}): expected a TOML file's path or None")
     overrides = _overrides(overrides)
-    cfg = load_config(path)
+    cfg, given = _load_config(path)
     for dotted, value, source in overrides:
         set_value(cfg, dotted, value, source=source)
+        given.add(dotted)
+    follow_stock(cfg, given)
     try:
         return from_config(cfg)
     except InputError as exc:
@@ -93,13 +97,58 @@ SITE_CONFIG_VAR = "LATHE_MIRROR_CONFIG"
 def load_config(path: str | Path | None = None) -> dict[str, Any]:
     """Defaults, with the site file ($LATHE_MIRROR_CONFIG, if set) and the user's TOML file
     (if any) merged over them in that order and validated."""
+    return _load_config(path)[0]
+
+
+def _load_config(path: str | Path | None) -> tuple[dict[str, Any], set[str]]:
+    """load_config's dict and the dotted keys the site and user files gave."""
     cfg = default_config()
+    given: set[str] = set()
     site = os.environ.get(SITE_CONFIG_VAR, "")
     if site:
-        cfg = merge(cfg, _parse(site, f"{SITE_CONFIG_VAR}={site}"), source=site)
-    if path is None:
-        return cfg
-    return merge(cfg, _parse(path, f"--config {path}"), source=str(path))
+        table = _parse(site, f"{SITE_CONFIG_VAR}={site}")
+        cfg = merge(cfg, table, source=site)
+        given |= _dotted(table)
+    if path is not None:
+        table = _parse(path, f"--config {path}")
+        cfg = merge(cfg, table, source=str(path))
+        given |= _dotted(table)
+    return cfg, given
+
+
+def _dotted(table: dict[str, Any], prefix: str = "") -> set[str]:
+    out: set[str] = set()
+    for k, v in table.items():
+        out |= _dotted(v, f"{prefix}{k}.") if isinstance(v, dict) else {f"{prefix}{k}"}
+    return out
+
+
+def follow_stock(cfg: dict[str, Any], given: set[str]) -> None:
+    """The body follows the bar unless its keys are given: cad.blank_diameter is the [stock]
+    diameter, and cad.thickness the declared one or, when the bar is shorter, what its
+    length leaves below the part-off (stock.length less toolpath.parting_width_mm and
+    toolpath.back_allowance_mm, and a boss's length) if that still holds the mirror's depth
+    and cad.min_wall (else the declared one stays, and the part-off's check names
+    stock.length)."""
+    cad, stock, tp = cfg["cad"], cfg["stock"], cfg["toolpath"]
+    if "cad.blank_diameter" not in given:
+        cad["blank_diameter"] = stock["diameter"]
+    if "cad.thickness" not in given:
+        boss = cad["mount_depth"] if cad["mount"] == "boss" else 0.0
+        room = stock["length"] - tp["parting_width_mm"] - tp["back_allowance_mm"] - boss
+        if room < cad["thickness"] and room >= _face_depth(cfg) + cad["min_wall"]:
+            cad["thickness"] = room
+
+
+def _face_depth(cfg: dict[str, Any]) -> float:
+    """The designed face's depth below its vertex (mm; inf when the design does not exist:
+    from_config then says why)."""
+    try:
+        mirror = mirror_from_specs(build(Camera, cfg), tuple(build(LobeSpec, cfg, star=n, name=n)
+                                                             for n in ("inner", "outer")))
+    except (InputError, ValueError, ArithmeticError):
+        return math.inf
+    return float(mirror.depth)
 
 
 def _parse(path: str | Path, name: str) -> dict[str, Any]:

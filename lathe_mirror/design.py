@@ -23,6 +23,7 @@ from functools import cached_property
 import numpy as np
 
 from .declared import SLACK, check as check_declared
+from .declared.section import build, defaults, setting
 from .errors import ConfigError, DesignError, InputError
 from .inputs import check_type, short
 
@@ -35,10 +36,10 @@ class Camera:
     (the design does not use it; the optimiser's thin-lens focus model does).
     """
 
-    f: float = 16.0
-    t_pixel: float = 0.009
-    sensor_px: tuple[int, int] = (1008, 1018)
-    f_number: float = 8.0
+    f: float = setting("camera.f")
+    t_pixel: float = setting("camera.t_pixel")
+    sensor_px: tuple[int, int] = setting("camera.sensor_px")
+    f_number: float = setting("camera.f_number")
 
     def __post_init__(self) -> None:
         # The [camera] declarations (lathe_mirror.declared): the line `load()` gives for the
@@ -117,6 +118,17 @@ class Lobe:
     def vertex_z(self) -> float:
         """Height of the sheet's vertex (r = 0), e + a (mm)."""
         return self.e + self.a
+
+    @property
+    def vertex_radius(self) -> float:
+        """The ISO 10110-12 vertex radius of curvature R = b^2 / a (mm): from the vertex the
+        sheet's sag a (sqrt(1 + r^2 / b^2) - 1) is the conic of R and conic_constant."""
+        return self.b**2 / self.a
+
+    @property
+    def conic_constant(self) -> float:
+        """The ISO 10110-12 conic constant k = -(1 + b^2 / a^2) (< -1: a hyperbola)."""
+        return -(1.0 + (self.b / self.a) ** 2)
 
     def z(self, r: np.ndarray | float) -> np.ndarray:
         """Height of the sheet at radius r (mm): e + a sqrt(1 + r^2 / b^2)."""
@@ -397,11 +409,16 @@ class LobeSpec:
     alpha_deg (Table 1's rim angle above F1's horizon, deg), a_over_b, or e (mm)."""
 
     name: str
-    r_top: float
-    r_pixel: float
-    alpha_deg: float | None = None
-    a_over_b: float | None = None
-    e: float | None = None
+    r_top: float = setting("lobes.*.r_top", required=True)
+    r_pixel: float = setting("lobes.*.r_pixel", required=True)
+    alpha_deg: float | None = setting("lobes.*.alpha_deg", default=None)
+    a_over_b: float | None = setting("lobes.*.a_over_b", default=None)
+    e: float | None = setting("lobes.*.e", default=None)
+
+    @classmethod
+    def declared(cls, name: str) -> LobeSpec:
+        """The lobe `name` ("inner", "outer") with its declared defaults (the paper's)."""
+        return build(cls, defaults(), star=name, name=name)
 
     def __post_init__(self) -> None:
         # the checks design_lobe makes of the numbers, at construction: a spec that
@@ -413,6 +430,15 @@ class LobeSpec:
         for k in ("alpha_deg", "a_over_b", "e"):
             if getattr(self, k) is not None:
                 _finite(f"{key}.{k}", getattr(self, k))
+
+
+def conic_sag(r: np.ndarray | float, R: float, k: float) -> np.ndarray:
+    """ISO 10110-12 sag (mm) at radius r (mm) of the conic of vertex radius R (mm) and
+    conic constant k: c r^2 / (1 + sqrt(1 - (1 + k) c^2 r^2)), c = 1 / R (the root's
+    argument held at 0 beyond the conic's reach, where a fit's trial R, k may wander)."""
+    r = np.asarray(r, dtype=float)
+    c = 1.0 / R
+    return c * r * r / (1.0 + np.sqrt(np.maximum(1.0 - (1.0 + k) * c * c * r * r, 0.0)))
 
 
 def mirror_from_specs(camera: Camera, lobes: tuple[LobeSpec, LobeSpec]) -> Mirror:

@@ -41,8 +41,8 @@ def design_figures(mirror: Mirror) -> dict:
                 "c": lobe.c,  # Table 1's symbol: the focal distance 2e, not a curvature
                 "focal_distance_2e_mm": lobe.focus_z,
                 # the lobe as an ISO 10110-12 conic (iso10110): vertex radius R (c = 1/R), conic constant k
-                "R_mm": lobe.b**2 / lobe.a,
-                "k": -(1.0 + (lobe.b / lobe.a) ** 2),
+                "R_mm": lobe.vertex_radius,
+                "k": lobe.conic_constant,
                 "alpha_deg": math.degrees(lobe.alpha),
                 "a_over_b": lobe.a_over_b,
                 "vertex_z": lobe.vertex_z,

@@ -32,11 +32,12 @@ turning. Lengths in mm inside (nm only in names that say so).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
-from .enums import Program
+from .declared.section import Conv, defaults
+from .enums import Program, parse
 from .errors import InputError
 
 #: Samples of one feed-mark period for the specular fraction (converges to ~1e-6 at 13 rad).
@@ -86,17 +87,20 @@ class Process:
                        feed_mm=self.feed_mm or feed_mm, resolution_mm=self.resolution_mm or resolution_mm)
 
 
-#: The presets a user weighs (their defaults; data/polish.toml documents and overrides them).
-DEFAULT_PROCESSES = (
-    Process("conventional", "conventional turning (the configured lathe and tool) + polish", Program.PAPER,
-            turned_floor_nm=20.0, polish=True, polished_floor_nm=3.0),
-    Process("diamond", "single-point diamond turning of aluminium, no polish", Program.BEST,
-            nose_radius_mm=0.5, feed_mm=0.003, resolution_mm=0.0001, turned_floor_nm=5.0, polish=False,
-            polished_floor_nm=0.0),
-    Process("nickel_diamond", "electroless nickel plate, then diamond turning, no polish", Program.BEST,
-            nose_radius_mm=0.5, feed_mm=0.002, resolution_mm=0.0001, turned_floor_nm=1.5, polish=False,
-            polished_floor_nm=0.0),
-)
+def _processes(table: dict, where: str = "polish.process") -> tuple[Process, ...]:
+    return tuple(
+        Process(name=name, label=str(e["label"]), program=parse(Program, e["program"], f"{where}.{name}.program"),
+                polish=bool(e["polish"]), **{k: float(e[k]) for k in ("nose_radius_mm", "feed_mm", "resolution_mm",
+                                                                       "turned_floor_nm", "polished_floor_nm")})
+        for name, e in table.items())
+
+
+#: [polish.process.*] in the file (a table per preset), Processes in the field.
+PROCESSES = Conv(_processes, lambda ps: {p.name: {f.name: getattr(p, f.name) for f in fields(p) if f.name != "name"}
+                                          for p in ps})
+
+#: The presets a user weighs: the declared ones (polish.process.*; data/polish.toml).
+DEFAULT_PROCESSES = _processes(defaults("polish.process"))
 
 
 # --------------------------------------------------------------------------------------

@@ -24,7 +24,7 @@ from .body import MAX_LENGTH, CadModel, design_meridian, programmed_parts
 from .cut_surface import CompensatedMirror, CutSurface, ZeroShiftedMirror
 from .design import Mirror
 from .enums import BEST, Mount, Program, Strategy, Surface, member
-from .errors import InputError
+from .errors import InputError, num
 from .inputs import check_real, check_type
 from .finish import Process
 from .lathe import Lathe, Tool
@@ -313,6 +313,24 @@ def check_program(settings: Settings, mirror: Mirror, strategy: Strategy | Surfa
     if target is not None:
         job = dataclasses.replace(job, target=target)
     return job.check()
+
+
+def check_render_nose(settings: Settings, mirror: Mirror) -> None:
+    """render.nose_radius > 0 (render --nose-radius): the render's program cut with that
+    nose exists (the junction it must reach, the gouge tolerance), the refusal naming
+    render.nose_radius."""
+    nose = settings.render.nose_radius
+    if nose <= 0:
+        return
+    surface = settings.render.surface
+    strategy = settings.toolpath.strategy if surface is Surface.MADE else surface.strategy
+    if strategy is None:
+        return
+    try:
+        check_program(settings, mirror, strategy, tool=dataclasses.replace(settings.tool, nose_radius=nose))
+    except InputError as exc:
+        raise InputError(f"render.nose_radius = {num(nose)} mm: the render's program cut with that nose is "
+                         f"refused: {exc}") from None
 
 
 @dataclass(frozen=True)

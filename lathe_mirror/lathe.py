@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .declared import SLACK, check as check_declared, key as declared_key
+from .declared.section import DEGREES, setting
 from .errors import InputError
 
 #: Finest lattice step (mm) a program can carry: G-code words with 4 decimals.
@@ -45,17 +46,17 @@ class Lathe:
     arc_radius_tolerance: largest |end radius - start radius| we allow an arc, mm.
     """
 
-    resolution: float = 0.005
-    max_points: int = 528
-    diameter_mode: bool = True
-    travel_x: float = 60.0
-    travel_z_min: float = -80.0
-    travel_z_max: float = 60.0
-    spindle_max_rpm: int = 3000
-    surface_speed: float = 200.0
-    feed_rough: float = 0.15
-    feed_finish: float = 0.03
-    arc_radius_tolerance: float = 0.0002
+    resolution: float = setting("machine.resolution")
+    max_points: int = setting("machine.max_points")
+    diameter_mode: bool = setting("machine.diameter_mode")
+    travel_x: float = setting("machine.travel_x")
+    travel_z_min: float = setting("machine.travel_z_min")
+    travel_z_max: float = setting("machine.travel_z_max")
+    spindle_max_rpm: int = setting("machine.spindle_max_rpm")
+    surface_speed: float = setting("machine.surface_speed")
+    feed_rough: float = setting("machine.feed_rough")
+    feed_finish: float = setting("machine.feed_finish")
+    arc_radius_tolerance: float = setting("machine.arc_radius_tolerance")
 
     def __post_init__(self) -> None:
         # Each field within its key's declaration (machine.<field>): the line load() gives.
@@ -115,9 +116,9 @@ class Tool:
     side of every surface normal (see `check_reach`).
     """
 
-    nose_radius: float = 0.2
-    included_angle: float = math.radians(35.0)
-    approach_angle: float = math.radians(3.0)
+    nose_radius: float = setting("tool.nose_radius")
+    included_angle: float = setting("tool.included_angle", DEGREES)
+    approach_angle: float = setting("tool.approach_angle", DEGREES)
 
     def __post_init__(self) -> None:
         # Each within its key's declaration, the angles in the file's degrees: load()'s line.
@@ -163,9 +164,9 @@ class Stock:
     length: depth of the part below Z = 0 that roughing may reach.
     """
 
-    diameter: float = 76.0
-    face_allowance: float = 1.0
-    length: float = 40.0
+    diameter: float = setting("stock.diameter")
+    face_allowance: float = setting("stock.face_allowance")
+    length: float = setting("stock.length")
 
     def __post_init__(self) -> None:
         for name in ("diameter", "face_allowance", "length"):

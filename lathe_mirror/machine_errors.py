@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .declared.section import MICRO, setting
 from .nose_envelope import grid_spans
 from .profile import TabulatedProfile
 
@@ -56,11 +57,11 @@ class MachineErrors:
     """Set-up errors of a lathe (module doc). Lengths mm, angles rad; all zero: a perfect
     machine."""
 
-    centre_height_mm: float = 0.0
-    x_offset_mm: float = 0.0
-    nose_radius_error_mm: float = 0.0
-    squareness_rad: float = 0.0
-    backlash_mm: float = 0.0
+    centre_height_mm: float = setting("machine.errors.centre_height_mm")
+    x_offset_mm: float = setting("machine.errors.x_offset_mm")
+    nose_radius_error_mm: float = setting("machine.errors.nose_radius_error_mm")
+    squareness_rad: float = setting("machine.errors.squareness_urad", MICRO)
+    backlash_mm: float = setting("machine.errors.backlash_mm")
 
     def __post_init__(self) -> None:
         for f in fields(self):

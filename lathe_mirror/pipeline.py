@@ -58,7 +58,7 @@ from .report.analysis import (
 from .report.polishing_study import polishing_study
 from .results.design import DesignFigures
 from .results.made import MadeMirror, ZoneFigures
-from .results.optics import DEPTH_REPORT_M, CalibrationFigures, DepthAt, DepthCurve, StereoFigures
+from .results.optics import DEPTH_REPORT_M, CalibrationFigures, DepthAt, StereoFigures
 from .report.plots import report_plots
 from .results.tolerance import ToleranceAnalysis
 from .tolerance.runs import DEPTH_RANGES_M, tolerance_analysis
@@ -165,7 +165,7 @@ def _optics_stages(data: ReportData, made: dict, mirror, settings, steps, render
                    "of |depth error| capped at 100 % per point (a point not seen by both lobes counts "
                    "100 %); failed: points at the cap",
         baseline_mm=mirror.baseline,
-        curves={name: DepthCurve.from_dict(c.to_dict()) for name, c in depth.items()},
+        curves=dict(depth),
         at={name: DepthAt.from_dict(c.at(DEPTH_REPORT_M)) for name, c in depth.items()},
     )
     steps.done()

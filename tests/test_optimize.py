@@ -132,8 +132,8 @@ def small_problem(workers: int = 1) -> Problem:
     space = SearchSpace(outer_r_top_fraction=(1.0, 1.0), junction_fraction=(20 / 35, 20 / 35),
                         outer_r_pixel_fraction=(1.0, 1.0), pixel_fraction=(0.45, 0.8),
                         alpha_inner_deg=(0.0, 30.0), alpha_outer_deg=(0.028, 0.028))
-    o = OptimizeSettings(vertex_min_mm=1.0, rim_max_mm=1000.0, usable_min=0.0, blur_max_px=1e5, maxiter=200,
-                         popsize=15, tol=1e-6, search=space, workers=workers)
+    o = OptimizeSettings(vertex_min_mm=1.0, rim_max_mm=1000.0, usable_min=0.0, blur_max_px=1e5, blur_limit_um=0.0,
+                         maxiter=200, popsize=15, tol=1e-6, search=space, workers=workers)
     tool = Tool(nose_radius=0.0, included_angle=math.radians(10.0), approach_angle=math.radians(1.0))
     return Problem(camera=s.camera, tool=tool, stock=Stock(diameter=200.0, length=200.0),
                    body=dataclasses.replace(s.body, thickness=200.0), clearance=2.0, settings=o,

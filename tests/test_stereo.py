@@ -111,7 +111,7 @@ def test_lost_points_count_as_failed(paper_mirror):
     """A point a lobe does not see (NaN) counts at the cap, as the Monte Carlo counts it."""
     from lathe_mirror.optics.stereo import DepthCurve
 
-    c = DepthCurve(np.array([1.0]), np.radians([-10.0, -5.0, -1.0]), np.array([[3.0, np.nan, -250.0]]))
+    c = DepthCurve.of(np.array([1.0]), np.radians([-10.0, -5.0, -1.0]), np.array([[3.0, np.nan, -250.0]]))
     at = c.at(1.0)
     assert at["rms"] == pytest.approx(math.sqrt((9.0 + 100.0**2 + 100.0**2) / 3.0))
     assert (at["median"], at["max"], at["failed"], at["lost"], at["points"]) == (100.0, 100.0, 2, 1, 3)

@@ -135,7 +135,9 @@ def test_camera_constants_print_with_their_digits(tmp_path):
     from conftest import run_cli
 
     cfg = tmp_path / "c.toml"
-    cfg.write_text("[camera]\nt_pixel = 0.00345\nf = 4.5\n[lobes.inner]\nr_pixel = 110.0\n[lobes.outer]\nr_pixel = 180.0\n")
+    # (a body thick enough for its 28.8 mm deep mirror: `design` refuses what `cad` would)
+    cfg.write_text("[camera]\nt_pixel = 0.00345\nf = 4.5\n[lobes.inner]\nr_pixel = 110.0\n[lobes.outer]\nr_pixel = 180.0\n"
+                   "[cad]\nthickness = 32.0\n")
     proc = run_cli("design", "--config", str(cfg))
     assert proc.returncode == 0, proc.stderr
     row = next(line for line in proc.stdout.splitlines() if line.startswith("T_pixel"))

@@ -21,6 +21,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from ..declared import check as check_declared, key as declared_key
+from ..declared.section import choice, setting
 from ..design import Lobe, Mirror
 from ..enums import Mount, StepSchema
 from ..errors import InputError
@@ -172,12 +173,12 @@ class BodySpec:
     material allowed under the face (above the back face and above the bore).
     """
 
-    blank_diameter: float = 76.0
-    thickness: float = 30.0
-    mount: Mount = Mount.BORE
-    mount_diameter: float = 20.0
-    mount_depth: float = 6.0
-    min_wall: float = 2.0
+    blank_diameter: float = setting("cad.blank_diameter")
+    thickness: float = setting("cad.thickness")
+    mount: Mount = setting("cad.mount", choice(Mount))
+    mount_diameter: float = setting("cad.mount_diameter")
+    mount_depth: float = setting("cad.mount_depth")
+    min_wall: float = setting("cad.min_wall")
 
     def __post_init__(self) -> None:
         # Each length within its key's declaration (cad.<field>): the line load() gives;
@@ -248,9 +249,9 @@ class CadSettings:
     """The [cad] export settings, checked: STEP protocol and product name, STL tolerance
     (mm, the facets' largest distance from the surface)."""
 
-    schema: StepSchema = StepSchema.AP214
-    product_name: str = "lathe-mirror"
-    stl_tolerance: float = 0.01
+    schema: StepSchema = setting("cad.step_schema", choice(StepSchema))
+    product_name: str = setting("cad.product_name")
+    stl_tolerance: float = setting("cad.stl_tolerance")
 
     def __post_init__(self) -> None:
         check_product_name(self.product_name)

@@ -18,6 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..design_table import TABLE1_SWAP_NOTE, design_figures
     from ..job import design
+    from ..settings.validate import check_commands
 
     settings = load(args)
     if args.output:
@@ -27,6 +28,7 @@ def run(args: argparse.Namespace) -> int:
         check_suffix(args.output, "JSON")
         check_outputs(None, [args.output])  # before any work, as every command
     mirror = design(settings)
+    check_commands(settings, mirror)  # what any command refuses, `design` refuses too
     figures = design_figures(mirror)
     if args.config is None:
         figures["notes"] = [TABLE1_SWAP_NOTE]

@@ -40,7 +40,8 @@ def run(args: argparse.Namespace) -> int:
 
     from ..enums import Surface
     from ..optics.render import image_difference, render_image
-    from ..job import MachiningJob, check_program, design, named_surface, scene_for, surface_label
+    from ..job import (MachiningJob, check_program, check_render_nose, design, named_surface, scene_for,
+                       surface_label)
     from ..profile import ExactProfile
 
     from .common import surface_arg
@@ -60,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
     pose = settings.pose
     exact = ExactProfile(mirror)
     tool = dataclasses.replace(settings.tool, nose_radius=nose) if nose > 0 else None
+    check_render_nose(settings, mirror)  # the render's own nose, named as render.nose_radius
     check_program(settings, mirror, surface, tool=tool)  # a program's surface: its program checked
     job = MachiningJob.from_settings(settings, mirror)  # the made mirror every command describes by default
     made = named_surface(surface, mirror, settings, nose_radius=float(nose), measured=measured,

@@ -5,6 +5,9 @@ Tool, PolishParams, BodySpec, ToolpathSettings, OptimizeSettings, ...) check the
 against the same ones on construction (`check`), so `dataclasses.replace(settings.polish,
 overhang=2.0)` refuses with the line the configuration file gets.
 
+`declared.section` (imported on its own, below this package's names): a section's field
+that names its key (`setting`), from which its default, its load and its dump come.
+
 KEYS: every key in the README table's order (`lobes.*.` stands for each lobe,
 `scene.boxes[].` for each box, `polish.process.*` for each process preset). RANGES: each by
 its dotted name. `key(name)`: the declaration of a concrete dotted name.

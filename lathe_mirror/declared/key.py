@@ -98,13 +98,13 @@ class Key:
         """The range alone: "0.1 to 1000 mm", "> 0 and <= 10 mm"."""
         u = f" {self.unit}" if self.unit else ""
         if self.lo is not None and self.hi is not None and not (self.lo_open or self.hi_open):
-            out = f"{num(self.lo)} to {num(self.hi)}{u}"
+            out = f"{exact(self.lo)} to {exact(self.hi)}{u}"
         else:
             parts = []
             if self.lo is not None:
-                parts.append(f"{'>' if self.lo_open else '>='} {num(self.lo)}")
+                parts.append(f"{'>' if self.lo_open else '>='} {exact(self.lo)}")
             if self.hi is not None:
-                parts.append(f"{'<' if self.hi_open else '<='} {num(self.hi)}")
+                parts.append(f"{'<' if self.hi_open else '<='} {exact(self.hi)}")
             out = " and ".join(parts) + u
         if self.step is not None:
             out += f", a multiple of {num(self.step)}{u}"
@@ -134,7 +134,10 @@ class Key:
     def refusal(self, where: str, value: Any) -> str:
         """The one line that refuses `value` of this key (`where`: the concrete key)."""
         u = f" {self.unit}" if self.unit and not isinstance(value, (list, tuple)) else ""
-        return f"{where} = {num(value)}{u}: allowed {self.text()}" + (f" ({self.why})" if self.why else "")
+        shown = num(value)
+        if isinstance(value, float) and shown in {exact(x) for x in (self.lo, self.hi) if x is not None}:
+            shown = repr(value)  # 1000.0001 against 1000: the digits the comparison saw
+        return f"{where} = {shown}{u}: allowed {self.text()}" + (f" ({self.why})" if self.why else "")
 
     def check(self, where: str, value: Any, slack: float = 0.0) -> None:
         """ConfigError (one line naming `where` and what the key allows) unless value fits
@@ -175,6 +178,14 @@ class Key:
         """`--help` text naming the key and its default: "machine.max_points, default 528"
         (the flag's range follows it: commands.flags takes it from the same Key)."""
         return f"{self.name}, default {_default_text(self).strip('`')}"
+
+
+def exact(limit: float) -> str:
+    """A limit as the messages and the docs print it: num()'s short form when it reads back
+    to the same number, else every digit (pi / 2 is 1.5707963267948966, not 1.5708, which
+    the limit refuses)."""
+    text = num(limit)
+    return text if not isinstance(limit, float) or float(text) == limit else repr(limit)
 
 
 def _default_text(key: Key) -> str:

@@ -64,7 +64,9 @@ KEYS: tuple[Key, ...] = (
     Key('tolerance.params.resolution_mm', 0.0025, 'mm', 0.0, 0.1,
         why='below machine.resolution',
         help=('controller resolution, mm (sensitivity table only: re-planned at machine.resolution -/+ this; the '
-              'Monte Carlo varies the lattice phase)')),
+              'Monte Carlo varies the lattice phase)'),
+        hi_depends=True,
+        depends='below machine.resolution'),
     Key('tolerance.params.nose_radius_mm', 0.02, 'mm', 0.0, 5.0,
         why='',
         help='insert nose radius, mm (nominal: [tool] nose_radius)',

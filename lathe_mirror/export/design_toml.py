@@ -1,8 +1,8 @@
 """A design as a configuration file every command takes with --config (TOML).
 
-`design_toml` writes the camera and the two lobes (r_top, r_pixel, alpha_deg: the keys
-design.design_lobe takes, floats written with Python's repr so that they read back to the
-same bits and the same design), then any other sections handed to it (the user's own
+`design_toml` writes the camera and the two lobes (settings.dump.design_config: the keys
+the configuration gives them, r_top, r_pixel and the lobe's one shape key, floats written
+at 12 significant digits), then any other sections handed to it (the user's own
 configuration, passed through), with comment lines on top. tomllib only reads TOML; the
 writer here covers what a lathe-mirror configuration holds: tables, arrays of tables,
 strings, booleans, integers, finite floats and arrays of those.
@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..design import Camera, LobeSpec
+from ..settings.dump import design_config
 from .files import write_text
 from .numbers import fmt_sig
 
@@ -23,13 +24,9 @@ from .numbers import fmt_sig
 def design_toml(camera: Camera, lobes: tuple[LobeSpec, LobeSpec], *, comments: list[str] | None = None,
                 extra: dict[str, Any] | None = None) -> str:
     """The TOML text: `comments` (one "# " line each), [camera], [lobes.inner],
-    [lobes.outer] (alpha_deg), then the sections of `extra` (not camera or lobes)."""
+    [lobes.outer], then the sections of `extra` (not camera or lobes)."""
     lines = [f"# {c}" for c in comments or ()]
-    doc: dict[str, Any] = {
-        "camera": {"f": camera.f, "t_pixel": camera.t_pixel, "sensor_px": list(camera.sensor_px),
-                   "f_number": camera.f_number},
-        "lobes": {s.name: {"r_top": s.r_top, "r_pixel": s.r_pixel, "alpha_deg": _alpha(s)} for s in lobes},
-    }
+    doc = design_config(camera, lobes)
     for key, value in (extra or {}).items():
         if key not in doc:
             doc[key] = value
@@ -42,12 +39,6 @@ def design_toml(camera: Camera, lobes: tuple[LobeSpec, LobeSpec], *, comments: l
 def write_design_toml(path: str | Path, text: str) -> Path:
     """Write the TOML atomically (export.files: a temp name, then renamed)."""
     return write_text(path, text)
-
-
-def _alpha(spec: LobeSpec) -> float:
-    if spec.alpha_deg is None:
-        raise ValueError(f"lobes.{spec.name}: the design TOML carries alpha_deg")
-    return float(spec.alpha_deg)
 
 
 def _table(table: dict[str, Any], path: list[str]) -> list[str]:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..design import Lobe, Mirror
+from ..design import Lobe, Mirror, conic_sag
 from ..toolpath import usable_ranges
 
 #: Sag-table spacing (mm of radius) unless asked for a finer one.
@@ -62,10 +62,8 @@ class Conic:
         return 1.0 / self.R
 
     def sag(self, r: np.ndarray | float) -> np.ndarray:
-        """ISO 10110-12 sag (mm) from the vertex at radius r (mm)."""
-        r = np.asarray(r, dtype=float)
-        c = self.curvature
-        return c * r * r / (1.0 + np.sqrt(1.0 - (1.0 + self.k) * c * c * r * r))
+        """ISO 10110-12 sag (mm) from the vertex at radius r (mm) (design.conic_sag)."""
+        return conic_sag(r, self.R, self.k)
 
     def slope(self, r: np.ndarray | float) -> np.ndarray:
         """Angle (rad) of the surface's tangent to the plane normal to the axis at r:
@@ -84,8 +82,9 @@ class Conic:
 
 
 def lobe_conic(lobe: Lobe, mirror: Mirror, clear_aperture: tuple[float, float]) -> Conic:
-    """The ISO conic of one lobe: R = b^2 / a, k = -(1 + b^2 / a^2), its vertex's machine Z."""
-    return Conic(name=lobe.name, R=lobe.b**2 / lobe.a, k=-(1.0 + (lobe.b / lobe.a) ** 2),
+    """The ISO conic of one lobe (Lobe.vertex_radius, Lobe.conic_constant), its vertex's
+    machine Z."""
+    return Conic(name=lobe.name, R=lobe.vertex_radius, k=lobe.conic_constant,
                  vertex_z=mirror.vertex_z - lobe.vertex_z, clear_aperture=clear_aperture,
                  focal_distance_2e=lobe.focus_z, above_pinhole=lobe.vertex_z, a=lobe.a, b=lobe.b)
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..design import Mirror
+from ..design import Mirror, conic_sag
 from ..errors import InputError
 from ..optics.polishing_curve import clear_aperture
 from ..profile import ExactProfile
@@ -132,17 +132,6 @@ def design_z(mirror: Mirror):
     return (lambda r: vz - exact.z(r)), (lambda r: -exact.slope(r))
 
 
-def _conic_sag(r, R, k):
-    c = 1.0 / R
-    return c * r * r / (1.0 + np.sqrt(np.maximum(1.0 - (1.0 + k) * c * c * r * r, 0.0)))
-
-
-def lobe_conic(mirror: Mirror, k: int) -> tuple[float, float]:
-    """Design radius R (mm) and conic constant k of lobe k (ISO 10110-12)."""
-    lobe = mirror.lobes[k]
-    return lobe.b ** 2 / lobe.a, -(1.0 + lobe.b ** 2 / lobe.a ** 2)
-
-
 def fit_trace(trace: Trace, mirror: Mirror, *, nose_radius_mm: float = 0.2,
               options: FitOptions = FitOptions()) -> TraceFit:
     """Fit `trace` (machine frame, mm) against `mirror`'s design (module doc)."""
@@ -152,7 +141,7 @@ def fit_trace(trace: Trace, mirror: Mirror, *, nose_radius_mm: float = 0.2,
     x, z = trace.x, trace.z
     rj, rmax = mirror.r_junction, mirror.r_max
     wall = options.wall_mm if options.wall_mm is not None else nose_radius_mm + 0.05
-    conics = [lobe_conic(mirror, 0), lobe_conic(mirror, 1)]
+    conics = [(lobe.vertex_radius, lobe.conic_constant) for lobe in mirror.lobes]  # ISO 10110-12 R, k
     max_slope = math.tan(math.radians(options.max_slope_deg))
 
     def model(params, u):
@@ -161,8 +150,8 @@ def fit_trace(trace: Trace, mirror: Mirror, *, nose_radius_mm: float = 0.2,
         if options.conic:
             R0, k0, R1, k1, p1 = params[3:8]
             inner = r <= rj
-            d0 = _conic_sag(r, R0, k0) - _conic_sag(r, *conics[0])
-            d1 = _conic_sag(r, R1, k1) - _conic_sag(r, *conics[1]) - p1
+            d0 = conic_sag(r, R0, k0) - conic_sag(r, *conics[0])
+            d1 = conic_sag(r, R1, k1) - conic_sag(r, *conics[1]) - p1
             base = base - np.where(inner, d0, d1)
         return base
 

@@ -12,7 +12,7 @@ Public API (stable names):
   polish_curve(profile, mirror, params) -> PolishCurve (figures against polishing time)
   optics.plots: displacement_vs_radius_png(maps), displacement_map_png(maps) -> PNG bytes
 Modules: camera (pixels, rays, CameraPose), trace, distortion, radial (the 1-D shortcut),
-scene, render, reference, polishing_curve, plots; stereo (issue 6). The made surfaces
+scene, render, reference, polishing_curve, plots; stereo. The made surfaces
 (programs, polished) are the machining job's (job.named_surface). Nothing here imports cadquery; submodules are imported on use.
 """
 

@@ -21,8 +21,8 @@ exact, viewpoint spread included) cross at X; the error is optics.stereo's,
 cap each point at stereo.FAILED_PCT. With nothing absorbed (knot_px None) it is
 stereo.depth_error_curve itself.
 
-How it relates to the tolerance issue's calibration-aware criteria (lathe_mirror/tolerance/,
-the `tolerance` branch): both ask what depth error survives a calibration on the made part.
+How it relates to the tolerance analysis' calibration-aware criteria (lathe_mirror/tolerance/):
+both ask what depth error survives a calibration on the made part.
 This one models the calibration as a per-lobe smooth radial map in the image (what a
 generic radial model absorbs on an aligned camera: the smooth form a polish or a tool
 offset leaves, down to a few tens of pixels); a refit of the unified camera model (xi,
@@ -181,7 +181,7 @@ def calibrated_depth_error(profile: Profile, mirror: Mirror, ranges_m: Sequence[
     ux, uz = np.cos(elev)[None, :], np.sin(elev)[None, :]
     ranges_mm = ranges_m * 1e3
     r_made = x[..., 0] * ux + (x[..., 1] - stereo_centre_z(mirror)) * uz
-    return DepthCurve(ranges_m, elev, 100.0 * (r_made - ranges_mm[:, None]) / ranges_mm[:, None])
+    return DepthCurve.of(ranges_m, elev, 100.0 * (r_made - ranges_mm[:, None]) / ranges_mm[:, None])
 
 
 def depth_rms_pct(curve: DepthCurve, range_m: float) -> float:

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..declared.section import DEGREES, setting
 from ..design import Camera
 from ..errors import InputError
 
@@ -34,9 +35,9 @@ class CameraPose:
     of the optical axis about the x then the y axis, rad.
     """
 
-    decentre: tuple[float, float] = (0.0, 0.0)
-    axial_offset: float = 0.0
-    tilt: tuple[float, float] = (0.0, 0.0)
+    decentre: tuple[float, float] = setting("camera_pose.decentre")
+    axial_offset: float = setting("camera_pose.axial_offset")
+    tilt: tuple[float, float] = setting("camera_pose.tilt_deg", DEGREES)
 
     def __post_init__(self) -> None:
         values = (*self.decentre, self.axial_offset, *self.tilt)

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..declared.section import Conv, setting
 from ..errors import InputError
 from ..inputs import check_type
 
@@ -79,26 +80,31 @@ class BoxSpec:
     size: tuple[float, ...]
 
 
+#: [[scene.boxes]] in the file, BoxSpecs in the field.
+BOXES = Conv(lambda v, w="": tuple(BoxSpec(centre=tuple(b["centre"]), size=tuple(b["size"])) for b in v),
+             lambda v: [{"centre": list(b.centre), "size": list(b.size)} for b in v])
+
+
 @dataclass(frozen=True)
 class SceneSpec:
     """The [scene] section as given (mm; colours linear RGB 0..1; see data/scene.toml).
     build_scene checks it against the mirror and makes the Scene."""
 
-    room_size: float
-    room_height: float
-    camera_height: float
-    room_centre: tuple[float, ...]
-    floor_square: float
-    wall_square: float
-    ambient: float
-    diffuse: float
-    light_direction: tuple[float, ...]
-    floor_colours: tuple[float, ...]
-    x_wall_colours: tuple[float, ...]
-    y_wall_colours: tuple[float, ...]
-    ceiling_colour: tuple[float, ...]
-    box_colour: tuple[float, ...]
-    boxes: tuple[BoxSpec, ...]
+    room_size: float = setting("scene.room_size")
+    room_height: float = setting("scene.room_height")
+    camera_height: float = setting("scene.camera_height")
+    room_centre: tuple[float, ...] = setting("scene.room_centre")
+    floor_square: float = setting("scene.floor_square")
+    wall_square: float = setting("scene.wall_square")
+    ambient: float = setting("scene.ambient")
+    diffuse: float = setting("scene.diffuse")
+    light_direction: tuple[float, ...] = setting("scene.light_direction")
+    floor_colours: tuple[float, ...] = setting("scene.floor_colours")
+    x_wall_colours: tuple[float, ...] = setting("scene.x_wall_colours")
+    y_wall_colours: tuple[float, ...] = setting("scene.y_wall_colours")
+    ceiling_colour: tuple[float, ...] = setting("scene.ceiling_colour")
+    box_colour: tuple[float, ...] = setting("scene.box_colour")
+    boxes: tuple[BoxSpec, ...] = setting("scene.boxes", BOXES)
 
 
 def build_scene(spec: SceneSpec, *, mirror_top: float = 0.0, mirror_radius: float = 0.0) -> Scene:

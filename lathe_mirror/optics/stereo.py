@@ -33,67 +33,23 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..design import Mirror
 from ..errors import DesignError
 from ..profile import Profile
+from ..results.optics import FAILED_PCT, DepthCurve, capped_abs_error  # noqa: F401 (the cap, as the band counts it)
 from .trace import meridian_hits
 
 #: Elevations closer than this to an edge of the common band (rad) are not used: at
 #: 0.5 m the two viewpoints see a point 1.5 degrees apart, so points right at the band's
 #: edge would fall outside one lobe's field of view.
 BAND_MARGIN = math.radians(2.0)
-#: |Depth error| (%) at which a point counts as failed, and the value a failed or lost
-#: point contributes to the band's figures (see the module docstring).
-FAILED_PCT = 100.0
 #: Elevations sampled across the common band by default: enough for the capped RMS to
 #: settle to ~1 % of itself (9 gave 51 %, 33 gave 59.5 %, 2049 gave 58.4 % on the polished
 #: paper mirror at 2 m).
 BAND_POINTS = 33
-
-
-@dataclass(frozen=True)
-class DepthCurve:
-    """Depth error (%) against range (m) at several elevations (rad) of the common band.
-
-    error_pct has shape (len(ranges_m), len(elevations)).
-    """
-
-    ranges_m: np.ndarray
-    elevations: np.ndarray
-    error_pct: np.ndarray
-
-    def at(self, range_m: float) -> dict:
-        """|Depth error| (%) over the elevations at one range (m), each point capped at
-        FAILED_PCT and a lost point (one the made mirror does not show to both lobes: NaN)
-        counted at FAILED_PCT: {"rms", "median", "max"}; "failed": points at the cap (lost
-        ones included), "lost": the lost ones alone, "points": all of them.
-
-        The median is given too: it does not depend on the cap."""
-        i = int(np.argmin(np.abs(self.ranges_m - range_m)))
-        if not math.isclose(self.ranges_m[i], range_m, rel_tol=1e-9):
-            raise ValueError(f"range {range_m} m is not on the curve")
-        e = capped_abs_error(self.error_pct[i])
-        return {"rms": float(np.sqrt(np.mean(e**2))), "max": float(np.max(e)),
-                "median": float(np.median(e)), "failed": int(np.sum(e >= FAILED_PCT)),
-                "lost": int(np.sum(~np.isfinite(self.error_pct[i]))), "points": int(e.size)}
-
-    def to_dict(self) -> dict:
-        rows = [self.at(float(r)) for r in self.ranges_m]
-        return {"ranges_m": [float(x) for x in self.ranges_m],
-                "elevations_deg": [float(math.degrees(x)) for x in self.elevations],
-                "depth_error_pct": {key: [row[key] for row in rows]
-                                    for key in ("rms", "max", "median", "failed", "lost")},
-                "signed_error_pct": [[float(v) for v in row] for row in self.error_pct]}
-
-
-def capped_abs_error(error_pct: np.ndarray) -> np.ndarray:
-    """|depth error| (%) capped at FAILED_PCT; NaN (a point not seen by both lobes) -> FAILED_PCT."""
-    e = np.abs(np.asarray(error_pct, dtype=float))
-    return np.where(np.isfinite(e), np.minimum(e, FAILED_PCT), FAILED_PCT)
 
 
 def stereo_centre_z(mirror: Mirror) -> float:
@@ -176,7 +132,7 @@ def depth_error_curve(profile: Profile, mirror: Mirror, ranges_m: Sequence[float
         o.append(np.stack([h.out_r, h.out_z], -1))
     x = triangulate(p[0], o[0], p[1], o[1])
     x[~ok] = np.nan
-    return DepthCurve(ranges_m, elev, _error_pct(mirror, x.reshape(w_r.shape + (2,)), ranges_m * 1e3, elev))
+    return DepthCurve.of(ranges_m, elev, _error_pct(mirror, x.reshape(w_r.shape + (2,)), ranges_m * 1e3, elev))
 
 
 def _error_pct(mirror: Mirror, x: np.ndarray, ranges_mm: np.ndarray, elev: np.ndarray) -> np.ndarray:

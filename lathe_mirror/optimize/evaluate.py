@@ -210,6 +210,8 @@ CONSTRAINTS: tuple[Constraint, ...] = (
                lambda f, p: (f.reach_margin_deg, 0.0)),
     Constraint("stock.diameter", "the mirror's diameter", "mm", +1, 1.0,
                lambda f, p: (2.0 * f.lobes[1].r_top, p.stock.diameter)),
+    Constraint("cad.blank_diameter", "the mirror's diameter", "mm", +1, 1.0,
+               lambda f, p: (2.0 * f.lobes[1].r_top, p.body.blank_diameter)),
     Constraint("stock.length", "the mirror's depth plus toolpath.clearance", "mm", +1, 1.0,
                lambda f, p: (f.depth_mm + p.clearance, p.stock.length)),
     Constraint("cad.thickness", "the mirror's depth plus cad.min_wall", "mm", +1, 1.0,

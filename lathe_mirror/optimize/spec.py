@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 
 from ..declared import check as check_declared
+from ..declared.section import choice, nested, setting
 from ..errors import InputError
 
 #: Names of the searched parameters, in the order of a design vector (see search.py).
@@ -56,12 +57,12 @@ class SearchSpace:
     (deg). Fractions keep the inner lobe inside the outer one by construction.
     """
 
-    outer_r_top_fraction: tuple[float, float] = (0.5, 1.0)
-    junction_fraction: tuple[float, float] = (0.15, 0.9)
-    outer_r_pixel_fraction: tuple[float, float] = (0.5, 1.0)
-    pixel_fraction: tuple[float, float] = (0.15, 0.95)
-    alpha_inner_deg: tuple[float, float] = (-20.0, 60.0)
-    alpha_outer_deg: tuple[float, float] = (-30.0, 30.0)
+    outer_r_top_fraction: tuple[float, float] = setting("optimize.search.outer_r_top_fraction")
+    junction_fraction: tuple[float, float] = setting("optimize.search.junction_fraction")
+    outer_r_pixel_fraction: tuple[float, float] = setting("optimize.search.outer_r_pixel_fraction")
+    pixel_fraction: tuple[float, float] = setting("optimize.search.pixel_fraction")
+    alpha_inner_deg: tuple[float, float] = setting("optimize.search.alpha_inner_deg")
+    alpha_outer_deg: tuple[float, float] = setting("optimize.search.alpha_outer_deg")
 
     def __post_init__(self) -> None:
         for name in PARAMETERS:
@@ -106,26 +107,26 @@ class OptimizeSettings:
     The lathe's constraints come from [tool], [stock], [toolpath] and [cad].
     """
 
-    objective: Objective = Objective.R10
-    seed: int = 1
-    workers: int = 1
-    popsize: int = 15
-    maxiter: int = 500
-    tol: float = 0.001
-    r_max_mm: float = 35.0
-    vertex_min_mm: float = 103.6
-    rim_max_mm: float = 123.5
-    band_deg: tuple[float, float] = (-20.0, 0.0)
-    band_width_min_deg: float = 0.0
-    rim_margin_px: float = 0.0
-    usable_min: float = 0.8
-    blur_max_px: float = 7.0
-    focus_range_m: float = 2.0
-    max_diameter_mm: float = 0.0
-    max_depth_mm: float = 0.0
-    blur_limit_um: float = 0.0
-    bound_margin: float = 0.02
-    search: SearchSpace = field(default_factory=SearchSpace)
+    objective: Objective = setting("optimize.objective", choice(Objective))
+    seed: int = setting("optimize.seed")
+    workers: int = setting("optimize.workers")
+    popsize: int = setting("optimize.popsize")
+    maxiter: int = setting("optimize.maxiter")
+    tol: float = setting("optimize.tol")
+    r_max_mm: float = setting("optimize.r_max_mm")
+    vertex_min_mm: float = setting("optimize.vertex_min_mm")
+    rim_max_mm: float = setting("optimize.rim_max_mm")
+    band_deg: tuple[float, float] = setting("optimize.band_deg")
+    band_width_min_deg: float = setting("optimize.band_width_min_deg")
+    rim_margin_px: float = setting("optimize.rim_margin_px")
+    usable_min: float = setting("optimize.usable_min")
+    blur_max_px: float = setting("optimize.blur_max_px")
+    focus_range_m: float = setting("optimize.focus_range_m")
+    max_diameter_mm: float = setting("optimize.max_diameter_mm")
+    max_depth_mm: float = setting("optimize.max_depth_mm")
+    blur_limit_um: float = setting("optimize.blur_limit_um")
+    bound_margin: float = setting("optimize.bound_margin")
+    search: SearchSpace = nested(SearchSpace)
 
     def __post_init__(self) -> None:
         # Each field within its key's declaration (optimize.<field>): the line load() gives.

@@ -9,8 +9,9 @@ import numpy as np
 
 from ..enums import Dwell, Lap, PolishObjective
 from ..declared import check as check_declared
+from ..declared.section import choice, setting
 from ..errors import InputError
-from ..finish import DEFAULT_PROCESSES, Process
+from ..finish import PROCESSES, Process
 
 #: Time step as a fraction of the fastest e-folding time of a short error (see _evolve).
 ACCURACY = 0.2
@@ -80,33 +81,33 @@ class PolishParams:
     time_s (the G-code then carries it).
     """
 
-    preston_coefficient: float = 4e-13
-    pressure_kpa: float = 30.0
-    pad_size_mm: float = 6.0
-    compliance_mm: float = 0.004
-    spindle_rpm: float = 3000.0
-    lap: Lap = Lap.ROTATE
-    lap_radius_mm: float = 8.0
-    lap_rpm: float = 3000.0
-    stroke_mm: float = 0.75
-    overhang: float = 0.3
-    dwell: Dwell = Dwell.UNIFORM
-    stroke_points: int = 16
-    time_s: float = 26400.0
-    grid_step_mm: float = 0.005
-    curve_max_s: float = 28800.0
-    curve_points: int = 25
-    form_degree: int = 4
-    corner_mm: float = 0.5
-    step_edge_mm: float = 0.0
-    clear_edge_mm: float = 0.5
-    objective: PolishObjective = PolishObjective.STEREO
-    objective_range_m: float = 2.0
-    objective_tolerance: float = 0.05
-    calibration_knot_px: float = 24.0
-    wavelength_nm: float = 550.0
-    precompensate: bool = False
-    processes: tuple[Process, ...] = field(default=DEFAULT_PROCESSES)
+    preston_coefficient: float = setting("polish.preston_coefficient")
+    pressure_kpa: float = setting("polish.pressure_kpa")
+    pad_size_mm: float = setting("polish.pad_size_mm")
+    compliance_mm: float = setting("polish.compliance_mm")
+    spindle_rpm: float = setting("polish.spindle_rpm")
+    lap: Lap = setting("polish.lap", choice(Lap))
+    lap_radius_mm: float = setting("polish.lap_radius_mm")
+    lap_rpm: float = setting("polish.lap_rpm")
+    stroke_mm: float = setting("polish.stroke_mm")
+    overhang: float = setting("polish.overhang")
+    dwell: Dwell = setting("polish.dwell", choice(Dwell))
+    stroke_points: int = setting("polish.stroke_points")
+    time_s: float = setting("polish.time_s")
+    grid_step_mm: float = setting("polish.grid_step_mm")
+    curve_max_s: float = setting("polish.curve_max_s")
+    curve_points: int = setting("polish.curve_points")
+    form_degree: int = setting("polish.form_degree")
+    corner_mm: float = setting("polish.corner_mm")
+    step_edge_mm: float = setting("polish.step_edge_mm")
+    clear_edge_mm: float = setting("polish.clear_edge_mm")
+    objective: PolishObjective = setting("polish.objective", choice(PolishObjective))
+    objective_range_m: float = setting("polish.objective_range_m")
+    objective_tolerance: float = setting("polish.objective_tolerance")
+    calibration_knot_px: float = setting("polish.calibration_knot_px")
+    wavelength_nm: float = setting("polish.wavelength_nm")
+    precompensate: bool = setting("polish.precompensate")
+    processes: tuple[Process, ...] = setting("polish.process", PROCESSES)
 
     def __post_init__(self) -> None:
         # Each field within its key's declaration (polish.<field>): the line load() gives.

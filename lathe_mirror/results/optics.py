@@ -3,6 +3,7 @@ per lobe, made mirrors' reprojection), the renders' differences, range from the 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -18,6 +19,23 @@ AT_KEY = f"at_{DEPTH_REPORT_M:g}_m"
 
 
 # -- stereo ----------------------------------------------------------------------------
+
+#: |Depth error| (%) at which a point counts as failed, and the value a failed or lost
+#: point contributes to the band's figures (optics.stereo's module doc says why).
+FAILED_PCT = 100.0
+
+
+def capped_abs_error(error_pct: np.ndarray) -> np.ndarray:
+    """|depth error| (%) capped at FAILED_PCT; NaN (a point not seen by both lobes) -> FAILED_PCT."""
+    e = np.abs(np.asarray(error_pct, dtype=float))
+    return np.where(np.isfinite(e), np.minimum(e, FAILED_PCT), FAILED_PCT)
+
+
+def _band(error_pct: np.ndarray) -> dict:
+    e = capped_abs_error(error_pct)
+    return {"rms": float(np.sqrt(np.mean(e**2))), "max": float(np.max(e)),
+            "median": float(np.median(e)), "failed": int(np.sum(e >= FAILED_PCT)),
+            "lost": int(np.sum(~np.isfinite(error_pct))), "points": int(e.size)}
 
 
 @dataclass(**RESULT)
@@ -45,12 +63,44 @@ class DepthStats(Result):
 
 @dataclass(**RESULT)
 class DepthCurve(Result):
-    """Depth error against range (optics.stereo.DepthErrorCurve.to_dict); `table()`: per range."""
+    """Depth error (%) against range (m) at elevations across the common band
+    (optics.stereo.depth_error_curve, optics.calibrated_stereo): the signed error per
+    (range, elevation) and per range the band's capped figures; `at(range_m)`: one range's;
+    `table()`: per range."""
 
     ranges_m: tuple[float, ...]
     elevations_deg: tuple[float, ...]
     depth_error_pct: DepthStats
     signed_error_pct: tuple[tuple[float, ...], ...]
+
+    @classmethod
+    def of(cls, ranges_m, elevations, error_pct) -> DepthCurve:
+        """The curve of ranges_m (m), elevations (rad) and the signed error_pct of shape
+        (len(ranges_m), len(elevations)) (NaN: a point the made mirror does not show to
+        both lobes)."""
+        err = np.asarray(error_pct, dtype=float)
+        rows = [_band(row) for row in err]
+        return cls(ranges_m=tuple(float(x) for x in ranges_m),
+                   elevations_deg=tuple(float(math.degrees(x)) for x in elevations),
+                   depth_error_pct=DepthStats(**{k: tuple(r[k] for r in rows)
+                                                 for k in ("rms", "max", "median", "failed", "lost")}),
+                   signed_error_pct=tuple(tuple(float(v) for v in row) for row in err))
+
+    @property
+    def error_pct(self) -> np.ndarray:
+        """The signed depth error (%) as an array, (len(ranges_m), len(elevations_deg))."""
+        return np.asarray(self.signed_error_pct, dtype=float).reshape(len(self.ranges_m), len(self.elevations_deg))
+
+    def at(self, range_m: float) -> dict:
+        """|Depth error| (%) over the elevations at one range (m), each point capped at
+        FAILED_PCT and a lost point (NaN) counted at FAILED_PCT: {"rms", "median", "max"};
+        "failed": points at the cap (lost ones included), "lost": the lost ones alone,
+        "points": all of them. The median does not depend on the cap."""
+        ranges = np.asarray(self.ranges_m)
+        i = int(np.argmin(np.abs(ranges - range_m)))
+        if not math.isclose(ranges[i], range_m, rel_tol=1e-9):
+            raise ValueError(f"range {range_m} m is not on the curve")
+        return _band(np.asarray(self.signed_error_pct[i], dtype=float))
 
     def table(self) -> np.ndarray:
         d = self.depth_error_pct

@@ -8,14 +8,15 @@ happens before any command does work or writes a file. Below the command layer n
 the dict: every stage takes the typed objects (Camera, Lathe, Tool, PolishParams, ...).
 
 The package's modules:
-  model          the typed Settings and the sections without a lower home
+  sections       the sections without a lower home, and Sections: every section's field
+  model          Settings: Sections checked on construction (validate)
   keys           every key and what it allows (RANGES, check_ranges)
   design_checks  a lobe that is a proper hyperbola, a common stereo band, assembly tolerances
   costs          what the keys cost (time, memory), refused above the limits
-  load           from_config: the dict's sections -> Settings, every check in order
+  load           from_config: the dict -> Settings (each section from its declared fields)
+  dump           to_config: Settings -> the dict (the same fields back, in the file's units)
 
-Bounds (issue 14): every key has a documented range (RANGES; README "Ranges of every
-key"), and what a key costs where a hard bound would be arbitrary is estimated from the
+Bounds: every key has a documented range (RANGES; docs/reference/keys.md), and what a key costs where a hard bound would be arbitrary is estimated from the
 keys and refused above a limit with the estimate in the message (check_costs). A
 configuration is valid for every command or for none. Checks that need a planned toolpath
 or the made surface (the gouge, the stock holding the mirror, the body holding it, the

@@ -1,5 +1,5 @@
 """What the keys cost: the time and memory of the work they set, estimated and refused
-above the limits (issue 14) with the estimate in the message.
+above the limits with the estimate in the message.
 
 The limits are MEMORY_LIMIT_GIB for any piece of work and TIME_LIMIT_MIN for all of them
 together (estimated on the reference machine, 2 cores: benchmarks/bench_bounds.py prints
@@ -24,7 +24,7 @@ from .design_checks import check_assembly_tolerances, round_in
 from .keys import MAX_ROUGH_LEVELS
 
 if TYPE_CHECKING:
-    from .model import Settings
+    from .sections import Sections as Settings
 
 
 #: Limits the estimates are held to: each piece of work's peak memory (GiB), and the time

@@ -16,25 +16,25 @@ from .keys import KEYS
 FILES: dict[str, tuple[str, tuple[str, ...]]] = {
     'cad.toml': (
         (
-            '# CAD of the mirror (issue 4): the mounting body around the turned face, and the\n'
+            '# CAD of the mirror: the mounting body around the turned face, and the\n'
             '# export settings. Machine frame: the axis along Z, the vertex at Z = 0, the part in -Z.\n'
             '# Lengths in mm.\n'
         ),
         ('cad',)),
     'compute.toml': (
         (
-            "# Where the heavy work runs (issue 23): the Monte Carlo trials and the optimiser's evaluations.\n"
+            "# Where the heavy work runs: the Monte Carlo trials and the optimiser's evaluations.\n"
         ),
         ('compute',)),
     'machine.toml': (
         (
-            '# The CNC lathe, its tool and the stock (issue 3). Lengths in mm, angles in degrees.\n'
+            '# The CNC lathe, its tool and the stock. Lengths in mm, angles in degrees.\n'
             "# The paper's lathe holds about 528 coordinates at 0.005 mm resolution (section 6).\n"
         ),
         ('machine', 'machine.errors', 'tool', 'stock', 'toolpath')),
     'optimize.toml': (
         (
-            '# The design optimiser (`lathe-mirror optimize`, issue 12). It keeps the [camera] fixed,\n'
+            '# The design optimiser (`lathe-mirror optimize`). It keeps the [camera] fixed,\n'
             "# searches both lobes' r_top, r_pixel and alpha, and maximises the objective under the\n"
             "# constraints below. Every default keeps the paper's design feasible, so on the paper's\n"
             '# camera the winner is never worse than the paper (it starts from the [lobes] given).\n'

@@ -19,7 +19,7 @@ from ..profile import ExactProfile
 from .keys import H_RANGE, MAX_VERTEX_RADIUS, MIN_VERTEX_RADIUS
 
 if TYPE_CHECKING:
-    from .model import Settings
+    from .sections import Sections as Settings
 
 
 def check_design(settings: Settings) -> Mirror:
@@ -96,7 +96,7 @@ def _proper(camera: Camera, spec: LobeSpec, param: str, value: float) -> Lobe | 
     except (DesignError, ValueError, ArithmeticError):
         return None
     ok = (lobe.a > 0 and lobe.b > 0 and math.isfinite(lobe.b)
-          and MIN_VERTEX_RADIUS <= lobe.b * lobe.b / lobe.a <= MAX_VERTEX_RADIUS)
+          and MIN_VERTEX_RADIUS <= lobe.vertex_radius <= MAX_VERTEX_RADIUS)
     return lobe if ok else None
 
 

@@ -10,9 +10,10 @@ from its keys_* modules, one per group of sections) and what comes from it.
 - the embedded defaults (declared_defaults; config.default_config is it, and
   lathe_mirror/data/*.toml are generated from it: settings.defaults_toml).
 
-To add or change a key: declare it (or edit it) in lathe_mirror/declared/keys_* for its section, give
-its typed field a home in the section's dataclass and its conversion in load.py (and
-dump.py back), then run scripts/gen-keys (README table, data/*.toml). Editing data/*.toml
+To add or change a key: declare it (or edit it) in lathe_mirror/declared/keys_* for its
+section, give it a field in the section's dataclass that names it
+(`declared.section.setting("section.key", conversion)`: its default, load and dump come
+from that line), then run scripts/gen-keys (README table, data/*.toml). Editing data/*.toml
 by hand changes nothing: the defaults are the declaration's, and a test says so.
 
 A key's own range is checked here; a limit that other keys move (the design, the cost
@@ -23,10 +24,10 @@ the key.
 
 from __future__ import annotations
 
-import copy
 from typing import Any
 
 from ..declared import KEYS, RANGES, Key, key
+from ..declared.section import defaults
 
 #: Largest rim height above the camera h (mm) a design may have, and the smallest.
 H_RANGE = (0.1, 10_000.0)
@@ -39,8 +40,7 @@ MAX_VERTEX_RADIUS = 10_000.0
 #: Most roughing levels (Z passes) one program may have: ~100 bytes of G-code each.
 MAX_ROUGH_LEVELS = 20_000
 
-#: (KEYS, RANGES, key: the declarations, lathe_mirror.declared.) Range: the name kept from
-#: issue 14's table of ranges (a Key has the `text()`, `why` and `allows()` its Range had).
+#: A declared key's other name (its `text()`, `why` and `allows()` are a range's).
 Range = Key
 
 __all__ = ["H_RANGE", "KEYS", "MAX_ROUGH_LEVELS", "MAX_VERTEX_RADIUS", "MIN_VERTEX_RADIUS", "RANGES", "Range",
@@ -100,19 +100,7 @@ def help_default(name: str) -> str:
 
 
 def declared_defaults() -> dict[str, Any]:
-    """The declared defaults as a nested configuration dict (keys without a default, such
-    as a lobe's a_over_b, and the entries of a list of tables are left out; `lobes.*.`
-    gives both lobes their own)."""
-    out: dict[str, Any] = {}
-    for k in KEYS:
-        if k.default is None or "[]" in k.name:
-            continue
-        names = ([k.name.replace("*", lobe) for lobe in ("inner", "outer")] if k.name.startswith("lobes.*.")
-                 else [k.name[:-2]] if k.name.endswith(".*") else [k.name])
-        for name in names:
-            node = out
-            parts = name.split(".")
-            for p in parts[:-1]:
-                node = node.setdefault(p, {})
-            node[parts[-1]] = copy.deepcopy(k.default)  # a caller may change its copy
-    return out
+    """The declared defaults as a nested configuration dict (declared.section.defaults:
+    keys without a default, such as a lobe's a_over_b, and the entries of a list of
+    tables are left out)."""
+    return defaults()

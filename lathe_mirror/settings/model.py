@@ -1,103 +1,25 @@
-"""The typed settings: one frozen object per TOML section (settings.load builds them).
-
-Settings holds every section; RenderSettings, StereoSettings and ComputeSettings are the
-sections that have no home in a lower module. The sections of the lower modules (Camera,
-Lathe, Tool, PolishParams, ...) are defined where they are used and only gathered here.
+"""The typed settings: `Settings`, every section of a configuration (settings.sections)
+checked on construction: a Settings that cannot exist cannot be built, from a
+configuration or in Python (`dataclasses.replace(settings, ...)`), and the message is the
+one `load()` gives (settings.validate).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-from ..body import BodySpec, CadSettings
-from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
-from ..enums import Surface
-from ..lathe import Lathe, Stock, Tool
-from ..machine_errors import MachineErrors
-from ..optics.camera import CameraPose
-from ..optics.ranging.stereo import StereoParams
-from ..optics.scene import SceneSpec
-from ..optimize.spec import OptimizeSettings
-from ..polishing import PolishParams
-from ..tolerance.spec import ToleranceSettings
-from ..toolpath import ToolpathSettings
+from .sections import MAX_SUPERSAMPLE, ComputeSettings, RenderSettings, Sections, StereoSettings
 from .validate import validate
 
-#: Largest supersampling factor of a render (N x N rays per pixel).
-MAX_SUPERSAMPLE = 8
-
 
 @dataclass(frozen=True)
-class RenderSettings:
-    """The [render] section: supersample N (N x N rays per pixel, N^2 the cost), the made
-    surface rendered by default, and the nose radius (mm; > 0: the as-machined surface of
-    a tool of that radius along its own program)."""
-
-    supersample: int = 1
-    surface: Surface = Surface.PAPER
-    nose_radius: float = 0.0
-
-
-@dataclass(frozen=True)
-class StereoSettings:
-    """The [stereo] section: the surface ranged by default, the render's supersampling N
-    (N x N rays per pixel: the matcher's sub-pixel precision needs anti-aliased edges), how
-    an image is ranged (StereoParams), and whether the point cloud is binary PLY."""
-
-    surface: Surface = Surface.EXACT
-    supersample: int = 2
-    params: StereoParams = field(default_factory=StereoParams)
-    ply_binary: bool = True
-
-
-@dataclass(frozen=True)
-class ComputeSettings:
-    """The [compute] section: where the heavy work (Monte Carlo trials, the optimiser's
-    evaluations) runs. workers: processes on this machine (0: all cores). scheduler: ""
-    runs local processes; else the address of a Dask scheduler, "tcp://HOST:PORT"."""
-
-    workers: int = 0
-    scheduler: str = ""
-
-
-@dataclass(frozen=True)
-class Settings:
-    """Every section of a configuration, typed and checked on construction: a Settings
-    that cannot exist cannot be built, from a configuration or in Python
-    (`dataclasses.replace(settings, ...)`), and the message is the one `load()` gives
-    (settings.validate).
-
-    camera, lobes: the design's inputs (pipeline.design builds the Mirror from them).
-    machine, tool, stock, toolpath: the lathe, its insert, the bar and the program's knobs.
-    body, cad: the mounting body and the CAD export settings. polish: polishing.
-    scene, render, pose: the room, how it is rendered, the camera's misalignment.
-    stereo: ranging from the image (optics.ranging).
-    tolerance: the tolerance analysis (spec, tolerances, Monte Carlo).
-    optimize: the design search. machine_errors: the lathe's set-up errors ([machine.errors]).
-    compute: where heavy work runs (local processes or a Dask scheduler).
-    """
-
-    camera: Camera
-    lobes: tuple[LobeSpec, LobeSpec]
-    machine: Lathe = field(default_factory=Lathe)
-    tool: Tool = field(default_factory=Tool)
-    stock: Stock = field(default_factory=Stock)
-    toolpath: ToolpathSettings = field(default_factory=ToolpathSettings)
-    body: BodySpec = field(default_factory=BodySpec)
-    cad: CadSettings = field(default_factory=CadSettings)
-    polish: PolishParams = field(default_factory=PolishParams)
-    scene: SceneSpec | None = None
-    render: RenderSettings = field(default_factory=RenderSettings)
-    pose: CameraPose = field(default_factory=CameraPose)
-    tolerance: ToleranceSettings | None = None
-    stereo: StereoSettings = field(default_factory=StereoSettings)
-    optimize: OptimizeSettings = field(default_factory=OptimizeSettings)
-    machine_errors: MachineErrors = field(default_factory=MachineErrors)
-    compute: ComputeSettings = field(default_factory=ComputeSettings)
+class Settings(Sections):
+    """Every section of a configuration (settings.sections.Sections: the fields), checked
+    on construction (settings.validate: the keys' ranges, the cross-key rules, the design,
+    the room, the costs)."""
 
     def __post_init__(self) -> None:
         validate(self)  # the one validation, however the Settings was built
 
-    def mirror(self) -> Mirror:
-        """The designed mirror (design.mirror_from_specs; cheap, the design is closed form)."""
-        return mirror_from_specs(self.camera, self.lobes)
+
+__all__ = ["MAX_SUPERSAMPLE", "ComputeSettings", "RenderSettings", "Settings", "StereoSettings"]

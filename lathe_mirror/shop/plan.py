@@ -22,6 +22,8 @@ MAX_STICK_OUT_DIAMETERS = 3.0
 
 if TYPE_CHECKING:
     from ..body import BodySpec
+    from ..design import Mirror
+    from ..lathe import Lathe
     from ..toolpath import Toolpath
 
 
@@ -41,22 +43,7 @@ def plan_program(toolpath: Toolpath, stock: Stock, options: ToolpathSettings | N
     """
     options = ToolpathSettings() if options is None else options
     lathe, m = toolpath.lathe, toolpath.mirror
-    if stock.radius <= m.r_max:
-        raise InputError(f"stock.diameter = {stock.diameter:g} mm: must exceed the mirror's "
-                         f"diameter {2 * m.r_max:g} mm")
-    rim_depth = -(m.vertex_z - float(m.outer.z(m.r_max)))
-    if stock.length < rim_depth + options.clearance:
-        raise InputError(f"stock.length = {stock.length:g} mm: the mirror is {rim_depth:.3f} mm deep; "
-                         f"allowed >= {rim_depth + options.clearance:.3f} mm")
-    stick_out = stock.length + stock.face_allowance
-    if stick_out > MAX_STICK_OUT_DIAMETERS * stock.diameter:
-        raise InputError(f"stock.length = {stock.length:g} mm: the bar would stand {stick_out:g} mm out of the jaws, "
-                         f"more than {MAX_STICK_OUT_DIAMETERS:g} bar diameters ({stock.diameter:g} mm) held without a "
-                         f"tailstock; allowed <= {MAX_STICK_OUT_DIAMETERS * stock.diameter - stock.face_allowance:g} mm")
-    if options.home_z < stock.face_allowance + options.clearance:
-        raise InputError(f"toolpath.home_z = {options.home_z:g} mm: the end position must be above the "
-                         f"stock's face by the clearance; allowed >= "
-                         f"{stock.face_allowance + options.clearance:g} mm")
+    check_stock(m, stock, options, lathe)
     depth = gouge_depth(toolpath)
     if depth > options.gouge_tolerance:
         raise InputError(
@@ -92,6 +79,35 @@ def as_machined_figures(made, target) -> dict:
     if target is not target.design:
         out["against_target"] = profile_errors(made, target)["lobes"]
     return out
+
+
+def check_stock(m: Mirror, stock: Stock, options: ToolpathSettings, lathe: Lathe) -> None:
+    """What plan_program asks of the bar and the end position before it plans (closed
+    form, ~10 us; settings.validate.check_commands runs it for `design`): the bar wider
+    than the mirror and longer than its depth plus the clearance, the end position above
+    the bar's face by the clearance and within the lathe's travel."""
+    if stock.radius <= m.r_max:
+        raise InputError(f"stock.diameter = {stock.diameter:g} mm: must exceed the mirror's "
+                         f"diameter {2 * m.r_max:g} mm")
+    rim_depth = -(m.vertex_z - float(m.outer.z(m.r_max)))
+    if stock.length < rim_depth + options.clearance:
+        raise InputError(f"stock.length = {stock.length:g} mm: the mirror is {rim_depth:.3f} mm deep; "
+                         f"allowed >= {rim_depth + options.clearance:.3f} mm")
+    if options.home_z < stock.face_allowance + options.clearance:
+        raise InputError(f"toolpath.home_z = {options.home_z:g} mm: the end position must be above the "
+                         f"stock's face by the clearance; allowed >= "
+                         f"{stock.face_allowance + options.clearance:g} mm")
+    stick_out = stock.length + stock.face_allowance
+    if stick_out > MAX_STICK_OUT_DIAMETERS * stock.diameter:
+        raise InputError(f"stock.length = {stock.length:g} mm: the bar would stand {stick_out:g} mm out of the jaws, "
+                         f"more than {MAX_STICK_OUT_DIAMETERS:g} bar diameters ({stock.diameter:g} mm) held without a "
+                         f"tailstock; allowed <= {MAX_STICK_OUT_DIAMETERS * stock.diameter - stock.face_allowance:g} mm")
+    if options.home_r > lathe.travel_x:
+        raise InputError(f"toolpath.home_r = {options.home_r:g} mm: the end position is beyond the lathe's "
+                         f"travel; allowed <= machine.travel_x = {lathe.travel_x:g} mm")
+    if options.home_z > lathe.travel_z_max:
+        raise InputError(f"toolpath.home_z = {options.home_z:g} mm: the end position is beyond the lathe's "
+                         f"travel; allowed <= machine.travel_z_max = {lathe.travel_z_max:g} mm")
 
 
 def numbered(ops: list[Operation]) -> tuple[Operation, ...]:

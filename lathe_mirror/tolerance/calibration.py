@@ -11,7 +11,7 @@ own model made flexible in the ways a calibration is:
 - a smooth radial mapping per lobe: the image radius the design predicts, corrected by a
   cubic in the radius (Chebyshev terms over the lobe's annulus; 4 coefficients a lobe,
   as many radial degrees of freedom as OpenCV's omnidir model has, xi, gamma, k1, k2).
-  The calibration issue's unified-model refit (optics.camera_model.refit: xi, gamma, k1,
+  The unified camera model's refit (optics.camera_model.refit: xi, gamma, k1,
   k2 by scipy least squares, ~0.3 s a lobe) is the same idea for one surface; this fit
   is vectorised over a thousand trials at once, and tests/test_tolerance.py checks its
   residual against refit's reprojection error on aligned made mirrors (to 1 % polished).

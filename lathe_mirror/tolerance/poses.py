@@ -3,15 +3,25 @@ drawn decentre, axial offset, tilt and the mirror's seat tilt (tolerance.perturb
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from .perturb import Trials
+
+class Draws(Protocol):
+    """What a pose is made of, one value a trial (perturb.Trials has them): the pinhole's
+    decentre and axial offset (mm), the camera's and the seat's tilts (rad)."""
+
+    cam_x_mm: np.ndarray
+    cam_y_mm: np.ndarray
+    cam_z_mm: np.ndarray
+    tilt_x: np.ndarray
+    tilt_y: np.ndarray
+    seat_x: np.ndarray
+    seat_y: np.ndarray
 
 
-def poses(tr: Trials, seat_pivot_mm: float) -> tuple[np.ndarray, np.ndarray]:
+def poses(tr: Draws, seat_pivot_mm: float) -> tuple[np.ndarray, np.ndarray]:
     """The camera's pinhole (trials, 3) and rotation (camera -> mirror frame, (trials, 3, 3))
     in the mirror's frame.
 

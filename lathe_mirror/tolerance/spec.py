@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..declared.section import FLOATS, choice, nested, setting
 from ..enums import Distribution, Program
 
 
@@ -31,12 +32,12 @@ class Spec:
     of the raw ones against the design's own model.
     """
 
-    image_displacement_px: float
-    depth_error_pct: float
-    depth_range_m: float
-    slope_error_rad: float
-    calibrated: bool = True
-    outlier_pct: float = 1.0
+    image_displacement_px: float = setting("tolerance.spec.image_displacement_px")
+    depth_error_pct: float = setting("tolerance.spec.depth_error_pct")
+    depth_range_m: float = setting("tolerance.spec.depth_range_m")
+    slope_error_rad: float = setting("tolerance.spec.slope_error_rad")
+    calibrated: bool = setting("tolerance.spec.calibrated")
+    outlier_pct: float = setting("tolerance.spec.outlier_pct")
 
 
 #: The toleranced parameters, in table order: key -> (what it is, unit at the edge).
@@ -85,22 +86,22 @@ class ToleranceSettings:
     the same meaning as `tolerances` under `distribution`; edge units mm and urad).
     """
 
-    seed: int
-    trials: int
-    programs: tuple[Program, ...]
-    distribution: Distribution
-    lattice_phases: int
-    azimuths: int
-    bin_px: float
-    depth_points: int
-    spec: Spec
-    tolerances: dict[str, float]  # PARAMETERS' keys except lattice_phase; edge units
-    seat_pivot_mm: float = 0.0
-    nose_step_mm: float = 0.002
-    matching_noise_px: float = 0.1
-    target_yield: float = 0.95
-    cost: dict[str, float] = field(default_factory=dict)
-    machine_errors: dict[str, float] = field(default_factory=dict)
+    seed: int = setting("tolerance.seed")
+    trials: int = setting("tolerance.trials")
+    programs: tuple[Program, ...] = setting("tolerance.programs", choice(Program))
+    distribution: Distribution = setting("tolerance.distribution", choice(Distribution))
+    lattice_phases: int = setting("tolerance.lattice_phases")
+    azimuths: int = setting("tolerance.azimuths")
+    bin_px: float = setting("tolerance.bin_px")
+    depth_points: int = setting("tolerance.depth_points")
+    spec: Spec = nested(Spec)
+    tolerances: dict[str, float] = setting("tolerance.params", FLOATS)
+    seat_pivot_mm: float = setting("tolerance.seat_pivot_mm")
+    nose_step_mm: float = setting("tolerance.nose_step_mm")
+    matching_noise_px: float = setting("tolerance.matching_noise_px")
+    target_yield: float = setting("tolerance.target_yield")
+    cost: dict[str, float] = setting("tolerance.cost", FLOATS)
+    machine_errors: dict[str, float] = setting("tolerance.machine_errors", FLOATS)
 
     def pivot_mm(self, mirror) -> float:
         """The seat's pivot height above the pinhole (mm) for `mirror`: seat_pivot_mm, or

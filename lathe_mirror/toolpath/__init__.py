@@ -43,8 +43,8 @@ Modules:
 - paper.py, lattice.py, arcs.py   the three strategies
 - layout.py    what they share: lobe end columns, junction moves, budget split, lattice
                candidates near the curve
-- geometry.py  a lobe's sheet in the machine frame (foot_on_sheet, normals) and the
-               nose-centre curve
+- (lathe_mirror.sheet, below this package: a lobe's sheet in the machine frame,
+  foot_on_sheet, normal_angles, and the nose-centre curve)
 - checks.py    check_junction, junction_margin / corner_nose / fillet_hidden_margin,
                check_reach / reach_margin (the held tool's flanks), check_travel
 - metrics.py   profile_errors (normal deviation, slope error), usable_ranges (the

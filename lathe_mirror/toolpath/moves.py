@@ -15,6 +15,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..declared import SLACK, check as check_declared
+from ..declared.section import DEGREES, choice, setting
 from ..design import Mirror
 from ..enums import BEST, Strategy
 from ..lathe import Lathe, Tool
@@ -78,23 +79,23 @@ class ToolpathSettings:
     as its knobs.
     """
 
-    strategy: Strategy = BEST
-    gouge_tolerance: float = 0.005
-    max_deviation: float = 0.01
-    rough_depth: float = 1.0
-    rough_allowance: float = 0.15
-    clearance: float = 2.0
-    ramp_angle: float = math.radians(20.0)
-    spring_pass: bool = False
-    coolant: bool = True
-    home_r: float = 50.0
-    home_z: float = 50.0
-    rapid_rate: float = 5000.0
-    path_tolerance_mm: float = 0.001
-    max_finish_depth_mm: float = 0.1
-    parting_width_mm: float = 3.0
-    parting_feed: float = 0.05
-    back_allowance_mm: float = 0.5
+    strategy: Strategy = setting("toolpath.strategy", choice(Strategy, {"best": BEST}))
+    gouge_tolerance: float = setting("toolpath.gouge_tolerance")
+    max_deviation: float = setting("toolpath.max_deviation")
+    rough_depth: float = setting("toolpath.rough_depth")
+    rough_allowance: float = setting("toolpath.rough_allowance")
+    clearance: float = setting("toolpath.clearance")
+    ramp_angle: float = setting("toolpath.ramp_angle", DEGREES)
+    spring_pass: bool = setting("toolpath.spring_pass")
+    coolant: bool = setting("toolpath.coolant")
+    home_r: float = setting("toolpath.home_r")
+    home_z: float = setting("toolpath.home_z")
+    rapid_rate: float = setting("toolpath.rapid_rate")
+    path_tolerance_mm: float = setting("toolpath.path_tolerance_mm")
+    max_finish_depth_mm: float = setting("toolpath.max_finish_depth_mm")
+    parting_width_mm: float = setting("toolpath.parting_width_mm")
+    parting_feed: float = setting("toolpath.parting_feed")
+    back_allowance_mm: float = setting("toolpath.back_allowance_mm")
 
     def __post_init__(self) -> None:
         # Each number within its key's declaration (toolpath.<field>; the ramp angle in the

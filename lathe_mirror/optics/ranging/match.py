@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...declared.section import check_fields, setting
 from ...errors import InputError
 
 
@@ -43,42 +44,32 @@ class MatchParams:
     on the paper's room against 1.0).
     """
 
-    block_size: int = 7
+    block_size: int = setting("stereo.block_size")
     num_disparities: int = 16
-    uniqueness_ratio: int = 10
-    speckle_window: int = 100
-    speckle_range: int = 2
-    lr_max_diff: float = 1.0
+    uniqueness_ratio: int = setting("stereo.uniqueness_ratio")
+    speckle_window: int = setting("stereo.speckle_window")
+    speckle_range: int = setting("stereo.speckle_range")
+    lr_max_diff: float = setting("stereo.lr_max_diff")
     p1: int = 8
     p2: int = 32
-    texture_threshold: float = 4.0
-    support_px: int = 40
-    contrast: float = 0.25
+    texture_threshold: float = setting("stereo.texture_threshold")
+    support_px: int = setting("stereo.support_px")
+    contrast: float = setting("stereo.contrast")
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.block_size, int) and self.block_size >= 1 and self.block_size % 2 == 1
-                and self.block_size <= 31):
+        check_fields(self)  # each [stereo] key's declared range: the line load() gives
+        if self.block_size % 2 != 1:
             raise InputError(f"stereo.block_size = {self.block_size!r}: an odd integer from 1 to 31 px")
         if not (isinstance(self.num_disparities, int) and self.num_disparities >= 16
                 and self.num_disparities % 16 == 0 and self.num_disparities <= 256):
             raise InputError(f"stereo.num_disparities = {self.num_disparities!r}: a multiple of 16 "
                              "from 16 to 256 px")
-        for key, lo, hi in (("uniqueness_ratio", 0, 100), ("speckle_window", 0, 10000),
-                            ("speckle_range", 0, 64), ("p1", 0, 1000), ("p2", 0, 10000)):
+        for key, lo, hi in (("p1", 0, 1000), ("p2", 0, 10000)):
             val = getattr(self, key)
             if not (isinstance(val, int) and lo <= val <= hi):
                 raise InputError(f"stereo.{key} = {val!r}: an integer from {lo} to {hi}")
         if self.p2 <= self.p1:
             raise InputError(f"stereo.p2 = {self.p2} must exceed stereo.p1 = {self.p1}")
-        if not (0 <= self.texture_threshold <= 255):
-            raise InputError(f"stereo.texture_threshold = {self.texture_threshold!r}: from 0 to 255 grey levels per px")
-        if not (isinstance(self.support_px, int) and self.support_px >= 0):
-            raise InputError(f"stereo.support_px = {self.support_px!r}: an integer >= 0 px")
-        if not (0 < self.contrast <= 1):
-            raise InputError(f"stereo.contrast = {self.contrast!r}: from 0 (excluded) to 1")
-        if not (0 < self.lr_max_diff <= 16):
-            raise InputError(f"stereo.lr_max_diff = {self.lr_max_diff!r}: from 0 (excluded) to 16 px")
-
 
 def match(left: np.ndarray, right: np.ndarray, params: MatchParams = MatchParams()) -> np.ndarray:
     """Disparity (px, float64) of every left pixel: left x matches right x - d; NaN where

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...declared.section import DEGREES, METRES, nested, setting, zero_none
 from ...design import Mirror
 from ...errors import InputError
 from ...profile import Profile
@@ -54,11 +55,11 @@ class StereoParams:
     equalise: blur the outer panorama to the inner lobe's footprint before matching.
     """
 
-    match: MatchParams = field(default_factory=MatchParams)
-    min_range: float = 500.0
-    elevation_step: float | None = None
-    n_azimuth: int | None = None
-    equalise: bool = True
+    match: MatchParams = nested(MatchParams)
+    min_range: float = setting("stereo.min_range_m", METRES)
+    elevation_step: float | None = setting("stereo.elevation_step_deg", zero_none(DEGREES))
+    n_azimuth: int | None = setting("stereo.azimuth_px", zero_none())
+    equalise: bool = setting("stereo.equalise")
 
     def __post_init__(self) -> None:
         if not (self.min_range > 0 and math.isfinite(self.min_range)):
