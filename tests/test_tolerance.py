@@ -540,3 +540,44 @@ def test_a_columns_precision_comes_from_its_unit():
     assert column_exponent("normal_deviation_mm_rms_outer") == -9
     assert column_exponent("polish_time_s") == -6
     assert column_exponent("phase_steps") is None and column_exponent("seen_fraction") is None
+
+
+# --------------------------------------------------------------------------------------
+# The range the made parts deliver
+
+
+def test_delivered_r10_of_a_perfect_sharp_part_is_the_papers(paper_mirror):
+    """No part error, no matcher noise: the paper's R10 (0.222 m over the common band,
+    optics.ranging.resolution); 1 px of part error and a 10 px blur matched to 0.1 px of
+    its width add 1 px and 1 px in quadrature: R10 / sqrt(3), and the robot reads at 1 m
+    10 % x (1 / 0.222) x sqrt(2) = 63.7 % (first order in the disparity error)."""
+    from lathe_mirror.tolerance.delivered import delivered_range
+
+    d = delivered_range(paper_mirror, np.array([0.0, 1.0]), blur_px=10.0, matching_noise_px=0.0, range_m=1.0)
+    assert d.design_r10_m == pytest.approx(0.222, abs=5e-4)
+    assert d.r10_m[0] == pytest.approx(0.222, abs=5e-4)
+    assert d.r10_m[1] == pytest.approx(0.222 / math.sqrt(2.0), abs=5e-4)
+    d = delivered_range(paper_mirror, np.array([1.0]), blur_px=10.0, matching_noise_px=0.1, range_m=1.0)
+    assert d.r10_m[0] == pytest.approx(0.222 / math.sqrt(3.0), abs=5e-4)
+    assert d.depth_error_pct[0] == pytest.approx(10.0 / 0.222 * math.sqrt(2.0), rel=3e-3)
+    # a blur under a pixel matches like a sharp pixel
+    sharp = delivered_range(paper_mirror, np.array([0.0]), blur_px=0.3, matching_noise_px=0.1, range_m=1.0)
+    assert sharp.r10_m[0] == pytest.approx(0.222 / math.sqrt(1.01), abs=5e-4)
+
+
+def test_monte_carlo_quotes_the_delivered_range_per_trial(ctx):
+    """Every trial's delivered R10 is the design's over sqrt(1 + d^2 + (noise x blur)^2)
+    with d its own calibrated disparity (the band's median): recomputed by hand from the
+    trial table; the summary's p5 and median are the table's."""
+    c = dataclasses.replace(ctx, blur_px=6.0)
+    res = run_monte_carlo(c)
+    out = res.to_dict()
+    per = out["per_trial"]
+    d = res.figures.calibrated["disparity_px_median"][:, 0]
+    design = out["delivered_r10_m"]["design"]
+    want = design / np.sqrt(1.0 + d**2 + (0.1 * 6.0) ** 2)
+    assert np.allclose(per["delivered_r10_m"], want, rtol=1e-12)
+    assert out["delivered_r10_m"]["p5"] == pytest.approx(np.quantile(want, 0.05, method="inverted_cdf"))
+    assert out["delivered_r10_m"]["median"] <= design
+    header, rows = res.csv_rows("mc")
+    assert "delivered_r10_m" in header and len(rows) == len(res.trials)

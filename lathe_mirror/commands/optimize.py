@@ -64,9 +64,11 @@ def run(args: argparse.Namespace) -> int:
     check_made(best)
     check = None
     if not args.no_check:
+        from ..optimize.focus import design_blur_px
         from ..tolerance.runs import winner_check
 
-        check = winner_check(best.mirror(), best, progress=not args.no_progress)
+        check = winner_check(best.mirror(), best, progress=not args.no_progress,
+                             blur_px=design_blur_px(best.mirror(), best))
         if not check["nominal_pass"]:  # the runner-up designs, until one passes nominal
             result, best, check = runner_up(result, problem, settings, check, progress=not args.no_progress)
     ref_name = "paper" if _is_paper(settings) else "configured"
@@ -145,6 +147,7 @@ def runner_up(result, problem, settings, check: dict, *, progress: bool = False)
 
     from ..errors import InputError
     from ..optimize import figures
+    from ..optimize.focus import design_blur_px
     from ..optimize.search import alternates
     from ..tolerance.runs import winner_check
 
@@ -162,7 +165,8 @@ def runner_up(result, problem, settings, check: dict, *, progress: bool = False)
         nom = winner_check(cand.mirror(), cand, nominal_only=True, progress=progress)
         tried.append({"objective": obj, "failing": [c for c, v in nom["nominal"].items() if not v["pass"]]})
         if nom["nominal_pass"]:
-            full = winner_check(cand.mirror(), cand, progress=progress)
+            full = winner_check(cand.mirror(), cand, progress=progress,
+                                blur_px=design_blur_px(cand.mirror(), cand))
             full["replaced"] = {"objective": obj0, "why": check["why"], "tried": tried}
             gain = None if result.gain is None else result.gain * obj / obj0
             return dataclasses.replace(result, best=lobes, best_figures=fig, gain=gain), cand, full
@@ -236,6 +240,10 @@ def format_result(data: dict) -> str:
         lines.append(f"tolerance check ({part}default tolerances): nominal "
                      f"{verdict}, yield {100 * c['yield']:.1f} % of {c['trials']} trials (target "
                      f"{100 * c['target_yield']:g} %)")
+        if "delivered_r10_m" in c:
+            d, dd = c["delivered_r10_m"], c["delivered"]
+            lines.append(f"delivered R10 (the made parts, calibrated, blur {dd['blur_px']:.1f} px): 5th percentile "
+                         f"{d['p5']:.4f} m, median {d['median']:.4f} m (design {d['design']:.4f} m)")
         if "replaced" in c:
             r = c["replaced"]
             lines.append(f"the best design found (objective {r['objective']:.6g}) fails the tolerance verdict "

@@ -110,6 +110,13 @@ def defocus(mirror: Mirror, f_number: float, object_range: float, *, samples: in
                    virtual_mm=(1.0 / v_hi, 1.0 / v_lo))
 
 
+def design_blur_px(mirror: Mirror, settings) -> float:
+    """The largest blur circle (px) of the design with the configured lens: [camera]
+    f_number, focused at the best compromise for scenes optimize.focus_range_m away (the
+    blur the delivered range counts, tolerance.delivered)."""
+    return defocus(mirror, settings.camera.f_number, settings.optimize.focus_range_m * 1000.0).blur_px
+
+
 def ray_meets_sheet(lobe: Lobe, t: np.ndarray) -> np.ndarray:
     """Radius (mm) where the camera ray r = t z (t = tan of its angle off the axis) first
     meets the lobe's upper sheet; 0 on the axis. Vectorised form of the quadratic in r
@@ -129,4 +136,4 @@ def ray_meets_sheet(lobe: Lobe, t: np.ndarray) -> np.ndarray:
     return np.where(t > 0.0, r, 0.0)
 
 
-__all__ = ["Defocus", "defocus", "ray_meets_sheet", "usable_annuli", "virtual_image_distance"]
+__all__ = ["Defocus", "defocus", "design_blur_px", "ray_meets_sheet", "usable_annuli", "virtual_image_distance"]

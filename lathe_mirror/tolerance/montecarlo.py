@@ -23,6 +23,7 @@ from ..optics.stereo import band_elevations
 from ..optics.zones import zones as zones_of
 from ..progress import bar
 from .calibration import Calibration
+from .delivered import DeliveredRange, delivered_range
 from .perturb import (
     LOBE_FIGURES,
     STEREO_FIGURES,
@@ -63,6 +64,8 @@ class Context:
     progress: bool = False
     zones: object = None   # optics.zones.Zones: the pixels and radii the criteria judge
     cut_plus_x: bool = True  # the finishing pass runs in +X (axis -> rim): backlash shifts it
+    blur_px: float = 0.0  # the design's defocus blur circle (px; tolerance.delivered)
+    band: tuple[float, float] | None = None  # elevations (rad) R10 is the median over; None: common band
 
     def ensure(self, trials: Trials, progress: bool | None = None) -> None:
         """Cut and polish every nose the trials drew that is not made yet."""
@@ -91,6 +94,7 @@ class MonteCarloResult:
     nominal_time_s: float = 0.0
     phases: np.ndarray = field(default_factory=lambda: np.zeros(1))
     zones: object = None   # optics.zones.Zones the figures cover
+    delivered: DeliveredRange | None = None  # the range each trial's part delivers
 
     @property
     def pass_all(self) -> np.ndarray:
@@ -135,6 +139,8 @@ class MonteCarloResult:
                        "outlier_pct": _dist(np.max(judged["outlier_pct"], axis=1)),
                        "disparity_px": _dist(judged["disparity_px_p90"][:, 0]),
                        "slope_error_rad": _dist(np.max(f.slope_error_rad_rms, axis=1))},
+            **({} if self.delivered is None else {"delivered_r10_m": self.delivered.summary(),
+                                                  "delivered": self.delivered.to_dict()}),
             "raw": figs(f.raw),
             "calibrated_figures": figs(f.calibrated),
             "surface": {"lobes": [{"name": name, "slope_error_rad": _dist(f.slope_error_rad_rms[:, k]),
@@ -156,6 +162,9 @@ class MonteCarloResult:
                                 "disparity_px_p90": judged["disparity_px_p90"][:, 0].tolist(),
                                 "slope_error_rad_rms": f.slope_error_rad_rms.tolist(),
                                 "depth_error_pct_rms": judged["depth_error_pct_rms"][:, 0].tolist(),
+                                **({} if self.delivered is None else {
+                                    "delivered_r10_m": self.delivered.r10_m.tolist(),
+                                    "delivered_depth_error_pct": self.delivered.depth_error_pct.tolist()}),
                                 "pass": [bool(x) for x in self.pass_all]}
         return out
 
@@ -190,6 +199,9 @@ class MonteCarloResult:
         ang = f.calibration.angles_deg()
         for i, axis in enumerate("xyz"):
             cols[f"cal_rotation_{axis}_deg"] = ang[:, i].tolist()
+        if self.delivered is not None:
+            cols["delivered_r10_m"] = self.delivered.r10_m.tolist()
+            cols["delivered_depth_error_pct"] = self.delivered.depth_error_pct.tolist()
         for c, v in self.passed.items():
             cols[f"pass_{c}"] = [bool(x) for x in v]
         cols["pass"] = [bool(x) for x in self.pass_all]
@@ -344,7 +356,17 @@ def run_monte_carlo(ctx: Context, *, progress: bool = False, seed: int | None = 
     fig = evaluate_trials(ctx, trials, progress=progress, desc=desc)
     return MonteCarloResult(trials, fig, judge(fig, ctx.limits, ctx.settings.spec.calibrated), ctx.settings,
                             ctx.program, dict(ctx.limits), {k: tol.get(k, 0.0) for k in DRAWN}, seed,
-                            ctx.nominal_nose_mm, ctx.nominal_time_s, ctx.bank.phases, ctx.zones)
+                            ctx.nominal_nose_mm, ctx.nominal_time_s, ctx.bank.phases, ctx.zones,
+                            delivered_of(ctx, fig))
+
+
+def delivered_of(ctx: Context, fig: TrialFigures) -> DeliveredRange:
+    """The range each trial's part delivers (tolerance.delivered): its disparity error
+    (calibrated or raw as the spec judges, the band's median at the spec's range), the
+    context's blur and the matcher's noise."""
+    d = fig.judged(ctx.settings.spec.calibrated)["disparity_px_median"][:, 0]
+    return delivered_range(ctx.mirror, d, blur_px=ctx.blur_px, matching_noise_px=ctx.settings.matching_noise_px,
+                           range_m=ctx.settings.spec.depth_range_m, band=ctx.band)
 
 
 def stereo_table(ctx: Context, ranges_m) -> dict:

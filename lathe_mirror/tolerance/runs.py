@@ -40,7 +40,8 @@ class ToleranceRuns:
 
 def tolerance_analysis(mirror: Mirror, settings: Settings, nominal_times_s: dict[Program, float], *,
                        progress: bool = False, allocate: tuple[Program, ...] = (),
-                       target_yield: float | None = None, job: MachiningJob | None = None) -> dict:
+                       target_yield: float | None = None, job: MachiningJob | None = None,
+                       blur_px: float = 0.0) -> dict:
     """Monte Carlo, sensitivity and inverse sensitivity for each toleranced program
     ([tolerance] programs), each polished for its nominal time (s); the verdict of each
     against the spec; for the programs in `allocate`, the least-cost tolerances that reach
@@ -48,13 +49,15 @@ def tolerance_analysis(mirror: Mirror, settings: Settings, nominal_times_s: dict
     machining job the parts are cut by (default MachiningJob.from_settings); each program's
     part is its variant with that program."""
     return tolerance_runs(mirror, settings, nominal_times_s, progress=progress, allocate=allocate,
-                          target_yield=target_yield, job=job).figures
+                          target_yield=target_yield, job=job, blur_px=blur_px).figures
 
 
 def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Program, float], *,
                    progress: bool = False, allocate: tuple[Program, ...] = (),
-                   target_yield: float | None = None, job: MachiningJob | None = None) -> ToleranceRuns:
-    """tolerance_analysis, keeping the Monte Carlo results (ToleranceRuns)."""
+                   target_yield: float | None = None, job: MachiningJob | None = None,
+                   blur_px: float = 0.0) -> ToleranceRuns:
+    """tolerance_analysis, keeping the Monte Carlo results (ToleranceRuns). blur_px: the
+    design's defocus blur (px, optimize.focus) the delivered range counts (0: left out)."""
     job = MachiningJob.from_settings(settings, mirror) if job is None else job
     ts = settings.tolerance
     target = ts.target_yield if target_yield is None else target_yield
@@ -65,7 +68,8 @@ def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Pro
     results = []
     for program in ts.programs:
         part = job.but(strategy=program.strategy)
-        ctx = tolerance_context(mirror, settings, program, nominal_times_s[program], progress=progress, job=part)
+        ctx = tolerance_context(mirror, settings, program, nominal_times_s[program], progress=progress, job=part,
+                                blur_px=blur_px)
         mc = run_monte_carlo(ctx, progress=progress)
         results.append((f"{program.value}: monte carlo", mc))
         resp = responses(ctx, progress=progress)
@@ -115,10 +119,11 @@ def monte_carlo(mirror: Mirror, settings: Settings, program: Program, nominal_ti
 
 
 def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nominal_time_s: float, *,
-                      progress: bool = False, job: MachiningJob | None = None):
+                      progress: bool = False, job: MachiningJob | None = None, blur_px: float = 0.0):
     """The Monte Carlo's shared context: the program's part (the machining job with that
     program: default MachiningJob.from_settings) cut at each lattice phase (and, as trials
-    draw them, with each nose radius), polished at the time nodes."""
+    draw them, with each nose radius), polished at the time nodes. blur_px: the design's
+    defocus blur (px) the delivered range counts; R10 over the optimiser's band."""
     job = (MachiningJob.from_settings(settings, mirror) if job is None else job).but(strategy=program.strategy)
     # each phase's program planned once (the noses the trials draw are all cut along the
     # program planned for the [tool] nose); phase 0's here, before the workers fork, so
@@ -139,6 +144,8 @@ def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nomi
                   nose0=job.tool.nose_radius, machine_at=machine_at, progress=progress,
                   zones=zones_for(settings, mirror))
     ctx.cut_plus_x = mirror.step > 0  # the finishing pass runs axis -> rim (+X): backlash shows
+    ctx.blur_px = float(blur_px)
+    ctx.band = settings.optimize.band
     return ctx
 
 
@@ -169,7 +176,7 @@ def verdict(t: dict, spec: dict) -> dict:
 
 
 def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
-                 polish_time_s: float | None = None, nominal_only: bool = False) -> dict:
+                 polish_time_s: float | None = None, nominal_only: bool = False, blur_px: float = 0.0) -> dict:
     """The optimiser's winner through the tolerance analysis of the best program with the
     configured tool and default tolerances: the nominal part (lattice phase 0, every
     parameter nominal) judged against the spec, and the Monte Carlo's yield against
@@ -188,7 +195,7 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
         time_s = polishing_curve(job.made().profile, mirror, settings.polish).optimum_time_s
     else:
         time_s = float(polish_time_s)
-    ctx = tolerance_context(mirror, settings, Program.BEST, time_s, progress=progress, job=job)
+    ctx = tolerance_context(mirror, settings, Program.BEST, time_s, progress=progress, job=job, blur_px=blur_px)
     nom = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s))
     ok = judge(nom, ctx.limits, ts.spec.calibrated)
 
@@ -209,6 +216,7 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
            "polish_time_s": time_s, "nominal": nominal,
            "nominal_pass": not failing, "yield": y, "target_yield": ts.target_yield, "trials": len(mc.trials),
            "pass_fraction": {c: float(np.mean(mc.passed[c])) for c in CRITERIA},
+           "delivered_r10_m": mc.delivered.summary(), "delivered": mc.delivered.to_dict(),
            "zones": ctx.zones.describe()}
     if failing:
         out["why"] = why
