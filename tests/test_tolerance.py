@@ -581,3 +581,39 @@ def test_monte_carlo_quotes_the_delivered_range_per_trial(ctx):
     assert out["delivered_r10_m"]["median"] <= design
     header, rows = res.csv_rows("mc")
     assert "delivered_r10_m" in header and len(rows) == len(res.trials)
+
+
+# --------------------------------------------------------------------------------------
+# Shop classes
+
+
+def test_a_shop_class_sets_every_tolerance_and_the_files_own_values_override(tmp_path):
+    """shop = "hobby" gives the hobby column of the shop-class table (its values typed here
+    from docs/reference/shop-classes.md), the file's own seat tilt wins over it, and
+    precision is tighter than job, job than hobby, on every parameter."""
+    from lathe_mirror.config import load
+    from lathe_mirror.tolerance.shops import SHOPS, TABLE, shop_table_markdown
+
+    path = tmp_path / "shop.toml"
+    path.write_text('[tolerance]\nshop = "hobby"\n[tolerance.params]\nseat_tilt_deg = 0.07\n')
+    t = load(path).tolerance
+    assert t.shop == "hobby"
+    assert t.tolerances["seat_tilt_deg"] == 0.07  # the file's own value
+    assert t.tolerances["camera_decentre_mm"] == 0.2 and t.tolerances["nose_radius_mm"] == 0.05
+    assert t.tolerances["tool_x_mm"] == 0.02 and t.machine_errors["backlash_mm"] == 0.05
+    assert t.machine_errors["centre_height_mm"] == 0.1
+    # the other keys of [tolerance.params] (the resolution) keep their defaults
+    assert t.tolerances["resolution_mm"] == load().tolerance.tolerances["resolution_mm"]
+    for section in TABLE.values():
+        for vals, _ in section.values():
+            assert vals[0] > vals[1] > vals[2] > 0
+    for name in SHOPS:  # every class loads, and sets every drawn tolerance
+        path.write_text(f'[tolerance]\nshop = "{name}"\n')
+        assert load(path).tolerance.tolerances["seat_tilt_deg"] == TABLE["params"]["seat_tilt_deg"][0][SHOPS.index(name)]
+    path.write_text('[tolerance]\nshop = "garage"\n')
+    with pytest.raises(Exception, match="tolerance.shop"):
+        load(path)
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "reference" / "shop-classes.md").read_text()
+    assert shop_table_markdown() in doc

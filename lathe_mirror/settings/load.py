@@ -13,6 +13,7 @@ import math
 from typing import Any
 
 from ..body import BodySpec, CadSettings
+from ..declared import check as check_declared
 from ..design import Camera, LobeSpec
 from ..enums import (
     BEST,
@@ -209,6 +210,7 @@ def _tolerance(cfg: dict) -> ToleranceSettings:
     dist = parse(Distribution, t["distribution"], "tolerance.distribution")
     s = t["spec"]
     tol = {key: float(value) for key, value in t["params"].items()}
+    check_declared("tolerance.shop", t["shop"])  # a name among the shop classes
     return ToleranceSettings(
         seed=int(t["seed"]), trials=int(t["trials"]), programs=programs, distribution=dist,
         lattice_phases=int(t["lattice_phases"]), azimuths=int(t["azimuths"]),
@@ -218,7 +220,7 @@ def _tolerance(cfg: dict) -> ToleranceSettings:
         seat_pivot_mm=float(t["seat_pivot_mm"]), nose_step_mm=float(t["nose_step_mm"]),
         matching_noise_px=float(t["matching_noise_px"]), target_yield=float(t["target_yield"]),
         cost={k: float(v) for k, v in t["cost"].items()},
-        machine_errors={k: float(v) for k, v in t["machine_errors"].items()})
+        machine_errors={k: float(v) for k, v in t["machine_errors"].items()}, shop=str(t["shop"]))
 
 
 def _optimize(o: dict) -> OptimizeSettings:

@@ -90,6 +90,7 @@ class ToleranceSettings:
     target_yield: float = 0.95
     cost: dict[str, float] = field(default_factory=dict)
     machine_errors: dict[str, float] = field(default_factory=dict)
+    shop: str = "custom"  # the shop class the tolerances came from (tolerance.shops)
 
     def pivot_mm(self, mirror) -> float:
         """The seat's pivot height above the pinhole (mm) for `mirror`: seat_pivot_mm, or
