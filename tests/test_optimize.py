@@ -25,6 +25,7 @@ from lathe_mirror.optics.ranging.resolution import r10
 from lathe_mirror.optimize import OptimizeSettings, Problem, SearchSpace, search
 from lathe_mirror.optimize.focus import defocus, virtual_image_distance
 from lathe_mirror.optimize.pareto import pareto_front
+from lathe_mirror.optimize.spec import Objective
 
 
 # --------------------------------------------------------------------------------------
@@ -133,7 +134,7 @@ def small_problem(workers: int = 1) -> Problem:
                         outer_r_pixel_fraction=(1.0, 1.0), pixel_fraction=(0.45, 0.8),
                         alpha_inner_deg=(0.0, 30.0), alpha_outer_deg=(0.028, 0.028))
     o = OptimizeSettings(vertex_min_mm=1.0, rim_max_mm=1000.0, usable_min=0.0, blur_max_px=1e5, maxiter=200,
-                         popsize=15, tol=1e-6, search=space, workers=workers)
+                         popsize=15, tol=1e-6, search=space, workers=workers, objective=Objective.R10)
     tool = Tool(nose_radius=0.0, included_angle=math.radians(10.0), approach_angle=math.radians(1.0))
     return Problem(camera=s.camera, tool=tool, stock=Stock(diameter=200.0, length=200.0),
                    body=dataclasses.replace(s.body, thickness=200.0), clearance=2.0, settings=o,
@@ -334,7 +335,7 @@ def test_bad_workers_and_bad_keys(tmp_path):
     cfg = tmp_path / "c.toml"
     cfg.write_text("[optimize]\nobjective = \"speed\"\n")
     proc = run_cli("optimize", "--config", str(cfg), "--no-progress")
-    assert proc.returncode == 2 and "optimize.objective = 'speed': allowed r10, baseline" in proc.stderr
+    assert proc.returncode == 2 and "optimize.objective = 'speed': allowed delivered_r10_p5, r10, baseline" in proc.stderr
 
 
 def test_the_second_set_ups_grip_is_a_constraint():

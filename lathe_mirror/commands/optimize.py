@@ -38,6 +38,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..errors import InputError
     from ..optimize import Problem, search
+    from ..optimize.spec import Objective
     from ..optimize.evaluate import constraint_table
 
     settings = load(args, [("optimize.workers", args.workers, "--workers")])  # the estimate counts them
@@ -58,6 +59,10 @@ def run(args: argparse.Namespace) -> int:
     if workers is None and not scheduler:
         workers = settings.optimize.workers if settings.optimize.workers > 1 else default_workers()
     ex = activate(workers, scheduler)  # the search's generations and the winner's Monte Carlo
+    robust = settings.optimize.objective is Objective.DELIVERED
+    made = None
+    if robust:
+        problem, made = made_parts(problem, settings, progress=not args.no_progress)
     result = search(problem, workers=min(max(ex.workers, 1), 64),  # optimize.workers' range
                     progress=not args.no_progress)
     best = dataclasses.replace(settings, lobes=result.best)
@@ -68,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
         from ..tolerance.runs import winner_check
 
         check = winner_check(best.mirror(), best, progress=not args.no_progress,
-                             blur_px=design_blur_px(best.mirror(), best))
+                             blur_px=design_blur_px(best.mirror(), best), allocate=robust)
         if not check["nominal_pass"]:  # the runner-up designs, until one passes nominal
             result, best, check = runner_up(result, problem, settings, check, progress=not args.no_progress)
     ref_name = "paper" if _is_paper(settings) else "configured"
@@ -92,14 +97,20 @@ def run(args: argparse.Namespace) -> int:
         "bound_margin": o.bound_margin,
         "warnings": bound_warnings(result, problem),
     }
+    if made is not None:
+        data["made_parts"] = made
     if check is not None:
         data["check"] = check
     if out is not None:
         from ..export.design_toml import design_toml, write_design_toml
         from ..export.files import write_bytes
 
-        text = design_toml(settings.camera, result.best, comments=_toml_comments(data),
-                           extra=_user_sections(args.config))
+        extra = _user_sections(args.config)
+        comments = _toml_comments(data)
+        alloc = (check or {}).get("allocation")
+        if alloc is not None and alloc.get("reached"):
+            comments += allocated_tolerances(extra, alloc)
+        text = design_toml(settings.camera, result.best, comments=comments, extra=extra)
         png = _pareto_png(result, o.objective, ref_name)
         write_design_toml(out, text)
         write_bytes(pareto_path, png)
@@ -109,6 +120,47 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_result(data))
     return 0
+
+
+def made_parts(problem, settings, *, progress: bool = False):
+    """The delivered-R10 objective's part error: the configured design's made parts at the
+    configured tolerances, a small seeded Monte Carlo (tolerance.runs.made_disparity, its
+    95th percentile); (problem with it, what was measured). A configured design that
+    cannot be made as configured (another camera's lobes) leaves the part error 0: the
+    surrogate then counts the blur alone, and the winner's full Monte Carlo the rest."""
+    import dataclasses
+
+    from ..errors import InputError
+    from ..optimize.focus import design_blur_px
+    from ..tolerance.runs import made_disparity
+
+    noise = settings.tolerance.matching_noise_px
+    try:
+        mirror = settings.mirror()
+        made = made_disparity(mirror, settings, blur_px=design_blur_px(mirror, settings), progress=progress)
+    except InputError as exc:
+        made = {"disparity_px": 0.0, "skipped": str(exc)}
+    return dataclasses.replace(problem, made_disparity_px=made["disparity_px"], matching_noise_px=noise), made
+
+
+def allocated_tolerances(extra: dict, alloc: dict) -> list[str]:
+    """Write the allocation's tolerances into the design's [tolerance.params] and
+    [tolerance.machine_errors] (extra: the sections passed through), so that `tolerance
+    --config` on the file draws the same trials at them (its seed) and confirms the yield;
+    the comment lines saying what they cost."""
+    from ..tolerance.spec import MACHINE_DRAWN
+
+    tol = extra.setdefault("tolerance", {})
+    for r in alloc["tolerances"]:
+        section = "machine_errors" if r["parameter"] in MACHINE_DRAWN else "params"
+        tol.setdefault(section, {})[r["parameter"]] = float(f"{r['allocated']:.6g}")
+    tight = [r for r in alloc["tolerances"] if r["tighten"]]
+    what = ", ".join(f"{r['parameter']} {r['tolerance']:.4g} -> {r['allocated']:.4g} {r['unit']}" for r in tight)
+    return [f"[tolerance] carries the least-cost tolerances that reach {100 * alloc['target_yield']:g} % yield "
+            f"(tolerance --config THIS_FILE confirms it: {100 * alloc['yield']:.1f} % of {alloc['trials']} trials, "
+            f"seed {alloc['seed']})",
+            f"their cost: {alloc['cost_ratio']:.3g} x the configured tolerances' ([tolerance.cost]); tightened: "
+            f"{what or 'nothing'}"]
 
 
 def bound_warnings(result, problem) -> list[str]:
@@ -218,6 +270,7 @@ def format_result(data: dict) -> str:
     row("baseline [mm]", lambda d: f"{d['baseline_mm']:.3f}")
     row("common band [deg]", lambda d: f"{d['band_deg']['min']:.2f}..{d['band_deg']['max']:.2f}")
     row("R10 [m]", lambda d: f"{d['r10_m']:.4f}")
+    row("delivered R10 p5 [m]", lambda d: f"{d['delivered_r10_m']:.4f}")
     row("blur [px]", lambda d: f"{d['blur_px']:.2f}")
     row("step [mm]", lambda d: f"{d['step_mm']:.3f} {d['recessed']}")
     row("usable pixels", lambda d: f"{100 * d['usable_share']:.1f} %")
@@ -298,7 +351,7 @@ def _toml_comments(data: dict) -> list[str]:
 
 
 def best_value(data: dict, fig: dict) -> float:
-    key = {"r10": "r10_m", "baseline": "baseline_mm", "band_width": "band_width_deg",
+    key = {"delivered_r10_p5": "delivered_r10_m", "r10": "r10_m", "baseline": "baseline_mm", "band_width": "band_width_deg",
            "usable_area": "usable_share"}[data["objective"]]
     return fig[key]
 

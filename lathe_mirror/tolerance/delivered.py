@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..design import Mirror
-from ..optics.ranging.resolution import R10_FRACTION, r10
+from ..optics.ranging.resolution import R10_FRACTION, delivered_r10, r10
 
 
 @dataclass(frozen=True)
@@ -78,7 +78,6 @@ def delivered_range(mirror: Mirror, disparity_px: np.ndarray, *, blur_px: float,
     design = r10(mirror, band)
     d = np.asarray(disparity_px, float)
     noise = matching_noise_px * max(float(blur_px), 1.0)
-    e = np.sqrt(1.0 + d * d + noise * noise)
-    r = design / e
+    r = delivered_r10(design, d, blur_px, matching_noise_px)
     depth = 100.0 * R10_FRACTION * range_m / design * np.sqrt(d * d + noise * noise)
     return DeliveredRange(design, float(blur_px), float(matching_noise_px), float(range_m), d, r, depth)
