@@ -218,7 +218,8 @@ def runner_up(result, problem, settings, check: dict, *, progress: bool = False)
         tried.append({"objective": obj, "failing": [c for c, v in nom["nominal"].items() if not v["pass"]]})
         if nom["nominal_pass"]:
             full = winner_check(cand.mirror(), cand, progress=progress,
-                                blur_px=design_blur_px(cand.mirror(), cand))
+                                blur_px=design_blur_px(cand.mirror(), cand),
+                                allocate=settings.optimize.objective.value == "delivered_r10_p5")
             full["replaced"] = {"objective": obj0, "why": check["why"], "tried": tried}
             gain = None if result.gain is None else result.gain * obj / obj0
             return dataclasses.replace(result, best=lobes, best_figures=fig, gain=gain), cand, full
