@@ -10,7 +10,11 @@ displacement (RMS per lobe, px) over the used zone of the made mirror every comm
 describes by default (the best program as machined with the configured nose) as `calib`,
 `render`, `tolerance` (its as_machined_over_zone) and the report quote it, with the
 spread between them; beside it the figure of the part tolerance judges (polished for the
-polishing curve's time).
+polishing curve's time). Each design is held by a shop class ([tolerance] shop, SHOPS):
+the table gives the design's R10, the range its made parts deliver (the best program's
+delivered R10, 5th percentile and median, tolerance.delivered), the yield at the class's
+tolerances, and the cost of the tolerances optimize allocated into best.toml when the
+class's fall short.
 
 Run: .venv/bin/python benchmarks/bench_designs.py [--only NAME ...] [--markdown] [--keep DIR]
 Prints a table (--markdown: the README's). Writes only into a temporary directory (or
@@ -51,7 +55,25 @@ DESIGNS = {
     # docs/reference/guide.md's deep.toml, as written there (the envelope as rim_max_mm)
     "guide_deep": ("the guide's deep.toml (rim_max_mm = 138.6)",
                    "[optimize]\nrim_max_mm = 138.6\n[stock]\nlength = 50.0\n[cad]\nthickness = 45.0\n"),
+    # issue 31's cameras of today's market
+    "cam12mp": ("12 MP hobby camera: 6 mm lens at f/2.8, 1.55 um pixels (IMX477 class), nose 0.2 mm, "
+                "0.001 mm lattice, 50 mm bar",
+                "[camera]\nf = 6.0\nt_pixel = 0.00155\nsensor_px = [4056, 3040]\nf_number = 2.8\n"
+                "[machine]\nresolution = 0.001\n[stock]\ndiameter = 50.0\n[cad]\nblank_diameter = 50.0\n"
+                "[optimize]\nmax_diameter_mm = 46.0\nmax_depth_mm = 25.0\n"
+                "[tolerance.params]\nresolution_mm = 0.0005\n"),
+    "gs2mp": ("2 MP global shutter: 25 mm lens at f/4, 5 um pixels (1920 x 1080), nose 0.8 mm, 0.0025 mm "
+              "lattice, 100 mm bar",
+              "[camera]\nf = 25.0\nt_pixel = 0.005\nsensor_px = [1920, 1080]\nf_number = 4.0\n"
+              "[tool]\nnose_radius = 0.8\n[machine]\nresolution = 0.0025\n[stock]\ndiameter = 100.0\n"
+              "length = 80.0\n[cad]\nblank_diameter = 100.0\nthickness = 60.0\n"
+              "[optimize]\nmax_diameter_mm = 96.0\nmax_depth_mm = 50.0\n"
+              "[tolerance.params]\nresolution_mm = 0.001\n"),
 }
+
+#: The shop class each design's parts are made and assembled by ([tolerance] shop).
+SHOPS = {"paper": "job", "deep": "job", "cam6": "job", "cam12": "job", "cam4": "precision",
+         "paper_nose08": "job", "guide_deep": "job", "cam12mp": "hobby", "gs2mp": "job"}
 
 
 #: processes for optimize and tolerance (--workers); 1 on a shared machine
@@ -70,8 +92,9 @@ def cli(args: list[str], cwd: Path) -> tuple[int, str, str, float, float]:
 def one(name: str, text: str, root: Path) -> dict:
     d = root / name
     d.mkdir(parents=True, exist_ok=True)
-    (d / "design.toml").write_text(text)
-    row: dict = {"design": name, "status": {}, "seconds": {}, "cpu_seconds": {}}
+    shop = SHOPS.get(name, "custom")
+    (d / "design.toml").write_text(f'[tolerance]\nshop = "{shop}"\n' + text)
+    row: dict = {"design": name, "shop": shop, "status": {}, "seconds": {}, "cpu_seconds": {}}
 
     def step(label: str, args: list[str]) -> str | None:
         rc, out, err, s, cpu = cli(args, d)
@@ -88,6 +111,10 @@ def one(name: str, text: str, root: Path) -> dict:
     opt = json.loads(out)
     row["winner"] = {lb["name"]: {k: lb[k] for k in ("r_top", "r_pixel", "alpha_deg")} for lb in opt["best"]["lobes"]}
     row["r10_m"] = opt["best"]["r10_m"]
+    alloc = opt["check"].get("allocation")
+    if alloc is not None:
+        row["allocated"] = {"reached": alloc["reached"], "cost_ratio": alloc["cost_ratio"], "yield": alloc["yield"],
+                            "statement": alloc["statement"]}
     row["check"] = {k: opt["check"][k] for k in ("nominal_pass", "yield", "target_yield")} | (
         {"why": opt["check"]["why"]} if "why" in opt["check"] else {}) | {
         "failing": [k for k, v in opt["check"]["nominal"].items() if not v["pass"]]}
@@ -109,6 +136,8 @@ def one(name: str, text: str, root: Path) -> dict:
         quotes["render"] = [lb["image_displacement_px"]["rms"] for lb in json.loads(ren)["lobes"]]
     if tol:
         t = json.loads(tol)["programs"]["best"]
+        row["delivered_r10_m"] = t["monte_carlo"].get("delivered_r10_m")
+        row["yield_wilson95"] = t["monte_carlo"]["yield_wilson95"]
         row["tolerance"] = {"nominal_pass": t["verdict"]["nominal_pass"], "yield": t["monte_carlo"]["yield"],
                             "allocation": t.get("allocation", {}).get("statement", ""),
                             "judged": t["made_mirror"]["label"],
@@ -126,10 +155,11 @@ def one(name: str, text: str, root: Path) -> dict:
 
 
 def markdown(rows: list[dict]) -> str:
-    head = ("| design | winner r_top in/out mm | R10 m | all exit 0 | nominal: optimize / tolerance | "
-            "yield: optimize / tolerance (target 95 %) | image disp. px RMS in, out (as machined): calib / render / "
+    head = ("| design | shop | winner r_top in/out mm | R10 m | delivered R10 p5 / median m | all exit 0 | "
+            "nominal: optimize / tolerance | "
+            "yield: optimize / tolerance (target 95 %; Wilson low) | allocated (cost x) | image disp. px RMS in, out (as machined): calib / render / "
             "tolerance / report | spread | judged (polished) px RMS in, out | CPU s | CPU in Y |\n"
-            "|---|---|---|---|---|---|---|---|---|---|---|")
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     lines = [head]
     for r in rows:
         w = r.get("winner", {})
@@ -155,9 +185,14 @@ def markdown(rows: list[dict]) -> str:
         judged = r.get("tolerance_judged_px_rms")
         judged = f"{judged[0]:.3f}, {judged[1]:.3f}" if judged else "-"
         cpu = sum(r.get("cpu_seconds", {}).values())
-        lines.append(f"| {r['design']} | {rt} | {r.get('r10_m', float('nan')):.4f} | {ok} | {verdict(c)} / "
-                     f"{verdict(t)} | {yld(c)} / {yld(t)} | {quote} | {spread} | {judged} | {cpu:.0f} | "
-                     f"{yardstick.multiple(cpu):.1f} |")
+        dr = r.get("delivered_r10_m") or {}
+        dl = f"{dr['p5']:.4f} / {dr['median']:.4f}" if dr else "-"
+        lo = f" ({100 * r['yield_wilson95'][0]:.1f} %)" if "yield_wilson95" in r else ""
+        a = r.get("allocated")
+        al = "-" if a is None else (f"{a['cost_ratio']:.3g}" if a["reached"] else "not reached")
+        lines.append(f"| {r['design']} | {r.get('shop', '-')} | {rt} | {r.get('r10_m', float('nan')):.4f} | {dl} | "
+                     f"{ok} | {verdict(c)} / {verdict(t)} | {yld(c)} / {yld(t)}{lo} | {al} | {quote} | {spread} | "
+                     f"{judged} | {cpu:.0f} | {yardstick.multiple(cpu):.1f} |")
     return "\n".join(lines)
 
 

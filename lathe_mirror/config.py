@@ -27,6 +27,7 @@ from .errors import ConfigError, InputError
 from .inputs import STDIN, read_text, short
 from .settings import from_config
 from .settings.keys import declared_defaults
+from .tolerance.shops import apply_shop
 
 if TYPE_CHECKING:
     from .settings import Settings
@@ -184,6 +185,7 @@ _stdin_text: dict[str, str] = {}
 def merge(base: dict[str, Any], user: dict[str, Any], *, source: str = "config") -> dict[str, Any]:
     """A copy of base with user's values merged in, validated against base's shape."""
     out = copy.deepcopy(base)
+    apply_shop(out, user)  # a shop class under the same file's own tolerances
     _merge_table(out, user, prefix="", source=source)
     return out
 
@@ -196,6 +198,7 @@ def set_value(cfg: dict[str, Any], dotted: str, value: Any, *, source: str) -> N
     for p in parts[:-1]:
         node = node.setdefault(p, {})
     node[parts[-1]] = value
+    apply_shop(cfg, user)
     _merge_table(cfg, user, prefix="", source=source)
 
 

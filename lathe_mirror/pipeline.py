@@ -128,8 +128,11 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
 def _tolerance(task) -> dict:
     """The report's tolerance analysis (in the background: no progress bars)."""
     mirror, settings, times, job = task
+    from .optimize.focus import design_blur_px
+
     return tolerance_analysis(mirror, settings, times, progress=False, job=job,
-                              allocate=(Program.BEST,) if Program.BEST in settings.tolerance.programs else ())
+                              allocate=(Program.BEST,) if Program.BEST in settings.tolerance.programs else (),
+                              blur_px=design_blur_px(mirror, settings))
 
 
 def _optics_stages(data: ReportData, made: dict, mirror, settings, steps, renders: bool,

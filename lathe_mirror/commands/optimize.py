@@ -38,6 +38,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..errors import InputError
     from ..optimize import Problem, search
+    from ..optimize.spec import Objective
     from ..optimize.evaluate import constraint_table
 
     settings = load(args, [("optimize.workers", args.workers, "--workers")])  # the estimate counts them
@@ -58,15 +59,21 @@ def run(args: argparse.Namespace) -> int:
     if workers is None and not scheduler:
         workers = settings.optimize.workers if settings.optimize.workers > 1 else default_workers()
     ex = activate(workers, scheduler)  # the search's generations and the winner's Monte Carlo
+    robust = settings.optimize.objective is Objective.DELIVERED
+    made = None
+    if robust:
+        problem, made = made_parts(problem, settings, progress=not args.no_progress)
     result = search(problem, workers=min(max(ex.workers, 1), 64),  # optimize.workers' range
                     progress=not args.no_progress)
     best = dataclasses.replace(settings, lobes=result.best)
     check_made(best)
     check = None
     if not args.no_check:
+        from ..optimize.focus import design_blur_px
         from ..tolerance.runs import winner_check
 
-        check = winner_check(best.mirror(), best, progress=not args.no_progress)
+        check = winner_check(best.mirror(), best, progress=not args.no_progress,
+                             blur_px=design_blur_px(best.mirror(), best), allocate=robust)
         if not check["nominal_pass"]:  # the runner-up designs, until one passes nominal
             result, best, check = runner_up(result, problem, settings, check, progress=not args.no_progress)
     ref_name = "paper" if _is_paper(settings) else "configured"
@@ -90,14 +97,20 @@ def run(args: argparse.Namespace) -> int:
         "bound_margin": o.bound_margin,
         "warnings": bound_warnings(result, problem),
     }
+    if made is not None:
+        data["made_parts"] = made
     if check is not None:
         data["check"] = check
     if out is not None:
         from ..export.design_toml import design_toml, write_design_toml
         from ..export.files import write_bytes
 
-        text = design_toml(settings.camera, result.best, comments=_toml_comments(data),
-                           extra=_user_sections(args.config))
+        extra = _user_sections(args.config)
+        comments = _toml_comments(data)
+        alloc = (check or {}).get("allocation")
+        if alloc is not None and alloc.get("reached"):
+            comments += allocated_tolerances(extra, alloc)
+        text = design_toml(settings.camera, result.best, comments=comments, extra=extra)
         png = _pareto_png(result, o.objective, ref_name)
         write_design_toml(out, text)
         write_bytes(pareto_path, png)
@@ -107,6 +120,47 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_result(data))
     return 0
+
+
+def made_parts(problem, settings, *, progress: bool = False):
+    """The delivered-R10 objective's part error: the configured design's made parts at the
+    configured tolerances, a small seeded Monte Carlo (tolerance.runs.made_disparity, its
+    95th percentile); (problem with it, what was measured). A configured design that
+    cannot be made as configured (another camera's lobes) leaves the part error 0: the
+    surrogate then counts the blur alone, and the winner's full Monte Carlo the rest."""
+    import dataclasses
+
+    from ..errors import InputError
+    from ..optimize.focus import design_blur_px
+    from ..tolerance.runs import made_disparity
+
+    noise = settings.tolerance.matching_noise_px
+    try:
+        mirror = settings.mirror()
+        made = made_disparity(mirror, settings, blur_px=design_blur_px(mirror, settings), progress=progress)
+    except InputError as exc:
+        made = {"disparity_px": 0.0, "skipped": str(exc)}
+    return dataclasses.replace(problem, made_disparity_px=made["disparity_px"], matching_noise_px=noise), made
+
+
+def allocated_tolerances(extra: dict, alloc: dict) -> list[str]:
+    """Write the allocation's tolerances into the design's [tolerance.params] and
+    [tolerance.machine_errors] (extra: the sections passed through), so that `tolerance
+    --config` on the file draws the same trials at them (its seed) and confirms the yield;
+    the comment lines saying what they cost."""
+    from ..tolerance.spec import MACHINE_DRAWN
+
+    tol = extra.setdefault("tolerance", {})
+    for r in alloc["tolerances"]:
+        section = "machine_errors" if r["parameter"] in MACHINE_DRAWN else "params"
+        tol.setdefault(section, {})[r["parameter"]] = float(f"{r['allocated']:.6g}")
+    tight = [r for r in alloc["tolerances"] if r["tighten"]]
+    what = ", ".join(f"{r['parameter']} {r['tolerance']:.4g} -> {r['allocated']:.4g} {r['unit']}" for r in tight)
+    return [f"[tolerance] carries the least-cost tolerances that reach {100 * alloc['target_yield']:g} % yield "
+            f"(tolerance --config THIS_FILE confirms it: {100 * alloc['yield']:.1f} % of {alloc['trials']} trials, "
+            f"seed {alloc['seed']})",
+            f"their cost: {alloc['cost_ratio']:.3g} x the configured tolerances' ([tolerance.cost]); tightened: "
+            f"{what or 'nothing'}"]
 
 
 def bound_warnings(result, problem) -> list[str]:
@@ -145,6 +199,7 @@ def runner_up(result, problem, settings, check: dict, *, progress: bool = False)
 
     from ..errors import InputError
     from ..optimize import figures
+    from ..optimize.focus import design_blur_px
     from ..optimize.search import alternates
     from ..tolerance.runs import winner_check
 
@@ -162,7 +217,9 @@ def runner_up(result, problem, settings, check: dict, *, progress: bool = False)
         nom = winner_check(cand.mirror(), cand, nominal_only=True, progress=progress)
         tried.append({"objective": obj, "failing": [c for c, v in nom["nominal"].items() if not v["pass"]]})
         if nom["nominal_pass"]:
-            full = winner_check(cand.mirror(), cand, progress=progress)
+            full = winner_check(cand.mirror(), cand, progress=progress,
+                                blur_px=design_blur_px(cand.mirror(), cand),
+                                allocate=settings.optimize.objective.value == "delivered_r10_p5")
             full["replaced"] = {"objective": obj0, "why": check["why"], "tried": tried}
             gain = None if result.gain is None else result.gain * obj / obj0
             return dataclasses.replace(result, best=lobes, best_figures=fig, gain=gain), cand, full
@@ -214,6 +271,7 @@ def format_result(data: dict) -> str:
     row("baseline [mm]", lambda d: f"{d['baseline_mm']:.3f}")
     row("common band [deg]", lambda d: f"{d['band_deg']['min']:.2f}..{d['band_deg']['max']:.2f}")
     row("R10 [m]", lambda d: f"{d['r10_m']:.4f}")
+    row("delivered R10 p5 [m]", lambda d: f"{d['delivered_r10_m']:.4f}")
     row("blur [px]", lambda d: f"{d['blur_px']:.2f}")
     row("step [mm]", lambda d: f"{d['step_mm']:.3f} {d['recessed']}")
     row("usable pixels", lambda d: f"{100 * d['usable_share']:.1f} %")
@@ -236,6 +294,10 @@ def format_result(data: dict) -> str:
         lines.append(f"tolerance check ({part}default tolerances): nominal "
                      f"{verdict}, yield {100 * c['yield']:.1f} % of {c['trials']} trials (target "
                      f"{100 * c['target_yield']:g} %)")
+        if "delivered_r10_m" in c:
+            d, dd = c["delivered_r10_m"], c["delivered"]
+            lines.append(f"delivered R10 (the made parts, calibrated, blur {dd['blur_px']:.1f} px): 5th percentile "
+                         f"{d['p5']:.4f} m, median {d['median']:.4f} m (design {d['design']:.4f} m)")
         if "replaced" in c:
             r = c["replaced"]
             lines.append(f"the best design found (objective {r['objective']:.6g}) fails the tolerance verdict "
@@ -290,7 +352,7 @@ def _toml_comments(data: dict) -> list[str]:
 
 
 def best_value(data: dict, fig: dict) -> float:
-    key = {"r10": "r10_m", "baseline": "baseline_mm", "band_width": "band_width_deg",
+    key = {"delivered_r10_p5": "delivered_r10_m", "r10": "r10_m", "baseline": "baseline_mm", "band_width": "band_width_deg",
            "usable_area": "usable_share"}[data["objective"]]
     return fig[key]
 

@@ -43,6 +43,7 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
     from ..api import nominal_polish_time_s
     from ..job import MachiningJob, check_programs, design
+    from ..optimize.focus import design_blur_px
     from ..tolerance.runs import tolerance_runs
 
     if args.target_yield is not None:
@@ -73,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
         output_dir(args.output)
     times = {program: nominal_polish_time_s(settings, program, job=job) for program in settings.tolerance.programs}
     runs = tolerance_runs(mirror, settings, times, progress=not args.no_progress, job=job,
-                          allocate=settings.tolerance.programs if args.allocate else ())
+                          allocate=settings.tolerance.programs if args.allocate else (),
+                          blur_px=design_blur_px(mirror, settings))
     _write(args, runs.figures, runs.results)
     return 0
 

@@ -46,6 +46,11 @@ KEYS: tuple[Key, ...] = (
         help=("height above the camera's pinhole of the point about which the mirror's seat tilts it (its mounting "
               "face), mm; 0: the design's rim, its farthest point from the pinhole (the shoulder it seats on: "
               '123.457 mm on the paper\'s design), so that the lever scales with the mirror')),
+    Key('tolerance.shop', 'custom',
+        choices=('custom', 'hobby', 'job', 'precision'),
+        help=("sets every [tolerance.params] and [tolerance.machine_errors] tolerance to what such a shop holds "
+              "(docs/reference/shop-classes.md: each value and its source); the file's own values still override; "
+              '"custom": the defaults below')),
     Key('tolerance.matching_noise_px', 0.1, 'px', 0.0, 10.0,
         help="the stereo matcher's sub-pixel noise, px: the depth error's floor"),
     Key('tolerance.target_yield', 0.95, "", 0.5, 0.999,

@@ -43,7 +43,7 @@ from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
 from ..enums import Mount
 from ..errors import DesignError
 from ..lathe import JAW_GAP, MIN_GRIP, Stock, Tool
-from ..optics.ranging.resolution import r10
+from ..optics.ranging.resolution import delivered_r10, r10
 from ..toolpath.checks import corner_nose, fillet_hidden_margin, reach_margin
 from ..toolpath.moves import Hand
 from .focus import defocus
@@ -60,7 +60,12 @@ INFEASIBLE = 1.0e3
 class Problem:
     """Everything a candidate is judged by: the camera (fixed), the lathe's tool, the bar,
     the body, the [toolpath] clearance (mm, the bar's length beyond the mirror's depth),
-    the [optimize] settings and the configured design (the reference the winner beats)."""
+    the [optimize] settings and the configured design (the reference the winner beats).
+
+    made_disparity_px, matching_noise_px: the delivered-R10 objective's surrogate
+    (optics.ranging.resolution.delivered_r10): the made parts' disparity error after
+    calibration at their 95th percentile (px; a small seeded Monte Carlo of the configured
+    design, tolerance.runs.made_disparity), and the matcher's noise on a one-pixel feature."""
 
     camera: Camera
     tool: Tool
@@ -69,6 +74,8 @@ class Problem:
     clearance: float
     settings: OptimizeSettings
     reference: tuple[LobeSpec, LobeSpec]
+    made_disparity_px: float = 0.0
+    matching_noise_px: float = 0.1
 
 
 @dataclass(frozen=True)
@@ -107,10 +114,11 @@ class Figures:
     r_pixel_outer: float = field(default=0.0)
     bore_face_mm: float = field(default=0.0)  # the face's depth below the vertex over the mount bore's radius
     rim_depth_mm: float = field(default=0.0)  # the outer rim's depth below the vertex (the shoulder)
+    delivered_r10_m: float = field(default=math.nan)  # the surrogate of the made parts' 5th percentile
 
     def objective(self, objective: Objective) -> float:
         """The value of `objective` (larger is better)."""
-        return {Objective.R10: self.r10_m, Objective.BASELINE: self.baseline_mm,
+        return {Objective.DELIVERED: self.delivered_r10_m, Objective.R10: self.r10_m, Objective.BASELINE: self.baseline_mm,
                 Objective.BAND_WIDTH: self.band_width_deg,
                 Objective.USABLE_AREA: self.usable_share}[objective]
 
@@ -118,7 +126,7 @@ class Figures:
         """Plain data (JSON): the lobes under the configuration's keys, then the figures."""
         out = {"lobes": [{"name": s.name, "r_top": s.r_top, "r_pixel": s.r_pixel, "alpha_deg": s.alpha_deg}
                          for s in self.lobes]}
-        for k in ("r10_m", "baseline_mm", "band_width_deg", "usable_share", "blur_px", "focus_mm",
+        for k in ("r10_m", "delivered_r10_m", "baseline_mm", "band_width_deg", "usable_share", "blur_px", "focus_mm",
                   "step_mm", "recessed", "vertex_mm", "far_mm", "depth_mm", "junction_margin_mm",
                   "fillet_hidden_mm", "reach_margin_deg", "hand"):
             out[k] = getattr(self, k)
@@ -263,13 +271,15 @@ def measure(mirror: Mirror, problem: Problem, lobes: tuple[LobeSpec, LobeSpec], 
     o_lo, o_hi = radii["outer_annulus"]
     usable = (inner_used**2 + max(0.0, o_hi**2 - o_lo**2)) / r_max_px**2
     blur = defocus(mirror, problem.camera.f_number, s.focus_range_m * 1000.0, radii=radii)
+    r10_m = r10(mirror, s.band) if with_r10 else math.nan
     zi, zo = mirror.junction_z
     vertex = mirror.vertex_z
     far = mirror.far_z  # Mirror.depth's definition (far - vertex)
     hand = Hand.for_mirror(mirror)
     return Figures(
         lobes=lobes,
-        r10_m=r10(mirror, s.band) if with_r10 else math.nan,
+        r10_m=r10_m,
+        delivered_r10_m=_delivered(r10_m, blur.blur_px, problem),
         baseline_mm=mirror.baseline,
         band_deg=(math.degrees(band[0]), math.degrees(band[1])),
         band_width_deg=max(0.0, math.degrees(band[1] - band[0])),
@@ -289,6 +299,12 @@ def measure(mirror: Mirror, problem: Problem, lobes: tuple[LobeSpec, LobeSpec], 
         bore_face_mm=_bore_face(mirror, problem),
         rim_depth_mm=float(mirror.outer.z(mirror.r_max)) - vertex,
     )
+
+
+def _delivered(r10_m: float, blur_px: float, problem: Problem) -> float:
+    """The delivered-R10 surrogate (m): R10 over the disparity error the problem's made
+    parts and matcher leave on this design's blur (optics.ranging.resolution.delivered_r10)."""
+    return float(delivered_r10(r10_m, problem.made_disparity_px, blur_px, problem.matching_noise_px))
 
 
 def _grip_mm() -> float:
@@ -349,10 +365,12 @@ def evaluate(x: np.ndarray, problem: Problem) -> tuple[float, np.ndarray]:
         with np.errstate(all="ignore"):
             lobes = design_of(x, problem)
             mirror = mirror_from_specs(problem.camera, lobes)
-            fig = measure(mirror, problem, lobes, with_r10=objective is not Objective.R10)
+            late = objective in (Objective.R10, Objective.DELIVERED)  # R10 only for a feasible design
+            fig = measure(mirror, problem, lobes, with_r10=not late)
             v = violations(fig, problem)
-            if objective is Objective.R10 and not v.any():
-                fig = dataclasses.replace(fig, r10_m=r10(mirror, problem.settings.band))
+            if late and not v.any():
+                r = r10(mirror, problem.settings.band)
+                fig = dataclasses.replace(fig, r10_m=r, delivered_r10_m=_delivered(r, fig.blur_px, problem))
     except (DesignError, ValueError, ZeroDivisionError, OverflowError):
         # no mirror (the design's own checks), or one whose geometry degenerates (no ray
         # meets a lobe): no design either

@@ -31,6 +31,7 @@ MAX_WORKERS = 64
 class Objective(str, Enum):
     """What the optimiser maximises (larger is better for each)."""
 
+    DELIVERED = "delivered_r10_p5"  # m: R10 the made parts deliver, 5th percentile (surrogate)
     R10 = "r10"                  # m: range at which 1 px of disparity costs 10 % of range
     BASELINE = "baseline"        # mm: distance between the two viewpoints F1
     BAND_WIDTH = "band_width"    # deg: width of the common (stereo) band
@@ -38,11 +39,11 @@ class Objective(str, Enum):
 
     @property
     def unit(self) -> str:
-        return {"r10": "m", "baseline": "mm", "band_width": "deg", "usable_area": ""}[self.value]
+        return {"delivered_r10_p5": "m", "r10": "m", "baseline": "mm", "band_width": "deg", "usable_area": ""}[self.value]
 
     @property
     def label(self) -> str:
-        return {"r10": "R10 [m]", "baseline": "baseline [mm]", "band_width": "common band [deg]",
+        return {"delivered_r10_p5": "delivered R10, 5th percentile [m]", "r10": "R10 [m]", "baseline": "baseline [mm]", "band_width": "common band [deg]",
                 "usable_area": "usable share of the image"}[self.value]
 
 

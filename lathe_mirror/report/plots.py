@@ -210,15 +210,24 @@ def depth_error_plot(curves: dict[str, DepthCurve]) -> bytes:
     return png(fig)
 
 
-def monte_carlo_histograms(per_trial: dict, limits: dict, *, calibrated: bool, passed: int, title: str = "") -> bytes:
+def monte_carlo_histograms(per_trial: dict, limits: dict, *, calibrated: bool, passed: int, title: str = "",
+                           delivered: dict | None = None) -> bytes:
     """Histograms of the trials' judged figures (image displacement per lobe, disparity
     90th percentile, slope error per lobe) with the limits; the yield with its Wilson
-    95 % interval in the title."""
+    95 % interval in the title; with `delivered` ({design, p5, median}, m) and the trials'
+    delivered_r10_m, a fourth panel: the delivered R10 beside the design's."""
     plt = _pyplot()
     disp = np.asarray(per_trial["image_displacement_px_rms"])
     slope = np.asarray(per_trial["slope_error_rad_rms"])
     disparity = np.asarray(per_trial["disparity_px_p90"], dtype=float)
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3.2))
+    r10 = per_trial.get("delivered_r10_m") if delivered else None
+    fig, axes = plt.subplots(1, 4 if r10 is not None else 3, figsize=(14.5 if r10 is not None else 11, 3.2))
+    if r10 is not None:
+        r10 = 1e3 * np.asarray(r10, dtype=float)
+        axes[3].hist(np.nan_to_num(r10, nan=0.0), bins=40, color="grey", label="made parts")
+        axes[3].axvline(1e3 * delivered["design"], color="black", ls="-", label="design")
+        axes[3].axvline(1e3 * delivered["p5"], color="red", ls="--", label="5th percentile")
+        axes[3].set_xlabel("delivered R10 (mm)")
     for k, name in enumerate(("inner", "outer")):
         axes[0].hist(np.clip(disp[:, k], 0, 5 * limits["image_displacement_px"]), bins=40, alpha=0.6,
                      color=LOBE_COLOURS[name], label=name)
@@ -289,7 +298,8 @@ def plot_jobs(data: ReportData) -> list[tuple[str, object]]:
     for name, t in (data.tolerance.programs if data.tolerance else {}).items():
         mc = t.monte_carlo
         jobs.append((f"monte_carlo_{name}", lambda mc=mc, name=name: monte_carlo_histograms(
-            mc.per_trial, mc.limits, calibrated=mc.calibrated, passed=mc.passed, title=f"{name} program")))
+            mc.per_trial, mc.limits, calibrated=mc.calibrated, passed=mc.passed, title=f"{name} program",
+            delivered=mc.delivered_r10_m)))
     return jobs
 
 

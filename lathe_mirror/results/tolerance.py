@@ -128,6 +128,9 @@ class MonteCarloFigures(Result):
     calibration_rotation_deg: Spread
     note: str
     per_trial: dict[str, list] | None = omitted()
+    # the range the made parts deliver (tolerance.delivered): {design, p5, median} (m), and its model's inputs
+    delivered_r10_m: dict[str, float] | None = omitted()
+    delivered: dict[str, Any] | None = omitted()
 
     def table(self) -> np.ndarray:
         if self.per_trial is None:

@@ -12,8 +12,10 @@ at the cost of a lookup. A greedy least-cost search (marginal analysis) tightens
 rung of TIGHTEN at a time, the parameter whose rung buys the most surrogate yield per unit
 of cost (cost of parameter i at k times tighter: cost_i x k, [tolerance.cost]), until the
 surrogate yield reaches the yield a Monte Carlo of n trials must show for its Wilson 95 %
-interval to clear the target; then loosens back any rung not needed. A fresh Monte Carlo
-(seed + 1) with the allocated tolerances confirms it; if it falls short, the surrogate's
+interval to clear the target; then loosens back any rung not needed. A Monte Carlo with the
+allocated tolerances confirms it, drawn from the configured run's seed (common random
+numbers, tolerance.registry: every trial is the configured run's trial with its offsets
+scaled, so the two yields differ only by the trials the tightening flips); if it falls short, the surrogate's
 aim is raised by the shortfall and the search continues (at most ROUNDS times).
 """
 
@@ -26,7 +28,8 @@ import numpy as np
 
 from .montecarlo import CRITERIA, Context, MonteCarloResult, run_monte_carlo
 from .sensitivity import Responses, judged_values
-from .spec import PARAMETERS, Distribution
+from .registry import BY_KEY, standard_draws, tolerances_of
+from .spec import PARAMETERS
 from .stats import percent_interval, wilson, yield_to_show
 
 #: One rung of tightening: the tolerance times this.
@@ -37,8 +40,6 @@ MAX_RUNGS = 20
 SURROGATE_DRAWS = 4000
 #: Confirming Monte Carlo runs at most.
 ROUNDS = 3
-#: Parameters drawn as a pair (x, y) whose response depends on the magnitude.
-PAIRED = ("camera_decentre_mm", "camera_tilt_deg", "seat_tilt_deg")
 
 
 @dataclass
@@ -148,7 +149,7 @@ def no_margin_text(worst: np.ndarray, lim: np.ndarray, share: np.ndarray) -> str
 def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: float | None = None,
              progress: bool = False) -> tuple[dict, MonteCarloResult | None]:
     """Least-cost tolerances that reach the target yield (default the settings'), confirmed
-    by a fresh Monte Carlo; mc is the Monte Carlo at the configured tolerances (its trials
+    by a Monte Carlo on the same seed; mc is the Monte Carlo at the configured tolerances (its trials
     check the surrogate). Returns the JSON-ready allocation and the last confirming Monte
     Carlo (None when the configured tolerances already reach the target)."""
     s = ctx.settings
@@ -157,24 +158,19 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
     lim = np.array([ctx.limits[c] for c in CRITERIA])
     sur = Surrogate(resp, lim)
     keys = resp.keys
-    base = {k: {**s.tolerances, **s.machine_errors}[k] for k in keys}  # the lathe's set-up errors too
+    base = {k: tolerances_of(s)[k] for k in keys}  # the lathe's set-up errors too
     cost = {k: s.cost.get(k, 1.0) for k in keys}
     # Common random numbers: one set of standard draws for every candidate.
     rng = np.random.default_rng(s.seed + 2)
     phase = rng.integers(0, len(ctx.bank.phases), SURROGATE_DRAWS)
-    std = {}
-    for k in keys:
-        m = 2 if k in PAIRED else 1
-        if s.distribution is Distribution.NORMAL:
-            std[k] = rng.normal(0.0, 1.0 / 3.0, (m, SURROGATE_DRAWS))
-        else:
-            std[k] = rng.uniform(-1.0, 1.0, (m, SURROGATE_DRAWS))
+    std = standard_draws(rng, SURROGATE_DRAWS, s.distribution)
 
     def offsets(scale: dict[str, float]) -> dict[str, np.ndarray]:
         out = {}
         for k in keys:
-            d = std[k] * base[k] * scale[k]
-            out[k] = np.hypot(d[0], d[1]) if k in PAIRED else d[0]
+            p = BY_KEY[k]
+            d = p.scale(std[k], base[k] * scale[k], s.distribution)
+            out[k] = np.abs(d[0]) if p.one_sided else (np.hypot(d[0], d[1]) if p.paired else d[0])
         return out
 
     def surrogate_yield(scale: dict[str, float]) -> float:
@@ -205,7 +201,9 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
             all_out = True
         rounds += 1
         tol = {k: base[k] * scale[k] for k in keys}
-        confirm = run_monte_carlo(ctx, seed=s.seed + rounds, tolerances={**s.tolerances, **tol},
+        # the configured run's seed: its trials' standard draws scaled to the allocated
+        # tolerances (common random numbers), so the yields compare trial for trial
+        confirm = run_monte_carlo(ctx, seed=s.seed, tolerances={**s.tolerances, **tol},
                                   progress=progress, desc=f"tolerance: confirming the allocation ({rounds})")
         k_pass = int(np.sum(confirm.pass_all))
         history.append({"round": rounds, "aim": aim, "surrogate_yield": y_sur, "yield": k_pass / n,
@@ -231,7 +229,7 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
     k_final = int(np.sum(final.pass_all))
     out = {"program": ctx.program.value, "target_yield": target, "trials": n, "reached": bool(reached),
            "yield": k_final / n, "yield_wilson95": list(wilson(k_final, n)), "seed": final.seed,
-           "confirmed_by": "a fresh Monte Carlo" if confirm is not None else "the Monte Carlo at the configured tolerances",
+           "confirmed_by": "a Monte Carlo of the same seed at the allocated tolerances" if confirm is not None else "the Monte Carlo at the configured tolerances",
            "rounds": history, "tolerances": rows, "cost_ratio": total / total0 if total0 > 0 else 1.0,
            "surrogate": {"draws": SURROGATE_DRAWS, "yield_at_configured": surrogate_yield({k: 1.0 for k in keys}),
                          **check},
@@ -296,12 +294,8 @@ def _surrogate_check(sur: Surrogate, mc: MonteCarloResult, keys) -> dict:
     """Fit the surrogate's scales to the Monte Carlo's own trials, then: its yield on them
     and how often it agrees with their traced pass / fail (before and after the fit)."""
     t = mc.trials
-    deg = 180.0 / math.pi
-    x = {"nose_radius_mm": t.nose_mm - mc.nominal_nose_mm, "polish_time_s": t.time_s - mc.nominal_time_s,
-         "tool_x_mm": t.tool_x_mm, "tool_z_mm": t.tool_z_mm, "camera_decentre_mm": np.hypot(t.cam_x_mm, t.cam_y_mm),
-         "camera_axial_mm": t.cam_z_mm, "camera_tilt_deg": np.hypot(t.tilt_x, t.tilt_y) * deg,
-         "seat_tilt_deg": np.hypot(t.seat_x, t.seat_y) * deg}
-    x = {k: x[k] for k in keys}
+    nominal = {"nose_mm": mc.nominal_nose_mm, "time_s": mc.nominal_time_s}
+    x = {k: BY_KEY[k].magnitude(t, nominal) for k in keys}
     actual = mc.pass_all
     before = sur.passes(t.phase, x)
     sur.calibrate(t.phase, x, judged_values(mc.figures, mc.settings.spec.calibrated))

@@ -23,6 +23,7 @@ from ..optics.stereo import band_elevations
 from ..optics.zones import zones as zones_of
 from ..progress import bar
 from .calibration import Calibration
+from .delivered import DeliveredRange, delivered_range
 from .perturb import (
     LOBE_FIGURES,
     STEREO_FIGURES,
@@ -32,7 +33,8 @@ from .perturb import (
     evaluate,
 )
 from .samples import PixelSample, matching_floor_pct, pixel_sample
-from .spec import DRAWN, MACHINE_DRAWN, Distribution, Program, ToleranceSettings
+from .registry import REGISTRY, standard_draws, tolerances_of
+from .spec import DRAWN, Program, ToleranceSettings
 from .stats import wilson
 from .surfaces import SurfaceBank, time_nodes
 
@@ -62,6 +64,8 @@ class Context:
     progress: bool = False
     zones: object = None   # optics.zones.Zones: the pixels and radii the criteria judge
     cut_plus_x: bool = True  # the finishing pass runs in +X (axis -> rim): backlash shifts it
+    blur_px: float = 0.0  # the design's defocus blur circle (px; tolerance.delivered)
+    band: tuple[float, float] | None = None  # elevations (rad) R10 is the median over; None: common band
 
     def ensure(self, trials: Trials, progress: bool | None = None) -> None:
         """Cut and polish every nose the trials drew that is not made yet."""
@@ -90,6 +94,7 @@ class MonteCarloResult:
     nominal_time_s: float = 0.0
     phases: np.ndarray = field(default_factory=lambda: np.zeros(1))
     zones: object = None   # optics.zones.Zones the figures cover
+    delivered: DeliveredRange | None = None  # the range each trial's part delivers
 
     @property
     def pass_all(self) -> np.ndarray:
@@ -134,6 +139,8 @@ class MonteCarloResult:
                        "outlier_pct": _dist(np.max(judged["outlier_pct"], axis=1)),
                        "disparity_px": _dist(judged["disparity_px_p90"][:, 0]),
                        "slope_error_rad": _dist(np.max(f.slope_error_rad_rms, axis=1))},
+            **({} if self.delivered is None else {"delivered_r10_m": self.delivered.summary(),
+                                                  "delivered": self.delivered.to_dict()}),
             "raw": figs(f.raw),
             "calibrated_figures": figs(f.calibrated),
             "surface": {"lobes": [{"name": name, "slope_error_rad": _dist(f.slope_error_rad_rms[:, k]),
@@ -155,6 +162,9 @@ class MonteCarloResult:
                                 "disparity_px_p90": judged["disparity_px_p90"][:, 0].tolist(),
                                 "slope_error_rad_rms": f.slope_error_rad_rms.tolist(),
                                 "depth_error_pct_rms": judged["depth_error_pct_rms"][:, 0].tolist(),
+                                **({} if self.delivered is None else {
+                                    "delivered_r10_m": self.delivered.r10_m.tolist(),
+                                    "delivered_depth_error_pct": self.delivered.depth_error_pct.tolist()}),
                                 "pass": [bool(x) for x in self.pass_all]}
         return out
 
@@ -203,6 +213,9 @@ class MonteCarloResult:
         ang = f.calibration.angles_deg()
         for i, axis in enumerate("xyz"):
             cols[f"cal_rotation_{axis}_deg"] = ang[:, i].tolist()
+        if self.delivered is not None:
+            cols["delivered_r10_m"] = self.delivered.r10_m.tolist()
+            cols["delivered_depth_error_pct"] = self.delivered.depth_error_pct.tolist()
         for c, v in self.passed.items():
             cols[f"pass_{c}"] = [bool(x) for x in v]
         cols["pass"] = [bool(x) for x in self.pass_all]
@@ -254,43 +267,27 @@ def prepare(mirror: Mirror, settings: ToleranceSettings, polish_params, nominal_
 
 def draw_trials(ctx: Context, n: int | None = None, seed: int | None = None,
                 tolerances: dict[str, float] | None = None) -> Trials:
-    """Trials drawn from default_rng(seed), parameters in a fixed order (lattice phase,
-    then DRAWN's order, x before y), each within `tolerances` (default the settings')."""
+    """Trials drawn from default_rng(seed): the lattice phase, then every registered
+    parameter's standard draws in REGISTRY's order (x before y), taken whatever the
+    tolerances and scaled by `tolerances` (any of REGISTRY's keys; default the settings'
+    params and machine errors). Common random numbers: the same seed gives nested samples
+    (tolerance.registry), so tightening a tolerance moves only that parameter's values,
+    each to the same fraction of its old one."""
     s = ctx.settings
     n = s.trials if n is None else n
     rng = np.random.default_rng(s.seed if seed is None else seed)
-    tol = s.tolerances if tolerances is None else tolerances
-
-    def draw(key: str, scale: float = 1.0) -> np.ndarray:
-        t = tol.get(key, 0.0) * scale
-        if s.distribution is Distribution.NORMAL:
-            return rng.normal(0.0, t / 3.0, n)
-        return rng.uniform(-t, t, n)
-
+    tol = tolerances_of(s, tolerances)
+    if not ctx.cut_plus_x:  # a finishing pass run in -X takes up the lost motion before it cuts
+        tol["backlash_mm"] = 0.0
     phase = rng.integers(0, len(ctx.bank.phases), n)
-    nose = ctx.nominal_nose_mm + draw("nose_radius_mm")
-    time = np.maximum(ctx.nominal_time_s + draw("polish_time_s"), 0.0)
-    tx, tz = draw("tool_x_mm"), draw("tool_z_mm")
-    cx, cy = draw("camera_decentre_mm"), draw("camera_decentre_mm")
-    cz = draw("camera_axial_mm")
-    deg = math.pi / 180.0
-    ax, ay = draw("camera_tilt_deg", deg), draw("camera_tilt_deg", deg)
-    sx, sy = draw("seat_tilt_deg", deg), draw("seat_tilt_deg", deg)
+    std = standard_draws(rng, n, s.distribution)
+    tr = Trials.nominal(n, ctx.nominal_nose_mm, ctx.nominal_time_s)
+    tr.phase = phase.astype(np.intp)
+    for p in REGISTRY:
+        p.add(tr, p.offsets(std[p.key], tol[p.key], s.distribution))
     # The nose is cut as drawn, rounded to the nose step; never at or below zero.
-    nose = ctx.bank.snapped(np.maximum(nose, ctx.bank.nose_step))
-    # the lathe's set-up errors about their configured values (which the bank's parts were
-    # cut with), drawn after the others so that their draws do not change
-    me = {**s.machine_errors, **{k: tolerances[k] for k in MACHINE_DRAWN if tolerances and k in tolerances}}
-    mdraw = {}
-    for key in MACHINE_DRAWN:
-        t = me.get(key, 0.0)
-        mdraw[key] = np.zeros(n) if t == 0 else (rng.normal(0.0, t / 3.0, n) if s.distribution is Distribution.NORMAL
-                                                 else rng.uniform(-t, t, n))
-    backlash = np.abs(mdraw["backlash_mm"]) if ctx.cut_plus_x else np.zeros(n)
-    return Trials(phase=phase.astype(np.intp), nose_mm=nose, time_s=time, tool_x_mm=tx,
-                  tool_z_mm=tz, cam_x_mm=cx, cam_y_mm=cy, cam_z_mm=cz, tilt_x=ax, tilt_y=ay, seat_x=sx, seat_y=sy,
-                  centre_height_mm=mdraw["centre_height_mm"], nose_error_mm=mdraw["nose_radius_error_mm"],
-                  squareness_rad=mdraw["squareness_urad"] * 1e-6, machine_x_mm=mdraw["x_offset_mm"] - backlash)
+    tr.nose_mm = ctx.bank.snapped(np.maximum(tr.nose_mm, ctx.bank.nose_step))
+    return tr
 
 
 def evaluate_trials(ctx: Context, trials: Trials, *, progress: bool = False, desc: str = "tolerance: trials",
@@ -373,7 +370,17 @@ def run_monte_carlo(ctx: Context, *, progress: bool = False, seed: int | None = 
     fig = evaluate_trials(ctx, trials, progress=progress, desc=desc)
     return MonteCarloResult(trials, fig, judge(fig, ctx.limits, ctx.settings.spec.calibrated), ctx.settings,
                             ctx.program, dict(ctx.limits), {k: tol.get(k, 0.0) for k in DRAWN}, seed,
-                            ctx.nominal_nose_mm, ctx.nominal_time_s, ctx.bank.phases, ctx.zones)
+                            ctx.nominal_nose_mm, ctx.nominal_time_s, ctx.bank.phases, ctx.zones,
+                            delivered_of(ctx, fig))
+
+
+def delivered_of(ctx: Context, fig: TrialFigures) -> DeliveredRange:
+    """The range each trial's part delivers (tolerance.delivered): its disparity error
+    (calibrated or raw as the spec judges, the band's median at the spec's range), the
+    context's blur and the matcher's noise."""
+    d = fig.judged(ctx.settings.spec.calibrated)["disparity_px_median"][:, 0]
+    return delivered_range(ctx.mirror, d, blur_px=ctx.blur_px, matching_noise_px=ctx.settings.matching_noise_px,
+                           range_m=ctx.settings.spec.depth_range_m, band=ctx.band)
 
 
 def stereo_table(ctx: Context, ranges_m) -> dict:

@@ -40,7 +40,8 @@ class ToleranceRuns:
 
 def tolerance_analysis(mirror: Mirror, settings: Settings, nominal_times_s: dict[Program, float], *,
                        progress: bool = False, allocate: tuple[Program, ...] = (),
-                       target_yield: float | None = None, job: MachiningJob | None = None) -> dict:
+                       target_yield: float | None = None, job: MachiningJob | None = None,
+                       blur_px: float = 0.0) -> dict:
     """Monte Carlo, sensitivity and inverse sensitivity for each toleranced program
     ([tolerance] programs), each polished for its nominal time (s); the verdict of each
     against the spec; for the programs in `allocate`, the least-cost tolerances that reach
@@ -48,13 +49,15 @@ def tolerance_analysis(mirror: Mirror, settings: Settings, nominal_times_s: dict
     machining job the parts are cut by (default MachiningJob.from_settings); each program's
     part is its variant with that program."""
     return tolerance_runs(mirror, settings, nominal_times_s, progress=progress, allocate=allocate,
-                          target_yield=target_yield, job=job).figures
+                          target_yield=target_yield, job=job, blur_px=blur_px).figures
 
 
 def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Program, float], *,
                    progress: bool = False, allocate: tuple[Program, ...] = (),
-                   target_yield: float | None = None, job: MachiningJob | None = None) -> ToleranceRuns:
-    """tolerance_analysis, keeping the Monte Carlo results (ToleranceRuns)."""
+                   target_yield: float | None = None, job: MachiningJob | None = None,
+                   blur_px: float = 0.0) -> ToleranceRuns:
+    """tolerance_analysis, keeping the Monte Carlo results (ToleranceRuns). blur_px: the
+    design's defocus blur (px, optimize.focus) the delivered range counts (0: left out)."""
     job = MachiningJob.from_settings(settings, mirror) if job is None else job
     ts = settings.tolerance
     target = ts.target_yield if target_yield is None else target_yield
@@ -65,7 +68,8 @@ def tolerance_runs(mirror: Mirror, settings: Settings, nominal_times_s: dict[Pro
     results = []
     for program in ts.programs:
         part = job.but(strategy=program.strategy)
-        ctx = tolerance_context(mirror, settings, program, nominal_times_s[program], progress=progress, job=part)
+        ctx = tolerance_context(mirror, settings, program, nominal_times_s[program], progress=progress, job=part,
+                                blur_px=blur_px)
         mc = run_monte_carlo(ctx, progress=progress)
         results.append((f"{program.value}: monte carlo", mc))
         resp = responses(ctx, progress=progress)
@@ -115,10 +119,11 @@ def monte_carlo(mirror: Mirror, settings: Settings, program: Program, nominal_ti
 
 
 def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nominal_time_s: float, *,
-                      progress: bool = False, job: MachiningJob | None = None):
+                      progress: bool = False, job: MachiningJob | None = None, blur_px: float = 0.0):
     """The Monte Carlo's shared context: the program's part (the machining job with that
     program: default MachiningJob.from_settings) cut at each lattice phase (and, as trials
-    draw them, with each nose radius), polished at the time nodes."""
+    draw them, with each nose radius), polished at the time nodes. blur_px: the design's
+    defocus blur (px) the delivered range counts; R10 over the optimiser's band."""
     job = (MachiningJob.from_settings(settings, mirror) if job is None else job).but(strategy=program.strategy)
     # each phase's program planned once (the noses the trials draw are all cut along the
     # program planned for the [tool] nose); phase 0's here, before the workers fork, so
@@ -139,6 +144,8 @@ def tolerance_context(mirror: Mirror, settings: Settings, program: Program, nomi
                   nose0=job.tool.nose_radius, machine_at=machine_at, progress=progress,
                   zones=zones_for(settings, mirror))
     ctx.cut_plus_x = mirror.step > 0  # the finishing pass runs axis -> rim (+X): backlash shows
+    ctx.blur_px = float(blur_px)
+    ctx.band = settings.optimize.band
     return ctx
 
 
@@ -169,7 +176,8 @@ def verdict(t: dict, spec: dict) -> dict:
 
 
 def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
-                 polish_time_s: float | None = None, nominal_only: bool = False) -> dict:
+                 polish_time_s: float | None = None, nominal_only: bool = False, blur_px: float = 0.0,
+                 allocate: bool = False) -> dict:
     """The optimiser's winner through the tolerance analysis of the best program with the
     configured tool and default tolerances: the nominal part (lattice phase 0, every
     parameter nominal) judged against the spec, and the Monte Carlo's yield against
@@ -179,7 +187,10 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
     tolerance that makes the target impossible (held perfectly, the target is reached) or
     saying that none does alone. The part judged is `tolerance`'s: the best program
     polished for its polishing curve's time (or polish_time_s), its label under
-    "made_mirror". nominal_only: the nominal part alone (no Monte Carlo, no yield)."""
+    "made_mirror". nominal_only: the nominal part alone (no Monte Carlo, no yield).
+    allocate: when the yield falls short (the nominal part passing), the least-cost
+    tolerances that reach the target instead of `yield_without` (tolerance.allocation,
+    confirmed on the same seed: "allocation", with the delivered range at them)."""
     import numpy as np
 
     ts = settings.tolerance
@@ -188,7 +199,7 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
         time_s = polishing_curve(job.made().profile, mirror, settings.polish).optimum_time_s
     else:
         time_s = float(polish_time_s)
-    ctx = tolerance_context(mirror, settings, Program.BEST, time_s, progress=progress, job=job)
+    ctx = tolerance_context(mirror, settings, Program.BEST, time_s, progress=progress, job=job, blur_px=blur_px)
     nom = evaluate_trials(ctx, Trials.nominal(1, ctx.nominal_nose_mm, ctx.nominal_time_s))
     ok = judge(nom, ctx.limits, ts.spec.calibrated)
 
@@ -209,6 +220,7 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
            "polish_time_s": time_s, "nominal": nominal,
            "nominal_pass": not failing, "yield": y, "target_yield": ts.target_yield, "trials": len(mc.trials),
            "pass_fraction": {c: float(np.mean(mc.passed[c])) for c in CRITERIA},
+           "delivered_r10_m": mc.delivered.summary(), "delivered": mc.delivered.to_dict(),
            "zones": ctx.zones.describe()}
     if failing:
         out["why"] = why
@@ -218,6 +230,15 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
         if not broken:  # each criterion reaches the target alone; failing trials break different ones
             broken = [c for c in CRITERIA if float(np.mean(mc.passed[c])) < 1.0]
             alone = " (each at or above the target alone)"
+        head = (f"yield {100 * y:.1f} % < {100 * ts.target_yield:g} %: the failing trials break "
+                + ", ".join(f"{c} (pass {100 * float(np.mean(mc.passed[c])):.1f} %)" for c in broken) + alone)
+        if allocate:
+            alloc, confirm = allocate_tolerances(ctx, responses(ctx, progress=progress), mc, progress=progress)
+            out["allocation"] = alloc
+            if confirm is not None:
+                out["allocation"]["delivered_r10_m"] = confirm.delivered.summary()
+            out["why"] = f"{head}; {alloc['statement']}"
+            return out
         # which tolerance makes the target out of reach: the yield with each drawn
         # parameter held perfectly (its tolerance 0, the others as configured; same seed)
         without = {}
@@ -227,8 +248,6 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
                 without[k] = float(run_monte_carlo(ctx, tolerances=tol).yield_fraction)
         out["yield_without"] = without
         ranked = sorted(without, key=lambda k: -without[k])
-        head = (f"yield {100 * y:.1f} % < {100 * ts.target_yield:g} %: the failing trials break "
-                + ", ".join(f"{c} (pass {100 * float(np.mean(mc.passed[c])):.1f} %)" for c in broken) + alone)
         if not ranked:
             out["why"] = head
         elif without[ranked[0]] >= ts.target_yield:
@@ -240,3 +259,25 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
             out["why"] = (f"{head}; no single tolerance makes the target impossible alone: held perfectly, each "
                           f"gives at most {top}; `tolerance --allocate` tightens them together at least cost")
     return out
+
+
+def made_disparity(mirror: Mirror, settings: Settings, *, trials: int = 64, phases: int = 2,
+                   quantile: float = 0.95, blur_px: float = 0.0, progress: bool = False) -> dict:
+    """The made parts' own disparity error after calibration (px, the band's median at the
+    spec's range) at `quantile` over a small seeded Monte Carlo (`trials` trials of the
+    settings' seed, `phases` lattice phases) of the best program's part at the configured
+    tolerances: the optimiser's delivered-R10 surrogate takes it as every candidate's part
+    error (optimize.evaluate.Problem.made_disparity_px). With its yield and delivered range."""
+    import numpy as np
+
+    ts = settings.tolerance
+    small = dataclasses.replace(settings, tolerance=dataclasses.replace(
+        ts, trials=int(trials), lattice_phases=max(1, min(int(phases), ts.lattice_phases))))
+    job = MachiningJob.from_settings(small, mirror, strategy=Program.BEST.strategy)
+    time_s = polishing_curve(job.made().profile, mirror, small.polish).optimum_time_s
+    ctx = tolerance_context(mirror, small, Program.BEST, time_s, progress=progress, job=job, blur_px=blur_px)
+    mc = run_monte_carlo(ctx, progress=progress, desc="optimize: the configured design's made parts")
+    d = mc.delivered.disparity_px
+    return {"disparity_px": float(np.quantile(np.where(np.isfinite(d), d, np.inf), quantile, method="inverted_cdf")),
+            "quantile": quantile, "trials": int(trials), "lattice_phases": ctx.settings.lattice_phases,
+            "seed": mc.seed, "yield": mc.yield_fraction, "delivered_r10_m": mc.delivered.summary()}

@@ -14,14 +14,14 @@ same figures, and a draw (x, y) responds as its magnitude along x.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from .montecarlo import CRITERIA, Context, evaluate_trials, judge
 from .perturb import TrialFigures, Trials
-from .spec import DRAWN, MACHINE_DRAWN, PARAMETERS
+from .registry import BY_KEY, REGISTRY, tolerances_of
+from .spec import PARAMETERS
 from .surfaces import SurfaceBank
 
 #: Fractions of a tolerance each parameter is scanned at (both signs).
@@ -51,36 +51,9 @@ class Responses:
 
 
 def apply(tr: Trials, i: int, key: str, value: float) -> None:
-    """Put parameter `key` at `value` (edge units: mm, s, deg) on trial i, along x."""
-    deg = math.pi / 180.0
-    if key == "nose_radius_mm":
-        tr.nose_mm[i] += value
-    elif key == "polish_time_s":
-        tr.time_s[i] = max(tr.time_s[i] + value, 0.0)
-    elif key == "tool_x_mm":
-        tr.tool_x_mm[i] += value
-    elif key == "tool_z_mm":
-        tr.tool_z_mm[i] += value
-    elif key == "camera_decentre_mm":
-        tr.cam_x_mm[i] += value
-    elif key == "camera_axial_mm":
-        tr.cam_z_mm[i] += value
-    elif key == "camera_tilt_deg":
-        tr.tilt_x[i] += value * deg
-    elif key == "seat_tilt_deg":
-        tr.seat_x[i] += value * deg
-    elif key == "centre_height_mm":
-        tr.centre_height_mm[i] += value
-    elif key == "x_offset_mm":
-        tr.machine_x_mm[i] += value
-    elif key == "nose_radius_error_mm":
-        tr.nose_error_mm[i] += value
-    elif key == "squareness_urad":
-        tr.squareness_rad[i] += value * 1e-6
-    elif key == "backlash_mm":
-        tr.machine_x_mm[i] -= abs(value)  # a pass cut in +X lands short (both signs: the same side)
-    else:
-        raise KeyError(key)
+    """Put parameter `key` at `value` (edge units: mm, s, deg, urad) on trial i, along x
+    (tolerance.registry: how each parameter moves a trial)."""
+    BY_KEY[key].apply(tr, i, value)
 
 
 def judged_values(fig: TrialFigures, calibrated: bool) -> np.ndarray:
@@ -95,8 +68,8 @@ def judged_values(fig: TrialFigures, calibrated: bool) -> np.ndarray:
 
 def responses(ctx: Context, *, progress: bool = False) -> Responses:
     """Evaluate every parameter at -/+ SCAN x its tolerance and every lattice phase."""
-    tol = {**ctx.settings.tolerances, **ctx.settings.machine_errors}
-    keys = tuple(k for k in DRAWN + MACHINE_DRAWN if tol.get(k, 0.0) > 0)
+    tol = tolerances_of(ctx.settings)
+    keys = tuple(p.key for p in REGISTRY if tol[p.key] > 0)
     fr = np.array(sorted([-f for f in SCAN] + [0.0] + list(SCAN)))
     P = len(ctx.bank.phases)
     cases: list[tuple[str, float]] = [("phase", float(p)) for p in range(P)]

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 from ..declared.section import FLOATS, choice, nested, setting
 from ..enums import Distribution, Program
+from .registry import REGISTRY
 
 
 @dataclass(frozen=True)
@@ -40,33 +41,21 @@ class Spec:
     outlier_pct: float = setting("tolerance.spec.outlier_pct")
 
 
-#: The toleranced parameters, in table order: key -> (what it is, unit at the edge).
+#: The toleranced parameters, in table order: key -> (what it is, unit at the edge): the
+#: controller's resolution and the lattice phase, then the drawn ones (tolerance.registry).
 PARAMETERS: dict[str, tuple[str, str]] = {
     "resolution_mm": ("controller resolution (sensitivity only)", "mm"),
     "lattice_phase": ("offset of the work zero on the controller's lattice (resolution)", "step"),
-    "nose_radius_mm": ("insert nose radius", "mm"),
-    "tool_x_mm": ("tool setting error across the axis (radius)", "mm"),
-    "tool_z_mm": ("tool setting error along the axis", "mm"),
-    "polish_time_s": ("polishing time", "s"),
-    "camera_decentre_mm": ("camera pinhole off the mirror axis (x and y)", "mm"),
-    "camera_tilt_deg": ("camera axis tilt about its pinhole (x and y)", "deg"),
-    "camera_axial_mm": ("lens entrance pupil along the axis", "mm"),
-    "seat_tilt_deg": ("mirror seat tilt about the seat pivot (x and y)", "deg"),
-    # the lathe's set-up errors ([tolerance.machine_errors], about [machine.errors])
-    "centre_height_mm": ("lathe: tool centre height (a pip at the vertex, radii moved)", "mm"),
-    "x_offset_mm": ("lathe: tool X zero (the pass moved out in r: an ogive)", "mm"),
-    "nose_radius_error_mm": ("lathe: nose radius against the programmed one, tool set on its tip", "mm"),
-    "squareness_urad": ("lathe: X slide out of square with the spindle", "urad"),
-    "backlash_mm": ("lathe: X backlash (a pass cut in +X lands short)", "mm"),
+    **{p.key: (p.what, p.unit) for p in REGISTRY},
 }
 
-#: The parameters the Monte Carlo draws and the allocation may tighten, in draw order.
-DRAWN = ("nose_radius_mm", "polish_time_s", "tool_x_mm", "tool_z_mm", "camera_decentre_mm",
-         "camera_axial_mm", "camera_tilt_deg", "seat_tilt_deg")
+#: The parameters the Monte Carlo draws and the allocation may tighten ([tolerance.params]),
+#: in draw order.
+DRAWN = tuple(p.key for p in REGISTRY if p.section == "params")
 
 #: The lathe's set-up errors the Monte Carlo draws ([tolerance.machine_errors]), in draw
 #: order, after DRAWN's.
-MACHINE_DRAWN = ("centre_height_mm", "x_offset_mm", "nose_radius_error_mm", "squareness_urad", "backlash_mm")
+MACHINE_DRAWN = tuple(p.key for p in REGISTRY if p.section == "machine_errors")
 
 #: Largest sparse pixel sample per lobe (rays): image-radius bins x azimuths.
 MAX_SAMPLE_RAYS = 200_000
@@ -102,6 +91,7 @@ class ToleranceSettings:
     target_yield: float = setting("tolerance.target_yield")
     cost: dict[str, float] = setting("tolerance.cost", FLOATS)
     machine_errors: dict[str, float] = setting("tolerance.machine_errors", FLOATS)
+    shop: str = setting("tolerance.shop")  # the shop class the tolerances came from (tolerance.shops)
 
     def pivot_mm(self, mirror) -> float:
         """The seat's pivot height above the pinhole (mm) for `mirror`: seat_pivot_mm, or

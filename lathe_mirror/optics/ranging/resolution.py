@@ -53,6 +53,17 @@ def r10(mirror: Mirror, band: tuple[float, float] | None = None) -> float:
     return float(np.median(R10_FRACTION * mirror.baseline * np.cos(el) / per_px)) * 1e-3
 
 
+def delivered_r10(r10_m, disparity_px, blur_px: float, matching_noise_px: float):
+    """The R10 (m) a made part delivers (tolerance.delivered): the design's R10 over the
+    disparity error its matcher and part leave, in units of the design's pixel,
+    sqrt(1 + d^2 + (matching_noise_px x max(blur_px, 1))^2); d (px) the part's own
+    disparity error after calibration, blur_px the blur circle's diameter (a matcher
+    locates a feature to matching_noise_px of its width). Broadcasts over r10_m and d."""
+    noise = matching_noise_px * max(float(blur_px), 1.0)
+    d = np.asarray(disparity_px, float)
+    return np.asarray(r10_m, float) / np.sqrt(1.0 + d * d + noise * noise)
+
+
 def band_elevations(mirror: Mirror, band: tuple[float, float] | None = None,
                     n: int = BAND_SAMPLES) -> np.ndarray:
     """n elevations (rad), the centres of n equal intervals of the band (default the
