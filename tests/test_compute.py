@@ -52,7 +52,8 @@ def test_serial_processes_and_dask_give_the_same_figures_and_yield(ctx):
     with compute.session(workers=2) as ex:
         assert ex.kind == "processes"
         local, y2 = _figures(ctx, trials)
-    with LocalCluster(processes=False, n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
+    with LocalCluster(processes=False, n_workers=2, threads_per_worker=1, protocol="tcp", host="127.0.0.1",
+                      dashboard_address=None) as cluster:
         with compute.session(scheduler=cluster.scheduler_address) as ex:
             assert ex.kind == "dask"
             dask, y3 = _figures(ctx, trials)
@@ -117,7 +118,14 @@ def test_tolerance_cli_on_a_dask_scheduler_gives_the_local_yield(tmp_path):
 @pytest.mark.parametrize("args, msg", [
     (["--workers", "-1"], "--workers"),
     (["--workers", "1025"], "--workers"),
-    (["--scheduler", "localhost"], "--scheduler 'localhost': a Dask scheduler address"),
+    (["--scheduler", "localhost"], "--scheduler 'localhost': not a scheduler address; allowed a Dask scheduler's "
+                                   "tcp://HOST:PORT"),
+    (["--scheduler", "tls://127.0.0.1:8786"], "--scheduler 'tls://127.0.0.1:8786': protocol tls:// is not supported"),
+    (["--scheduler", "ucx://127.0.0.1:8786"], "protocol ucx:// is not supported"),
+    (["--scheduler", "inproc://10.0.0.1/1234/1"], "protocol inproc:// is not supported"),
+    (["--scheduler", "ws://127.0.0.1:8786"], "protocol ws:// is not supported"),
+    (["--scheduler", "tcp://127.0.0.1:70000"], "port 1 .. 65535"),
+    (["--scheduler", "tcp://a\x1b[2J:1"], r"'tcp://a\x1b[2J:1': not a scheduler address"),
     (["--scheduler", "tcp://127.0.0.1:9"], "--scheduler tcp://127.0.0.1:9: cannot reach the Dask scheduler"),
 ])
 def test_bad_compute_flags_exit_2_writing_nothing(tmp_path, args, msg):
