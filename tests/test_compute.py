@@ -73,6 +73,24 @@ def test_a_worker_error_reaches_the_parent_and_the_pool_ends():
             assert run.map(_divide, [1, 2, 4, 8]) == [2.0, 1.0, 0.5, 0.25]
 
 
+@pytest.mark.parametrize("n, unit, workers, sizes", [
+    (2000, 100, 2, [200] * 10),         # 20 batches: 10 blocks (5 rounds of 2), not 5 of 400 (3 rounds)
+    (2000, 100, 4, [100] * 20),         # as few units as 4 blocks a worker: one unit each
+    (55, 10, 2, [10] * 5 + [5]),        # the last block ends short, never splits a unit
+    (5, 100, 4, [5]),
+    (1_000_000, 100, 64, [3900, 4000]),  # 10,000 units: 256 blocks, 4 rounds of 64, 39 or 40 units
+])
+def test_blocks_are_whole_units_that_keep_every_worker_busy(n, unit, workers, sizes):
+    got = compute.blocks(n, unit, workers)
+    assert got[0].start == 0 and got[-1].stop == n and all(a.stop == b.start for a, b in zip(got, got[1:]))
+    assert all(s.start % unit == 0 for s in got)
+    if len(set(sizes)) == 1 or n < 1000:
+        assert [s.stop - s.start for s in got] == sizes
+    else:  # 10,000 units in 256 blocks: 16 of 40 and 240 of 39 (16 x 40 + 240 x 39 = 10,000)
+        assert len(got) == 256 and sorted({s.stop - s.start for s in got}) == sizes
+        assert sum(s.stop - s.start == 4000 for s in got) == 16
+
+
 def _divide(shared, item):
     return shared / item
 

@@ -8,14 +8,20 @@ waits for a request), one that sends other bytes, or one that closes is refused 
 line naming the address: the Client itself would wait on a silent peer long past its
 timeout and read other bytes as a frame length (gigabytes allocated).
 
-`shared` goes to the workers once per `bound` block (scattered, broadcast to every
-worker), and each item is sent with the future of it, so a stage's blocks never pickle
-it again.
+`shared` goes to the workers once per run, not once per stage: each of its parts (a
+dataclass's fields, else the whole) is scattered (broadcast to every worker) only if no
+part with the same pickled bytes was sent before (a run's stages share the mirror, the
+surfaces and the pixel samples; a surface bank that gained noses is new bytes, sent
+again); the last SENT_KEPT parts stay on the workers until the executor closes. Each
+block of items is sent with the futures of the parts, so no block pickles them again.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import hashlib
+import pickle
 import socket
 import struct
 import time
@@ -30,6 +36,8 @@ from . import Background, Executor, Mapper, tick
 CONNECT_TIMEOUT_S = 10.0
 #: Seconds, from the connection, for the scheduler's first message (Dask's handshake).
 REPLY_TIMEOUT_S = 10.0
+#: Scattered parts kept on the workers for reuse (the oldest released beyond it).
+SENT_KEPT = 16
 #: The handshake is a few dozen bytes; a longer first frame is not a Dask scheduler.
 _MAX_HANDSHAKE_BYTES = 1 << 16
 
@@ -53,6 +61,9 @@ class DaskExecutor(Executor):
         self.address = address
         self._client = None
         self._capacity: Capacity | None = None
+        self._closed = False
+        self._sent: dict[str, Any] = {}  # digest of a part's pickle -> its future on the workers
+        self.broadcasts = 0  # parts scattered (for the benchmark and the tests)
         super().__init__(0)
 
     def client(self):
@@ -72,6 +83,12 @@ class DaskExecutor(Executor):
             self.workers = self._capacity.threads
         return self._client
 
+    @property
+    def connected(self) -> bool:
+        """Not closed (a new executor, not connected yet, counts as connected: it connects
+        when first used)."""
+        return not self._closed
+
     def capacity(self) -> Capacity:
         """The cluster's worker threads and memory (from the scheduler, at connection)."""
         self.client()
@@ -81,7 +98,7 @@ class DaskExecutor(Executor):
     @contextlib.contextmanager
     def bound(self, shared: Any) -> Iterator[Mapper]:
         client = self.client()
-        mapper = DaskMapper(client, client.scatter(shared, broadcast=True, hash=False))
+        mapper = DaskMapper(client, self._on_workers(shared))
         try:
             yield mapper
         finally:
@@ -96,7 +113,32 @@ class DaskExecutor(Executor):
             with contextlib.suppress(Exception):
                 future.cancel()
 
+    def _on_workers(self, shared: Any) -> tuple:
+        """(rebuild, names, futures): shared's parts on every worker (module doc)."""
+        if dataclasses.is_dataclass(shared) and not isinstance(shared, type):
+            names = tuple(f.name for f in dataclasses.fields(shared))
+            return type(shared), names, tuple(self._part(getattr(shared, n)) for n in names)
+        return None, (), (self._part(shared),)
+
+    def _part(self, obj: Any):
+        """The future of obj on every worker: scattered now unless the same bytes were."""
+        try:
+            digest = hashlib.blake2b(pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL), digest_size=20).hexdigest()
+        except Exception:  # noqa: BLE001 - not picklable here (Dask's cloudpickle may do): send it
+            digest = None
+        future = self._sent.pop(digest, None) if digest else None
+        if future is None:
+            future = self._client.scatter(obj, broadcast=True, hash=False)
+            self.broadcasts += 1
+        if digest:
+            self._sent[digest] = future  # most recent last
+            while len(self._sent) > SENT_KEPT:
+                self._sent.pop(next(iter(self._sent)))
+        return future
+
     def close(self) -> None:
+        self._closed = True
+        self._sent.clear()
         if self._client is not None:
             with contextlib.suppress(Exception):
                 self._client.close()
@@ -112,7 +154,9 @@ class DaskMapper(Mapper):
 
     def map(self, fn, items, progress=None) -> list:
         items = list(items)
-        self.futures = self.client.map(call, [fn] * len(items), [self.shared] * len(items), items, pure=False)
+        rebuild, names, parts = self.shared
+        n = len(items)
+        self.futures = self.client.map(call, [fn] * n, [rebuild] * n, [names] * n, [parts] * n, items, pure=False)
         out = []
         for f, item in zip(self.futures, items):
             out.append(f.result())
@@ -127,7 +171,9 @@ class DaskMapper(Mapper):
         self.futures = []
 
 
-def call(fn, shared, item):
+def call(fn, rebuild, names, parts, item):
+    """fn(shared, item) on a worker, shared rebuilt from its parts (the futures resolved)."""
+    shared = rebuild(**dict(zip(names, parts))) if rebuild is not None else parts[0]
     return fn(shared, item)
 
 
