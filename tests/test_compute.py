@@ -74,21 +74,21 @@ def test_a_worker_error_reaches_the_parent_and_the_pool_ends():
 
 
 @pytest.mark.parametrize("n, unit, workers, sizes", [
-    (2000, 100, 2, [200] * 10),         # 20 batches: 10 blocks (5 rounds of 2), not 5 of 400 (3 rounds)
-    (2000, 100, 4, [100] * 20),         # as few units as 4 blocks a worker: one unit each
-    (55, 10, 2, [10] * 5 + [5]),        # the last block ends short, never splits a unit
+    (2000, 100, 2, [500] * 4),            # 20 batches: 2 rounds of 2 blocks, not 5 of 400 (3 rounds)
+    (2000, 100, 4, [200, 300] * 4),       # 8 blocks of 2 or 3 batches: 2 rounds of at most 3
+    (55, 10, 2, [10] * 5 + [5]),          # 6 units: 6 blocks, 3 rounds of one (4 blocks: 2 of 2 units); the last short
     (5, 100, 4, [5]),
-    (1_000_000, 100, 64, [3900, 4000]),  # 10,000 units: 256 blocks, 4 rounds of 64, 39 or 40 units
+    (1_000_000, 100, 64, None),           # 10,000 units: 128 blocks of 78 or 79 (2 rounds of 64)
 ])
 def test_blocks_are_whole_units_that_keep_every_worker_busy(n, unit, workers, sizes):
     got = compute.blocks(n, unit, workers)
     assert got[0].start == 0 and got[-1].stop == n and all(a.stop == b.start for a, b in zip(got, got[1:]))
     assert all(s.start % unit == 0 for s in got)
-    if len(set(sizes)) == 1 or n < 1000:
+    if sizes is not None:
         assert [s.stop - s.start for s in got] == sizes
-    else:  # 10,000 units in 256 blocks: 16 of 40 and 240 of 39 (16 x 40 + 240 x 39 = 10,000)
-        assert len(got) == 256 and sorted({s.stop - s.start for s in got}) == sizes
-        assert sum(s.stop - s.start == 4000 for s in got) == 16
+    else:  # 128 x 78 = 9,984 units: 16 blocks of 79 (16 x 79 + 112 x 78 = 10,000)
+        assert len(got) == 128 and sum(s.stop - s.start == 7900 for s in got) == 16
+        assert {s.stop - s.start for s in got} == {7800, 7900}
 
 
 def _divide(shared, item):
