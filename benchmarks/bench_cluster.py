@@ -95,7 +95,9 @@ def on_cluster(ctx, trials, workers: int) -> float:
             return time.perf_counter() - t0
 
 
-def broadcasts(trials: int) -> tuple[int, int]:
+def broadcasts(trials: int) -> tuple[int, float, int, float]:
+    """(stages binding the shared state, MB of one whole state a stage, parts broadcast,
+    their MB) of a whole tolerance analysis on a LocalCluster."""
     from dask.distributed import LocalCluster
 
     from lathe_mirror import compute
@@ -107,11 +109,14 @@ def broadcasts(trials: int) -> tuple[int, int]:
     s = load_settings(overrides=[("tolerance.trials", trials, "argv")])
     mirror = s.mirror()
     times = {p: nominal_polish_time_s(s, p) for p in s.tolerance.programs}
-    stages = [0]
+    stages = [0, 0]
     real = cluster.DaskExecutor.bound
 
     def counted(self, shared):
+        import cloudpickle
+
         stages[0] += 1
+        stages[1] += len(cloudpickle.dumps(shared))  # what one broadcast a stage sent before
         return real(self, shared)
 
     cluster.DaskExecutor.bound = counted
@@ -120,7 +125,7 @@ def broadcasts(trials: int) -> tuple[int, int]:
                           host="127.0.0.1", protocol="tcp") as lc:
             with compute.session(scheduler=lc.scheduler_address) as ex:
                 tolerance_runs(mirror, s, times)
-                return stages[0], ex.broadcasts
+                return stages[0], stages[1] / 1e6, ex.broadcasts, ex.broadcast_bytes / 1e6
     finally:
         cluster.DaskExecutor.bound = real
 
@@ -147,9 +152,9 @@ def main() -> None:
         base = wall if base is None else base
         print(f"LocalCluster {w} worker(s), {n} trials: {wall:.1f} s ({wall / ref:.1f} references), speed-up "
               f"{base / wall:.2f} ({load()})")
-    stages, sent = broadcasts(200)
-    print(f"a tolerance analysis on a cluster: {stages} stages bind the shared state, {sent} parts broadcast "
-          f"(each once per content; before: one whole state per stage) ({load()})")
+    stages, whole, sent, sent_mb = broadcasts(200)
+    print(f"a tolerance analysis on a cluster: {stages} stages bind the shared state ({whole:.0f} MB, one whole "
+          f"state a stage, to every worker before), {sent} parts broadcast ({sent_mb:.0f} MB) ({load()})")
     me = resource.getrusage(resource.RUSAGE_SELF)
     print(f"reference workload again {reference_s():.2f} s; this process's CPU {me.ru_utime + me.ru_stime:.0f} s")
 

@@ -63,7 +63,8 @@ class DaskExecutor(Executor):
         self._capacity: Capacity | None = None
         self._closed = False
         self._sent: dict[str, Any] = {}  # digest of a part's pickle -> its future on the workers
-        self.broadcasts = 0  # parts scattered (for the benchmark and the tests)
+        self.broadcasts = 0  # parts scattered, and their pickled bytes (the benchmark, the tests)
+        self.broadcast_bytes = 0
         super().__init__(0)
 
     def client(self):
@@ -122,14 +123,18 @@ class DaskExecutor(Executor):
 
     def _part(self, obj: Any):
         """The future of obj on every worker: scattered now unless the same bytes were."""
+        import cloudpickle  # Dask's own: it pickles what the workers get (closures too)
+
         try:
-            digest = hashlib.blake2b(pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL), digest_size=20).hexdigest()
-        except Exception:  # noqa: BLE001 - not picklable here (Dask's cloudpickle may do): send it
-            digest = None
+            data = cloudpickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+            digest = hashlib.blake2b(data, digest_size=20).hexdigest()
+        except Exception:  # noqa: BLE001 - not picklable here: scatter says why, or sends it
+            data, digest = b"", None
         future = self._sent.pop(digest, None) if digest else None
         if future is None:
             future = self._client.scatter(obj, broadcast=True, hash=False)
             self.broadcasts += 1
+            self.broadcast_bytes += len(data)
         if digest:
             self._sent[digest] = future  # most recent last
             while len(self._sent) > SENT_KEPT:
