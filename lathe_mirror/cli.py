@@ -2,13 +2,16 @@
 
 Each subcommand lives in `lathe_mirror.commands.<name>` with `register(subparsers)`;
 those modules import nothing heavy at import time, so `--help` and `design` start fast.
-Exit status: 0 success, 2 bad input (one line on stderr), 1 internal failure, 130 / 143
-interrupted by SIGINT / SIGTERM. A command writes its files only when it succeeds
+Exit status: 0 success, 2 bad input (one line on stderr), 1 internal failure, 128 + the
+signal's number when a signal ended it (130 SIGINT, 143 SIGTERM, 129 SIGHUP, 131 SIGQUIT:
+errors.ENDING_SIGNALS). A command writes its files only when it succeeds
 (export.files.staging), all of them or none: on any failure or signal before the last
 rename it leaves nothing behind; a signal after it leaves the files and the status says
-success. Run as a program (`main()` without arguments), the process ignores SIGINT and
-SIGTERM once the command's outcome is settled, so a signal during the interpreter's exit
-cannot kill it with a status that contradicts the files.
+success. Run as a program (`main()` without arguments), the process ignores those signals
+once the command's outcome is settled, so a signal during the interpreter's exit cannot
+kill it with a status that contradicts the files. Every message is printed with the
+control characters of its text escaped (a file's bytes quoted in an error cannot drive
+the terminal).
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ import traceback
 import warnings
 
 from .version import __version__
-from .errors import InputError
+from .errors import ENDING_SIGNALS, InputError, escaped
 
 COMMANDS = ("design", "toolpath", "cad", "render", "polish", "tolerance", "calib", "stereo", "report", "run",
             "optimize", "spec", "measure", "compensate")
@@ -33,7 +36,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse with the one-line error of every other bad input (no usage block)."""
 
     def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        self.exit(2, f"{self.prog}: error: {escaped(message)} (see {self.prog} --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -67,8 +70,22 @@ _handled = threading.Event()
 
 
 class Terminated(BaseException):
-    """SIGTERM, raised in the main thread like KeyboardInterrupt for SIGINT, so that a
-    terminated command cleans up as an interrupted one does."""
+    """SIGTERM, SIGHUP or SIGQUIT, raised in the main thread like KeyboardInterrupt for
+    SIGINT, so that a terminated command cleans up as an interrupted one does."""
+
+    def __init__(self, signum: int = 15) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _ended(signum: int) -> str:
+    """The line a command ended by signum prints."""
+    import signal
+
+    word = "interrupted" if signum == signal.SIGINT else "terminated"
+    if signum in (signal.SIGINT, signal.SIGTERM):
+        return f"lathe-mirror: {word}"
+    return f"lathe-mirror: {word} ({signal.Signals(signum).name})"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -78,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
     # at any point is exit 130 / 143 and one line.
     with _signals_raise(received, _committed, settle=argv is None):
         status = _parse_and_run(argv, received)
-    if argv is None and received and status in (130, 143):
+    if argv is None and received and status == 128 + received[0]:
         # Interrupted, nothing written, the line printed: exit now. (CPython kills itself
         # with SIGINT at exit, status -2, when a KeyboardInterrupt passed through code an
         # extension module runs while it imports, even though it was caught.)
@@ -99,7 +116,7 @@ def _parse_and_run(argv: list[str] | None, received: list[int]) -> int:
         if not received:
             raise
         _handled.set()
-        print(f"lathe-mirror: {'interrupted' if received[0] == 2 else 'terminated'}", file=sys.stderr)
+        print(_ended(received[0]), file=sys.stderr)
         return 128 + received[0]
     return _run(args, received)
 
@@ -133,18 +150,18 @@ def _run(args: argparse.Namespace, received: list[int]) -> int:
             return 2
         except KeyboardInterrupt:
             _handled.set()
-            print("lathe-mirror: interrupted", file=sys.stderr)
+            print(_ended(2), file=sys.stderr)
             return 130
-        except Terminated:
+        except Terminated as exc:
             _handled.set()
-            print("lathe-mirror: terminated", file=sys.stderr)
-            return 143
+            print(_ended(exc.signum), file=sys.stderr)
+            return 128 + exc.signum
         except BrokenPipeError:
             return 0
         except Exception as exc:  # an internal failure: say so, keep the trace on request
             if received:  # e.g. SIGTERM inside an extension module's import: ImportError
                 _handled.set()
-                print(f"lathe-mirror: {'interrupted' if received[0] == 2 else 'terminated'}", file=sys.stderr)
+                print(_ended(received[0]), file=sys.stderr)
                 return 128 + received[0]
             return _internal(args, exc, debug)
         finally:
@@ -169,17 +186,19 @@ def _internal(args: argparse.Namespace, exc: BaseException, debug: bool) -> int:
 
 
 def _one_line(exc: BaseException) -> str:
-    """The message on one line, at most 1000 characters."""
-    text = " ".join(str(exc).split())
+    """The message on one line, at most 1000 characters, its control characters escaped
+    (errors.escaped: the message may quote a file's bytes)."""
+    text = escaped(" ".join(str(exc).split()))
     return text if len(text) <= 1000 else text[:997] + "..."
 
 
 @contextlib.contextmanager
 def _signals_raise(received: list[int], done=lambda: False, *, settle: bool = False):
-    """Within the block SIGINT raises KeyboardInterrupt and SIGTERM Terminated in the main
-    thread, each noted in `received`, until done() says the command's files are in place
-    (then a signal is only noted). The handlers are restored after; with settle, both
-    signals are ignored after instead (the process is about to exit with its status)."""
+    """Within the block SIGINT raises KeyboardInterrupt and SIGTERM, SIGHUP, SIGQUIT
+    Terminated in the main thread, each noted in `received`, until done() says the
+    command's files are in place (then a signal is only noted). The handlers are restored
+    after; with settle, the signals are ignored after instead (the process is about to
+    exit with its status)."""
     import signal
     import threading
 
@@ -200,14 +219,14 @@ def _signals_raise(received: list[int], done=lambda: False, *, settle: bool = Fa
             return
         if len(received) == 1:
             _watch(signum, stop)
-        raise KeyboardInterrupt() if signum == signal.SIGINT else Terminated()
+        raise KeyboardInterrupt() if signum == signal.SIGINT else Terminated(signum)
 
     def unraisable(info):  # the handler's exception swallowed (see _watch): no traceback
         if not isinstance(info.exc_value, (KeyboardInterrupt, Terminated)):
             hook(info)
 
     hook, sys.unraisablehook = sys.unraisablehook, unraisable
-    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    previous = {sig: signal.signal(sig, handler) for sig in (getattr(signal, n) for n in ENDING_SIGNALS)}
     try:
         yield
     finally:

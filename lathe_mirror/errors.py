@@ -17,6 +17,12 @@ from __future__ import annotations
 import math
 
 
+#: The signals that end a command, by name: the command line turns each into its exit
+#: status 128 + the signal's number after removing what the command had half-written;
+#: compute's workers ignore them (their parent ends them).
+ENDING_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT")
+
+
 class Error(Exception):
     """Every error lathe-mirror raises on purpose (see the module doc for the kinds)."""
 
@@ -58,3 +64,23 @@ def num(value: object) -> str:
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(num(v) for v in value) + "]"
     return repr(value)
+
+
+def escaped(text: str) -> str:
+    """text as a terminal may show it: every character it could act on (C0 and C1 controls
+    such as ESC, DEL, format characters such as the bidi overrides, line separators) and
+    every one it cannot show (surrogates, private, unassigned) written as its escape, \\x1b,
+    \\u202e; a byte a file's decoding kept as a surrogate (surrogateescape) as that byte,
+    \\xff. Printable text, spaces included, is returned as it is."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else _escape(c) for c in text)
+
+
+def _escape(c: str) -> str:
+    o = ord(c)
+    if 0xDC80 <= o <= 0xDCFF:  # an undecodable byte, kept by surrogateescape
+        return f"\\x{o - 0xDC00:02x}"
+    if o < 0x100:
+        return f"\\x{o:02x}"
+    return f"\\u{o:04x}" if o < 0x10000 else f"\\U{o:08x}"

@@ -52,7 +52,8 @@ def test_serial_processes_and_dask_give_the_same_figures_and_yield(ctx):
     with compute.session(workers=2) as ex:
         assert ex.kind == "processes"
         local, y2 = _figures(ctx, trials)
-    with LocalCluster(processes=False, n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
+    with LocalCluster(processes=False, n_workers=2, threads_per_worker=1, protocol="tcp", host="127.0.0.1",
+                      dashboard_address=None) as cluster:
         with compute.session(scheduler=cluster.scheduler_address) as ex:
             assert ex.kind == "dask"
             dask, y3 = _figures(ctx, trials)
@@ -70,6 +71,24 @@ def test_a_worker_error_reaches_the_parent_and_the_pool_ends():
                 run.map(_divide, [1, 0, 3])
         with ex.bound(2) as run:
             assert run.map(_divide, [1, 2, 4, 8]) == [2.0, 1.0, 0.5, 0.25]
+
+
+@pytest.mark.parametrize("n, unit, workers, sizes", [
+    (2000, 100, 2, [500] * 4),            # 20 batches: 2 rounds of 2 blocks, not 5 of 400 (3 rounds)
+    (2000, 100, 4, [200, 300] * 4),       # 8 blocks of 2 or 3 batches: 2 rounds of at most 3
+    (55, 10, 2, [10] * 5 + [5]),          # 6 units: 6 blocks, 3 rounds of one (4 blocks: 2 of 2 units); the last short
+    (5, 100, 4, [5]),
+    (1_000_000, 100, 64, None),           # 10,000 units: 128 blocks of 78 or 79 (2 rounds of 64)
+])
+def test_blocks_are_whole_units_that_keep_every_worker_busy(n, unit, workers, sizes):
+    got = compute.blocks(n, unit, workers)
+    assert got[0].start == 0 and got[-1].stop == n and all(a.stop == b.start for a, b in zip(got, got[1:]))
+    assert all(s.start % unit == 0 for s in got)
+    if sizes is not None:
+        assert [s.stop - s.start for s in got] == sizes
+    else:  # 128 x 78 = 9,984 units: 16 blocks of 79 (16 x 79 + 112 x 78 = 10,000)
+        assert len(got) == 128 and sum(s.stop - s.start == 7900 for s in got) == 16
+        assert {s.stop - s.start for s in got} == {7800, 7900}
 
 
 def _divide(shared, item):
@@ -117,7 +136,14 @@ def test_tolerance_cli_on_a_dask_scheduler_gives_the_local_yield(tmp_path):
 @pytest.mark.parametrize("args, msg", [
     (["--workers", "-1"], "--workers"),
     (["--workers", "1025"], "--workers"),
-    (["--scheduler", "localhost"], "--scheduler 'localhost': a Dask scheduler address"),
+    (["--scheduler", "localhost"], "--scheduler 'localhost': not a scheduler address; allowed a Dask scheduler's "
+                                   "tcp://HOST:PORT"),
+    (["--scheduler", "tls://127.0.0.1:8786"], "--scheduler 'tls://127.0.0.1:8786': protocol tls:// is not supported"),
+    (["--scheduler", "ucx://127.0.0.1:8786"], "protocol ucx:// is not supported"),
+    (["--scheduler", "inproc://10.0.0.1/1234/1"], "protocol inproc:// is not supported"),
+    (["--scheduler", "ws://127.0.0.1:8786"], "protocol ws:// is not supported"),
+    (["--scheduler", "tcp://127.0.0.1:70000"], "port 1 .. 65535"),
+    (["--scheduler", "tcp://a\x1b[2J:1"], r"'tcp://a\x1b[2J:1': not a scheduler address"),
     (["--scheduler", "tcp://127.0.0.1:9"], "--scheduler tcp://127.0.0.1:9: cannot reach the Dask scheduler"),
 ])
 def test_bad_compute_flags_exit_2_writing_nothing(tmp_path, args, msg):

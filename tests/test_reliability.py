@@ -440,3 +440,31 @@ def test_a_signal_whose_exception_python_swallows_is_delivered_again():
                 time.sleep(0.01)
     assert ref() is None and received[:2] == [signal.SIGTERM, signal.SIGTERM]
     assert time.monotonic() - t0 < 5 and err.getvalue() == ""
+
+
+# --------------------------------------------------------------------------------------
+# 35.11. Bytes from a file reach the terminal only escaped
+
+
+ESCAPES = b"\x1b[2J\x1b]0;owned\x07\x1b[31mred\x9b1m\xe2\x80\xae\xff"
+
+
+@pytest.mark.parametrize("name, data", [
+    ("trace.plu", ESCAPES + b" garbage\n"),                  # surfalize quotes the line it cannot parse
+    ("trace\x1b[2J.csv", b"x,z\n1,2\n"),                     # the file's name itself
+])
+def test_a_file_s_control_bytes_are_shown_escaped_in_the_error_line(tmp_path, name, data):
+    (tmp_path / name).write_bytes(data)
+    rc, _, err, _ = cli("measure", name, cwd=tmp_path)
+    assert rc == 2, err[-2000:]
+    line = err.rstrip("\n")
+    assert "\n" not in line and line.isprintable(), repr(line)  # no control, format or surrogate character
+    assert "\\x1b[2J" in line
+
+
+def test_escaped_writes_what_a_terminal_acts_on_as_escapes():
+    from lathe_mirror.errors import escaped
+
+    text = ESCAPES.decode("utf-8", "surrogateescape")  # how a file's undecodable bytes arrive
+    assert escaped(text) == "\\x1b[2J\\x1b]0;owned\\x07\\x1b[31mred\\x9b1m\\u202e\\xff"
+    assert escaped("r = 2.5 mm, é ü 中 ok") == "r = 2.5 mm, é ü 中 ok"

@@ -68,11 +68,17 @@ def use_compute(args: argparse.Namespace, settings=None):
 
 
 def load(args: argparse.Namespace, overrides: list[tuple[str, Any, str]] | None = None):
-    """The command's Settings (defaults + --config + flag overrides (key, value, flag)),
-    validated once before any work."""
+    """The command's Settings (defaults + --config + flag overrides (key, value, flag),
+    --workers and --scheduler among them), validated once before any work; the cost
+    estimates count the Monte Carlo runs of args.command (settings.costs.planned)."""
     from ..config import load as load_settings
+    from ..settings.costs import planned
 
-    return load_settings(args.config, overrides=[o for o in overrides or () if o[1] is not None])
+    overrides = [*(overrides or ()), ("compute.workers", getattr(args, "workers", None), "--workers"),
+                 ("compute.scheduler", getattr(args, "scheduler", None), "--scheduler")]
+    # the cost estimates count the Monte Carlo runs this command makes, on its executor
+    with planned(getattr(args, "command", None), allocate=bool(getattr(args, "allocate", False))):
+        return load_settings(args.config, overrides=[o for o in overrides if o[1] is not None])
 
 
 def print_json(data: Any) -> None:

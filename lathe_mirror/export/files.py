@@ -3,8 +3,9 @@
 A command (cli.main) writes inside a `staging()` block: every file of the command is kept
 in memory until the command has succeeded, then committed as a set (`commit`): each is
 written to a temporary name in its target's directory (and synced), and only when all of
-them are written are they renamed over their targets, with SIGINT and SIGTERM held off
-during the renames. A failure at any point (a full disk, an error, SIGINT or SIGTERM)
+them are written are they renamed over their targets, with the ending signals (SIGINT,
+SIGTERM, SIGHUP, SIGQUIT: errors.ENDING_SIGNALS) held off during the renames. A failure
+at any point (a full disk, an error, one of those signals)
 before the last rename removes the temporaries and puts back any file already replaced
 (`abort` drops the staged files), so a failed command leaves no new file and the files it
 would have replaced keep their old bytes; the directories it made are removed again where
@@ -276,7 +277,7 @@ def _write_temp(target: Path, data: bytes, what: str) -> Path:
 
 
 def _rename_all(temps: list[tuple[Path, Path, str]]) -> None:
-    """Rename every temporary over its target with SIGINT / SIGTERM held off; if a rename
+    """Rename every temporary over its target with the ending signals held off; if a rename
     fails, the targets already replaced get their old files back (kept as hard links until
     the last rename) and the new ones are removed. Sets _committed before the signals are
     let through again."""
@@ -337,7 +338,7 @@ def defer_signal(signum: int) -> bool:
 
 @contextlib.contextmanager
 def _signals_held() -> Iterator[None]:
-    """SIGINT and SIGTERM held off within the block, as far as the command line's handlers
+    """The ending signals held off within the block, as far as the command line's handlers
     go (they ask defer_signal): each one noted is raised again when the block ends."""
     global _held
     _held += 1

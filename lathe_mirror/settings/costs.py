@@ -4,14 +4,21 @@ above the limits with the estimate in the message.
 The limits are MEMORY_LIMIT_GIB for any piece of work and TIME_LIMIT_MIN for all of them
 together (estimated on the reference machine, 2 cores: benchmarks/bench_bounds.py prints
 the estimates beside measured runs); LATHE_MIRROR_MAX_GIB and LATHE_MIRROR_MAX_MINUTES
-change them on another machine.
+change them on another machine. On a Dask cluster (compute.scheduler, or --scheduler)
+the work its workers do (the Monte Carlo's trials, the tolerance analysis' surfaces) is
+counted over the cluster's threads and held to its workers' memory, asked of the scheduler
+only when the local estimate would refuse; the Monte Carlo counts the runs the command
+makes (`planned`: plain `tolerance` one per program, `run` and `report` two more for the
+best program's allocation).
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
-from dataclasses import dataclass
+from contextvars import ContextVar
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 from ..design import Mirror
@@ -74,6 +81,37 @@ class Cost:
     bytes: float
     advice: str
     alone: bool = False  # a command of its own (optimize), not part of `run`: its time alone counts
+    parallel: bool = False    # done by the executor's workers: a cluster's threads share its time
+    on_workers: bool = False  # its memory is also held by each worker (a cluster's: held to theirs)
+
+
+#: The command being loaded and whether it allocates (commands.common.load sets it;
+#: None: any command, counted as `run`).
+_PLAN: ContextVar[tuple[str | None, bool]] = ContextVar("lathe_mirror_cost_plan", default=(None, False))
+#: Seconds of the reference machine's 2 cores: the cluster's threads divide the work of
+#: its workers by threads / REFERENCE_CORES.
+REFERENCE_CORES = 2
+
+
+@contextlib.contextmanager
+def planned(command: str | None, *, allocate: bool = False):
+    """Within the block the estimates count the Monte Carlo runs `command` makes."""
+    token = _PLAN.set((command, allocate))
+    try:
+        yield
+    finally:
+        _PLAN.reset(token)
+
+
+def monte_carlo_runs(programs: tuple[Program, ...], command: str | None = None, allocate: bool = False) -> int:
+    """Runs of tolerance.trials trials a command makes: one per program; an allocated
+    program about two more (its scans and its confirming run: measured 729 s against
+    339 s for `tolerance` at 55276 trials): `run` and `report` (and any command, None)
+    allocate the best program, `tolerance --allocate` every program, plain `tolerance`
+    none."""
+    if command == "tolerance":
+        return len(programs) * (3 if allocate else 1)
+    return len(programs) + (2 if Program.BEST in programs else 0)
 
 
 def limits() -> tuple[float, float]:
@@ -101,26 +139,52 @@ def check_costs(settings: Settings, mirror: Mirror) -> None:
     params = settings.polish
     tol = settings.tolerance.tolerances if settings.tolerance else {}
     params.check_time(mirror.r_max, max(params.time_s, params.curve_max_s) + tol.get("polish_time_s", 0.0))
-    memory, seconds = limits()
     costs = estimate_costs(settings, mirror)
+    try:
+        _check_limits(costs, None)
+    except InputError:
+        if not settings.compute.scheduler:
+            raise
+        from ..compute import cluster_capacity  # the scheduler is asked only now
+
+        capacity = cluster_capacity(settings.compute.scheduler)
+        _check_limits(on_cluster(costs, capacity.threads), capacity.worker_memory_bytes,
+                      f"the cluster's {capacity.threads} threads")
+    if settings.tolerance is not None:
+        check_assembly_tolerances(mirror, tol)
+
+
+def _check_limits(costs: list[Cost], worker_memory: float | None, cores: str = "2 cores") -> None:
+    """InputError for the first estimate over its limit: memory (a worker's on a cluster,
+    worker_memory, for the work on its workers), then the time of the work a command does
+    (alone) or `run`, which does every piece, does (their sum)."""
+    memory, seconds = limits()
     for c in costs:
+        if c.on_workers and worker_memory is not None and c.bytes > worker_memory:
+            raise InputError(f"{c.keys}: {c.work} needs about {_bytes(c.bytes)} of each worker's memory, "
+                             f"the cluster's least worker has {_bytes(worker_memory)}; {c.advice}")
         if c.bytes > memory:
             raise InputError(f"{c.keys}: {c.work} needs about {_bytes(c.bytes)} of memory, limit "
                              f"{_bytes(memory)} (LATHE_MIRROR_MAX_GIB); {c.advice}")
-    # Time adds up: `run` does every piece of work, so their sum is what a command can take.
     in_run = [c for c in costs if not c.alone]
     total = sum(c.seconds for c in in_run)
     for c in costs:
         if c.alone and c.seconds > seconds:
-            raise InputError(f"{c.keys}: {c.work} takes about {_duration(c.seconds)} (estimate, 2 cores), "
+            raise InputError(f"{c.keys}: {c.work} takes about {_duration(c.seconds)} (estimate, {cores}), "
                              f"limit {_duration(seconds)} (LATHE_MIRROR_MAX_MINUTES); {c.advice}")
     if total > seconds:
         c = max(in_run, key=lambda c: c.seconds)
-        raise InputError(f"{c.keys}: {c.work} takes about {_duration(c.seconds)} (estimate, 2 cores; "
+        more = " (or more threads: a Dask cluster, --scheduler)" if c.parallel and worker_memory is None else ""
+        raise InputError(f"{c.keys}: {c.work} takes about {_duration(c.seconds)} (estimate, {cores}; "
                          f"{_duration(total)} with the other stages), limit {_duration(seconds)} "
-                         f"(LATHE_MIRROR_MAX_MINUTES); {c.advice}")
-    if settings.tolerance is not None:
-        check_assembly_tolerances(mirror, tol)
+                         f"(LATHE_MIRROR_MAX_MINUTES); {c.advice}{more}")
+
+
+def on_cluster(costs: list[Cost], threads: int) -> list[Cost]:
+    """The estimates with the work of the executor's workers spread over a cluster's
+    threads (the reference machine's REFERENCE_CORES did it in the estimate)."""
+    scale = REFERENCE_CORES / max(threads, 1)
+    return [replace(c, seconds=c.seconds * scale) if c.parallel else c for c in costs]
 
 
 def estimate_costs(settings: Settings, mirror: Mirror) -> list[Cost]:
@@ -181,19 +245,19 @@ def estimate_costs(settings: Settings, mirror: Mirror) -> list[Cost]:
 
     if ts is not None:
         programs = len(ts.programs)
-        # report allocates the best program's tolerances: its scans and confirming run cost
-        # about two more runs (measured: 729 s against 339 s for `tolerance` at 55276 trials)
-        runs = programs + (2 if Program.BEST in ts.programs else 0)
+        command, allocate = _PLAN.get()
+        runs = monte_carlo_runs(tuple(ts.programs), command, allocate)
         rays = ts.azimuths * mirror.outer.r_pixel / ts.bin_px
         depth_rays = 2.0 * DEPTH_AZIMUTHS * ts.depth_points
         per_trial = _MC_TRIAL_S + _MC_RAY_S * rays + _MC_DEPTH_RAY_S * depth_rays
         costs.append(Cost(
             "the Monte Carlo",
-            f"tolerance.trials = {ts.trials} x {runs} runs ({programs} programs, the best's allocation) x "
+            f"tolerance.trials = {ts.trials} x {runs} runs ({programs} programs"
+            f"{'' if runs == programs else ', the allocation'}) x "
             f"({rays:.3g} sample rays (tolerance.azimuths, bin_px) + {depth_rays:.3g} depth rays "
             f"(tolerance.depth_points))",
             runs * ts.trials * per_trial, _BASE_BYTES + runs * ts.trials * _MC_TRIAL_BYTES,
-            "fewer trials, azimuths or depth_points, or wider bin_px"))
+            "fewer trials, azimuths or depth_points, or wider bin_px", parallel=True))
         # Each lattice phase cut with the programmed nose, and each distinct nose the trials
         # draw (rounded to nose_step_mm; a normal draw stays within about -/+ 1.5 tolerances).
         dn = tol.get("nose_radius_mm", 0.0)
@@ -209,7 +273,8 @@ def estimate_costs(settings: Settings, mirror: Mirror) -> list[Cost]:
             f"(polish.preston_coefficient, pressure_kpa, spindle_rpm, lap_rpm, compliance_mm)",
             programs * surfaces * per_surface,
             _BASE_BYTES + surfaces * _TIME_NODES * grid * 16.0,
-            "fewer lattice_phases, a coarser nose_step_mm or polish.grid_step_mm, or a slower removal"))
+            "fewer lattice_phases, a coarser nose_step_mm or polish.grid_step_mm, or a slower removal",
+            parallel=True, on_workers=True))
 
     tri = _STL_TRIANGLES * (0.01 / settings.cad.stl_tolerance) * (mirror.r_max / 35.0)
     costs.append(Cost(

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..compute import active
+from ..compute import blocks as split_blocks
 from ..design import Mirror
 from ..optics.ranging.resolution import parallax_per_px
 from ..optics.stereo import band_elevations
@@ -306,9 +307,8 @@ def evaluate_trials(ctx: Context, trials: Trials, *, progress: bool = False, des
         fig = evaluate(ctx.mirror, ctx.bank, trials, ctx.samples, progress=bar, **args)
     else:
         # Blocks of whole batches (the serial run's batches: the same figures to the bit),
-        # about three per worker so that they finish together.
-        per = batch * max(1, math.ceil(n / batch / (3 * max(ex.workers, 1))))
-        blocks = [trials.take(slice(a, min(n, a + per))) for a in range(0, n, per)]
+        # as even as whole batches allow, several per worker (compute.blocks).
+        blocks = [trials.take(s) for s in split_blocks(n, batch, ex.workers)]
         with ex.bound(_Shared(ctx.mirror, ctx.bank, ctx.samples, args)) as run:
             fig = _concat(run.map(_evaluate_block, blocks, progress=bar))
     bar.close()
