@@ -90,6 +90,14 @@ def test_the_nose_that_failed_is_simulated_clean(tmp_path):
     set-ups) finds no contact and the program is written."""
     cfg = tmp_path / "r.toml"
     cfg.write_text(RECESSED_OUTER + "[tool]\nnose_radius = 0.181\n")
-    res = run_cli("toolpath", "--config", str(cfg), "-o", str(tmp_path / "out"))
+    out = tmp_path / "out"
+    out.mkdir()
+    res = run_cli("toolpath", "--config", str(cfg), "-o", str(out))
     assert res.returncode == 0, res.stderr
-    assert (tmp_path / "out" / "mirror_arcs.ngc").is_file()
+    text = (out / "mirror_arcs.ngc").read_text()
+    # past the axis at the contour's last height (the nose centre 0.001 mm below 0.181 on
+    # the 0.005 mm lattice), off the vertex at feed by the gouge tolerance (0.005 mm) and a
+    # lattice step, then up at rapid
+    tail = text[text.index("(finish contour end)"):].splitlines()[1:4]
+    assert [ln.split()[1] for ln in tail] == ["G1", "G1", "G0"], tail
+    assert tail[0].split()[2:] == ["X-0.070", "Z0.180"] and tail[1].split()[2:] == ["X-0.070", "Z0.190"], tail

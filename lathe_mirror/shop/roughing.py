@@ -442,8 +442,9 @@ class _Planner:
         if d > 0.0:
             ops.feed((end[0] - d, end[1]))
         # off the vertex at feed before the rapid: the contour's last point is on the
-        # lattice, up to half a step inside the nose radius of the vertex (within the gouge
-        # tolerance), so the nose still touches the finished face there; a rapid may only
-        # start clear of the part (the as-configured hand leaves outside the bar instead)
-        ops.feed((ops.pos[0], self.ceil(end[1] + self.opts.clearance)))
+        # lattice, up to the gouge tolerance inside the nose radius of the vertex, so the
+        # nose still touches the finished face there; a rapid may only start clear of the
+        # part (the as-configured hand leaves outside the bar instead). Lifted by that
+        # tolerance and a lattice step, the nose clears the vertex by at least a step.
+        ops.feed((ops.pos[0], self.ceil(end[1] + self.opts.gouge_tolerance + self.res)))
         ops.rapid((ops.pos[0], self.safe_z))
