@@ -25,7 +25,7 @@ part). The moves are the nose centre's. What each operation leaves:
   opposite-hand holders (stations 3 and 4), every pass the mirror image: the semi-finish
   and the finishing pass run from outside the bar in across the shoulder, along the
   outer lobe, up the wall (it faces the rim), around the step's top, along the inner
-  lobe to the axis, and up.
+  lobe to the axis and a little past it, off the vertex at feed, and up at rapid.
 - spring pass (optional): the same contour again.
 Between tools and at the end the tool goes home: up in Z, then across in X.
 """
@@ -424,7 +424,8 @@ class _Planner:
         """The opposite hand's pass: down outside the bar, in across the shoulder at the
         rim's height onto the contour's start (the rim), the contour's moves from the rim
         in (Toolpath.cutting_moves), a little past the axis at the vertex's height
-        (past_axis: the other side of the turning part, above it), then up."""
+        (past_axis: the other side of the turning part, above it), off the vertex at
+        feed, then up at rapid."""
         moves = self.tp.cutting_moves()
         start = moves[0].start
         c = self.opts.clearance
