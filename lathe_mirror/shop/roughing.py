@@ -25,7 +25,7 @@ part). The moves are the nose centre's. What each operation leaves:
   opposite-hand holders (stations 3 and 4), every pass the mirror image: the semi-finish
   and the finishing pass run from outside the bar in across the shoulder, along the
   outer lobe, up the wall (it faces the rim), around the step's top, along the inner
-  lobe to the axis, and up.
+  lobe to the axis and a little past it, off the vertex at feed, and up at rapid.
 - spring pass (optional): the same contour again.
 Between tools and at the end the tool goes home: up in Z, then across in X.
 """
@@ -424,7 +424,8 @@ class _Planner:
         """The opposite hand's pass: down outside the bar, in across the shoulder at the
         rim's height onto the contour's start (the rim), the contour's moves from the rim
         in (Toolpath.cutting_moves), a little past the axis at the vertex's height
-        (past_axis: the other side of the turning part, above it), then up."""
+        (past_axis: the other side of the turning part, above it), off the vertex at
+        feed, then up at rapid."""
         moves = self.tp.cutting_moves()
         start = moves[0].start
         c = self.opts.clearance
@@ -441,4 +442,10 @@ class _Planner:
         d = self.past_axis(self.opts.rough_allowance + 2 * self.rho)
         if d > 0.0:
             ops.feed((end[0] - d, end[1]))
+        # off the vertex at feed before the rapid: the contour's last point is on the
+        # lattice, up to the gouge tolerance inside the nose radius of the vertex, so the
+        # nose still touches the finished face there; a rapid may only start clear of the
+        # part (the as-configured hand leaves outside the bar instead). Lifted by that
+        # tolerance and a lattice step, the nose clears the vertex by at least a step.
+        ops.feed((ops.pos[0], self.ceil(end[1] + self.opts.gouge_tolerance + self.res)))
         ops.rapid((ops.pos[0], self.safe_z))
