@@ -40,6 +40,7 @@ from .iso10110 import spec_of
 from .job import MachiningJob, design
 from .notes import NOTES
 from .optics.camera_model import calibration_figures
+from .optimize.focus import design_blur_px
 from .optics.radial import corner_limit_px, used_extent
 from .optics.stereo import depth_error_curve
 from .optics.zones import zones_for
@@ -128,8 +129,6 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
 def _tolerance(task) -> dict:
     """The report's tolerance analysis (in the background: no progress bars)."""
     mirror, settings, times, job = task
-    from .optimize.focus import design_blur_px
-
     return tolerance_analysis(mirror, settings, times, progress=False, job=job,
                               allocate=(Program.BEST,) if Program.BEST in settings.tolerance.programs else (),
                               blur_px=design_blur_px(mirror, settings))

@@ -346,8 +346,8 @@ def _first(lines: list[str], prefix: str) -> int:
 
 
 @pytest.mark.parametrize("edit, message", [
-    (lambda w: re.sub(r"X[-\d.]+", "Xnan", w), "'XNAN' is not a word of this program"),
-    (lambda w: re.sub(r"X[-\d.]+", "Xinf", w), "'XINF' is not a word of this program"),
+    (lambda w: re.sub(r"X[-\d.]+", "Xnan", w), "'XNAN' is not a word of this linuxcnc program"),
+    (lambda w: re.sub(r"X[-\d.]+", "Xinf", w), "'XINF' is not a word of this linuxcnc program"),
     (lambda w: re.sub(r"X[-\d.]+", "X1e1", w), "word E1 is not simulated"),
     (lambda w: w + " Y2.0", "word Y2.0 is not simulated"),
     (lambda w: w.split(" X")[0] + " X12345678901234567890 Z-1.000",

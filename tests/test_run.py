@@ -29,7 +29,10 @@ def test_run_writes_programs_cad_and_report(tmp_path):
     assert proc.returncode == 0, proc.stderr[-2000:]
     # With --config the programs and CAD go under the output directory, not the repository's.
     # each strategy's two set-ups in both dialects, one set-up sheet for both
-    assert sorted(p.suffix for p in (out / "gcode").iterdir()) == [".html"] * 2 + [".nc"] * 4 + [".ngc"] * 4
+    # two programs x two set-ups in each of three dialects, two set-up sheets, and each
+    # control's tool table (LinuxCNC tools.tbl, Fanuc offsets.nc, Siemens tools.ini)
+    assert sorted(p.suffix for p in (out / "gcode").iterdir()) == sorted(
+        [".html"] * 2 + [".nc"] * 5 + [".ngc"] * 4 + [".mpf"] * 4 + [".tbl", ".ini"])
     assert {p.suffix for p in (out / "cad").iterdir()} == {".step", ".dxf"}
     assert {p.name for p in (out / "calib").iterdir()} == set(FILE_NAMES)  # calibration files
     report = json.loads((out / "report.json").read_text())

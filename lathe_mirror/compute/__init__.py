@@ -414,7 +414,7 @@ def cluster_capacity(address: str):
 
 
 def _cluster(address: str):
-    from .cluster import DaskExecutor
+    from .cluster import DaskExecutor  # lazy: dask.distributed only for a --scheduler run
 
     ex = _CLUSTERS.get(address)
     if ex is None or not ex.connected:

@@ -103,9 +103,10 @@ KEYS: tuple[Key, ...] = (
     Key('stock.length', 40.0, 'mm', 0.0, 10000.0,
         lo_open=True,
         help='mm of the part below Z = 0 (roughing goes no deeper)',
-        lo_depends=True,
+        lo_depends=True, hi_depends=True,
         depends='the body and the part-off below it (cad.thickness, toolpath.back_allowance_mm, '
-                'toolpath.parting_width_mm)'),
+                'toolpath.parting_width_mm); at most 3 bar diameters (stock.diameter) out of the jaws '
+                'with stock.face_allowance, held without a tailstock'),
     Key('toolpath.strategy', 'arcs', choices='paper, lattice, arcs, best', help='paper | lattice | arcs'),
     Key('toolpath.gouge_tolerance', 0.005, 'mm', 0.0001, 1.0,
         help='mm: deepest a made point may lie inside the exact part',

@@ -145,7 +145,7 @@ def check_costs(settings: Settings, mirror: Mirror) -> None:
     except InputError:
         if not settings.compute.scheduler:
             raise
-        from ..compute import cluster_capacity  # the scheduler is asked only now
+        from ..compute import cluster_capacity  # lazy: the scheduler is asked only now, after the local estimate refused
 
         capacity = cluster_capacity(settings.compute.scheduler)
         _check_limits(on_cluster(costs, capacity.threads), capacity.worker_memory_bytes,

@@ -13,10 +13,12 @@ from ..enums import BEST, Strategy
 from ..errors import InputError
 from ..inputs import check_type
 from ..iso10110 import spec_of
-from ..job import MachiningJob
+from ..job import MachiningJob, check_program
+from ..nose_envelope import as_machined, contour_profile, gouge_depth, junction_fillet
+from ..path import Arc
 from ..lathe import Stock
 from ..tolerance.setting import setting_error_costs
-from ..toolpath import Toolpath, ToolpathSettings
+from ..toolpath import Toolpath, ToolpathSettings, profile_errors, usable_ranges
 from .plan import plan_program
 from .roughing import finish_allowances
 from .second import plan_second
@@ -162,11 +164,6 @@ def toolpath_result(settings: Settings, mirror: Mirror, strategy: Strategy) -> t
     lattice and budget, the gouge and the fillet, the profile errors of the as-machined
     surface over the whole lobes, of the contour alone and over the radii the camera uses,
     and the simulation's figures of both set-ups."""
-    from ..job import check_program
-    from ..nose_envelope import as_machined, contour_profile, gouge_depth, junction_fillet
-    from ..path import Arc
-    from ..toolpath import profile_errors, usable_ranges
-
     tp = check_program(settings, mirror, strategy)
     shop = shop_program(tp, settings.stock, settings.toolpath, inspection=inspection_table(settings),
                         body=settings.body)
