@@ -140,8 +140,7 @@ def test_site_config_sits_between_the_defaults_and_the_users_file(tmp_path):
     import os
 
     site = tmp_path / "site.toml"
-    # (a finer lattice takes a finer sensitivity step: valid for every command or for none)
-    site.write_text("[tool]\nnose_radius = 0.4\n[machine]\nresolution = 0.002\n[tolerance.params]\nresolution_mm = 0.001\n")
+    site.write_text("[tool]\nnose_radius = 0.4\n[machine]\nresolution = 0.002\n")
     user = tmp_path / "user.toml"
     user.write_text("[tool]\nnose_radius = 0.3\n")
     env = {**os.environ, "LATHE_MIRROR_CONFIG": str(site)}

@@ -44,20 +44,7 @@ def validate(settings: Settings) -> Mirror:
     if settings.scene is not None:
         build_scene(settings.scene, mirror_top=float(mirror.outer.z(mirror.r_max)), mirror_radius=mirror.r_max)
     check_costs(settings, mirror)     # what the keys cost: estimated, refused above the limits
-    check_cheap(settings, mirror)
     return mirror
-
-
-def check_cheap(settings: Settings, mirror: Mirror) -> None:
-    """The commands' own checks that cost microseconds (closed forms, no program planned):
-    run on every load, so a configuration one command refuses this way every command
-    refuses with the same line (the bar and the end position, the junction and the
-    polishing times, the CAD body, the finishing processes, the render's nose)."""
-    check_stock(mirror, settings.stock, settings.toolpath, settings.machine)
-    check_programs(settings, mirror)
-    check_cad(settings, mirror)
-    check_processes(settings)
-    check_render_nose(settings, mirror)
 
 
 def check_body_in_bar(settings: Settings, options) -> None:
@@ -106,7 +93,11 @@ def check_commands(settings: Settings, mirror: Mirror | None = None) -> None:
     Plans up to three programs (~0.1-0.5 s each). Not here: the shop program's stock
     simulation (the insert's body against the bar, seconds), which only `toolpath` runs."""
     mirror = settings.mirror() if mirror is None else mirror
-    check_cheap(settings, mirror)  # validate ran it already; a caller may pass another mirror
+    check_stock(mirror, settings.stock, settings.toolpath, settings.machine)
+    check_programs(settings, mirror)
+    check_cad(settings, mirror)
+    check_processes(settings)
+    check_render_nose(settings, mirror)
     strategies = {settings.toolpath.strategy}
     for surface in (settings.render.surface, settings.stereo.surface):
         strategies.add(settings.toolpath.strategy if surface is Surface.MADE else surface.strategy)
