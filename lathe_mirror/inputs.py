@@ -82,14 +82,20 @@ def check_input(path: str | os.PathLike, what: str, limit: int) -> Path:
 def memory_limit() -> float:
     """Bytes of memory one piece of work may take: LATHE_MIRROR_MAX_GIB (GiB), default
     MEMORY_LIMIT_GIB; InputError naming the variable if it is not a number > 0."""
-    text = os.environ.get("LATHE_MIRROR_MAX_GIB", "")
+    return env_number("LATHE_MIRROR_MAX_GIB", MEMORY_LIMIT_GIB) * 2.0**30
+
+
+def env_number(var: str, default: float) -> float:
+    """The environment variable `var` as a number > 0, `default` when unset; InputError
+    naming the variable otherwise."""
+    text = os.environ.get(var, "")
     try:
-        value = float(text) if text else MEMORY_LIMIT_GIB
+        value = float(text) if text else default
     except ValueError:
         value = math.nan
     if not (math.isfinite(value) and value > 0):
-        raise InputError(f"environment LATHE_MIRROR_MAX_GIB = {text!r}: allowed a number > 0")
-    return value * 2.0**30
+        raise InputError(f"environment {var} = {text!r}: allowed a number > 0")
+    return value
 
 
 def check_number(value: float, what: str, lo: float | None = None, hi: float | None = None,

@@ -15,7 +15,6 @@ best program's allocation).
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 from contextvars import ContextVar
 from dataclasses import dataclass, replace
@@ -24,6 +23,7 @@ from typing import TYPE_CHECKING
 from ..design import Mirror
 from ..enums import Program
 from ..errors import InputError, num
+from ..inputs import MEMORY_LIMIT_GIB, env_number, memory_limit
 from ..nose_envelope import GRID
 from ..optics.ranging.rectify import make_grid
 from ..tolerance.samples import DEPTH_AZIMUTHS
@@ -38,7 +38,6 @@ if TYPE_CHECKING:
 #: of all of them together (minutes, estimated for the reference machine, 2 cores: what
 #: `run`, which does every piece, would take). Environment variables LATHE_MIRROR_MAX_GIB
 #: and LATHE_MIRROR_MAX_MINUTES raise (or lower) them on another machine.
-MEMORY_LIMIT_GIB = 8.0
 TIME_LIMIT_MIN = 10.0
 
 # Cost constants, measured on the reference machine (benchmarks/bench_bounds.py prints
@@ -116,18 +115,7 @@ def monte_carlo_runs(programs: tuple[Program, ...], command: str | None = None, 
 
 def limits() -> tuple[float, float]:
     """(memory bytes, seconds) every estimate must stay within (see MEMORY_LIMIT_GIB)."""
-    out = []
-    for var, default, scale in (("LATHE_MIRROR_MAX_GIB", MEMORY_LIMIT_GIB, 2.0**30),
-                                ("LATHE_MIRROR_MAX_MINUTES", TIME_LIMIT_MIN, 60.0)):
-        text = os.environ.get(var, "")
-        try:
-            value = float(text) if text else default
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and value > 0):
-            raise InputError(f"environment {var} = {text!r}: allowed a number > 0")
-        out.append(value * scale)
-    return out[0], out[1]
+    return memory_limit(), env_number("LATHE_MIRROR_MAX_MINUTES", TIME_LIMIT_MIN) * 60.0
 
 
 def check_costs(settings: Settings, mirror: Mirror) -> None:
