@@ -25,6 +25,7 @@ import numpy as np
 from .declared import SLACK, check as check_declared
 from .declared.section import build, defaults, setting
 from .errors import ConfigError, DesignError, InputError
+from .hyperbola import ray_meets_sheet, sheet_point_seen_from_focus, single_viewpoint_error
 from .inputs import check_type, short
 
 @dataclass(frozen=True)
@@ -240,7 +241,7 @@ class Mirror:
         if zo <= zi:
             return r1
         t = r1 / zi  # tan of the ray grazing the inner rim
-        return _ray_meets_sheet(self.outer, t)
+        return ray_meets_sheet(self.outer, t)
 
     def fov(self, lobe: Lobe) -> tuple[float, float]:
         """Elevation range (rad) of world directions the lobe reflects: (lowest, highest).
@@ -462,22 +463,6 @@ def mirror_from_specs(camera: Camera, lobes: tuple[LobeSpec, LobeSpec]) -> Mirro
 # Checks and helpers
 
 
-def single_viewpoint_error(lobe: Lobe, r: np.ndarray) -> np.ndarray:
-    """Distance (mm) from F1 of the line of each camera ray reflected at radius r.
-
-    A perfect hyperbolic lobe sends every ray from the camera focus through F1.
-    """
-    r = np.asarray(r, dtype=float)
-    p = np.stack([r, lobe.z(r)], axis=-1)
-    d = p / np.linalg.norm(p, axis=-1, keepdims=True)
-    n = np.stack([lobe.slope(r), -np.ones_like(r)], axis=-1)
-    n /= np.linalg.norm(n, axis=-1, keepdims=True)
-    out = d - 2.0 * np.sum(d * n, axis=-1, keepdims=True) * n
-    q = np.array([0.0, lobe.focus_z]) - p
-    # 2-D cross product |q x out| with |out| = 1 is the distance of F1 from the line.
-    return np.abs(q[..., 0] * out[..., 1] - q[..., 1] * out[..., 0])
-
-
 def _check_rim(lobe: Lobe) -> None:
     """The rim (R_top, h) must lie on the designed sheet."""
     z_rim = float(lobe.z(lobe.r_top))
@@ -486,41 +471,6 @@ def _check_rim(lobe: Lobe) -> None:
             f"lobes.{lobe.name}: no hyperbolic sheet passes through the rim "
             f"(R_top = {lobe.r_top:g} mm, h = {lobe.h:.6f} mm) with these constants"
         )
-
-
-def _ray_meets_sheet(lobe: Lobe, t: float) -> float:
-    """Radius where the camera ray r = t z meets the lobe's upper sheet (mm).
-
-    Substituting z = r / t in (z - e)^2 / a^2 - r^2 / b^2 = 1 gives a quadratic in r.
-    """
-    a, b, e = lobe.a, lobe.b, lobe.e
-    qa = 1.0 / (t * t * a * a) - 1.0 / (b * b)
-    qb = -2.0 * e / (t * a * a)
-    qc = e * e / (a * a) - 1.0
-    disc = qb * qb - 4.0 * qa * qc
-    roots = [(-qb + s * math.sqrt(max(disc, 0.0))) / (2.0 * qa) for s in (1.0, -1.0)]
-    # The upper sheet has z - e > 0, i.e. r / t > e.
-    good = [x for x in roots if x > 0 and x / t > e]
-    return min(good)
-
-
-def sheet_point_seen_from_focus(lobe: Lobe, elevation: float) -> tuple[float, float]:
-    """Point (r, z) of the lobe's sheet seen from F1 at the given elevation (rad).
-
-    P = F1 + t (cos el, sin el) in (z - e)^2 / a^2 - r^2 / b^2 = 1 is a quadratic in t;
-    the sheet's point is its positive root.
-    """
-    a, b, e = lobe.a, lobe.b, lobe.e
-    c, s = math.cos(elevation), math.sin(elevation)
-    qa = s * s / (a * a) - c * c / (b * b)
-    qb = 2.0 * e * s / (a * a)
-    qc = e * e / (a * a) - 1.0
-    if abs(qa) < 1e-15:
-        t = -qc / qb
-    else:
-        disc = math.sqrt(max(qb * qb - 4.0 * qa * qc, 0.0))
-        t = max((-qb + disc) / (2.0 * qa), (-qb - disc) / (2.0 * qa))
-    return (t * c, lobe.focus_z + t * s)
 
 
 def _positive(key: str, value: float, unit: str) -> None:

@@ -8,7 +8,8 @@ import math
 
 import numpy as np
 
-from .design import Mirror, single_viewpoint_error
+from .design import Mirror
+from .hyperbola import single_viewpoint_error
 
 #: Table 1 prints R_pixel 504 for mirror 01 and 307 for mirror 02, but its h columns
 #: follow from the swapped pair: h(01) = 115.607 needs R_pixel = 307.555, h(02) = 123.457

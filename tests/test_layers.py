@@ -20,7 +20,7 @@ RANKS = {
     "errors": 0, "inputs": 0, "enums": 0, "progress": 0, "version": 0,
     "declared": 0.2,
     "compute": 0.5, "results": 0.5,
-    "design": 1, "cut_surface": 1.2, "design_table": 1.5,
+    "hyperbola": 0.9, "design": 1, "cut_surface": 1.2, "design_table": 1.5,
     "path": 2, "profile": 2, "sheet": 2,
     "lathe": 3,
     "toolpath": 4,

@@ -480,10 +480,6 @@ def design_model_figures(mirror: Mirror, zones=None) -> dict:
             "t_cn_cnm1_mm": [0.0, 0.0, mirror.outer.focus_z - mirror.inner.focus_z]}
 
 
-# --------------------------------------------------------------------------------------
-# Helpers
-
-
 def misaligned_stride_px(px) -> int:
     """The misaligned grid's pitch (px) for a lobe of these pixel radii (PixelRadii): at
     least MISALIGNED_STRIDE_PX, wide enough to sample about MISALIGNED_SAMPLES centres."""

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..design import Mirror, sheet_point_seen_from_focus
+from ..design import Mirror
+from ..hyperbola import sheet_point_seen_from_focus
 from ..profile import ExactProfile, Profile
 from ..sheet import signed_distance_camera
 
