@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from ..job import check_program, design, machine, program_target
     from ..measure.compensate import GAIN, compensation
     from ..measure.fit import FitOptions
-    from ..measure.nextjob import JOB_JSON, JOB_TOML, job_toml
+    from ..measure.nextjob import JOB_JSON, JOB_TOML
     from ..measure.result import measure
     from ..config import read_user
     from ..export.dialects import dialect as find_dialect
@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
                    if comp.target is not None else "from the design's usual target"),
                 touch.describe()]
 
-    from ..export.files import json_text, write_text
+    from ..export.files import json_text, toml_text, write_text
     from ..export.gcode import format_program, offset_table
     from ..export.setup_sheet import setup_sheet_html
 
@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
             seen.add(t.station)
             tools.append(t)
     write_text(d / names[3], offset_table(tools, dialect, diameter_mode=settings.machine.diameter_mode)[1])
-    write_text(d / names[4], job_toml(cfg, comments))
+    write_text(d / names[4], toml_text(cfg, comments, exact=True))
     out = {"measurement": meas.to_dict(), "compensation": comp.to_dict(),
            "program": {"files": names[:3], "strategy": strategy.value, "nose_radius_mm": tool.nose_radius,
                        "n_points": recut_tp.n_points, "max_points": settings.machine.max_points,

@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any, Iterator
 
 from ..errors import InputError
+from .numbers import fmt_sig
 
 #: Longest file or directory name (bytes) a component of an output path may have.
 NAME_MAX = 255
@@ -400,3 +401,71 @@ def _remove_made_dirs() -> None:
             d.rmdir()
         except OSError:
             pass
+
+
+# --------------------------------------------------------------------------------------
+# TOML
+
+
+def toml_text(doc: dict[str, Any], comments=(), *, exact: bool = False) -> str:
+    """A configuration dict as TOML, `comments` on top (one "# " line each). Floats at 12
+    significant digits (export.numbers), or with exact=True by repr, which reads back to
+    the same bits (compensate's next job: the same design, the same program)."""
+    lines = [f"# {c}" for c in comments]
+    if lines:
+        lines.append("")
+    lines += _table(doc, [], exact)
+    return "\n".join(lines).rstrip("\n") + "\n"
+
+
+def _table(table: dict[str, Any], path: list[str], exact: bool) -> list[str]:
+    out: list[str] = []
+    scalars = {k: v for k, v in table.items() if not _is_table(v) and not _is_table_array(v)}
+    if scalars and path:
+        out.append(f"[{'.'.join(_key(p) for p in path)}]")
+    for k, v in scalars.items():
+        out.append(f"{_key(k)} = {_value(v, exact)}")
+    if scalars and path:
+        out.append("")
+    for k, v in table.items():
+        if _is_table(v):
+            out += _table(v, path + [k], exact)
+        elif _is_table_array(v):
+            for item in v:
+                out.append(f"[[{'.'.join(_key(p) for p in path + [k])}]]")
+                out += [f"{_key(ik)} = {_value(iv, exact)}" for ik, iv in item.items()
+                        if not _is_table(iv) and not _is_table_array(iv)]
+                out.append("")
+                out += _table({ik: iv for ik, iv in item.items() if _is_table(iv) or _is_table_array(iv)},
+                              path + [k], exact)
+    return out
+
+
+def _is_table(v: Any) -> bool:
+    return isinstance(v, dict)
+
+
+def _is_table_array(v: Any) -> bool:
+    return isinstance(v, list) and bool(v) and all(isinstance(x, dict) for x in v)
+
+
+def _key(k: str) -> str:
+    if k and all(c.isalnum() or c in "_-" for c in k):
+        return k
+    return json.dumps(k)
+
+
+def _value(v: Any, exact: bool = False) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ValueError(f"a TOML configuration holds finite numbers only, got {v!r}")
+        return repr(v) if exact else fmt_sig(v)  # 12 significant digits (export.numbers)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_value(x, exact) for x in v) + "]"
+    raise TypeError(f"cannot write {type(v).__name__} {v!r} as TOML")

@@ -16,7 +16,6 @@ design (radius range, lobe names) is refused with one line.
 
 from __future__ import annotations
 
-import json
 import math
 from typing import Any
 
@@ -60,47 +59,3 @@ def target_from_dict(data: Any, mirror: Mirror, source: str) -> CompensatedMirro
         raise InputError(f"{source}: next_job.target is not a re-cut target of this design ({exc}); "
                          "allowed: the file compensate wrote, with the configuration beside it") from None
     return CompensatedMirror(mirror, lobes[0], lobes[1])
-
-
-def job_toml(config: dict, comments: list[str]) -> str:
-    """A configuration dict (settings.dump.to_config) as TOML, `comments` on top. Floats by
-    repr (they read back to the same bits: the same design, the same program)."""
-    lines = [f"# {c}" for c in comments] + [""]
-    lines += _table(config, [])
-    return "\n".join(lines).rstrip("\n") + "\n"
-
-
-def _table(table: dict, path: list[str]) -> list[str]:
-    out = []
-    scalars = {k: v for k, v in table.items() if not isinstance(v, dict)}
-    if scalars and path:
-        out.append(f"[{'.'.join(_key(p) for p in path)}]")
-    out += [f"{_key(k)} = {_value(v)}" for k, v in scalars.items()]
-    if scalars and path:
-        out.append("")
-    for k, v in table.items():
-        if isinstance(v, dict):
-            out += _table(v, path + [k])
-    return out
-
-
-def _key(k: str) -> str:
-    return k if k and all(c.isalnum() or c in "_-" for c in k) else json.dumps(k)
-
-
-def _value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if not math.isfinite(v):
-            raise ValueError(f"a configuration holds finite numbers only, got {v!r}")
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v, ensure_ascii=False)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + "}"
-    raise TypeError(f"cannot write {type(v).__name__} {v!r} as TOML")
