@@ -22,10 +22,11 @@ from .design import Camera, Mirror
 from .design_table import design_figures as design_dict
 from .enums import Program, member
 from .inputs import check_real, check_type
-from .job import MachiningJob, polishing_curve
+from .job import MachiningJob
 from .optics.distortion import distortion_figures as distortion_dict
 from .profile import Profile
 from .results import DesignFigures, DistortionFigures
+from .tolerance.analysis import nominal_time_s
 from .tolerance.runs import monte_carlo as run
 
 if TYPE_CHECKING:
@@ -65,8 +66,7 @@ def nominal_polish_time_s(settings: Settings, program: Program | str = Program.B
     if job is not None:
         check_type(job, "nominal_polish_time_s: job", MachiningJob, "a MachiningJob")
     job = job or MachiningJob.from_settings(settings, mirror)
-    made = job.but(strategy=program.strategy).made()
-    return polishing_curve(made.profile, job.mirror, settings.polish).optimum_time_s
+    return nominal_time_s(job, program, settings.polish)
 
 
 def monte_carlo(settings: Settings, program: Program | str = Program.BEST, *, trials: int | None = None,
