@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     # --range-m and --nose-radius are within their ranges (commands/flags.py, at parsing)
     range_m = DEFAULT_RANGE_MM / 1000.0 if args.range_m is None else args.range_m
     nose = settings.tool.nose_radius if args.nose_radius is None else args.nose_radius
-    pose = settings.pose
+    pose = settings.camera_pose
     from ..optics.zones import zones_for
 
     zn = zones_for(settings, mirror, nose)  # the zones every command uses, for this nose

@@ -72,12 +72,12 @@ class RenderPlan:
         if self.blur is None:
             self.blur = blur_map(self.mirror, self.lens)
         s = self.settings
-        return defocus_image(render_image(profile, self.mirror, self.scene, pose=s.pose,
+        return defocus_image(render_image(profile, self.mirror, self.scene, pose=s.camera_pose,
                                           supersample=s.render.supersample, progress=self.progress), self.blur)
 
     def distortion(self, made_img: np.ndarray):
         """(the made mirror's displacement maps, the exact mirror's image, the figures)."""
-        s, mirror, pose = self.settings, self.mirror, self.settings.pose
+        s, mirror, pose = self.settings, self.mirror, self.settings.camera_pose
         maps = image_displacement(self.made, mirror, pose=pose, progress=self.progress)
         exact_img = made_img if self.surface is Surface.EXACT and self.nose == 0 else self._image(self.exact)
         # Over the lobes' usable annuli, as the distortion figures: the step-vignetted band is
@@ -102,7 +102,7 @@ class RenderPlan:
     def write(self, out: Path, made_img: np.ndarray, exact_img: np.ndarray, maps, figures: dict) -> list[str]:
         """The images, their difference, the displacement plots, the POV-Ray scenes and the
         figures (with the files' paths) into `out`; the paths."""
-        surface, mirror, pose = self.surface.value, self.mirror, self.settings.pose
+        surface, mirror, pose = self.surface.value, self.mirror, self.settings.camera_pose
         files = [write_png(out / "exact.png", exact_img)]
         if not self.same:
             files.append(write_png(out / f"{surface}.png", made_img))
@@ -128,7 +128,7 @@ def render_plan(settings: Settings, surface: Surface, *, measured: str | None = 
     rc = settings.render
     nose = rc.nose_radius
     mirror = design(settings)
-    pose = settings.pose
+    pose = settings.camera_pose
     tool = dataclasses.replace(settings.tool, nose_radius=nose) if nose > 0 else None
     check_render_nose(settings, mirror)  # the render's own nose, named as render.nose_radius
     check_program(settings, mirror, surface, tool=tool)  # a program's surface: its program checked

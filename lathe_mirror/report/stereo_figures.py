@@ -59,7 +59,7 @@ class StereoPlan:
     def made_surface(self) -> None:
         """The made mirror (the job's named surface), refused when the camera sees the
         common band through a lobe on less than half its panorama, and the room around it."""
-        s, mirror, pose = self.settings, self.mirror, self.settings.pose
+        s, mirror, pose = self.settings, self.mirror, self.settings.camera_pose
         self.job = MachiningJob.from_settings(s, mirror)  # the made mirror every command describes
         self.made = named_surface(self.surface, mirror, s, measured=self.measured, job=self.job)
         seen = band_visibility(self.made, mirror, self.grid, pose)
@@ -75,7 +75,7 @@ class StereoPlan:
         s, mirror = self.settings, self.mirror
         self.lens = lens_for(mirror, s.optimize.focus_range_m * 1000.0)
         blur = blur_map(mirror, self.lens)
-        return defocus_image(render_image(self.made, mirror, self.scene, pose=s.pose, supersample=s.stereo.supersample,
+        return defocus_image(render_image(self.made, mirror, self.scene, pose=s.camera_pose, supersample=s.stereo.supersample,
                                           pixels=grow_mask(image_mask(mirror, self.grid, self.match.num_disparities),
                                                            blur)),
                              blur)
@@ -89,7 +89,7 @@ class StereoPlan:
         s, mirror = self.settings, self.mirror
         truth = true_range(mirror, self.scene, self.grid)
         figures = {"surface": self.surface.value, "made_mirror": surface_label(self.surface, self.job),
-                   "supersample": s.stereo.supersample, "camera_pose_aligned": s.pose.aligned,
+                   "supersample": s.stereo.supersample, "camera_pose_aligned": s.camera_pose.aligned,
                    **range_figures(result, truth, mirror),
                    "defocus": blur_figures(mirror, self.lens, zones_for(s, mirror))}
         precision = figures["disparity_error_px"]["precision"]

@@ -79,7 +79,7 @@ class Sections:
     camera, lobes: the design's inputs (pipeline.design builds the Mirror from them).
     machine, tool, stock, toolpath: the lathe, its insert, the bar and the program's knobs.
     body, cad: the mounting body and the CAD export settings. polish: polishing.
-    scene, render, pose: the room, how it is rendered, the camera's misalignment.
+    scene, render, camera_pose: the room, how it is rendered, the camera's misalignment.
     stereo: ranging from the image (optics.ranging).
     tolerance: the tolerance analysis (spec, tolerances, Monte Carlo).
     optimize: the design search. machine_errors: the lathe's set-up errors ([machine.errors]).
@@ -98,7 +98,7 @@ class Sections:
     polish: PolishParams = nested(PolishParams)
     scene: SceneSpec | None = nested(SceneSpec)
     render: RenderSettings = nested(RenderSettings)
-    pose: CameraPose = nested(CameraPose)
+    camera_pose: CameraPose = nested(CameraPose)
     tolerance: ToleranceSettings | None = nested(ToleranceSettings)
     stereo: StereoSettings = nested(StereoSettings)
     optimize: OptimizeSettings = nested(OptimizeSettings)
