@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..body import BodySpec, CadSettings
-from ..declared.section import check_fields, choice, flag, nested, setting
+from ..declared.section import check_fields, choice, flag, nested, section_repr, setting
 from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
 from ..enums import Surface
 from ..lathe import Lathe, Stock, Tool
@@ -85,6 +85,8 @@ class Sections:
     optimize: the design search. machine_errors: the lathe's set-up errors ([machine.errors]).
     compute: where heavy work runs (local processes or a Dask scheduler).
     """
+
+    __repr__ = section_repr  # one line: the fields off their declared defaults
 
     camera: Camera = nested(Camera)
     lobes: tuple[LobeSpec, LobeSpec] = field(default_factory=lambda: (LobeSpec.declared("inner"),
