@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 
@@ -86,6 +87,14 @@ def print_json(data: Any) -> None:
     from ..export.files import json_text
 
     sys.stdout.write(json_text(data))
+
+
+def print_result(args: argparse.Namespace, data: Any, text: Callable[[Any], str]) -> None:
+    """The command's figures on stdout: JSON with --json (print_json), else `text(data)`."""
+    if args.json:
+        print_json(data)
+    else:
+        print(text(data))
 
 
 def output_dir(path: str | Path, what: str = "-o/--output") -> Path:

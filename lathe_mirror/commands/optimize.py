@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, compute_options, load, print_json
+from .common import add_common, add_no_progress, compute_options, load, print_result
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -71,10 +71,7 @@ def run(args: argparse.Namespace) -> int:
         write_design_toml(out, text)
         write_bytes(pareto_path, png)
         data["output"] = {"design": str(out), "pareto_plot": str(pareto_path)}
-    if args.json:
-        print_json(data)
-    else:
-        print(format_result(data))
+    print_result(args, data, format_result)
     return 0
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, load, print_json
+from .common import add_common, load, print_json, print_result
 from ..settings.keys import help_default
 
 
@@ -66,10 +66,7 @@ def run(args: argparse.Namespace) -> int:
     maps, exact_img, figures = plan.distortion(made_img)
     if out is not None:
         plan.write(out, made_img, exact_img, maps, figures)
-    if args.json:
-        print_json(figures)
-    else:
-        print(format_figures(figures))
+    print_result(args, figures, format_figures)
     return 0
 
 

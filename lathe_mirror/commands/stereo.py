@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_no_progress, load, print_result
 from ..settings.keys import help_default
 
 
@@ -44,8 +44,7 @@ def run(args: argparse.Namespace) -> int:
         files = (("range", "png"), ("error_range", "png"), ("points", "ply"), ("stereo", "json"))
         check_outputs(args.output, [f"{stem}_{surface.value}.{ext}" for stem, ext in files])
     plan.check_program()  # a surface cut by a program: the program checked
-    stages = Stages(["surface", "render", "match", "truth", "write"], enabled=not args.no_progress)
-    try:
+    with Stages(["surface", "render", "match", "truth", "write"], enabled=not args.no_progress) as stages:
         stages.start("surface")
         plan.made_surface()
         stages.done()
@@ -68,16 +67,7 @@ def run(args: argparse.Namespace) -> int:
             files = write_stereo(output_dir(args.output), surface.value, result, figures, curve, st.ply_binary)
         figures["files"] = files
         stages.done()
-    except BaseException:
-        if stages.bar is not None:
-            stages.bar.leave = False  # clear the bar: the error stays the only line on stderr
-        raise
-    finally:
-        stages.close()
-    if args.json:
-        print_json(figures)
-    else:
-        print(format_figures(figures))
+    print_result(args, figures, format_figures)
     return 0
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_compute, add_no_progress, compute_options, load, path_arg, print_json, use_compute
+from .common import add_common, add_compute, add_no_progress, compute_options, load, path_arg, print_result, use_compute
 from ..settings.keys import help_default
 
 
@@ -75,10 +75,7 @@ def run(args: argparse.Namespace) -> int:
     from ..report.tolerance_files import write_tolerance
 
     write_tolerance(args.output, args.csv, runs.figures, runs.results)
-    if args.json:
-        print_json(runs.figures)
-    else:
-        print(format_tolerance(runs.figures))
+    print_result(args, runs.figures, format_tolerance)
     return 0
 
 
