@@ -26,7 +26,6 @@ from .job import MachiningJob
 from .optics.distortion import distortion_figures as distortion_dict
 from .profile import Profile
 from .results import DesignFigures, DistortionFigures
-from .tolerance.analysis import nominal_time_s
 from .tolerance.runs import monte_carlo as run
 
 if TYPE_CHECKING:
@@ -65,6 +64,8 @@ def nominal_polish_time_s(settings: Settings, program: Program | str = Program.B
         check_type(mirror, "nominal_polish_time_s: mirror", Mirror, "a Mirror (settings.mirror())")
     if job is not None:
         check_type(job, "nominal_polish_time_s: job", MachiningJob, "a MachiningJob")
+    from .tolerance.analysis import nominal_time_s  # lazy: the command's module, measured parts and all
+
     job = job or MachiningJob.from_settings(settings, mirror)
     return nominal_time_s(job, program, settings.polish)
 

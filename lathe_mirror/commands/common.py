@@ -82,6 +82,16 @@ def load(args: argparse.Namespace, overrides: list[tuple[str, Any, str]] | None 
         return load_settings(args.config, overrides=[o for o in overrides if o[1] is not None])
 
 
+def load_on_executor(args: argparse.Namespace, overrides: list[tuple[str, Any, str]] | None = None):
+    """The command's Settings (load) for a command that runs trials: --workers and
+    --scheduler checked before any work, then the executor they and [compute] name made
+    active until the command ends (use_compute)."""
+    compute_options(args)  # the flags, before any work
+    settings = load(args, overrides)
+    use_compute(args, settings)
+    return settings
+
+
 def print_json(data: Any) -> None:
     """JSON on stdout: finite numbers only (NaN/inf become null)."""
     from ..export.files import json_text

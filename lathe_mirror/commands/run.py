@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_compute, add_no_progress, compute_options, load, print_json, use_compute
+from .common import add_common, add_compute, add_no_progress, load_on_executor, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -47,9 +47,7 @@ def run(args: argparse.Namespace) -> int:
     from .common import check_outputs, output_dir
     from .report import REPORT_FILES, summary
 
-    compute_options(args)  # the flags, before any work
-    settings = load(args)
-    use_compute(args, settings)
+    settings = load_on_executor(args)
     out_dir = Path(args.output or "out")
     default = args.config is None
     gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_compute, add_no_progress, compute_options, load, path_arg, print_result, use_compute
+from .common import add_common, add_compute, add_no_progress, load_on_executor, path_arg, print_result
 from ..settings.keys import help_default
 
 
@@ -47,10 +47,8 @@ def run(args: argparse.Namespace) -> int:
     if args.target_yield is not None:
         if not args.allocate:
             raise InputError("--target-yield applies to --allocate (the allocation's target)")
-    compute_options(args)  # the flags, before any work
-    settings = load(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed"),
-                           ("tolerance.target_yield", args.target_yield, "--target-yield")])
-    use_compute(args, settings)
+    settings = load_on_executor(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed"),
+                                       ("tolerance.target_yield", args.target_yield, "--target-yield")])
     measured = None
     if args.surface is not None:
         _, measured = surface_arg(args.surface)
