@@ -53,11 +53,12 @@ class RenderPlan:
     scene: Any
     progress: bool = True
     exact: Profile = field(init=False)
+    lens: Any = field(init=False)  # the lens's defocus model (optics.defocus.lens_for)
+    blur: Any = field(init=False, default=None)  # its blur map, made with the first image
 
     def __post_init__(self) -> None:
         self.exact = ExactProfile(self.mirror)
         self.lens = lens_for(self.mirror, self.settings.optimize.focus_range_m * 1000.0)
-        self.blur = None
 
     @property
     def same(self) -> bool:
