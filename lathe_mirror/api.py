@@ -22,7 +22,7 @@ from .design import Camera, Mirror
 from .design_table import design_figures as design_dict
 from .enums import Program, member
 from .inputs import check_real, check_type
-from .job import MachiningJob, polishing_curve
+from .job import MachiningJob
 from .optics.distortion import distortion_figures as distortion_dict
 from .profile import Profile
 from .results import DesignFigures, DistortionFigures
@@ -64,9 +64,10 @@ def nominal_polish_time_s(settings: Settings, program: Program | str = Program.B
         check_type(mirror, "nominal_polish_time_s: mirror", Mirror, "a Mirror (settings.mirror())")
     if job is not None:
         check_type(job, "nominal_polish_time_s: job", MachiningJob, "a MachiningJob")
+    from .tolerance.analysis import nominal_time_s  # lazy: the command's module, measured parts and all
+
     job = job or MachiningJob.from_settings(settings, mirror)
-    made = job.but(strategy=program.strategy).made()
-    return polishing_curve(made.profile, job.mirror, settings.polish).optimum_time_s
+    return nominal_time_s(job, program, settings.polish)
 
 
 def monte_carlo(settings: Settings, program: Program | str = Program.BEST, *, trials: int | None = None,

@@ -145,7 +145,7 @@ class Lap(Choice):
     """How the polishing lap moves over a lobe (polishing.LapPlan).
 
     FIXED: a lap covering the whole lobe, held still while the part spins (v = omega r:
-    nothing is removed at the vertex; the model of the first polishing issue, kept for
+    nothing is removed at the vertex; the simplest model, kept for
     comparison). ROTATE: a full-size lap (the recessed lobe's pocket, or past the rim)
     spinning on its own axis, its centre stroked off the part's axis by up to stroke_mm
     with a dwell-time profile (removal at the vertex too). STROKE: a sub-aperture lap of

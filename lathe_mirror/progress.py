@@ -33,7 +33,9 @@ class NoBar:
 
 
 class Stages:
-    """A progress display of a pipeline's named stages on stderr."""
+    """A progress display of a pipeline's named stages on stderr; as a context manager it
+    closes the bar, and clears it when the block raises, so the error stays the only line
+    on stderr."""
 
     def __init__(self, names: list[str], enabled: bool):
         self.bar = None
@@ -58,3 +60,11 @@ class Stages:
     def close(self) -> None:
         if self.bar is not None:
             self.bar.close()
+
+    def __enter__(self) -> "Stages":
+        return self
+
+    def __exit__(self, kind, exc, tb) -> None:
+        if kind is not None and self.bar is not None:
+            self.bar.leave = False  # clear the bar: the error stays the only line on stderr
+        self.close()

@@ -191,6 +191,29 @@ def test_reprs_are_short(w):
     assert repr(w["tp"]).startswith("Toolpath(paper, ")
 
 
+def test_settings_programs_and_the_report_echo_in_one_short_line(w):
+    """A notebook echoes what a cell returns: every field of Settings runs to kilobytes and
+    a shop program's blocks and simulated moves to a hundred, which bury the cell's answer.
+    Each is one line under 400 characters. A section names only the fields off their
+    declared defaults (what the configuration changes), at most six and how many more."""
+    from lathe_mirror.optics.camera import CameraPose
+
+    s = w["s"]
+    shop = lm.shop_program(w["tp"], s.stock, s.toolpath)
+    for obj in (s, lm.Settings(), s.polish, s.scene, s.tolerance, s.optimize, lm.build_scene(s.scene),
+                shop, shop.program, lm.ReportData(design=lm.design_figures(w["m"]))):
+        assert "\n" not in repr(obj) and len(repr(obj)) < 400, (type(obj).__name__, len(repr(obj)))
+    assert repr(lm.Settings()) == "Settings(defaults)"
+    moved = dataclasses.replace(s, camera_pose=CameraPose(axial_offset=1.0),
+                                tolerance=dataclasses.replace(s.tolerance, trials=200))
+    assert repr(moved) == "Settings(camera_pose.axial_offset=1.0, tolerance.trials=200)"
+    assert repr(lm.PolishParams(pressure_kpa=20.0)) == "PolishParams(pressure_kpa=20.0)"
+    many = lm.load(overrides=[(f"tolerance.params.{k}", 0.5 * v, "test")
+                              for k, v in list(s.tolerance.tolerances.items())[:8]])
+    assert repr(many).endswith(", ... 2 more)") and repr(many).count("=") == 6
+    assert repr(shop).startswith("ShopProgram('mirror_paper', ")
+
+
 def test_typed_figures_round_trip_and_name_what_they_are(w):
     df = lm.design_figures(w["m"])
     assert isinstance(df, lm.DesignFigures)

@@ -287,7 +287,7 @@ def test_png_bytes_decode_in_pillow_to_the_same_pixels():
 
     from PIL import Image
 
-    from lathe_mirror.commands.render import png_bytes
+    from lathe_mirror.export.png import png_bytes
 
     img = np.random.default_rng(8).integers(0, 256, size=(37, 53, 3), dtype=np.uint8)
     data = png_bytes(img)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_no_progress, load, print_result
 
 #: The made mirror compared by default: the configured machining job's part (job.MachiningJob),
 #: the one every command describes unless told otherwise.
@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     # --range-m and --nose-radius are within their ranges (commands/flags.py, at parsing)
     range_m = DEFAULT_RANGE_MM / 1000.0 if args.range_m is None else args.range_m
     nose = settings.tool.nose_radius if args.nose_radius is None else args.nose_radius
-    pose = settings.pose
+    pose = settings.camera_pose
     from ..optics.zones import zones_for
 
     zn = zones_for(settings, mirror, nose)  # the zones every command uses, for this nose
@@ -76,8 +76,7 @@ def run(args: argparse.Namespace) -> int:
         check_program(settings, mirror, name,
                       tool=dataclasses.replace(settings.tool, nose_radius=nose) if nose > 0 else None)
     job = MachiningJob.from_settings(settings, mirror)  # the made mirror every command describes by default
-    steps = Stages([n.value for n in names] + ["files"], not args.no_progress)
-    try:
+    with Stages([n.value for n in names] + ["files"], not args.no_progress) as steps:
         made = {}
         for name in names:
             steps.start(name.value)
@@ -110,21 +109,12 @@ def run(args: argparse.Namespace) -> int:
         out = output_dir(args.output or "calib")
         files = [str(write_text(Path(out) / name, text)) for name, text in texts.items()]
         steps.done()
-    except BaseException:
-        if steps.bar is not None:
-            steps.bar.leave = False  # clear the bar: the error stays the only line on stderr
-        raise
-    finally:
-        steps.close()
     figures = {"design": design_model_figures(mirror, zn), "zones": zn.as_dict(), "zones_text": zn.describe(),
                "camera_pose": "aligned" if pose.aligned else {
                    "decentre_mm": list(pose.decentre), "axial_offset_mm": pose.axial_offset,
                    "tilt_deg": [math.degrees(t) for t in pose.tilt]},
                "made": list(made.values()), "files": files}
-    if args.json:
-        print_json(figures)
-    else:
-        print(format_figures(figures))
+    print_result(args, figures, format_figures)
     return 0
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 
@@ -81,11 +82,29 @@ def load(args: argparse.Namespace, overrides: list[tuple[str, Any, str]] | None 
         return load_settings(args.config, overrides=[o for o in overrides if o[1] is not None])
 
 
+def load_on_executor(args: argparse.Namespace, overrides: list[tuple[str, Any, str]] | None = None):
+    """The command's Settings (load) for a command that runs trials: --workers and
+    --scheduler checked before any work, then the executor they and [compute] name made
+    active until the command ends (use_compute)."""
+    compute_options(args)  # the flags, before any work
+    settings = load(args, overrides)
+    use_compute(args, settings)
+    return settings
+
+
 def print_json(data: Any) -> None:
     """JSON on stdout: finite numbers only (NaN/inf become null)."""
     from ..export.files import json_text
 
     sys.stdout.write(json_text(data))
+
+
+def print_result(args: argparse.Namespace, data: Any, text: Callable[[Any], str]) -> None:
+    """The command's figures on stdout: JSON with --json (print_json), else `text(data)`."""
+    if args.json:
+        print_json(data)
+    else:
+        print(text(data))
 
 
 def output_dir(path: str | Path, what: str = "-o/--output") -> Path:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, load, print_json
+from .common import add_common, load, print_result
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -36,10 +36,7 @@ def run(args: argparse.Namespace) -> int:
         from ..export.files import json_text, write_text
 
         write_text(args.output, json_text(figures))
-    if args.json:
-        print_json(figures)
-    else:
-        print(format_design(figures))
+    print_result(args, figures, format_design)
     return 0
 
 

@@ -49,12 +49,10 @@ def job_of(args: argparse.Namespace, load_settings):
     if args.from_dir is None:
         settings = load_settings(args)
     else:
-        import json
         from pathlib import Path
 
         from ..errors import InputError
-        from ..inputs import read_text
-        from ..measure.nextjob import JOB_JSON, JOB_TOML, target_from_dict
+        from ..measure.nextjob import JOB_TOML, read_next_job
 
         if args.config is not None:
             raise InputError(f"--from {args.from_dir} and --config {args.config}: the job directory holds its "
@@ -62,16 +60,9 @@ def job_of(args: argparse.Namespace, load_settings):
         d = Path(args.from_dir)
         args.config = str(d / JOB_TOML)
         settings = load_settings(args)
-        src = str(d / JOB_JSON)
-        try:
-            data = json.loads(read_text(src, "--from", 64 << 20))
-            nxt = data["next_job"]
-        except (json.JSONDecodeError, KeyError, TypeError) as exc:
-            raise InputError(f"--from {src}: not a job compensate wrote ({exc.__class__.__name__}: {exc}); "
-                             "allowed: the directory of `compensate -o DIR`") from None
-        target = target_from_dict(nxt.get("target"), settings.mirror(), src)
+        target, strategy = read_next_job(d, settings.mirror())
         if args.program is None:
-            args.program = nxt.get("strategy")
+            args.program = strategy
     if args.program is None:
         strategy = settings.toolpath.strategy
     else:
@@ -80,9 +71,8 @@ def job_of(args: argparse.Namespace, load_settings):
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..measure.fit import FitOptions
-    from ..measure.result import measure
-    from ..job import check_program, design, machine
+    from ..job import design
+    from ..shop.measured import measure_part
 
     settings, strategy, target = job_of(args, load)
     mirror = design(settings)
@@ -90,17 +80,8 @@ def run(args: argparse.Namespace) -> int:
         from .common import check_outputs
 
         check_outputs(args.output, list(OUTPUTS))
-    tp = check_program(settings, mirror, strategy, target=target)
-    result = measure(args.file, mirror, machine(tp), settings.tool.nose_radius, fmt=args.format,
-                     options=FitOptions(conic=args.fit_conic), resolution_mm=settings.machine.resolution,
-                     toolpath=tp, touch_off=touch_off_of(tp))
-    verdict = refuse_unfit(result, settings, args.file)
-    out = result.to_dict()
-    out["job"] = {"strategy": strategy.value, "programmed_nose_radius_mm": settings.tool.nose_radius,
-                  "target": "re-cut (--from)" if target is not None else "the design's usual",
-                  "touch_off": result.diagnosis.touch_off.to_dict()}
-    out["this_part"] = verdict
-    out["form_tolerance"] = form_verdicts(settings, out["lobes"])
+    result, out = measure_part(settings, mirror, args.file, strategy, target, fmt=args.format,
+                               fit_conic=args.fit_conic)
     if args.output:
         from pathlib import Path
 
@@ -116,56 +97,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         _print(out)
     return 0
-
-
-def refuse_unfit(result, settings, path) -> dict:
-    """The fit's verdict on whether the trace is this part (measure.judge), against each
-    lobe's form tolerance (iso10110.spec_of); InputError (exit 2) naming what does not fit
-    and its likely cause when it is not: nothing of it reaches a verdict or a re-cut."""
-    from ..errors import InputError
-    from ..iso10110 import spec_of
-    from ..measure.judge import judge
-
-    spec = spec_of(settings)
-    tol = {lb.name: spec.lobe(lb.name).form.pv_um for lb in result.fit.lobes}
-    verdict = judge(result, tol)
-    if verdict["refusal"]:
-        raise InputError(f"{path}: {verdict['refusal']}")
-    return verdict
-
-
-def touch_off_of(toolpath):
-    """The touch-off the program's set-up sheet prescribes (shop.setup.setup_sheet: X on a
-    bore with the nose's +X side when the tool as held can present it, else on an outside
-    diameter; Z on the face with the nose's bottom)."""
-    import math
-
-    from ..measure.diagnose import TouchOff
-    from ..shop.setup import can_touch
-
-    tool = toolpath.held_tool
-    if not can_touch(tool, -math.pi / 2):
-        raise RuntimeError("the tool cannot touch a face with its nose")  # the tool checks refuse it first
-    return TouchOff("bore" if can_touch(tool, 0.0) else "outside")
-
-
-def form_verdicts(settings, lobes: list[dict]) -> list[dict]:
-    """Each measured lobe against its form tolerance from `lathe-mirror spec`
-    (iso10110.spec_of: PV and RMS over the clear aperture, RMS slope): pass when all three
-    hold. The slope is the residual's over the fit's smoothing band (0.5 mm knots), the
-    spec's per its evaluation length."""
-    from ..iso10110 import spec_of
-
-    spec = spec_of(settings)
-    out = []
-    for lb in lobes:
-        form = spec.lobe(lb["name"]).form
-        checks = {"pv": lb["pv_um"] <= form.pv_um, "rms": lb["rms_um"] <= form.rms_um,
-                  "slope": lb["slope_rms_urad"] <= form.slope_urad}
-        out.append({"name": lb["name"], "iso10110_5": form.iso10110_5, "pv_um": form.pv_um, "rms_um": form.rms_um,
-                    "slope_urad": form.slope_urad, "evaluation_length_mm": form.evaluation_length_mm,
-                    "checks": checks, "pass": all(checks.values())})
-    return out
 
 
 def _print(out: dict) -> None:

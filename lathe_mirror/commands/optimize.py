@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, compute_options, load, print_json
-from ..settings.keys import help_default
+from .common import add_common, add_no_progress, compute_options, load, print_result
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -35,12 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import dataclasses
-
-    from ..errors import InputError
-    from ..optimize import Problem, search
-    from ..optimize.spec import Objective
-    from ..optimize.evaluate import constraint_table
+    from ..optimize.winner import allocated_tolerances, optimize_design, pareto_inputs, toml_comments
+    from ..shop.feasible import check_made
 
     settings = load(args, [("optimize.workers", args.workers, "--workers")])  # the estimate counts them
     out = pareto_path = None
@@ -51,202 +46,33 @@ def run(args: argparse.Namespace) -> int:
         check_suffix(args.output, "TOML")
         out = check_writable(args.output)
         pareto_path = check_writable(out.with_name(out.stem + "_pareto.png"))
-    problem = Problem(camera=settings.camera, tool=settings.tool, stock=settings.stock, body=settings.body,
-                      clearance=settings.toolpath.clearance, settings=settings.optimize,
-                      reference=settings.lobes)
     from ..compute import activate, default_workers
 
     workers, scheduler = compute_options(args, settings)
     if workers is None and not scheduler:
         workers = settings.optimize.workers if settings.optimize.workers > 1 else default_workers()
     ex = activate(workers, scheduler)  # the search's generations and the winner's Monte Carlo
-    robust = settings.optimize.objective is Objective.DELIVERED
-    made = None
-    if robust:
-        problem, made = made_parts(problem, settings, progress=not args.no_progress)
-    result = search(problem, workers=min(max(ex.workers, 1), 64),  # optimize.workers' range
-                    progress=not args.no_progress)
-    best = dataclasses.replace(settings, lobes=result.best)
-    check_made(best)
-    check = None
-    if not args.no_check:
-        from ..optimize.focus import design_blur_px
-        from ..tolerance.runs import winner_check
-
-        check = winner_check(best.mirror(), best, progress=not args.no_progress,
-                             blur_px=design_blur_px(best.mirror(), best), allocate=robust)
-        if not check["nominal_pass"]:  # the runner-up designs, until one passes nominal
-            result, best, check = runner_up(result, problem, settings, check, progress=not args.no_progress)
     ref_name = "paper" if _is_paper(settings) else "configured"
-    o = settings.optimize
-    data = {
-        "objective": o.objective.value,
-        "objective_unit": o.objective.unit,
-        "band_deg": {"min": o.band_deg[0], "max": o.band_deg[1]},
-        "best": result.best_figures.to_dict(),
-        "reference": None if result.reference_figures is None else result.reference_figures.to_dict(),
-        "reference_name": ref_name,
-        "reference_feasible": result.reference_feasible,
-        "gain": result.gain,
-        "constraints": constraint_table(result.best_figures, problem),
-        "search": {"seed": o.seed, "workers": result.workers, "evaluations": result.evaluations,
-                   "feasible": int(result.history.feasible.sum()), "generations": result.generations,
-                   "converged": result.converged, "seconds": result.seconds,
-                   "evaluations_per_second": result.evaluations_per_second},
-        "pareto": _fronts(result),
-        "heights_above_pinhole_mm": {"vertex": result.best_figures.vertex_mm, "far": result.best_figures.far_mm},
-        "bound_margin": o.bound_margin,
-        "warnings": bound_warnings(result, problem),
-    }
-    if made is not None:
-        data["made_parts"] = made
-    if check is not None:
-        data["check"] = check
+    result, data = optimize_design(settings, lambda s: check_made(s, "the best design found"),
+                                   workers=min(max(ex.workers, 1), 64),  # optimize.workers' range
+                                   check=not args.no_check, progress=not args.no_progress, ref_name=ref_name)
     if out is not None:
         from ..export.design_toml import design_toml, write_design_toml
         from ..export.files import write_bytes
+        from ..report.plots import pareto_plot
 
         extra = _user_sections(args.config)
-        comments = _toml_comments(data)
-        alloc = (check or {}).get("allocation")
+        comments = toml_comments(data)
+        alloc = (data.get("check") or {}).get("allocation")
         if alloc is not None and alloc.get("reached"):
             comments += allocated_tolerances(extra, alloc)
         text = design_toml(settings.camera, result.best, comments=comments, extra=extra)
-        png = _pareto_png(result, o.objective, ref_name)
+        png = pareto_plot(*pareto_inputs(result, settings.optimize.objective, ref_name))
         write_design_toml(out, text)
         write_bytes(pareto_path, png)
         data["output"] = {"design": str(out), "pareto_plot": str(pareto_path)}
-    if args.json:
-        print_json(data)
-    else:
-        print(format_result(data))
+    print_result(args, data, format_result)
     return 0
-
-
-def made_parts(problem, settings, *, progress: bool = False):
-    """The delivered-R10 objective's part error: the configured design's made parts at the
-    configured tolerances, a small seeded Monte Carlo (tolerance.runs.made_disparity, its
-    95th percentile); (problem with it, what was measured). A configured design that
-    cannot be made as configured (another camera's lobes) leaves the part error 0: the
-    surrogate then counts the blur alone, and the winner's full Monte Carlo the rest."""
-    import dataclasses
-
-    from ..errors import InputError
-    from ..optimize.focus import design_blur_px
-    from ..tolerance.runs import made_disparity
-
-    noise = settings.tolerance.matching_noise_px
-    try:
-        mirror = settings.mirror()
-        made = made_disparity(mirror, settings, blur_px=design_blur_px(mirror, settings), progress=progress)
-    except InputError as exc:
-        made = {"disparity_px": 0.0, "skipped": str(exc)}
-    return dataclasses.replace(problem, made_disparity_px=made["disparity_px"], matching_noise_px=noise), made
-
-
-def allocated_tolerances(extra: dict, alloc: dict) -> list[str]:
-    """Write the allocation's tolerances into the design's [tolerance.params] and
-    [tolerance.machine_errors] (extra: the sections passed through), so that `tolerance
-    --config` on the file draws the same trials at them (its seed) and confirms the yield;
-    the comment lines saying what they cost."""
-    from ..tolerance.spec import MACHINE_DRAWN
-
-    tol = extra.setdefault("tolerance", {})
-    for r in alloc["tolerances"]:
-        section = "machine_errors" if r["parameter"] in MACHINE_DRAWN else "params"
-        tol.setdefault(section, {})[r["parameter"]] = float(f"{r['allocated']:.6g}")
-    tight = [r for r in alloc["tolerances"] if r["tighten"]]
-    what = ", ".join(f"{r['parameter']} {r['tolerance']:.4g} -> {r['allocated']:.4g} {r['unit']}" for r in tight)
-    return [f"[tolerance] carries the least-cost tolerances that reach {100 * alloc['target_yield']:g} % yield "
-            f"(tolerance --config THIS_FILE confirms it: {100 * alloc['yield']:.1f} % of {alloc['trials']} trials, "
-            f"seed {alloc['seed']})",
-            f"their cost: {alloc['cost_ratio']:.3g} x the configured tolerances' ([tolerance.cost]); tightened: "
-            f"{what or 'nothing'}"]
-
-
-def bound_warnings(result, problem) -> list[str]:
-    """One line per bound the winner sits on: a searched parameter at the edge of its range
-    less optimize.bound_margin (it would go further: widen optimize.search), and each active
-    constraint (the key that limits the design)."""
-    import numpy as np
-
-    from ..optimize.evaluate import constraint_table, vector_of
-    from ..optimize.spec import PARAMETERS
-
-    s = problem.settings
-    out = []
-    x = vector_of(result.best, problem)
-    for name, v, (lo, hi), (lo0, hi0) in zip(PARAMETERS, x, s.margin_bounds(), s.search.bounds()):
-        if hi0 <= lo0:
-            continue
-        tol = 1e-3 * (hi0 - lo0)
-        for end, b, b0 in (("low", lo, lo0), ("high", hi, hi0)):
-            if abs(v - b) <= tol and not (name.startswith("outer_r_") and end == "high" and b >= 1.0):
-                out.append(f"optimize.search.{name} = {float(v):.6g} sits on its {end} bound ({b0:g}, kept "
-                           f"{100 * s.bound_margin:g} % of the range clear: {b:.6g}); widen the range to let it go on")
-    for c in constraint_table(result.best_figures, problem):
-        if c["active"]:
-            out.append(f"{c['key']}: the winner sits on this bound ({c['what']} {c['value']:.6g}, {c['bound']} "
-                       f"{c['limit']:.6g}{' ' + c['unit'] if c['unit'] else ''})")
-    return out
-
-
-def runner_up(result, problem, settings, check: dict, *, progress: bool = False):
-    """The winner fails the tolerance verdict nominal (a made-part figure the search does
-    not model): the search's runner-up designs (optimize.search.alternates), best first,
-    each through check_made and the nominal verdict; the first that passes replaces the
-    winner (its full check, with what was replaced and why). (result, settings, check)."""
-    import dataclasses
-
-    from ..errors import InputError
-    from ..optimize import figures
-    from ..optimize.focus import design_blur_px
-    from ..optimize.search import alternates
-    from ..tolerance.runs import winner_check
-
-    obj0 = result.best_figures.objective(problem.settings.objective)
-    tried = []
-    for lobes in alternates(result, problem):
-        cand = dataclasses.replace(settings, lobes=lobes)
-        fig = figures(lobes, problem)
-        obj = fig.objective(problem.settings.objective)
-        try:
-            check_made(cand)
-        except InputError as exc:
-            tried.append({"objective": obj, "refused": str(exc)})
-            continue
-        nom = winner_check(cand.mirror(), cand, nominal_only=True, progress=progress)
-        tried.append({"objective": obj, "failing": [c for c, v in nom["nominal"].items() if not v["pass"]]})
-        if nom["nominal_pass"]:
-            full = winner_check(cand.mirror(), cand, progress=progress,
-                                blur_px=design_blur_px(cand.mirror(), cand),
-                                allocate=settings.optimize.objective.value == "delivered_r10_p5")
-            full["replaced"] = {"objective": obj0, "why": check["why"], "tried": tried}
-            gain = None if result.gain is None else result.gain * obj / obj0
-            return dataclasses.replace(result, best=lobes, best_figures=fig, gain=gain), cand, full
-    check["alternates"] = tried
-    if tried:
-        check["why"] += f"; the next {len(tried)} designs the search found fail it too"
-    return result, dataclasses.replace(settings, lobes=result.best), check
-
-
-def check_made(settings) -> None:
-    """The winner through the checks `run` makes before it writes anything: the junction
-    and the polishing times (job.check_programs), the CAD body (job.check_cad),
-    and both programs planned and simulated against the stock (shop.programs.shop_programs:
-    gouge, bar, travel, no rapid or insert body in stock). An InputError here names the
-    check the winner fails."""
-    from ..errors import InputError
-    from ..job import check_cad, check_programs
-    from ..shop.programs import shop_programs
-
-    mirror = settings.mirror()
-    try:
-        check_programs(settings, mirror)
-        check_cad(settings, mirror)
-        shop_programs(settings, mirror)
-    except InputError as exc:
-        raise InputError(f"the best design found cannot be made as configured: {exc}") from None
 
 
 def format_result(data: dict) -> str:
@@ -312,50 +138,6 @@ def format_result(data: dict) -> str:
     if "output" in data:
         lines.append(f"wrote {data['output']['design']} and {data['output']['pareto_plot']}")
     return "\n".join(lines)
-
-
-def _fronts(result) -> dict:
-    h = result.history
-    obj, band, depth = h.column("objective"), h.column("band_width_deg"), h.column("depth_mm")
-    return {"band_width": [[float(obj[i]), float(band[i])] for i in result.pareto_band],
-            "depth": [[float(obj[i]), float(depth[i])] for i in result.pareto_depth]}
-
-
-def _pareto_png(result, objective, ref_name: str) -> bytes:
-    from ..report.plots import pareto_plot
-
-    h = result.history
-    feas = h.feasible
-    idx = {i: k for k, i in enumerate(feas.nonzero()[0])}
-    cand = {k: h.column(k)[feas] for k in ("objective", "band_width_deg", "depth_mm")}
-    fronts = {"band": [idx[i] for i in result.pareto_band], "depth": [idx[i] for i in result.pareto_depth]}
-    marks = {}
-    for name, fig in ((ref_name + " design", result.reference_figures), ("best", result.best_figures)):
-        if fig is not None:
-            marks[name] = {"objective": fig.objective(objective), "band_width_deg": fig.band_width_deg,
-                           "depth_mm": fig.depth_mm}
-    return pareto_plot(objective.label, cand, fronts, marks)
-
-
-def _toml_comments(data: dict) -> list[str]:
-    best, s = data["best"], data["search"]
-    lines = ["lathe-mirror optimize: the best design found (lathe-mirror run --config THIS_FILE machines it)",
-             f"objective {data['objective']}: {best_value(data, best):.6g} {data['objective_unit']}".rstrip()]
-    if data["gain"] is not None:
-        lines.append(f"{data['gain']:.4f} x the {data['reference_name']} design's "
-                     f"{best_value(data, data['reference']):.6g} {data['objective_unit']}".rstrip())
-    lines.append(f"seed {s['seed']}, {s['generations']} generations, {s['evaluations']} designs evaluated")
-    lines.append(f"baseline {best['baseline_mm']:.3f} mm, common band {best['band_deg']['min']:.2f}.."
-                 f"{best['band_deg']['max']:.2f} deg, R10 {best['r10_m']:.4f} m, blur {best['blur_px']:.2f} px, "
-                 f"step {best['step_mm']:.3f} mm ({best['recessed']} lobe recessed), usable "
-                 f"{100 * best['usable_share']:.1f} %")
-    return lines
-
-
-def best_value(data: dict, fig: dict) -> float:
-    key = {"delivered_r10_p5": "delivered_r10_m", "r10": "r10_m", "baseline": "baseline_mm", "band_width": "band_width_deg",
-           "usable_area": "usable_share"}[data["objective"]]
-    return fig[key]
 
 
 def _user_sections(path) -> dict:

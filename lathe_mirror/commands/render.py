@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, load, print_json
+from .common import add_common, load, print_json, print_result
 from ..settings.keys import help_default
 
 
@@ -33,16 +33,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import dataclasses
-    import math
-
-    import numpy as np
-
     from ..enums import Surface
-    from ..optics.render import image_difference, render_image
-    from ..job import (MachiningJob, check_program, check_render_nose, design, named_surface, scene_for,
-                       surface_label)
-    from ..profile import ExactProfile
+    from ..report.render_figures import render_plan, write_png
 
     from .common import surface_arg
 
@@ -52,99 +44,29 @@ def run(args: argparse.Namespace) -> int:
                            ("render.nose_radius", args.nose_radius, "--nose-radius"),
                            ("render.surface", surface.value if surface and not measured else None, "--surface")])
     rc = settings.render
-    surface, nose, n = (rc.surface if measured is None else Surface.MEASURED), rc.nose_radius, rc.supersample
+    surface, nose = (rc.surface if measured is None else Surface.MEASURED), rc.nose_radius
     if args.output:  # every output name, before any work
         from .common import check_outputs
 
         check_outputs(args.output, output_names(surface.value, nose, image_only=args.image_only))
-    mirror = design(settings)
-    pose = settings.pose
-    exact = ExactProfile(mirror)
-    tool = dataclasses.replace(settings.tool, nose_radius=nose) if nose > 0 else None
-    check_render_nose(settings, mirror)  # the render's own nose, named as render.nose_radius
-    check_program(settings, mirror, surface, tool=tool)  # a program's surface: its program checked
-    job = MachiningJob.from_settings(settings, mirror)  # the made mirror every command describes by default
-    made = named_surface(surface, mirror, settings, nose_radius=float(nose), measured=measured,
-                         job=job)
-    label = surface_label(surface, job, nose_radius=float(nose))
-    # The zones of the nose that cut this surface (a program's contour: none), as every
-    # command states its figures over them (optics.zones.zones_for).
-    from ..optics.zones import zones_for
-
-    cut_nose = float(nose) if nose > 0 else (job.cutting_nose if surface in (Surface.MADE, Surface.POLISHED) else 0.0)
-    zn = zones_for(dataclasses.replace(settings, tool=dataclasses.replace(settings.tool, nose_radius=cut_nose)),
-                   mirror)
-    z_top = float(max(np.max(made.z(np.linspace(0, made.r_max, 2001))), mirror.outer.h))
-    scene = scene_for(settings, mirror, mirror_top=z_top + abs(pose.axial_offset))
-    _check_sees_mirror(made, mirror, pose)
-    progress = not args.no_progress  # tqdm on stderr
+    plan = render_plan(settings, surface, measured=measured, progress=not args.no_progress)  # tqdm on stderr
     out = None
     if args.output:
         from .common import output_dir
 
         out = output_dir(args.output)
-    # the lens's defocus (optics.defocus): every image as the camera records it
-    from ..optics.defocus import blur_figures, blur_map, defocus_image, lens_for
-
-    lens = lens_for(mirror, settings.optimize.focus_range_m * 1000.0)
-    blur = blur_map(mirror, lens)
-    made_img = defocus_image(render_image(made, mirror, scene, pose=pose, supersample=n, progress=progress), blur)
-    surface = surface.value
-    files = []
+    made_img = plan.made_image()
     if args.image_only:
+        files = []
         if out is not None:
-            files.append(_write_png(out / f"{surface}.png", made_img))
+            files.append(write_png(out / f"{surface.value}.png", made_img))
         if args.json:
-            print_json({"surface": surface, "made_mirror": label, "files": files})
+            print_json({"surface": surface.value, "made_mirror": plan.label, "files": files})
         return 0
-
-    from ..optics.distortion import image_displacement
-
-    maps = image_displacement(made, mirror, pose=pose, progress=progress)
-    exact_img = made_img if surface == "exact" and nose == 0 else defocus_image(render_image(
-        exact, mirror, scene, pose=pose, supersample=n, progress=progress), blur)
-    # Over the lobes' usable annuli, as the distortion figures: the step-vignetted band is
-    # black in both images and would only dilute the difference.
-    # maps.annulus: the design's own pixels (optics.distortion.usable_annulus, the report's)
-    diff = image_difference(exact_img, made_img, mask=maps.annulus)
-    figures = {
-        "surface": surface,
-        "made_mirror": label,
-        "nose_radius_mm": float(nose),
-        "supersample": n,
-        "pose": {"decentre_mm": list(pose.decentre), "axial_offset_mm": pose.axial_offset,
-                 "tilt_deg": [math.degrees(t) for t in pose.tilt]},
-        **maps.figures(zn, edge_mm=settings.polish.clear_edge_mm),
-        "zones": zn.as_dict(),
-        "image_difference": diff,
-        "defocus": blur_figures(mirror, lens, zn),
-        "image_radii_px": {k: {"min": v[0], "max": v[1]} for k, v in mirror.image_radii_px.items()},
-    }
+    maps, exact_img, figures = plan.distortion(made_img)
     if out is not None:
-        from ..export.files import json_text, write_bytes, write_text
-        from ..export.povray import write_povray
-        from ..optics.plots import displacement_map_png, displacement_vs_radius_png
-        from ..optics.render import difference_image
-
-        same = surface == "exact" and not nose  # the made mirror is the exact one
-        files.append(_write_png(out / "exact.png", exact_img))
-        if not same:
-            files.append(_write_png(out / f"{surface}.png", made_img))
-            files.append(_write_png(out / f"difference_{surface}.png", difference_image(exact_img, made_img)))
-        title = label
-        files.append(str(write_bytes(out / f"displacement_radius_{surface}.png",
-                                     displacement_vs_radius_png(maps, title=title))))
-        files.append(str(write_bytes(out / f"displacement_map_{surface}.png",
-                                     displacement_map_png(maps, title=title))))
-        files.append(str(write_povray(out / "exact.pov", exact, mirror, scene, pose=pose)))
-        if not same:
-            files.append(str(write_povray(out / f"{surface}.pov", made, mirror, scene, pose=pose)))
-        figures["files"] = files
-        write_text(out / f"figures_{surface}.json", json_text(figures))
-    if args.json:
-        print_json(figures)
-    else:
-        print(format_figures(figures))
+        plan.write(out, made_img, exact_img, maps, figures)
+    print_result(args, figures, format_figures)
     return 0
 
 
@@ -196,61 +118,3 @@ def defocus_line(fig: dict) -> str:
                       f"(mean {lb['blur_px']['mean']:.2f})" for lb in fig["lobes"])
     return (f"defocus (thin lens f/{lens['f_number']:g} focused at {lens['focus_mm']:.1f} mm, scene "
             f"{lens['object_range_mm'] / 1000.0:g} m from the viewpoints): blur circle {lobes}; the images are blurred by it")
-
-
-def _check_sees_mirror(profile, mirror, pose) -> None:
-    """InputError unless some pixel of a coarse grid sees a lobe of the mirror."""
-    import math
-
-    import numpy as np
-
-    from ..errors import InputError
-    from ..optics.camera import pixel_centres
-    from ..optics.trace import Fate, trace_pixels
-
-    cam = mirror.camera
-    u, v = pixel_centres(cam)
-    step = max(1, min(cam.sensor_px) // 64)
-    xy = np.stack([u[::step, ::step, 0], v[::step, ::step, 0]], axis=-1).reshape(-1, 2)
-    hits = trace_pixels(profile, cam, xy, pose=pose)
-    if not np.any(hits.fate <= Fate.OUTER):
-        raise InputError(
-            f"camera: no pixel sees the mirror (camera_pose decentre {list(pose.decentre)} mm, "
-            f"axial_offset {pose.axial_offset:g} mm, tilt {[round(math.degrees(t), 3) for t in pose.tilt]} deg); "
-            "the camera must look up the mirror axis"
-        )
-
-
-def _write_png(path, img) -> str:
-    from ..export.files import write_bytes
-
-    return str(write_bytes(path, png_bytes(img)))
-
-
-def png_bytes(img) -> bytes:
-    """An 8-bit RGB image (H, W, 3) uint8 as PNG bytes (PNG specification, ISO/IEC 15948:
-    signature, IHDR, one IDAT of zlib-deflated rows each led by filter type 0, IEND).
-
-    Deflate level 1 with no row filters: about half the time of Pillow's encoder at its
-    level 1 (which tries a filter per row) for files of the same size on these images,
-    whose flat colours need no filtering; no time or software chunks, so the same image
-    gives the same bytes.
-    """
-    import struct
-    import zlib
-
-    import numpy as np
-
-    img = np.ascontiguousarray(img, dtype=np.uint8)
-    if img.ndim != 3 or img.shape[2] != 3:
-        raise ValueError(f"png_bytes: expected (H, W, 3) uint8, got shape {img.shape}")
-    h, w, _ = img.shape
-    rows = np.zeros((h, 1 + 3 * w), dtype=np.uint8)  # a 0 byte (no filter) before each row
-    rows[:, 1:] = img.reshape(h, 3 * w)
-
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-
-    header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)  # 8 bits, truecolour, no interlace
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
-            + chunk(b"IDAT", zlib.compress(rows.tobytes(), 1)) + chunk(b"IEND", b""))

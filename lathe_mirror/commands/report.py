@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from .common import add_common, add_compute, add_no_progress, compute_options, load, print_json, use_compute
+from .common import add_common, add_compute, add_no_progress, load_on_executor, print_json
 
 if TYPE_CHECKING:
     from ..report.analysis import ReportData
@@ -32,9 +32,7 @@ def run(args: argparse.Namespace) -> int:
     from ..report import write_report
     from .common import check_outputs, output_dir
 
-    compute_options(args)  # the flags, before any work
-    settings = load(args)
-    use_compute(args, settings)
+    settings = load_on_executor(args)
     mirror = design(settings)
     check_programs(settings, mirror)
     for strategy in (Strategy.PAPER, BEST):  # the programs it machines, polishes and tolerances

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_compute, add_no_progress, compute_options, load, print_json, use_compute
+from .common import add_common, add_compute, add_no_progress, load_on_executor, print_json
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,12 +38,8 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from ..enums import BEST, Strategy
-    from ..export.cad import REFERENCE_FILES
-    from ..export.calib import FILE_NAMES as CALIB_FILES
-    from ..export.files import write_text
-    from ..export.dialects import dialects
-    from ..export.gcode import program_files
-    from ..job import cad_model, check_cad, check_program, check_programs, design
+    from ..export.reference import CALIB_FILES, REFERENCE_FILES, program_names
+    from ..job import check_cad, check_program, check_programs, design
     from ..pipeline import report_figures
     from ..compute import active
     from ..report import write_report
@@ -51,19 +47,14 @@ def run(args: argparse.Namespace) -> int:
     from .common import check_outputs, output_dir
     from .report import REPORT_FILES, summary
 
-    compute_options(args)  # the flags, before any work
-    settings = load(args)
-    use_compute(args, settings)
+    settings = load_on_executor(args)
     out_dir = Path(args.output or "out")
     default = args.config is None
     gcode_dir = Path(args.gcode_dir) if args.gcode_dir else (Path("gcode") if default else out_dir / "gcode")
     cad_dir = Path(args.cad_dir) if args.cad_dir else (Path("cad") if default else out_dir / "cad")
     calib_dir = Path(args.calib_dir) if args.calib_dir else (Path("calib") if default else out_dir / "calib")
     strategies = (Strategy.PAPER, BEST)
-    exts = [d.extension for d in dialects()] + ["setup.html"]
-    programs = [f"mirror_{s.value}{op}.{ext}" for s in strategies for op in ("", "_op2") for ext in exts
-                if not (op and ext == "setup.html")]  # the second set-up's program is on the first's sheet
-    programs += [d.offsets_file for d in dialects()]  # each control's tool table beside its programs
+    programs = program_names(strategies)
     from ..iso10110 import spec_of
     from .spec import FILES as SPEC_FILES, write_spec
 
@@ -90,17 +81,13 @@ def run(args: argparse.Namespace) -> int:
         def programs_and_cad() -> None:
             """The programs, the CAD, the calibration files and the spec drawing: beside the
             tolerance analysis."""
-            from ..export.cad import write_reference_cad
-            from ..export.calib import write_calibration
-            from ..optics.zones import zones_for
+            from ..export.reference import write_cad_and_calibration, write_programs
 
             say("lathe-mirror run: programs")
             shops[:] = shops_bg.result()  # a design no program can cut, a program that touches the stock: stop here
-            texts = program_files(shops)
-            written["gcode"] = [write_text(gcode_dir / name, text) for name, text in texts.items()]
+            written["gcode"] = write_programs(gcode_dir, shops)
             say("lathe-mirror run: CAD")
-            written["cad"] = write_reference_cad(cad_dir, cad_model(settings, mirror, programmed=True), settings.cad)
-            written["calib"] = write_calibration(calib_dir, mirror, zones_for(settings, mirror))
+            written["cad"], written["calib"] = write_cad_and_calibration(cad_dir, calib_dir, settings, mirror)
             write_spec(out_dir, settings, spec_of(settings, as_turned=True))  # the drawing beside the report (lathe-mirror spec)
 
         shops: list = []

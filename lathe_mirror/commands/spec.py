@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, load, print_json
+from .common import add_common, load, print_result
 
 #: Files `spec -o DIR` writes.
 FILES = ("mirror_spec.json", "mirror_drawing.pdf", "mirror_drawing.svg")
@@ -42,10 +42,7 @@ def run(args: argparse.Namespace) -> int:
     data = spec.to_dict()
     if args.output:
         write_spec(args.output, settings, spec)
-    if args.json:
-        print_json(data)
-    else:
-        print(format_spec(data))
+    print_result(args, data, format_spec)
     return 0
 
 

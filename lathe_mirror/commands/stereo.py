@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_no_progress, load, print_json
+from .common import add_common, add_no_progress, load, print_result
 from ..settings.keys import help_default
 
 
@@ -28,14 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from ..optics.ranging.stereo import (band_visibility, error_curve, image_mask, prepare,
-                                         range_figures, stereo_range)
-    from ..optics.ranging.truth import true_range
-    from ..optics.render import render_image
-    from ..job import MachiningJob, check_program, design, named_surface, scene_for, surface_label
     from ..progress import Stages
+    from ..report.stereo_figures import preload, stereo_plan, write_stereo
 
     settings = load(args)
     st = settings.stereo
@@ -43,110 +37,38 @@ def run(args: argparse.Namespace) -> int:
 
     surface, measured = surface_arg(args.surface)  # a name, or measured:FILE
     surface = surface if surface is not None else st.surface
-    mirror = design(settings)
-    pose = settings.pose
-    grid, match = prepare(mirror, st.params)  # an empty or too narrow band stops here
+    plan = stereo_plan(settings, surface, measured=measured)  # an empty or too narrow band stops here
     if args.output:  # every output name, before any work
         from .common import check_outputs
 
         files = (("range", "png"), ("error_range", "png"), ("points", "ply"), ("stereo", "json"))
         check_outputs(args.output, [f"{stem}_{surface.value}.{ext}" for stem, ext in files])
-    check_program(settings, mirror, surface)  # a surface cut by a program: the program checked
-    stages = Stages(["surface", "render", "match", "truth", "write"], enabled=not args.no_progress)
-    try:
+    plan.check_program()  # a surface cut by a program: the program checked
+    with Stages(["surface", "render", "match", "truth", "write"], enabled=not args.no_progress) as stages:
         stages.start("surface")
-        job = MachiningJob.from_settings(settings, mirror)  # the made mirror every command describes
-        made = named_surface(surface, mirror, settings, measured=measured, job=job)
-        seen = band_visibility(made, mirror, grid, pose)
-        for name, frac in zip(("inner", "outer"), seen):
-            if frac < 0.5:
-                raise_unseen(surface.value, name, frac)
-        z_top = float(max(np.max(made.z(np.linspace(0, made.r_max, 2001))), mirror.outer.h))
-        scene = scene_for(settings, mirror, mirror_top=z_top + abs(pose.axial_offset))
+        plan.made_surface()
         stages.done()
         if args.output:
-            from ..report.range_plots import preload
-
             preload()  # pyplot's import overlaps the render and the matching
         stages.start("render")
-        # the lens's defocus (optics.defocus): the matcher sees the image as the camera records
-        # it; the render reaches as far past the mask as the blur does
-        from ..optics.defocus import blur_figures, blur_map, defocus_image, grow_mask, lens_for
-        from ..optics.zones import zones_for
-
-        lens = lens_for(mirror, settings.optimize.focus_range_m * 1000.0)
-        blur = blur_map(mirror, lens)
-        image = defocus_image(render_image(made, mirror, scene, pose=pose, supersample=st.supersample,
-                                           pixels=grow_mask(image_mask(mirror, grid, match.num_disparities), blur)),
-                              blur)
+        image = plan.image()
         stages.done()
         stages.start("match")
-        result = stereo_range(image, mirror, st.params)
+        result = plan.range(image)
         stages.done()
         stages.start("truth")
-        truth = true_range(mirror, scene, grid)
-        figures = {"surface": surface.value, "made_mirror": surface_label(surface, job), "supersample": st.supersample,
-                   "camera_pose_aligned": pose.aligned, **range_figures(result, truth, mirror),
-                   "defocus": blur_figures(mirror, lens, zones_for(settings, mirror))}
-        precision = figures["disparity_error_px"]["precision"]
-        curve = {**error_curve(result, truth, mirror, precision), "precision_px": precision}
-        figures["error_curve"] = curve
+        figures, curve = plan.figures(result)
         stages.done()
         stages.start("write")
         files = []
         if args.output:
-            files = write_outputs(args.output, surface.value, result, figures, curve, st.ply_binary)
+            from .common import output_dir
+
+            files = write_stereo(output_dir(args.output), surface.value, result, figures, curve, st.ply_binary)
         figures["files"] = files
         stages.done()
-    except BaseException:
-        if stages.bar is not None:
-            stages.bar.leave = False  # clear the bar: the error stays the only line on stderr
-        raise
-    finally:
-        stages.close()
-    if args.json:
-        print_json(figures)
-    else:
-        print(format_figures(figures))
+    print_result(args, figures, format_figures)
     return 0
-
-
-def raise_unseen(surface: str, lobe: str, frac: float) -> None:
-    from ..errors import InputError
-
-    raise InputError(
-        f"--surface {surface}: the camera sees the common band through the {lobe} lobe on only "
-        f"{100 * frac:.1f} % of its panorama (at least 50 % needed; check the surface and "
-        "[camera_pose]): no stereo")
-
-
-def write_outputs(out, surface: str, result, figures: dict, curve: dict, binary: bool) -> list[str]:
-    """Write the range panorama and the error plot (PNG), the point cloud (PLY) and the
-    figures (JSON) into the directory out; returns the paths."""
-    import math
-
-    from ..export.files import json_text, write_bytes, write_text
-    from ..export.ply import write_ply
-    from ..report.range_plots import error_vs_range_png, range_map_png
-    from .common import output_dir
-
-    out = output_dir(out)
-    band = tuple(math.degrees(x) for x in result.grid.band)
-    rng_m = result.range_map.range_mm / 1e3
-    valid = result.valid
-    files = [str(write_bytes(out / f"range_{surface}.png", range_map_png(
-        rng_m, band, title=f"{surface}: range from the stereo centre, {100 * valid.mean():.1f} % of the "
-        "common band ranged (grey: no range)")))]
-    files.append(str(write_bytes(out / f"error_range_{surface}.png", error_vs_range_png(
-        {surface: curve}, title=f"{surface}: median |range error| against range"))))
-    pts = result.range_map.points[valid] * 1e-3
-    files.append(str(write_ply(out / f"points_{surface}.ply", pts, result.colour[valid], binary=binary,
-                               comments=(f"lathe-mirror stereo, surface {surface}",
-                                         "units m; camera frame: pinhole at the origin, +z up the mirror axis"))))
-    path = out / f"stereo_{surface}.json"
-    files.append(str(path))
-    write_text(path, json_text({**figures, "files": files}))
-    return files
 
 
 def format_figures(fig: dict) -> str:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_common, add_compute, add_no_progress, compute_options, load, path_arg, print_json, use_compute
+from .common import add_common, add_compute, add_no_progress, load_on_executor, path_arg, print_result
 from ..settings.keys import help_default
 
 
@@ -41,24 +41,23 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
-    from ..job import MachiningJob, check_programs, design
-    from ..optimize.focus import design_blur_px
-    from ..tolerance.runs import tolerance_runs
+    from ..tolerance.analysis import tolerance_plan
+    from .common import surface_arg
 
     if args.target_yield is not None:
         if not args.allocate:
             raise InputError("--target-yield applies to --allocate (the allocation's target)")
-    compute_options(args)  # the flags, before any work
-    settings = load(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed"),
-                           ("tolerance.target_yield", args.target_yield, "--target-yield")])
-    use_compute(args, settings)
-    mirror = design(settings)
+    settings = load_on_executor(args, [("tolerance.trials", args.trials, "--trials"), ("tolerance.seed", args.seed, "--seed"),
+                                       ("tolerance.target_yield", args.target_yield, "--target-yield")])
+    measured = None
     if args.surface is not None:
-        return run_measured(args, settings, mirror)
-    check_programs(settings, mirror)  # bad input stops here, before the output directory is made
-    job = MachiningJob.from_settings(settings, mirror)  # the one machining job, each program a variant
-    for program in settings.tolerance.programs:
-        job.but(strategy=program.strategy).check()
+        _, measured = surface_arg(args.surface)
+        if measured is None:
+            raise InputError(f"--surface {args.surface!r}: tolerance takes measured:FILE (the programs' parts are "
+                             "toleranced without --surface)")
+    # bad input stops here (the programs' checks, the measured file read and fitted),
+    # before the output directory is made
+    plan = tolerance_plan(settings, measured)
     if args.csv:
         from ..export.files import check_writable
         from .flags import check_suffix
@@ -68,104 +67,14 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         from .common import check_outputs, output_dir
 
-        check_outputs(args.output, ["tolerance.json",
-                                    *(f"monte_carlo_{p.value}.png" for p in settings.tolerance.programs)])
+        check_outputs(args.output, ["tolerance.json", *plan.histograms])
         output_dir(args.output)
-    times = _polish_times(settings, job)
-    runs = tolerance_runs(mirror, settings, times, progress=not args.no_progress, job=job,
-                          allocate=settings.tolerance.programs if args.allocate else (),
-                          blur_px=design_blur_px(mirror, settings))
-    _write(args, runs.figures, runs.results)
+    runs = plan.run(progress=not args.no_progress, allocate=args.allocate)
+    from ..report.tolerance_files import write_tolerance
+
+    write_tolerance(args.output, args.csv, runs.figures, runs.results)
+    print_result(args, runs.figures, format_tolerance)
     return 0
-
-
-def _polish_times(settings, job) -> dict:
-    """Each program's nominal polishing time (api.nominal_polish_time_s), the programs'
-    polishing curves side by side on the command's executor (serial, they were a tenth
-    of a 2,000-trial run on 2 cores)."""
-    from ..api import nominal_polish_time_s
-    from ..compute import active
-
-    programs = list(settings.tolerance.programs)
-    ex = active()
-    if ex.workers == 1 or len(programs) < 2:
-        return {p: nominal_polish_time_s(settings, p, job=job) for p in programs}
-    with ex.bound((settings, job)) as run:
-        return dict(zip(programs, run.map(_polish_time, programs)))
-
-
-def _polish_time(shared, program) -> float:
-    from ..api import nominal_polish_time_s
-
-    settings, job = shared
-    return nominal_polish_time_s(settings, program, job=job)
-
-
-def run_measured(args: argparse.Namespace, settings, mirror) -> int:
-    """tolerance --surface measured:FILE (tolerance.measured): the file read and fitted
-    before any output is made (a bad file: one line, exit 2)."""
-    from ..enums import Surface
-    from ..errors import InputError
-    from ..measure.surface import measured_profile
-    from ..tolerance.measured import ENTRY, measured_tolerance
-    from .common import surface_arg
-
-    kind, path = surface_arg(args.surface)
-    if kind is not Surface.MEASURED:
-        raise InputError(f"--surface {args.surface!r}: tolerance takes measured:FILE (the programs' parts are "
-                         "toleranced without --surface)")
-    profile = measured_profile(path, mirror, nose_radius_mm=settings.tool.nose_radius)
-    if args.csv:
-        from ..export.files import check_writable
-        from .flags import check_suffix
-
-        check_suffix(args.csv, "CSV", "--csv")
-        check_writable(args.csv, "--csv")
-    if args.output:
-        from .common import check_outputs, output_dir
-
-        check_outputs(args.output, ["tolerance.json", f"monte_carlo_{ENTRY}.png"])
-        output_dir(args.output)
-    out, results = measured_tolerance(mirror, settings, profile, path, progress=not args.no_progress,
-                                      allocate=args.allocate)
-    _write(args, out, results)
-    return 0
-
-
-def _write(args: argparse.Namespace, out: dict, results: list) -> None:
-    """tolerance.json and the histograms (-o), the per-trial CSV (--csv), the figures."""
-    if args.output:
-        from pathlib import Path
-
-        from ..export.files import write_text
-        from ..report import dumps
-
-        write_text(Path(args.output) / "tolerance.json", dumps(out))
-        write_histograms(Path(args.output), out)
-    if args.csv:
-        from ..export.files import write_text
-        from ..export.trials import trials_csv
-
-        write_text(args.csv, trials_csv(results), "--csv")
-    if args.json:
-        print_json(out)
-    else:
-        print(format_tolerance(out))
-
-
-def write_histograms(directory, out: dict) -> None:
-    """DIR/monte_carlo_<program>.png: each program's trials against the limits (the
-    report's Monte Carlo chart), with the yield and its 95 % interval in the title."""
-    from ..export.files import write_bytes
-    from ..report.plots import monte_carlo_histograms
-
-    for name, t in out["programs"].items():
-        mc = t["monte_carlo"]
-        write_bytes(directory / f"monte_carlo_{name}.png",
-                    monte_carlo_histograms(mc["per_trial"], mc["limits"], calibrated=mc["calibrated"],
-                                           passed=mc["passed"],
-                                           title=t["made_mirror"]["label"] if "measured_part" in out
-                                           else f"{name} program"))
 
 
 def format_tolerance(out: dict) -> str:

@@ -203,3 +203,51 @@ def check_fields(obj: Any) -> None:
             if value is not None:
                 check(f.metadata[KEY], value, slack=SLACK)
                 f.metadata[CONV].load(value, f.metadata[KEY])  # a named choice: one of its names
+
+
+#: The most changed fields a section's repr lists (the rest counted), so it stays one short line.
+REPR_FIELDS = 6
+
+
+def changed(obj: Any, prefix: str = "") -> list[tuple[str, Any]]:
+    """(field path, value) of each field of a section that differs from its default: a
+    nested section's fields by their dotted path, a table's (dict's) entries by theirs."""
+    out: list[tuple[str, Any]] = []
+    for f in dataclasses.fields(obj):
+        if not (f.init and f.repr):
+            continue
+        name, value = prefix + f.name, getattr(obj, f.name)
+        if NESTED in f.metadata and dataclasses.is_dataclass(value):
+            out += changed(value, name + ".")
+            continue
+        if f.default is not dataclasses.MISSING:
+            default = f.default
+        elif f.default_factory is not dataclasses.MISSING:
+            default = f.default_factory()
+        else:
+            out.append((name, value))  # no default: always stated
+            continue
+        if isinstance(value, dict) and isinstance(default, dict):
+            out += [(f"{name}.{k}", v) for k, v in value.items() if not _equal(default.get(k, dataclasses.MISSING), v)]
+        elif not _equal(value, default):
+            out.append((name, value))
+    return out
+
+
+def section_repr(obj: Any) -> str:
+    """A section in one short line: the fields that differ from their declared defaults
+    (`PolishParams(pressure_kpa=20.0)`, `Settings(camera_pose.axial_offset=1.0)`), at most
+    REPR_FIELDS of them and how many more; `Name(defaults)` when none do. The full values:
+    `dump(obj)` or `dataclasses.asdict(obj)`."""
+    items = changed(obj)
+    shown = [f"{k}={v.value!r}" if isinstance(v, Enum) else f"{k}={v!r}" for k, v in items[:REPR_FIELDS]]
+    if len(items) > REPR_FIELDS:
+        shown.append(f"... {len(items) - REPR_FIELDS} more")
+    return f"{type(obj).__name__}({', '.join(shown) or 'defaults'})"
+
+
+def _equal(a: Any, b: Any) -> bool:
+    try:
+        return bool(a == b)
+    except (TypeError, ValueError):  # arrays: compared element-wise, no single truth
+        return False

@@ -8,8 +8,8 @@ snapped to GRID (shapely's set_precision, which also drops the vertices that sna
 makes coincide and the slivers it collapses) and put in shapely's normal form (rings
 from their lowest point, one way round, in order) before it is drawn: the stock after
 many set operations may carry two vertices a few nanometres apart on one machine and
-one on another (numpy's AVX-512 sin/cos differ from its AVX2 ones in the last bit,
-issue 34), and neither may change the picture's bytes.
+one on another (numpy's AVX-512 sin/cos differ from its AVX2 ones in the last bit),
+and neither may change the picture's bytes.
 """
 
 from __future__ import annotations

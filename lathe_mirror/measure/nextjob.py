@@ -16,12 +16,15 @@ design (radius range, lobe names) is refused with one line.
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 from typing import Any
 
 from ..cut_surface import CompensatedLobe, CompensatedMirror
 from ..design import Mirror
 from ..errors import InputError
+from ..inputs import read_text
 
 #: The files of a job directory (compensate -o DIR; --from DIR).
 JOB_TOML = "job.toml"
@@ -59,3 +62,17 @@ def target_from_dict(data: Any, mirror: Mirror, source: str) -> CompensatedMirro
         raise InputError(f"{source}: next_job.target is not a re-cut target of this design ({exc}); "
                          "allowed: the file compensate wrote, with the configuration beside it") from None
     return CompensatedMirror(mirror, lobes[0], lobes[1])
+
+
+def read_next_job(directory: str | Path, mirror: Mirror) -> tuple[CompensatedMirror | None, str | None]:
+    """What a job directory's compensate.json hands on (`--from DIR`): the re-cut's target
+    on `mirror` (None: the program's usual one) and the program's strategy (None: not
+    named); a file compensate did not write is refused with one line."""
+    src = str(Path(directory) / JOB_JSON)
+    try:
+        data = json.loads(read_text(src, "--from", 64 << 20))
+        nxt = data["next_job"]
+    except (json.JSONDecodeError, KeyError, TypeError) as exc:
+        raise InputError(f"--from {src}: not a job compensate wrote ({exc.__class__.__name__}: {exc}); "
+                         "allowed: the directory of `compensate -o DIR`") from None
+    return target_from_dict(nxt.get("target"), mirror, src), nxt.get("strategy")

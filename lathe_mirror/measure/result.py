@@ -25,6 +25,11 @@ class Measurement:
     diagnosis: Diagnosis
     areal: bool
 
+    def __repr__(self) -> str:
+        # one line: the fit holds the trace's arrays
+        lobes = ", ".join(f"{lf.name} PV {lf.pv_um:.3g} um RMS {lf.rms_um:.3g} um" for lf in self.fit.lobes)
+        return f"Measurement({self.fit.trace.source!r}, {'map' if self.areal else 'profile'}; {lobes})"
+
     def to_dict(self) -> dict:
         return {"source": self.fit.trace.source, "areal": self.areal, "fit": self.fit.to_dict(),
                 "lobes": [lf.to_dict() for lf in self.fit.lobes],

@@ -9,12 +9,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from ..profile import PolylineProfile, Profile
-
-try:  # the toolpath issue's profiles: tool-nose envelopes and programmed moves
-    from ..profile import PathProfile, TabulatedProfile
-except ImportError:  # pragma: no cover
-    PathProfile = TabulatedProfile = None
+from ..profile import PathProfile, PolylineProfile, Profile, TabulatedProfile
 
 #: Newton / bisection stop: change of r (meridian) or ray length s (3-D) below this, mm.
 ROOT_TOL_MM = 1e-12
@@ -67,9 +62,9 @@ def polyline_vertices(profile: Profile, k: int) -> tuple[np.ndarray, np.ndarray]
     if isinstance(profile, PolylineProfile):
         s = profile.lobes[k]
         return s.r, s.z
-    if TabulatedProfile is not None and isinstance(profile, TabulatedProfile):
+    if isinstance(profile, TabulatedProfile):
         r, z, _ = profile.lobes[k]
         return r, z
-    if PathProfile is not None and isinstance(profile, PathProfile):
+    if isinstance(profile, PathProfile):
         return profile.vertices(k)
     return None

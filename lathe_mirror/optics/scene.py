@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..declared.section import Conv, setting
+from ..declared.section import Conv, section_repr, setting
 from ..errors import InputError
 from ..inputs import check_type
 
@@ -57,6 +57,11 @@ class Scene:
     ceiling_colour: tuple[float, float, float]
     box_colour: tuple[float, float, float]
 
+    def __repr__(self) -> str:
+        # one line: the room's size and its boxes (the colours and the lighting: its fields)
+        x0, x1, y0, y1, z0, z1 = self.bounds
+        return f"Scene(room {x1 - x0:g} x {y1 - y0:g} x {z1 - z0:g} mm, {len(self.boxes)} boxes)"
+
     def normals(self) -> np.ndarray:
         """Unit normal of every surface id, facing into the room / out of the box (12, 3)."""
         n = np.zeros((N_SURFACES, 3))
@@ -89,6 +94,8 @@ BOXES = Conv(lambda v, w="": tuple(BoxSpec(centre=tuple(b["centre"]), size=tuple
 class SceneSpec:
     """The [scene] section as given (mm; colours linear RGB 0..1; see data/scene.toml).
     build_scene checks it against the mirror and makes the Scene."""
+
+    __repr__ = section_repr  # one line: the fields off their declared defaults
 
     room_size: float = setting("scene.room_size")
     room_height: float = setting("scene.room_height")

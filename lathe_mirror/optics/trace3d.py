@@ -34,7 +34,7 @@ Fallback (the few rays the fast path cannot decide: a ray whose monotone zone en
 steep feature it may touch, such as the groove or the fillet a nose leaves at the step;
 an origin above the surface or outside the junction radius): march each ray through the
 mirror's height range and refine the first step inside the material (safeguarded Newton,
-bisection across the step wall), as before this module existed.
+bisection across the step wall), as the meridian tracer does (optics.march).
 """
 
 from __future__ import annotations

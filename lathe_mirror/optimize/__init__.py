@@ -15,6 +15,7 @@ Modules:
   evaluate  Problem, Figures, CONSTRAINTS; one candidate's figures, violations and energy
   search    search(problem) -> SearchResult: seeded differential evolution over processes
   pareto    pareto_front
+  winner    the search and the winner's tolerance check as `lathe-mirror optimize` gives them
 """
 
 from .evaluate import CONSTRAINTS, Figures, Problem, figures

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 
 from ..declared import check as check_declared
-from ..declared.section import choice, nested, setting
+from ..declared.section import choice, nested, section_repr, setting
 from ..errors import InputError
 
 #: Names of the searched parameters, in the order of a design vector (see search.py).
@@ -107,6 +107,8 @@ class OptimizeSettings:
     each searched parameter's span the winner keeps clear of its bounds.
     The lathe's constraints come from [tool], [stock], [toolpath] and [cad].
     """
+
+    __repr__ = section_repr  # one line: the fields off their declared defaults
 
     objective: Objective = setting("optimize.objective", choice(Objective))
     seed: int = setting("optimize.seed")

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..enums import Dwell, Lap, PolishObjective
 from ..declared import check as check_declared
-from ..declared.section import choice, setting
+from ..declared.section import choice, section_repr, setting
 from ..errors import InputError
 from ..finish import PROCESSES, Process
 
@@ -80,6 +80,8 @@ class PolishParams:
     precompensate: plan the finishing programs on the design lowered by the removal of
     time_s (the G-code then carries it).
     """
+
+    __repr__ = section_repr  # one line: the fields off their declared defaults
 
     preston_coefficient: float = setting("polish.preston_coefficient")
     pressure_kpa: float = setting("polish.pressure_kpa")

@@ -117,6 +117,13 @@ class ReportData:
     range_maps: RangeMaps | None = None
     plots: dict[str, bytes] = dataclasses.field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        # one line: the stages it holds (their figures: `figures`; the arrays are megabytes)
+        held = ("notes", "definitions", "made", "images", "plots")
+        stages = [f.name for f in dataclasses.fields(self) if f.name not in held and getattr(self, f.name) is not None]
+        return (f"ReportData({', '.join(stages)}; {len(self.made)} surfaces, {len(self.images)} images, "
+                f"{len(self.plots)} plots)")
+
     #: report.json's sections, in order (None: not computed, left out)
     SECTIONS = ("notes", "definitions", "design", "spec", "machine", "toolpaths", "polishing", "zones", "mirrors", "made_mirror",
                 "calibration", "stereo", "renders", "ranging", "tolerance", "verdict", "shop", "outputs")

@@ -12,7 +12,7 @@ from .sections import MAX_SUPERSAMPLE, ComputeSettings, RenderSettings, Sections
 from .validate import validate
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)  # Sections' one-line repr
 class Settings(Sections):
     """Every section of a configuration (settings.sections.Sections: the fields), checked
     on construction (settings.validate: the keys' ranges, the cross-key rules, the design,

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..body import BodySpec, CadSettings
-from ..declared.section import check_fields, choice, flag, nested, setting
+from ..declared.section import check_fields, choice, flag, nested, section_repr, setting
 from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
 from ..enums import Surface
 from ..lathe import Lathe, Stock, Tool
@@ -79,12 +79,14 @@ class Sections:
     camera, lobes: the design's inputs (pipeline.design builds the Mirror from them).
     machine, tool, stock, toolpath: the lathe, its insert, the bar and the program's knobs.
     body, cad: the mounting body and the CAD export settings. polish: polishing.
-    scene, render, pose: the room, how it is rendered, the camera's misalignment.
+    scene, render, camera_pose: the room, how it is rendered, the camera's misalignment.
     stereo: ranging from the image (optics.ranging).
     tolerance: the tolerance analysis (spec, tolerances, Monte Carlo).
     optimize: the design search. machine_errors: the lathe's set-up errors ([machine.errors]).
     compute: where heavy work runs (local processes or a Dask scheduler).
     """
+
+    __repr__ = section_repr  # one line: the fields off their declared defaults
 
     camera: Camera = nested(Camera)
     lobes: tuple[LobeSpec, LobeSpec] = field(default_factory=lambda: (LobeSpec.declared("inner"),
@@ -98,7 +100,7 @@ class Sections:
     polish: PolishParams = nested(PolishParams)
     scene: SceneSpec | None = nested(SceneSpec)
     render: RenderSettings = nested(RenderSettings)
-    pose: CameraPose = nested(CameraPose)
+    camera_pose: CameraPose = nested(CameraPose)
     tolerance: ToleranceSettings | None = nested(ToleranceSettings)
     stereo: StereoSettings = nested(StereoSettings)
     optimize: OptimizeSettings = nested(OptimizeSettings)

@@ -28,6 +28,9 @@ config dict. shop.programs.shop_program strings it together (plan, simulate, ref
                put in the common form by its dialect (export.dialects, handed in)
 - check.py     `toolpath --check`: a written program's text simulated against the set-up
                it belongs to (the second set-up's by its first operation)
+- measured.py  a made part measured (`measure`: fit, diagnosis, form verdicts) and the next
+               job it asks for (`compensate`: the re-cut program, its sheet, job.toml's text)
+- feasible.py  whether a design not from the configuration can be made (the optimiser's)
 """
 
 from .plan import plan_program

@@ -204,6 +204,10 @@ class Program:
     parting: tuple[float, float] | None = None
     setup: object = None
 
+    def __repr__(self) -> str:
+        # one line: the blocks are the program's text (export.gcode writes it)
+        return f"Program({self.name!r}, {len(self.operations)} operations, {self.toolpath!r})"
+
     @property
     def rough_feed(self) -> float:
         """The roughing tool's feed, mm/rev (rough_feed)."""

@@ -51,6 +51,12 @@ class ShopProgram:
     second: ShopProgramModel | None = None
     second_simulation: Simulation | None = None
 
+    def __repr__(self) -> str:
+        # one line: the program's blocks and the simulation's moves run to 100 kB
+        second = f", second set-up {self.second.name!r}" if self.second is not None else ""
+        return (f"ShopProgram({self.program.name!r}, {len(self.program.operations)} operations{second}, "
+                f"cycle {self.simulation.cycle_time_s / 60:.1f} min)")
+
 
 def shop_program(toolpath: Toolpath, stock: Stock, options: ToolpathSettings | None = None, *,
                  name: str | None = None, setting_costs: dict | None = None,

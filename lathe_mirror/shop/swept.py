@@ -10,7 +10,8 @@ shapely is first snapped to GRID (snap, snap_geometry): the tool's outline (libm
 and cos, GEOS's buffer), an arc's chords and the designed part (numpy's sin, cos and
 sqrt, whose AVX-512 paths differ from its AVX2 ones in the last bit) reach GEOS as the
 same numbers on every machine, and GEOS's own arithmetic is the same everywhere, so the
-stock after each operation is too (issue 34: a last-bit drift had left a vertex doubled).
+stock after each operation is too (a last-bit drift would double a vertex on one
+machine and not on another).
 """
 
 from __future__ import annotations

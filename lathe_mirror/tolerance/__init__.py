@@ -14,6 +14,8 @@ One concern per module (after optiland's tolerancing package):
   allocation   inverse sensitivity and the least-cost tolerances for a target yield
   stats        Wilson's interval of a yield
   setting      what a tool-setting error costs on the exact design
+  runs         the analysis of each configured program on the machining job
+  analysis     the analysis as `lathe-mirror tolerance` runs it: every check, then the run
 
 This package imports nothing heavy at import time.
 """

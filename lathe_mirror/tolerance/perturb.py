@@ -35,7 +35,7 @@ from ..optics.radial import used_extent
 from ..optics.stereo import capped_abs_error, triangulate
 from ..toolpath.metrics import slope_error
 from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals
-from .poses import poses
+from .poses import PoseDraws, poses
 from .samples import PixelSample, StereoPoints, stereo_points
 from .surfaces import OFF_SURFACE_MM, SurfaceBank
 
@@ -48,22 +48,16 @@ _BATCH_RAYS = 150_000
 
 
 @dataclass
-class Trials:
-    """Parameters of each trial (arrays of one length). Units in the names; phase is an
-    index into the bank's phases; camera tilt and seat tilt in rad."""
+class Trials(PoseDraws):
+    """Parameters of each trial (arrays of one length): the camera's and the seat's
+    (poses.PoseDraws) and the machining's. Units in the names; phase is an index into the
+    bank's phases; camera tilt and seat tilt in rad."""
 
     phase: np.ndarray
     nose_mm: np.ndarray
     time_s: np.ndarray
     tool_x_mm: np.ndarray
     tool_z_mm: np.ndarray
-    cam_x_mm: np.ndarray
-    cam_y_mm: np.ndarray
-    cam_z_mm: np.ndarray
-    tilt_x: np.ndarray
-    tilt_y: np.ndarray
-    seat_x: np.ndarray
-    seat_y: np.ndarray
     # the lathe's set-up errors beyond the configured ones (machine_errors; tolerance.
     # machine_errors): centre height (mm), nose radius error with the tool set on its tip
     # (mm), X slide squareness (rad), and the X shift of the finishing pass (X offset plus

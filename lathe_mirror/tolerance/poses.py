@@ -3,14 +3,16 @@ drawn decentre, axial offset, tilt and the mirror's seat tilt (tolerance.perturb
 
 from __future__ import annotations
 
-from typing import Protocol
+from dataclasses import dataclass
 
 import numpy as np
 
 
-class Draws(Protocol):
-    """What a pose is made of, one value a trial (perturb.Trials has them): the pinhole's
-    decentre and axial offset (mm), the camera's and the seat's tilts (rad)."""
+@dataclass
+class PoseDraws:
+    """What a pose is made of, one value a trial (a perturb.Trials is one, with the
+    machining's draws beside): the pinhole's decentre and axial offset (mm), the camera's
+    and the seat's tilts (rad)."""
 
     cam_x_mm: np.ndarray
     cam_y_mm: np.ndarray
@@ -21,7 +23,7 @@ class Draws(Protocol):
     seat_y: np.ndarray
 
 
-def poses(tr: Draws, seat_pivot_mm: float) -> tuple[np.ndarray, np.ndarray]:
+def poses(tr: PoseDraws, seat_pivot_mm: float) -> tuple[np.ndarray, np.ndarray]:
     """The camera's pinhole (trials, 3) and rotation (camera -> mirror frame, (trials, 3, 3))
     in the mirror's frame.
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..declared.section import FLOATS, choice, nested, setting
+from ..declared.section import FLOATS, choice, nested, section_repr, setting
 from ..enums import Distribution, Program
 from .registry import REGISTRY
 
@@ -74,6 +74,8 @@ class ToleranceSettings:
     each [machine.errors] set-up error about its configured value ([tolerance.machine_errors],
     the same meaning as `tolerances` under `distribution`; edge units mm and urad).
     """
+
+    __repr__ = section_repr  # one line: the fields off their declared defaults
 
     seed: int = setting("tolerance.seed")
     trials: int = setting("tolerance.trials")

@@ -128,27 +128,38 @@ class Dialect:
         return f"T{station}"
 
     def tool_call(self, station: int, role: str) -> list[str]:
-        """Index the turret and take the offsets (the first line takes the block number)."""
+        """Index the turret and take the offsets (the first line takes the block number):
+        the tool word alone where the word does both."""
+        return [self.tool_word(station)]
+
+    def m_code(self, number: int) -> str:
+        """A miscellaneous function's word (M3; a control that writes two digits, M03,
+        says so here)."""
+        return f"M{number}"
+
+    def spindle_cap(self, max_rpm: int) -> str:
+        """The block that caps the spindle (rev/min) under constant surface speed."""
         raise NotImplementedError
 
     def spindle_on(self, surface_speed: float, max_rpm: int, clockwise: bool) -> list[str]:
-        """Constant surface speed (m/min) with the cap (rev/min), feed per revolution."""
-        raise NotImplementedError
+        """Constant surface speed (m/min) with the cap (rev/min), feed per revolution: the
+        cap's block, then G96 S.. M3 (M4 counter-clockwise)."""
+        return [self.spindle_cap(max_rpm), f"G96 S{int(surface_speed)} {self.m_code(3 if clockwise else 4)}"]
 
     def coolant(self, on: bool) -> str:
-        return "M8" if on else "M9"
+        return self.m_code(8 if on else 9)
 
     def spindle_stop(self) -> str:
-        return "M5"
+        return self.m_code(5)
 
     def optional_stop(self) -> str:
-        return "M1"
+        return self.m_code(1)
 
     def program_stop(self) -> str:
-        return "M0"
+        return self.m_code(0)
 
     def end(self) -> str:
-        return "M30"
+        return self.m_code(30)
 
     # -- tool data -------------------------------------------------------------------------
 

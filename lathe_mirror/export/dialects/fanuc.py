@@ -57,23 +57,11 @@ class Fanuc(Dialect):
     def tool_word(self, station: int) -> str:
         return f"T{station:02d}{station:02d}"
 
-    def tool_call(self, station: int, role: str) -> list[str]:
-        return [self.tool_word(station)]
+    def m_code(self, number: int) -> str:  # two digits, as the Fanuc manuals write them
+        return f"M{number:02d}"
 
-    def spindle_on(self, surface_speed: float, max_rpm: int, clockwise: bool) -> list[str]:
-        return [f"G50 S{max_rpm}", f"G96 S{int(surface_speed)} {'M03' if clockwise else 'M04'}"]
-
-    def coolant(self, on: bool) -> str:
-        return "M08" if on else "M09"
-
-    def spindle_stop(self) -> str:
-        return "M05"
-
-    def optional_stop(self) -> str:
-        return "M01"
-
-    def program_stop(self) -> str:
-        return "M00"
+    def spindle_cap(self, max_rpm: int) -> str:
+        return f"G50 S{max_rpm}"
 
     def tip_code(self, tool: ToolSheet) -> str:
         return "imaginary tool nose T0"

@@ -73,11 +73,8 @@ class Siemens(Dialect):
     def tool_word(self, station: int) -> str:
         return f'T="T{station}" D1'
 
-    def tool_call(self, station: int, role: str) -> list[str]:
-        return [self.tool_word(station)]
-
-    def spindle_on(self, surface_speed: float, max_rpm: int, clockwise: bool) -> list[str]:
-        return [f"LIMS={max_rpm}", f"G96 S{int(surface_speed)} {'M3' if clockwise else 'M4'}"]
+    def spindle_cap(self, max_rpm: int) -> str:
+        return f"LIMS={max_rpm}"
 
     def tip_code(self, tool: ToolSheet) -> str:
         return "cutting edge position 9 ($TC_DP2)"
