@@ -27,9 +27,11 @@ FEED_STEP = 0.0001
 # (optimize's thickness constraint), so they sit with the machine, below both.
 #: The soft jaws stop this far below the back face (mm): the facing tool passes over them.
 JAW_GAP = 3.0
-#: The jaws reach out this far beyond the part (mm) and grip at least this long (mm).
+#: The jaws reach out this far beyond the part (mm).
 JAW_WIDTH = 10.0
-MIN_GRIP = 3.0
+#: They grip at least this long (mm): toolpath.min_grip_mm's default (shop.second checks
+#: the configured one, and the part's stand-out besides).
+MIN_GRIP = float(declared_key("toolpath.min_grip_mm").default)
 
 
 @dataclass(frozen=True)

@@ -79,16 +79,20 @@ class OperationWriter:
         self.blocks.append(Feed(seg))
         self.pos = (float(seg.end[0]), float(seg.end[1]))
 
-    def go_home(self, *, stop: bool, note: str = "check the part; the finishing tool takes a fresh edge") -> None:
+    def go_home(self, *, stop: bool, note: str = "check the part; the finishing tool takes a fresh edge",
+                change: bool = False) -> None:
         """Coolant off, up to the home Z, across to the home radius, spindle off; then an
-        optional stop (before a new tool, `note` the comment before it) or the program's end."""
+        optional stop (before a new tool, `note` the comment before it) or the program's end;
+        change: neither (the next tool is called at home, straight on)."""
         p = self.p
         if p.opts.coolant:
             self.blocks.append(Coolant(on=False))
         self.rapid((self.pos[0], p.home[1]))
         self.rapid(p.home)
         self.blocks.append(SpindleStop())
-        if stop:
+        if change:
+            pass
+        elif stop:
             self.comment(note)
             self.blocks.append(OptionalStop())
         else:

@@ -39,6 +39,10 @@ OPPOSITE_ROUGHING_STATION = 3
 OPPOSITE_FINISHING_STATION = 4
 #: The parting blade (shop.partoff), on a station of its own.
 PARTING_STATION = 5
+#: The mount's bore (shop.boring): the spot drill, the drill, the boring bar.
+CENTRE_DRILL_STATION = 6
+DRILL_STATION = 7
+BORING_STATION = 8
 
 
 def stations(toolpath: Toolpath) -> tuple[int, int]:
