@@ -8,8 +8,8 @@ above Z0 when the bore is cut (its finishing pass comes last).
 - T6, the spot drill (SPOT_DRILL_MM, 90 deg): a cone at the axis from the face down to a
   spot SPOT_MARGIN_MM wider than the drill (the drill's point starts in it, not on the
   face, and the hole's edge is chamfered).
-- T7, the drill (DRILL_POINT_DEG): the bar's minimum bore plus DRILL_CLEARANCE_MM, up to a
-  multiple of DRILL_STEP_MM (a stock size); its full diameter down to `fa` above the
+- T7, the drill (lathe.bore_drill_mm, DRILL_POINT_DEG): the bar's minimum bore plus a
+  clearance, a stock size; its full diameter down to `fa` above the
   floor, its point below it, in pecks of at most PECK_DIAMETERS diameters with a retract
   between. Its point below the floor is the one place the part departs from the CAD
   body (a drilled blind hole's "drill point permitted"; the drawing says so); bore_part
@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ..errors import InputError
-from ..lathe import Tool
+from ..lathe import DRILL_POINT_DEG, Tool, bore_drill_mm
 
 from .program import BORING_STATION, CENTRE_DRILL_STATION, DRILL_STATION
 
@@ -44,10 +44,6 @@ if TYPE_CHECKING:
 SPOT_DRILL_MM = 10.0
 SPOT_POINT_DEG = 90.0
 SPOT_MARGIN_MM = 0.5
-#: The drill: a 118 deg point, the bar's minimum bore plus this (mm), a stock size (mm).
-DRILL_POINT_DEG = 118.0
-DRILL_CLEARANCE_MM = 0.5
-DRILL_STEP_MM = 0.5
 #: Deepest peck, in drill diameters (chips clear the flutes between pecks).
 PECK_DIAMETERS = 2.0
 #: The drill's feed, mm/rev (aluminium, 8-12 mm HSS or carbide drill) and the spot drill's.
@@ -90,7 +86,7 @@ def bore_plan(body: BodySpec, opts: ToolpathSettings, nose_radius: float, *, ver
         raise InputError(f"toolpath.boring_bar_shank_mm = {shank:g} mm: the bar's shank must sit inside its "
                          f"minimum bore (toolpath.boring_bar_min_bore_mm = {mb:g} mm) with its insert beside it; "
                          f"allowed <= {mb - 1.0:g} mm")
-    drill = math.ceil((mb + DRILL_CLEARANCE_MM) / DRILL_STEP_MM - 1e-9) * DRILL_STEP_MM
+    drill = bore_drill_mm(mb)
     need = drill + 2.0 * (fa + nose_radius + HOLE_CLEARANCE)
     if body.mount_diameter < need - 1e-9:
         raise InputError(f"cad.mount_diameter = {body.mount_diameter:g} mm: the bore is drilled {drill:g} mm for the "
