@@ -138,6 +138,12 @@ def bore_part(part, body: BodySpec, plan: BorePlan):
     return part.difference(point.buffer(1e-4, join_style="mitre")).normalize()
 
 
+def drill_rpm(lathe, diameter: float) -> int:
+    """A drill's constant spindle speed (rev/min): machine.surface_speed at its diameter
+    (mm), within the spindle cap (what G96 on the axis would run at)."""
+    return int(min(lathe.spindle_max_rpm, math.floor(1000.0 * lathe.surface_speed / (math.pi * diameter))))
+
+
 def write_bore(planner, pos: tuple[float, float], rough: float, finish: float, body: BodySpec,
                opts: ToolpathSettings, plan: BorePlan, up, down, levels) -> list[Operation]:
     """The bore's operations (see the module doc), each tool from home and back to it:
@@ -150,6 +156,7 @@ def write_bore(planner, pos: tuple[float, float], rough: float, finish: float, b
     safe = up(fa + clr)
     ops: list[Operation] = []
     spot = OperationWriter(planner, CENTRE_DRILL_STATION, "centre drill", SPOT_FEED, pos=pos)
+    spot.rpm = drill_rpm(planner.lathe, SPOT_DRILL_MM)
     spot.start("centre drill", f"centre drill: the {SPOT_DRILL_MM:g} mm {SPOT_POINT_DEG:g} deg spot drill at the "
                                f"axis, a spot {2 * plan.spot_r:g} mm across for the {plan.drill_mm:g} mm drill",
                first=True)
@@ -162,6 +169,7 @@ def write_bore(planner, pos: tuple[float, float], rough: float, finish: float, b
     d, apex = plan.drill_mm, plan.apex_z
     pecks = max(1, math.ceil((fa - apex) / (PECK_DIAMETERS * d) - 1e-9))
     drill = OperationWriter(planner, DRILL_STATION, "drill", DRILL_FEED, pos=planner.home)
+    drill.rpm = drill_rpm(planner.lathe, d)
     drill.start("drill", f"drill: {d:g} mm, {DRILL_POINT_DEG:g} deg point, its full diameter to {fa:g} mm above the "
                          f"bore's floor (the point to Z{apex:.3f}, below it), {pecks} peck{'s' if pecks > 1 else ''}",
                 first=True)

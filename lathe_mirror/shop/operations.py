@@ -30,6 +30,7 @@ class OperationWriter:
                  pos: tuple[float, float] | None = None) -> None:
         self.p, self.station, self.role, self.feed_rate = planner, station, role, feed
         self.pos = pos if pos is not None else planner.home
+        self.rpm: int | None = None  # a constant spindle speed (G97, rev/min) instead of G96
         self.ops: list[Operation] = []
         self.blocks: list = []
         self.name: str | None = None
@@ -44,7 +45,7 @@ class OperationWriter:
         self.name = name
         self.blocks = [Comment(note),
                        ToolCall(station=self.station, role=self.role),
-                       SpindleOn(surface_speed=lathe.surface_speed, max_rpm=lathe.spindle_max_rpm)]
+                       SpindleOn(surface_speed=lathe.surface_speed, max_rpm=lathe.spindle_max_rpm, rpm=self.rpm)]
         if p.opts.coolant:
             self.blocks.append(Coolant(on=True))
         self.blocks.append(FeedRate(feed=self.feed_rate))

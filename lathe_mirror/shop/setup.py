@@ -34,6 +34,9 @@ if TYPE_CHECKING:
 #: The spindle direction every tool cuts with (M3), as the sheet states it.
 SPINDLE = ("M3: clockwise looking from the headstock along +Z (ISO 6983); the insert's rake face toward "
            "the oncoming surface (up in a front tool post, down on a rear turret)")
+#: The drills' spindle direction: the work turning M3 is a right-hand drill's cutting
+#: direction (clockwise seen from its shank, relative to the work).
+DRILL_SPINDLE = "M3: clockwise looking from the headstock along +Z (ISO 6983); a right-hand drill"
 #: The bar's length in the first set-up's jaws, mm (the blank is the stick-out plus this).
 BAR_GRIP = 10.0
 
@@ -288,10 +291,12 @@ def bore_sheets(plan, opts, diameter_mode: bool) -> list[ToolSheet]:
     return [
         ToolSheet(station=CENTRE_DRILL_STATION, role="centre drill (second set-up)",
                   insert=f"NC spot drill {SPOT_DRILL_MM:g} mm, {SPOT_POINT_DEG:g} deg", holder=held, offsets=point,
+                  spindle=DRILL_SPINDLE,
                   label=f"spot drill {SPOT_DRILL_MM:g} mm {SPOT_POINT_DEG:g} deg, point on the axis"),
         ToolSheet(station=DRILL_STATION, role="drill (second set-up)",
                   insert=f"twist drill {plan.drill_mm:g} mm, {DRILL_POINT_DEG:g} deg point (aluminium)",
-                  holder=held, offsets=point, label=f"drill {plan.drill_mm:g} mm, point on the axis"),
+                  holder=held, offsets=point, label=f"drill {plan.drill_mm:g} mm, point on the axis",
+                  spindle=DRILL_SPINDLE),
         ToolSheet(station=BORING_STATION, role="boring (second set-up)",
                   insert=f"CCGT 0602{round(rho * 10):02d} (80 deg, {rho:g} mm nose), a fresh edge for the finish",
                   holder=(f"{bar_name}, 95 deg (SCLC), RIGHT hand: the tip toward +X and -Z, it bores from the "

@@ -135,6 +135,10 @@ class Dialect:
         """Constant surface speed (m/min) with the cap (rev/min), feed per revolution."""
         raise NotImplementedError
 
+    def spindle_rpm(self, rpm: int, clockwise: bool) -> list[str]:
+        """A constant spindle speed (rev/min, G97), feed per revolution."""
+        return [f"G97 S{rpm} {'M3' if clockwise else 'M4'}"]
+
     def coolant(self, on: bool) -> str:
         return "M8" if on else "M9"
 
@@ -315,6 +319,8 @@ class Writer:
                 self.comment(b.text)
             elif isinstance(b, ToolCall):
                 self.lines_numbered(d.tool_call(b.station, b.role), n)
+            elif isinstance(b, SpindleOn) and b.rpm is not None:
+                self.lines_numbered(d.spindle_rpm(int(b.rpm), b.clockwise), n)
             elif isinstance(b, SpindleOn):
                 self.lines_numbered(d.spindle_on(b.surface_speed, int(b.max_rpm), b.clockwise), n)
             elif isinstance(b, Coolant):

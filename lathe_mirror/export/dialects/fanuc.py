@@ -63,6 +63,9 @@ class Fanuc(Dialect):
     def spindle_on(self, surface_speed: float, max_rpm: int, clockwise: bool) -> list[str]:
         return [f"G50 S{max_rpm}", f"G96 S{int(surface_speed)} {'M03' if clockwise else 'M04'}"]
 
+    def spindle_rpm(self, rpm: int, clockwise: bool) -> list[str]:
+        return [f"G97 S{rpm} {'M03' if clockwise else 'M04'}"]
+
     def coolant(self, on: bool) -> str:
         return "M08" if on else "M09"
 
