@@ -69,11 +69,6 @@ class BorePlan:
     overhang_mm: float
     bar: Tool
 
-    @property
-    def drill_cone(self) -> float:
-        """Height of the drill's point (mm)."""
-        return self.drill_mm / 2.0 / math.tan(math.radians(DRILL_POINT_DEG) / 2.0)
-
 
 def bore_plan(body: BodySpec, opts: ToolpathSettings, nose_radius: float, *, vertex_z: float,
               resolution: float) -> BorePlan:
