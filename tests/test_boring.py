@@ -119,3 +119,14 @@ def test_a_bore_or_grip_the_shop_cannot_do_is_refused(tmp_path, text, phrase):
     err = res.stderr.strip().splitlines()
     assert res.returncode == 2 and len(err) == 1 and phrase in err[0], res.stderr
     assert "Traceback" not in res.stderr and not (tmp_path / "p.ngc").exists()
+
+
+def test_run_refuses_a_bore_the_bar_does_not_fit_before_any_work(tmp_path):
+    """`run` checks the bore's tools with the programs' plan (shop.programs.plan_checks),
+    before it designs, renders or writes anything."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[cad]\nmount_diameter = 9.0\n")
+    res = run_cli("run", "--config", str(cfg), "-o", str(tmp_path / "out"))
+    err = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and len(err) == 1 and "cad.mount_diameter = 9 mm" in err[0], res.stderr
+    assert not (tmp_path / "out").exists()
