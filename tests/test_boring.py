@@ -130,3 +130,17 @@ def test_run_refuses_a_bore_the_bar_does_not_fit_before_any_work(tmp_path):
     err = res.stderr.strip().splitlines()
     assert res.returncode == 2 and len(err) == 1 and "cad.mount_diameter = 9 mm" in err[0], res.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_every_set_up_grips_at_least_the_configured_length(tmp_path):
+    """toolpath.min_grip_mm = 12 mm: the paper default's second set-up (7.22 mm) is refused
+    (test above); a 36 mm body gives its soft jaws 13.22 mm (7.22 + 6, the shoulder stays
+    where the rim is) and passes, and the first set-up's jaws take 12 mm of the bar, not
+    10: the blank is the 41 mm stick-out (stock.length 40 + face 1) plus 12 mm."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[toolpath]\nmin_grip_mm = 12.0\n[cad]\nthickness = 36.0\n")
+    settings = load(cfg)
+    shop, = shop_programs(settings, settings.mirror(), strategies=(Strategy.ARCS,))
+    assert shop.sheet.stock["grip_mm"] == 12.0 and shop.sheet.stock["blank_length_mm"] == pytest.approx(53.0)
+    assert shop.sheet.second.grip_mm == pytest.approx(13.2215, abs=1e-3)
+    assert shop.sheet.second.min_grip_mm == 12.0
