@@ -27,9 +27,25 @@ FEED_STEP = 0.0001
 # (optimize's thickness constraint), so they sit with the machine, below both.
 #: The soft jaws stop this far below the back face (mm): the facing tool passes over them.
 JAW_GAP = 3.0
-#: The jaws reach out this far beyond the part (mm) and grip at least this long (mm).
+#: The jaws reach out this far beyond the part (mm).
 JAW_WIDTH = 10.0
-MIN_GRIP = 3.0
+# The mount's bore is drilled for the boring bar, then bored (shop.boring); the drawing
+# states the drill's point below the bore's floor (iso10110), so the drill sits here.
+#: The drill: a 118 deg point, the bar's minimum bore plus DRILL_CLEARANCE_MM, up to a
+#: stock size (a multiple of DRILL_STEP_MM), mm.
+DRILL_POINT_DEG = 118.0
+DRILL_CLEARANCE_MM = 0.5
+DRILL_STEP_MM = 0.5
+
+
+def bore_drill_mm(bar_min_bore_mm: float) -> float:
+    """The drill (mm) the boring bar of minimum bore `bar_min_bore_mm` (mm) enters."""
+    return math.ceil((bar_min_bore_mm + DRILL_CLEARANCE_MM) / DRILL_STEP_MM - 1e-9) * DRILL_STEP_MM
+
+
+#: They grip at least this long (mm): toolpath.min_grip_mm's default (shop.second checks
+#: the configured one, and the part's stand-out besides).
+MIN_GRIP = float(declared_key("toolpath.min_grip_mm").default)
 
 
 @dataclass(frozen=True)

@@ -105,12 +105,14 @@ def test_fanuc_offsets_are_in_fanucs_form(shop):
     tool nose (0: the nose centre); X and Z only where they are measured."""
     settings, sh = shop
     tools = sheet_tools([sh])
-    assert [t.station for t in tools] == [1, 2, 5]
+    # the inserts, the blade, and the bore's spot drill, drill and boring bar (shop.boring)
+    assert [t.station for t in tools] == [1, 2, 5, 6, 7, 8]
     name, text = offset_table(tools, "fanuc")
     lines = text.splitlines()
     assert name == "offsets.nc" and lines[:2] == ["%", "O9001 (TOOL OFFSETS)"] and lines[-2:] == ["M30", "%"]
     g10 = [ln for ln in lines if ln.startswith("G10")]
-    assert g10 == ["G10 P10001 R0.2 Q0", "G10 P10002 R0.2 Q0", "G10 P10005 R0.0 Q0"]
+    assert g10 == ["G10 P10001 R0.2 Q0", "G10 P10002 R0.2 Q0", "G10 P10005 R0.0 Q0", "G10 P10006 R0.0 Q0",
+                   "G10 P10007 R0.0 Q0", "G10 P10008 R0.2 Q0"]
     _, measured = offset_table(tools, "fanuc", measured={2: Measured(x=-1.234, z=0.5)})
     assert "G10 P10002 X-1.2340 Z0.5000 R0.2 Q0" in measured.splitlines()
     # the LinuxCNC table: T, P, X, Z, the nose's diameter D, orientation Q (9: its centre)
@@ -180,7 +182,8 @@ def test_a_new_dialect_is_one_class(toy, shop, tmp_path):
     assert re.search(r"^N1 tool 1$", text, re.M) and "N2 cap 3000" in text
     files = program_files([sh])
     assert {"mirror_arcs.toy", "mirror_arcs_op2.toy", "toy_tools.txt"} <= set(files)
-    assert files["toy_tools.txt"].splitlines() == ["tool 1 radius 0.2", "tool 2 radius 0.2", "tool 5 radius 0"]
+    assert files["toy_tools.txt"].splitlines() == ["tool 1 radius 0.2", "tool 2 radius 0.2", "tool 5 radius 0",
+                                                   "tool 6 radius 0", "tool 7 radius 0", "tool 8 radius 0.2"]
     page = setup_sheet_html(sh.sheet)
     assert "Toy control (toy_tools.txt)" in page and "<code>tool 2 radius 0.2</code>" in page
     assert "Toy control point C" in page and "mirror_arcs.toy" in page

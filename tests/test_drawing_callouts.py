@@ -179,6 +179,24 @@ def test_drawing_pdf_carries_the_new_blocks(case, tmp_path):
         assert word in text, word
     assert "e.g." not in text  # the material is stated, not suggested
     assert data["lobes"][0]["form_tolerance"]["iso10110_5"].split(";")[0] in text
+    # the outer clear aperture ends inside the rim by the polished edge band: the polishing
+    # analysis's own clear aperture (optics.polishing_curve), its outer end by hand the rim
+    # less polish.clear_edge_mm; drawn as "CA outer Ø..", tabled, and in the JSON
+    from lathe_mirror.optics.polishing_curve import clear_aperture
+
+    mirror, edge = settings.mirror(), settings.polish.clear_edge_mm
+    assert edge > 0
+    for k, lobe in enumerate(data["lobes"]):
+        # (where the step starts to vignette the inner lobe: the polishing analysis samples it
+        # every 0.002 mm, the drawing's range solves it)
+        lo, hi = clear_aperture(mirror, k, edge)
+        assert lobe["clear_aperture_mm"] == pytest.approx([lo, hi], abs=1e-3)
+        assert "{:.3f} .. {:.3f}".format(*lobe["clear_aperture_mm"]) in text
+    outer_hi = mirror.r_max - edge
+    assert data["lobes"][1]["clear_aperture_mm"][1] == pytest.approx(outer_hi, abs=1e-12)
+    assert f"CA outer Ø{2 * outer_hi:.2f}".rstrip("0").rstrip(".") in text or \
+        f"CA outer Ø{2 * outer_hi:g}" in text
+    assert data["clear_edge_mm"] == edge and f"end {edge:g} mm inside the rim" in text
 
 
 def test_drawing_number_names_the_design(tmp_path):

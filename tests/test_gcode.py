@@ -402,7 +402,8 @@ def test_cli_json_and_directory_output(tmp_path):
     names = [op["name"] for op in data["shop"]["operations"]]
     assert names[:3] == ["face", "rough", "semi-finish"] and names[-2:] == ["finish", "part-off"]
     assert data["shop"]["contacts"] == [] and data["second_setup"]["contacts"] == []
-    assert [op["name"] for op in data["second_setup"]["operations"]] == ["face back", "bore", "finish back"]
+    assert [op["name"] for op in data["second_setup"]["operations"]] == ["face back", "centre drill", "drill", "bore",
+                                                                         "finish bore", "finish back"]
     assert (tmp_path / "tools.tbl").read_text().splitlines()[0].startswith("T1 P1 X0 Z0 D0.000 Q0")
     # "best" names the default strategy, as in `lathe-mirror render --surface best`
     res = run_cli("toolpath", "--strategy", "best", "--nose-radius", "0", "--json")
@@ -552,6 +553,10 @@ def test_outer_recessed_step_is_cut_by_the_opposite_hand(tmp_path):
     assert out.count("CHANGE_TOOL(3)") == 3 and out.count("CHANGE_TOOL(4)") == finishing >= 1
     assert out.count("CHANGE_TOOL(5)") == 1  # the part-off
     assert "CHANGE_TOOL(1)" not in out and "PROGRAM_END" in out
-    # the second set-up, the back faced and bored with the insert as configured (T1)
+    # the second set-up: the back faced with the insert as configured (T1), the bore drilled (T6, T7)
+    # and bored (T8, rough and finish), the back finished (T2); rs274 names a tool by its row in the
+    # table written beside the programs
     out2 = rs274(tmp_path, (tmp_path / "p_op2.ngc").read_text())
-    assert out2.count("CHANGE_TOOL(1)") == 2 and out2.count("CHANGE_TOOL(2)") == 1 and "PROGRAM_END" in out2
+    table = [int(t) for t in re.findall(r"^T(\d+) ", (tmp_path / "tools.tbl").read_text(), re.M)]
+    rows = [int(k) for k in re.findall(r"CHANGE_TOOL\((\d+)\)", out2)]
+    assert [table[k - 1] for k in rows] == [1, 6, 7, 8, 8, 2] and "PROGRAM_END" in out2

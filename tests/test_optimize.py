@@ -342,9 +342,10 @@ def test_bad_workers_and_bad_keys(tmp_path):
 def test_the_second_set_ups_grip_is_a_constraint():
     """The winner must leave the second set-up's soft jaws their grip below the rim's
     shoulder (shop.second refuses a body whose side below the shoulder is shorter than the
-    jaw gap plus the least grip, 3 + 3 mm): the 6 mm lens design with its outer rim 24 mm
-    below the vertex meets it in a 30 mm body (by 0) and breaks it in a 29 mm one by the
-    hand-computed 1 mm."""
+    jaw gap plus the least grip, 3 + 5 mm: lathe.JAW_GAP + lathe.MIN_GRIP, the default of
+    toolpath.min_grip_mm): the 6 mm lens design with its outer rim 24 mm below the vertex
+    meets it 0.5 mm over (by 0) and breaks it 1 mm under by the hand-computed 1 mm."""
+    from lathe_mirror.lathe import JAW_GAP, MIN_GRIP
     from lathe_mirror.optimize.evaluate import CONSTRAINTS, measure, violations
 
     s = load()
@@ -355,12 +356,14 @@ def test_the_second_set_ups_grip_is_a_constraint():
     rim_depth = float(m.outer.z(m.r_max)) - m.vertex_z  # the outer rim's depth below the vertex, by hand
     j = [i for i, c in enumerate(CONSTRAINTS) if "second set-up" in c.what]
     assert len(j) == 1 and CONSTRAINTS[j[0]].key == "cad.thickness"
-    for thickness in (rim_depth + 6.0 + 0.5, rim_depth + 6.0 - 1.0):
+    grip = JAW_GAP + MIN_GRIP
+    assert grip == 8.0
+    for thickness in (rim_depth + grip + 0.5, rim_depth + grip - 1.0):
         body = dataclasses.replace(s.body, thickness=thickness)
         problem = Problem(camera=cam, tool=dataclasses.replace(s.tool, nose_radius=0.4), stock=s.stock, body=body,
                           clearance=s.toolpath.clearance, settings=s.optimize, reference=s.lobes)
         v = violations(measure(m, problem, lobes, with_r10=False), problem)[j[0]]
-        assert v == pytest.approx(max(0.0, rim_depth + 6.0 - thickness), abs=1e-9)
+        assert v == pytest.approx(max(0.0, rim_depth + grip - thickness), abs=1e-9)
 
 
 ROBUST = """[optimize]

@@ -102,10 +102,11 @@ def test_set_up_sheet_lists_every_operation_the_touch_off_and_the_inspection(tmp
     page = (REPO / "gcode" / "mirror_arcs.setup.html").read_text()
     ops = re.findall(r"<tr><td>([^<]+)</td><td>T\d</td><td>N\d+</td>", page)
     nc = (REPO / "gcode" / "mirror_arcs.nc").read_text()
-    # face, rough, semi-finish, the finishing passes, the part-off; the second set-up's face back, bore
-    # and the finishing pass on the back face (the face the mirror mounts on)
-    assert len(ops) == 3 + len(re.findall(r"^\((?:FINISH PASS \d|FINISH:)", nc, re.M)) + 1 + 3
-    assert ops[-4:] == ["part-off", "face back", "bore", "finish back"]
+    # face, rough, semi-finish, the finishing passes, the part-off; the second set-up's face back, the
+    # bore (centre drill, drill, the boring bar's roughing and finish) and the finishing pass on the
+    # back face (the face the mirror mounts on)
+    assert len(ops) == 3 + len(re.findall(r"^\((?:FINISH PASS \d|FINISH:)", nc, re.M)) + 1 + 6
+    assert ops[-7:] == ["part-off", "face back", "centre drill", "drill", "bore", "finish bore", "finish back"]
     assert "test recess" in page  # the X touch-off on a surface the operator cuts first
     rows = re.findall(r"<tr><td>(inner|outer)</td><td class='n'>([\d.]+)</td><td class='n'>(-?[\d.]+)</td>"
                       r"<td class='n'>([\d.]+)</td>", page)

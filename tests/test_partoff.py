@@ -37,7 +37,12 @@ from lathe_mirror.shop.tool_shapes import blade_shape
 from lathe_mirror.toolpath import Strategy
 
 REPO = Path(__file__).resolve().parents[1]
-TOOLS = "".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4)) + "T5 P5 X0 Z0 D0\n"
+TOOLS = ("".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4)) + "T5 P5 X0 Z0 D0\n"
+         + "T6 P6 X0 Z0 D0\nT7 P7 X0 Z0 D0\nT8 P8 X0 Z0 D0.4 Q9\n")
+#: The bore's drill (shop.boring), by hand: the boring bar's minimum bore (8 mm) plus 0.5 mm,
+#: a stock size; its 118 deg point's height (d / 2) / tan(59 deg).
+DRILL_MM = 8.5
+DRILL_CONE_MM = DRILL_MM / 2 / math.tan(math.radians(59.0))
 DESIGNS = {"paper": None, "recessed": RECESSED_OUTER, "boss": '[cad]\nmount = "boss"\n'}
 
 
@@ -85,9 +90,11 @@ def test_both_set_ups_touch_nothing_and_the_part_comes_off(made):
     length = body.thickness + (body.mount_depth if body.mount is Mount.BOSS else 0.0)
     assert shop.simulation.parted.bounds[1] == pytest.approx(-(length + opts.back_allowance_mm), abs=0.005)
     ops2 = [op.name for op in shop.second_simulation.operations]
-    assert ops2 == ["face back", *{"paper": ["bore", "finish back"], "recessed": ["bore", "finish back"],
-                                   "boss": ["boss", "finish mount"]}[name]]
-    assert all(op.max_depth_of_cut_mm <= opts.rough_depth + 0.01 for op in shop.second_simulation.operations)
+    bore = ["centre drill", "drill", "bore", "finish bore", "finish back"]
+    assert ops2 == ["face back", *{"paper": bore, "recessed": bore, "boss": ["boss", "finish mount"]}[name]]
+    # the turning tools' depth of cut within the roughing depth (a drill's is its radius)
+    assert all(op.max_depth_of_cut_mm <= opts.rough_depth + 0.01 for op in shop.second_simulation.operations
+               if op.station not in (6, 7))
     # the mount's face finished by the finishing tool (station 2, or 4 in the opposite hand) at the
     # finishing feed, one pass of toolpath.max_finish_depth_mm
     fin = shop.second_simulation.operations[-1]
@@ -115,7 +122,10 @@ def test_the_finished_part_is_the_cad_body(made):
     made_part = shop.second_simulation.operations[-1].stock_after
     cad = reverse(shapely.Polygon(design_meridian(mirror, body).polyline(1e-4)).buffer(0), body.thickness)
     rm, R = body.mount_diameter / 2, body.blank_diameter / 2
-    lines = {"axis": ((0.01, -100.0), (0.01, 100.0)),  # the vertex and the mount's floor / end
+    # the vertex on the axis; the bore's floor beside the drill's point (between the drilled
+    # hole and the wall), the boss's end on the axis
+    r_floor = 0.5 * (DRILL_MM / 2 + rm) if body.mount is Mount.BORE else 0.01
+    lines = {"axis": ((0.01, -100.0), (0.01, 100.0)), "floor": ((r_floor, -100.0), (r_floor, 100.0)),
              "back": ((0.5 * (rm + R), -100.0), (0.5 * (rm + R), 100.0))}
     mid = -body.mount_depth / 2 if body.mount is Mount.BORE else body.mount_depth / 2
     lines["mount"] = ((0.0, mid), (R + 5.0, mid))
@@ -124,8 +134,14 @@ def test_the_finished_part_is_the_cad_body(made):
     # the vertex at Z = -thickness (the first set-up's finishing, within its gouge tolerance)
     assert got["axis"][1] == pytest.approx(want["axis"][1], abs=settings.toolpath.gouge_tolerance + 1e-4)
     assert want["axis"][1] == pytest.approx(-body.thickness, abs=1e-4)  # the sag at r = 0.01 mm: 2e-5 mm
-    # the mount's floor (bore) or end (boss) on the axis, and the back face
-    assert got["axis"][3] == pytest.approx(want["axis"][3], abs=res)
+    # the mount's floor (bore) or end (boss), and the back face
+    assert got["floor"][3] == pytest.approx(want["floor"][3], abs=res)
+    if body.mount is Mount.BORE:  # the drill's point below the floor: its apex on the axis, by hand
+        fa = settings.toolpath.max_finish_depth_mm
+        apex = math.floor((-body.mount_depth + fa - DRILL_CONE_MM) / res + 1e-9) * res
+        assert got["axis"][3] == pytest.approx(apex + 0.01 / math.tan(math.radians(59.0)), abs=1e-6)  # r = 0.01
+    else:
+        assert got["axis"][3] == pytest.approx(want["axis"][3], abs=res)
     assert got["back"][3] == pytest.approx(want["back"][3], abs=res)
     assert want["back"][3] == pytest.approx(0.0, abs=1e-9)
     # the mount's diameter at its mid depth (length): the bore's wall is where the stock
@@ -133,7 +149,7 @@ def test_the_finished_part_is_the_cad_body(made):
     k = 0 if body.mount is Mount.BORE else 2
     assert got["mount"][k] == pytest.approx(want["mount"][k], abs=res)
     assert want["mount"][k] == pytest.approx(rm, abs=1e-9)
-    assert want["axis"][3] == pytest.approx(-body.mount_depth if body.mount is Mount.BORE else body.mount_depth)
+    assert want["floor"][3] == pytest.approx(-body.mount_depth if body.mount is Mount.BORE else body.mount_depth)
 
 
 def test_rs274_reads_both_set_ups_and_the_fanuc_ones_replay_clean(made, tmp_path):
@@ -218,7 +234,8 @@ def test_check_replays_the_second_set_up_against_the_parted_part(tmp_path):
     res = run_cli("toolpath", "--check", str(REPO / "gcode" / "mirror_arcs_op2.nc"), "--json")
     assert res.returncode == 0, res.stderr
     data = json.loads(res.stdout)
-    assert data["contacts"] == [] and len(data["operations"]) == 3  # face back, bore, finish back
+    # face back, centre drill, drill, bore, finish bore, finish back
+    assert data["contacts"] == [] and len(data["operations"]) == 6
     bad = tmp_path / "bad_op2.ngc"
     bad.write_text((REPO / "gcode" / "mirror_arcs_op2.ngc").read_text().replace("X19.600", "X20.600"))
     res = run_cli("toolpath", "--check", str(bad))

@@ -308,9 +308,13 @@ def _title_block(ax, spec: PartSpec, title: str) -> None:
         "1. Inspect each lobe's sag against the sag table; form per lobe, piston and tilt removed.",
         "2. Tolerances from the tool's analysis (lathe-mirror spec --json states each basis).",
         "3. Break body edges 0.2 x 45 deg; no chamfer on the optical face. Table 1's 'c' is 2e.",
+        f"4. Clear apertures end {spec.clear_edge_mm:g} mm inside the rim and the step (the polished edge band).",
     ]
+    if spec.drill_point is not None:
+        notes.append(f"5. Mount bore: drill point {spec.drill_point[0]:g} mm x {spec.drill_point[1]:g} deg below its "
+                     "floor permitted.")
     for i, n in enumerate(notes):
-        ax.text(x + 2, y + 12.5 - i * 4.2, n, fontsize=5.3, va="top")
+        ax.text(x + 2, y + 12.5 - i * 12.5 / len(notes), n, fontsize=5.3, va="top")
 
 
 def _clear_apertures(ax, spec: PartSpec) -> None:

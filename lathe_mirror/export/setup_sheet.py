@@ -10,7 +10,6 @@ import html
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..lathe import MIN_GRIP
 from .dialects import dialects
 from .files import write_text
 from .stock_svg import polygons, stock_svg
@@ -184,7 +183,8 @@ def _second_html(sheet: SetupSheet) -> list[str]:
            f"the part-off. Estimated cycle time <b>{_time(sec.cycle_time_s)}</b>; both set-ups "
            f"<b>{_time(sheet.total_time_s)}</b>.</p>", "<table>",
            _row("work zero", e(sec.work_zero)), _row("holding", e(sec.holding)),
-           _row("grip length", f"{sec.grip_mm:.2f} mm (the least the jaws may grip: {MIN_GRIP:g} mm)")]
+           _row("grip length", f"{sec.grip_mm:.2f} mm (the least the jaws may grip: {sec.min_grip_mm:.2f} mm, "
+                "toolpath.min_grip_mm and at least half the length the part stands out of the jaws)")]
     out += [_row("touch-off", e(line)) for line in sec.touch_off]
     out += ["</table>", _tool_table(sec.tools, sheet.diameter_mode),
             "<table><tr><th>operation</th><th>tool</th><th>restart at</th><th>feed mm/rev</th>"

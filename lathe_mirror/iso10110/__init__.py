@@ -24,7 +24,9 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from ..enums import Mount
 from ..errors import InputError
+from ..lathe import DRILL_POINT_DEG, bore_drill_mm
 from ..optics.zones import fillet_band
 from .callouts import REVISION, AsTurned, Callouts, as_turned, callouts, drawing_number
 from ..inputs import check_real, short
@@ -68,7 +70,9 @@ class LobeSpecSheet:
 
 @dataclass(frozen=True)
 class PartSpec:
-    """The part as the shop is asked to make it (see the module doc)."""
+    """The part as the shop is asked to make it (see the module doc). clear_edge_mm: the
+    band (mm) inside each lobe's edges outside its clear aperture; drill_point: (diameter
+    mm, point deg) of the drill whose point the mount's bore may carry below its floor."""
 
     lobes: tuple[LobeSpecSheet, LobeSpecSheet]
     finish: Texture
@@ -79,6 +83,8 @@ class PartSpec:
     notes: tuple[str, ...]
     callouts: Callouts
     as_turned: AsTurned | None = None
+    clear_edge_mm: float = 0.0
+    drill_point: tuple[float, float] | None = None
 
     @property
     def number(self) -> str:
@@ -105,20 +111,27 @@ class PartSpec:
                 "finish": self.finish.to_dict(), "material": self.material, "process": self.process,
                 "notes": list(self.notes), "drawing_number": self.number, "revision": self.revision,
                 "callouts": self.callouts.to_dict(),
-                "as_turned": None if self.as_turned is None else self.as_turned.to_dict()}
+                "as_turned": None if self.as_turned is None else self.as_turned.to_dict(),
+                "clear_edge_mm": self.clear_edge_mm,
+                "drill_point": None if self.drill_point is None else {"diameter_mm": self.drill_point[0],
+                                                                      "point_deg": self.drill_point[1]}}
 
 
 def part_spec(mirror: Mirror, tolerance: ToleranceSettings, process: Process, *, wavelength_nm: float,
               body: BodySpec, resolution_mm: float, step: float = SAG_STEP_MM, material: str = MATERIAL,
-              job: MachiningJob | None = None) -> PartSpec:
+              job: MachiningJob | None = None, clear_edge_mm: float = 0.0,
+              drill_point: tuple[float, float] | None = None) -> PartSpec:
     """The PartSpec of `mirror` on the mounting `body`: conics over the radii the camera
     uses, sag tables every `step` mm, form tolerances from `tolerance`'s spec and drawn
     tolerances, the texture of the resolved `process` (finish.Process.resolved) at
     wavelength_nm (nm), the callouts (datums, runout, step and vertex tolerances at the
-    lathe's resolution_mm, mm); with `job`, its part as turned against the form tolerance."""
+    lathe's resolution_mm, mm); with `job`, its part as turned against the form tolerance.
+    clear_edge_mm: the band (mm) at each lobe's edges (the step, the rim) outside its clear
+    aperture (polish.clear_edge_mm: the band a polish turns down). drill_point: (diameter mm,
+    point deg) of the drill whose point the bore may carry below its floor (shop.boring)."""
     if not (isinstance(step, (int, float)) and math.isfinite(step) and 0.001 <= step <= 5.0):
         raise InputError(f"--step = {step!r} mm: allowed 0.001 to 5 mm")
-    conics = mirror_conics(mirror)
+    conics = mirror_conics(mirror, clear_edge_mm)
     cas = [c.clear_aperture for c in conics]
     forms = form_tolerances(mirror, cas, tolerance.spec, tolerance.tolerances, wavelength_nm=wavelength_nm,
                             depth_points=tolerance.depth_points)
@@ -143,7 +156,8 @@ def part_spec(mirror: Mirror, tolerance: ToleranceSettings, process: Process, *,
     calls = callouts(mirror, conics, body, tolerance.tolerances, resolution_mm=resolution_mm)
     turned = None if job is None else as_turned(job, conics, forms, evaluation_length_mm=forms[0].evaluation_length_mm)
     return PartSpec(lobes=lobes, finish=tex, material=material, process=process.label, step_mm=float(step),
-                    junction=junction, notes=notes, callouts=calls, as_turned=turned)
+                    junction=junction, notes=notes, callouts=calls, as_turned=turned, clear_edge_mm=clear_edge_mm,
+                    drill_point=drill_point)
 
 
 def spec_of(settings, *, step: float = SAG_STEP_MM, process: str | None = None,
@@ -168,10 +182,14 @@ def spec_of(settings, *, step: float = SAG_STEP_MM, process: str | None = None,
     proc = proc.resolved(nose_radius_mm=settings.tool.nose_radius, feed_mm=settings.machine.feed_finish,
                          resolution_mm=settings.machine.resolution)
     mirror = settings.mirror()
+    drill_point = None
+    if settings.body.mount is Mount.BORE:  # drilled for the boring bar, then bored (shop.boring)
+        drill_point = (bore_drill_mm(settings.toolpath.boring_bar_min_bore_mm), DRILL_POINT_DEG)
     job = None
     if as_turned:
         from ..job import MachiningJob  # lazy: the planner and the envelope only when the part is cut
 
         job = MachiningJob.from_settings(settings, mirror)
     return part_spec(mirror, settings.tolerance, proc, wavelength_nm=settings.polish.wavelength_nm,
-                     body=settings.body, resolution_mm=settings.machine.resolution, step=step, job=job)
+                     body=settings.body, resolution_mm=settings.machine.resolution, step=step, job=job,
+                     clear_edge_mm=settings.polish.clear_edge_mm, drill_point=drill_point)

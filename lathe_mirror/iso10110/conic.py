@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..design import Lobe, Mirror, conic_sag
+from ..errors import InputError
 from ..toolpath import usable_ranges
 
 #: Sag-table spacing (mm of radius) unless asked for a finer one.
@@ -42,7 +43,7 @@ class Conic:
     R: vertex radius of curvature (c = 1/R). k: conic constant. vertex_z: the vertex's
     machine Z (Z = 0 at the mirror's vertex, the inner lobe's; part in -Z): 0 for the inner
     lobe, the outer lobe's (virtual) vertex behind it. clear_aperture: (r_min, r_max) the
-    camera uses (toolpath.usable_ranges). focal_distance_2e: the paper's Table 1 `c`.
+    camera uses (toolpath.usable_ranges) less the polished edge band (clear_apertures). focal_distance_2e: the paper's Table 1 `c`.
     above_pinhole: the vertex's height above the camera's pinhole (camera frame).
     """
 
@@ -89,7 +90,25 @@ def lobe_conic(lobe: Lobe, mirror: Mirror, clear_aperture: tuple[float, float]) 
                  focal_distance_2e=lobe.focus_z, above_pinhole=lobe.vertex_z, a=lobe.a, b=lobe.b)
 
 
-def mirror_conics(mirror: Mirror) -> tuple[Conic, Conic]:
-    """Both lobes' conics, inner first, each over the radii the camera uses."""
-    return tuple(lobe_conic(lobe, mirror, tuple(float(v) for v in ca))
-                 for lobe, ca in zip(mirror.lobes, usable_ranges(mirror)))
+def mirror_conics(mirror: Mirror, edge_mm: float = 0.0) -> tuple[Conic, Conic]:
+    """Both lobes' conics, inner first, each over its clear aperture (clear_apertures)."""
+    return tuple(lobe_conic(lobe, mirror, ca) for lobe, ca in zip(mirror.lobes, clear_apertures(mirror, edge_mm)))
+
+
+def clear_apertures(mirror: Mirror, edge_mm: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Each lobe's clear aperture (r_min, r_max), mm: the radii the camera uses
+    (toolpath.usable_ranges) less edge_mm (polish.clear_edge_mm, mm) at each edge of the
+    lobe, the step and the outer rim (the axis is no edge): the band a polish turns down,
+    which the polishing analysis leaves out of its figures too (optics.polishing_curve.
+    clear_aperture, the same rule). InputError when a lobe has none left."""
+    out = []
+    for k, (lo, hi) in enumerate(usable_ranges(mirror)):
+        lobe_lo, lobe_hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
+        if k == 1:
+            lo = max(lo, lobe_lo + edge_mm)
+        hi = min(hi, lobe_hi - edge_mm)
+        if hi <= lo:
+            raise InputError(f"polish.clear_edge_mm = {edge_mm:g} mm: the {mirror.lobes[k].name} lobe's clear "
+                             f"aperture would be empty; allowed a narrower band")
+        out.append((float(lo), float(hi)))
+    return tuple(out)

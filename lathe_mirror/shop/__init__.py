@@ -12,15 +12,19 @@ config dict. shop.programs.shop_program strings it together (plan, simulate, ref
                step's corner, the finishing pass's lead-in and exit, the way home
 - partoff.py   the part-off: the parting blade (T5) through the axis at the CAD body's
                length plus the back's allowance, before the program's end
-- second.py    the second set-up: the parted part reversed in soft jaws, its back faced
-               and the mount (bore, boss) cut, the mount's face finished, Z0 on the back face
+- second.py    the second set-up: the parted part reversed in soft jaws (their grip checked:
+               toolpath.min_grip_mm and half the part's stand-out), its back faced and the
+               mount (bore, boss) cut, the mount's face finished, Z0 on the back face
+- boring.py    the mount's bore: the spot drill (T6), the drill the boring bar enters (T7,
+               its point below the floor), the boring bar (T8) roughing and finishing
 - stock.py     the stock simulation (shapely): stock minus the swept tool (each station's
                shape), per-operation removal, depth of cut, chip load, air time, cycle time
                (G96 with the spindle cap); refuses a rapid or the body touching stock, a
                part-off that leaves the part on; either set-up (simulate, simulate_setup)
 - swept.py     what the tool sweeps along each piece of an operation, all at once (convex
                hulls folded at the axis, the chuck and part checks, the zone's half planes)
-- tool_shapes.py  the insert (nose, flanks, cutting part) and the parting blade
+- tool_shapes.py  the insert (nose, flanks, cutting part), the parting blade, a drill and
+               the boring bar (its insert and round shank)
 - sim_results.py  what the simulation reports (moves, contacts, figures, the parted part)
 - setup.py     the set-up sheet's model: work zero, stock, tools, offsets for the
                nose-centre convention, centre height, times, pictures' geometry

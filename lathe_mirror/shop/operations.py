@@ -30,6 +30,7 @@ class OperationWriter:
                  pos: tuple[float, float] | None = None) -> None:
         self.p, self.station, self.role, self.feed_rate = planner, station, role, feed
         self.pos = pos if pos is not None else planner.home
+        self.rpm: int | None = None  # a constant spindle speed (G97, rev/min) instead of G96
         self.ops: list[Operation] = []
         self.blocks: list = []
         self.name: str | None = None
@@ -44,7 +45,7 @@ class OperationWriter:
         self.name = name
         self.blocks = [Comment(note),
                        ToolCall(station=self.station, role=self.role),
-                       SpindleOn(surface_speed=lathe.surface_speed, max_rpm=lathe.spindle_max_rpm)]
+                       SpindleOn(surface_speed=lathe.surface_speed, max_rpm=lathe.spindle_max_rpm, rpm=self.rpm)]
         if p.opts.coolant:
             self.blocks.append(Coolant(on=True))
         self.blocks.append(FeedRate(feed=self.feed_rate))
@@ -79,16 +80,20 @@ class OperationWriter:
         self.blocks.append(Feed(seg))
         self.pos = (float(seg.end[0]), float(seg.end[1]))
 
-    def go_home(self, *, stop: bool, note: str = "check the part; the finishing tool takes a fresh edge") -> None:
+    def go_home(self, *, stop: bool, note: str = "check the part; the finishing tool takes a fresh edge",
+                change: bool = False) -> None:
         """Coolant off, up to the home Z, across to the home radius, spindle off; then an
-        optional stop (before a new tool, `note` the comment before it) or the program's end."""
+        optional stop (before a new tool, `note` the comment before it) or the program's end;
+        change: neither (the next tool is called at home, straight on)."""
         p = self.p
         if p.opts.coolant:
             self.blocks.append(Coolant(on=False))
         self.rapid((self.pos[0], p.home[1]))
         self.rapid(p.home)
         self.blocks.append(SpindleStop())
-        if stop:
+        if change:
+            pass
+        elif stop:
             self.comment(note)
             self.blocks.append(OptionalStop())
         else:

@@ -39,6 +39,10 @@ OPPOSITE_ROUGHING_STATION = 3
 OPPOSITE_FINISHING_STATION = 4
 #: The parting blade (shop.partoff), on a station of its own.
 PARTING_STATION = 5
+#: The mount's bore (shop.boring): the spot drill, the drill, the boring bar.
+CENTRE_DRILL_STATION = 6
+DRILL_STATION = 7
+BORING_STATION = 8
 
 
 def stations(toolpath: Toolpath) -> tuple[int, int]:
@@ -90,11 +94,14 @@ class ToolCall(Block):
 @dataclass(frozen=True)
 class SpindleOn(Block):
     """Constant surface speed (m/min) with the spindle cap (rev/min), feed per revolution;
-    clockwise: M3 (ISO 6983: clockwise looking from the headstock along +Z), else M4."""
+    clockwise: M3 (ISO 6983: clockwise looking from the headstock along +Z), else M4.
+    rpm: a constant speed instead (G97, rev/min), for a drill on the axis (where G96 would
+    ask for the cap anyway)."""
 
     surface_speed: float
     max_rpm: int
     clockwise: bool = True
+    rpm: int | None = None
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ..design import Mirror
-from ..enums import BEST, Strategy
+from ..enums import BEST, Mount, Strategy
 from ..errors import InputError
 from ..inputs import check_type
 from ..iso10110 import spec_of
@@ -19,6 +19,7 @@ from ..path import Arc
 from ..lathe import Stock
 from ..tolerance.setting import setting_error_costs
 from ..toolpath import Toolpath, ToolpathSettings, profile_errors, usable_ranges
+from .boring import bore_plan
 from .plan import plan_program
 from .roughing import finish_allowances
 from .second import plan_second
@@ -142,11 +143,16 @@ def plan_checks(settings: Settings, mirror: Mirror, *,
     """The checks of shop_programs that need no simulation, in a fraction of a second: each
     strategy's whole program planned (shop.plan_program: the bar's diameter and length, the
     end position, the block numbers, the part-off below the body). InputError names the
-    setting. `run` makes them before any work and simulates in the background."""
+    setting. `run` makes them before any work and simulates in the background; the mount's
+    bore's tools too (shop.boring.bore_plan)."""
     options = settings.toolpath
     job = MachiningJob.from_settings(settings, mirror)
     for strategy in strategies:
         plan_program(job.but(strategy=strategy).toolpath, settings.stock, options, body=settings.body)
+    body = settings.body
+    if body is not None and body.mount is Mount.BORE:  # the bore's drill and bar (shop.boring), before any work
+        bore_plan(body, options, settings.tool.nose_radius, vertex_z=-body.thickness,
+                  resolution=settings.machine.resolution)
 
 
 def shop_programs(settings: Settings, mirror: Mirror, *,

@@ -36,8 +36,9 @@ from typing import TYPE_CHECKING
 from ..body import design_meridian
 from ..enums import Mount
 from ..errors import InputError
-from ..lathe import JAW_GAP, JAW_WIDTH, MIN_GRIP
+from ..lathe import JAW_GAP, JAW_WIDTH
 from ..toolpath.moves import Hand
+from .boring import BorePlan, bore_part, bore_plan, bore_tools, boring_shapes, write_bore
 from .operations import OperationWriter
 from .plan import numbered
 from .program import (FINISHING_STATION, OPPOSITE_FINISHING_STATION, OPPOSITE_ROUGHING_STATION, ROUGHING_STATION,
@@ -46,6 +47,13 @@ from .tool_shapes import insert_shape
 
 if TYPE_CHECKING:
     from ..body import BodySpec
+
+#: The soft jaws' grip per mm the part stands out of them: a cut at the part's end tips it
+#: about the jaws' end with the stand-out as its lever, against the jaws' friction couple
+#: over the grip (a chuck maker's tilting check, e.g. Forkardt's operating manuals,
+#: "permissible overhang length"); the jaws' step the part is seated on takes the rest of
+#: the moment, so half the stand-out, not all of it.
+GRIP_PER_STAND_OUT = 0.5
 
 #: The name of the second set-up's first operation (shop.check tells its programs by it).
 FACE_BACK = "face back"
@@ -58,7 +66,8 @@ class SecondSetup:
     shapes: {station: ToolShape}; start, part, chuck: shapely (r, Z) of this set-up;
     thickness: the body's (mm); top: the parted face's Z (mm) before facing; grip: (Z low,
     Z high) of the jaws on the outside diameter (mm); station: the roughing tool; finishing:
-    the finishing tool; tools: (station, what it is) of both; mount: its kind.
+    the finishing tool; tools: (station, what it is) of every tool; mount: its kind; bore:
+    the bore's tools and depths (shop.boring), for a bore.
     """
 
     shapes: dict = field(repr=False)
@@ -73,6 +82,7 @@ class SecondSetup:
     diameter: float
     finishing: int = FINISHING_STATION
     tools: tuple = ()
+    bore: BorePlan | None = None
 
     @property
     def work_zero(self) -> str:
@@ -87,6 +97,25 @@ class SecondSetup:
                 f"diameter ({self.diameter:g} mm) gripping it from Z{lo:.3f} to Z{hi:.3f} "
                 f"({hi - lo:.1f} mm), the shoulder beyond the rim seated on the jaws' step; the optical "
                 "surface touches nothing (protect it with paper or film)")
+
+
+def grip_needed(top: float, min_grip: float) -> float:
+    """The least grip (mm) of the soft jaws on a part whose parted face stands at Z `top`
+    (mm): toolpath.min_grip_mm, and GRIP_PER_STAND_OUT of the length the part stands out of
+    the jaws (top + JAW_GAP), the lever a cut at the part's end has about the jaws' end."""
+    return max(min_grip, GRIP_PER_STAND_OUT * (top + JAW_GAP))
+
+
+def check_grip(grip: tuple[float, float], top: float, min_grip: float, thickness: float) -> None:
+    """InputError naming cad.thickness when the soft jaws' grip (Z low, Z high; mm) is
+    shorter than grip_needed."""
+    need = grip_needed(top, min_grip)
+    have = grip[1] - grip[0]
+    if have < need - 1e-9:
+        raise InputError(f"cad.thickness = {thickness:g} mm: the second set-up's soft jaws grip the outside diameter "
+                         f"from the shoulder to {JAW_GAP:g} mm below the back, {have:.2f} mm; allowed a thickness "
+                         f"that leaves at least {need:.2f} mm (toolpath.min_grip_mm = {min_grip:g} mm, and "
+                         f"{GRIP_PER_STAND_OUT:g} x the {top + JAW_GAP:.2f} mm the part stands out of the jaws)")
 
 
 def reverse(geom, thickness: float):
@@ -116,10 +145,7 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
     part = reverse(shapely.Polygon(design_meridian(m.design, body).polyline(1e-3)).buffer(0), T)
     shoulder = -float(m.vertex_z - m.outer.z(m.r_max)) - T  # the shoulder beyond the rim, reversed
     grip = (round(shoulder, 6), -JAW_GAP)
-    if grip[1] - grip[0] < MIN_GRIP:
-        raise InputError(f"cad.thickness = {T:g} mm: the second set-up's soft jaws grip the outside diameter from "
-                         f"the shoulder to {JAW_GAP:g} mm below the back, {grip[1] - grip[0]:.2f} mm; allowed a "
-                         f"thickness that leaves at least {MIN_GRIP:g} mm")
+    check_grip(grip, top, opts.min_grip_mm, T)
     step_in = min(1.5, max(0.0, (R - m.r_max) / 2))
     chuck = shapely.union(shapely.box(R, grip[0] - 1000.0, R + JAW_WIDTH, grip[1]),
                           shapely.box(R - step_in, grip[0] - 1000.0, R + JAW_WIDTH, grip[0]))
@@ -167,19 +193,14 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
             b.feed((r_out, nc))
         surface = nc - rho
     rm = body.mount_diameter / 2.0
+    bore_ops: list = []
+    plan = None
     if body.mount is Mount.BORE:
-        wall = down(rm - rho)
-        bore = levels(fa, -body.mount_depth)
-        begin("bore", f"bore the mount: diameter {body.mount_diameter:g} mm, {body.mount_depth:g} mm deep, "
-                f"{len(bore)} levels, each out to the wall and up it")
-        prev = up(fa + rho)
-        for nc in bore:
-            b.rapid((b.pos[0], up(opts.clearance + rho)))
-            b.rapid((0.0, b.pos[1]))
-            b.feed((0.0, nc))
-            b.feed((wall, nc))
-            b.feed((wall, prev))
-            prev = nc
+        plan = bore_plan(body, opts, rho, vertex_z=-T, resolution=res)
+        part = bore_part(part, body, plan)
+        b.go_home(stop=False, change=True)
+        bore_ops = write_bore(planner, home, rough_feed(lathe, plan.bar), lathe.feed_finish, body, opts, plan,
+                              up, down, levels)
     elif boss:
         wall = up(rm + rho + fa)
         ring = levels(body.mount_depth, fa)
@@ -194,7 +215,8 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
             b.feed((wall, nc))
             b.feed((wall, prev))
             prev = nc
-    b.go_home(stop=True, note="check the part; the finishing tool takes the mount's face with a fresh edge")
+    if not bore_ops:
+        b.go_home(stop=True, note="check the part; the finishing tool takes the mount's face with a fresh edge")
     fin = OperationWriter(planner, finishing, "finishing", lathe.feed_finish, pos=home)
     face_nc = up(rho)  # the nose's bottom on the finished face, Z0
     if boss:
@@ -221,9 +243,13 @@ def plan_second(first: Program, parted, body: BodySpec, *, name: str) -> Program
     fin.go_home(stop=False)
     hand = "in the opposite-hand holder (it cuts from the outside in)" if boss else "held as configured (it cuts from the axis out)"
     tools = ((station, f"the roughing insert {hand}"), (finishing, f"the finishing insert {hand}, a fresh edge"))
-    setup = SecondSetup(shapes={None: insert_shape(tool)}, start=start, part=part, chuck=chuck, thickness=T,
+    shapes = {None: insert_shape(tool)}
+    if plan is not None:
+        tools += bore_tools(plan, opts)
+        shapes.update(boring_shapes(plan, opts))
+    setup = SecondSetup(shapes=shapes, start=start, part=part, chuck=chuck, thickness=T,
                         top=top, grip=grip, station=station, mount=body.mount, diameter=2 * R,
-                        finishing=finishing, tools=tools)
-    return Program(name=name, toolpath=tp, stock=stock, options=opts, operations=numbered(b.ops + fin.ops), home=home,
+                        finishing=finishing, tools=tools, bore=plan)
+    return Program(name=name, toolpath=tp, stock=stock, options=opts, operations=numbered(b.ops + bore_ops + fin.ops), home=home,
                    safe_z=up(top + opts.clearance + rho), r_out=r_out, gouge_depth=first.gouge_depth,
                    figures=first.figures, used=first.used, fillet=first.fillet, setup=setup)

@@ -22,7 +22,8 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from .program import OPPOSITE_ROUGHING_STATION, PARTING_STATION, stations
+from .program import (BORING_STATION, CENTRE_DRILL_STATION, DRILL_STATION, OPPOSITE_ROUGHING_STATION, PARTING_STATION,
+                      stations)
 from .tool_shapes import INSERT_IC, edge_length
 
 if TYPE_CHECKING:
@@ -33,6 +34,9 @@ if TYPE_CHECKING:
 #: The spindle direction every tool cuts with (M3), as the sheet states it.
 SPINDLE = ("M3: clockwise looking from the headstock along +Z (ISO 6983); the insert's rake face toward "
            "the oncoming surface (up in a front tool post, down on a rear turret)")
+#: The drills' spindle direction: the work turning M3 is a right-hand drill's cutting
+#: direction (clockwise seen from its shank, relative to the work).
+DRILL_SPINDLE = "M3: clockwise looking from the headstock along +Z (ISO 6983); a right-hand drill"
 #: The bar's length in the first set-up's jaws, mm (the blank is the stick-out plus this).
 BAR_GRIP = 10.0
 
@@ -137,6 +141,7 @@ class SecondSheet:
     stock_start: object = field(repr=False)
     part: object = field(repr=False)
     deepest_z_mm: float = 0.0
+    min_grip_mm: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -241,9 +246,10 @@ def setup_sheet(program: Program, simulation: Simulation, setting_costs: dict,
            if program.rough_feed < lathe.feed_rough else "."),
     )
     stick_out = stock.length + stock.face_allowance  # at most MAX_STICK_OUT_DIAMETERS bars (shop.plan)
+    grip = max(BAR_GRIP, program.options.min_grip_mm)  # the jaws on the bar: at least toolpath.min_grip_mm
     stock_info = {"diameter_mm": stock.diameter, "face_allowance_mm": stock.face_allowance,
                   "length_mm": stock.length, "deepest_z_mm": deepest,
-                  "stick_out_mm": stick_out, "grip_mm": BAR_GRIP, "blank_length_mm": stick_out + BAR_GRIP,
+                  "stick_out_mm": stick_out, "grip_mm": grip, "blank_length_mm": stick_out + grip,
                   "insert_ic_mm": INSERT_IC}
     return SetupSheet(
         name=program.name, strategy=tp.strategy.value,
@@ -269,6 +275,35 @@ def blade_sheet(width: float, diameter_mode: bool) -> ToolSheet:
         holder="blade holder square to the axis, the blade's tip at centre height, toward -X; its hand: the "
                "insert's corner toward the chuck (-Z)",
         offsets=offs, label=f"parting blade {width:g} mm, tip corner on the chuck side")
+
+
+def bore_sheets(plan, opts, diameter_mode: bool) -> list[ToolSheet]:
+    """The bore's tools (shop.boring): the spot drill and the drill on the axis (their point
+    the controlled point: Z with the point touching the face, X0 on the spindle axis) and
+    the boring bar (its nose centre, X touched on a bore with the nose's +r side)."""
+    from .boring import DRILL_POINT_DEG, MAX_BAR_OVERHANG, SPOT_DRILL_MM, SPOT_POINT_DEG
+
+    point = Offsets(nose_radius=0.0, diameter_mode=diameter_mode, x_side="outside")
+    held = ("in a drill holder (collet) on the turret, its axis on the spindle axis (X0: set it on centre with a "
+            "test indicator); no hand")
+    rho = plan.bar.nose_radius
+    bar_name = f"boring bar {opts.boring_bar_shank_mm:g} mm shank, min bore {opts.boring_bar_min_bore_mm:g} mm"
+    return [
+        ToolSheet(station=CENTRE_DRILL_STATION, role="centre drill (second set-up)",
+                  insert=f"NC spot drill {SPOT_DRILL_MM:g} mm, {SPOT_POINT_DEG:g} deg", holder=held, offsets=point,
+                  spindle=DRILL_SPINDLE,
+                  label=f"spot drill {SPOT_DRILL_MM:g} mm {SPOT_POINT_DEG:g} deg, point on the axis"),
+        ToolSheet(station=DRILL_STATION, role="drill (second set-up)",
+                  insert=f"twist drill {plan.drill_mm:g} mm, {DRILL_POINT_DEG:g} deg point (aluminium)",
+                  holder=held, offsets=point, label=f"drill {plan.drill_mm:g} mm, point on the axis",
+                  spindle=DRILL_SPINDLE),
+        ToolSheet(station=BORING_STATION, role="boring (second set-up)",
+                  insert=f"CCGT 0602{round(rho * 10):02d} (80 deg, {rho:g} mm nose), a fresh edge for the finish",
+                  holder=(f"{bar_name}, 95 deg (SCLC), RIGHT hand: the tip toward +X and -Z, it bores from the "
+                          f"drilled hole out; overhang {plan.overhang_mm:g} mm (steel bar: at most "
+                          f"{MAX_BAR_OVERHANG:g} x the shank, {MAX_BAR_OVERHANG * opts.boring_bar_shank_mm:g} mm)"),
+                  offsets=Offsets(nose_radius=rho, diameter_mode=diameter_mode, x_side="bore"),
+                  label=f"{bar_name}, nose centre")]
 
 
 def second_sheet(program: Program, simulation: Simulation, first_tools: list[ToolSheet]) -> SecondSheet:
@@ -297,11 +332,24 @@ def second_sheet(program: Program, simulation: Simulation, first_tools: list[Too
     z_touch = (f"Z: measure the part's length L from the mirror's vertex to the parted face; the parted face is at "
                f"Z = L - {su.thickness:g} (nominally Z{su.top:.3f}); touch it with the nose's bottom and enter "
                f"Z = L - {su.thickness:g} + {rho:g} mm")
+    touch_off = (z_touch, x_touch)
+    if su.bore is not None:
+        tools += bore_sheets(su.bore, program.options, lathe.diameter_mode)
+        d = su.bore.drill_mm
+        touch_off += (f"T{CENTRE_DRILL_STATION}, T{DRILL_STATION} (drills): X0 with the drill's axis on the spindle "
+                      "axis (a test indicator round its shank); Z with its point touching the parted face, enter that "
+                      f"face's Z as for T{su.station}",
+                      f"T{BORING_STATION} (boring bar): Z as for T{su.station} (the nose's bottom on the parted face); "
+                      f"X: after the drill, touch the drilled hole (nominally {d:g} mm, measure it: D) with the nose's "
+                      f"+X side and enter X = D - {2 * su.bore.bar.nose_radius:g} mm")
     ops = tuple(OperationSheet(name=op.name, station=op.station, restart_block=op.number, figures=fig.figures(),
                                stock_after=fig.stock_after, removed=fig.removed)
                 for op, fig in zip(program.operations, simulation.operations))
     lo, hi = su.grip
+    from .second import grip_needed
+
     return SecondSheet(name=program.name, work_zero=su.work_zero, holding=su.holding, grip_mm=hi - lo,
-                       touch_off=(z_touch, x_touch), tools=tuple(tools), operations=ops,
+                       min_grip_mm=grip_needed(su.top, program.options.min_grip_mm),
+                       touch_off=touch_off, tools=tuple(tools), operations=ops,
                        cycle_time_s=simulation.cycle_time_s, stock_start=su.start, part=su.part,
                        deepest_z_mm=float(program.points()[:, 1].min()))

@@ -75,7 +75,9 @@ class ToolpathSettings:
     the controller's path blending tolerance (LinuxCNC `G64 P`). max_finish_depth_mm: the
     deepest cut one finishing pass may take. parting_width_mm, parting_feed (mm/rev):
     the parting blade's; back_allowance_mm: stock the part-off leaves on the back for the
-    second set-up. The whole program's planner (shop.plan_program) takes this section
+    second set-up. min_grip_mm: the least length a set-up grips the work.
+    boring_bar_min_bore_mm, boring_bar_shank_mm: the boring bar of the mount's bore (its
+    smallest bore; its shank, the overhang at most 4 x it). The whole program's planner (shop.plan_program) takes this section
     as its knobs.
     """
 
@@ -96,6 +98,9 @@ class ToolpathSettings:
     parting_width_mm: float = setting("toolpath.parting_width_mm")
     parting_feed: float = setting("toolpath.parting_feed")
     back_allowance_mm: float = setting("toolpath.back_allowance_mm")
+    min_grip_mm: float = setting("toolpath.min_grip_mm")
+    boring_bar_min_bore_mm: float = setting("toolpath.boring_bar_min_bore_mm")
+    boring_bar_shank_mm: float = setting("toolpath.boring_bar_shank_mm")
 
     def __post_init__(self) -> None:
         # Each number within its key's declaration (toolpath.<field>; the ramp angle in the

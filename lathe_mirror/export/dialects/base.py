@@ -146,6 +146,10 @@ class Dialect:
         cap's block, then G96 S.. M3 (M4 counter-clockwise)."""
         return [self.spindle_cap(max_rpm), f"G96 S{int(surface_speed)} {self.m_code(3 if clockwise else 4)}"]
 
+    def spindle_rpm(self, rpm: int, clockwise: bool) -> list[str]:
+        """A constant spindle speed (rev/min, G97), feed per revolution."""
+        return [f"G97 S{rpm} {self.m_code(3 if clockwise else 4)}"]
+
     def coolant(self, on: bool) -> str:
         return self.m_code(8 if on else 9)
 
@@ -326,6 +330,8 @@ class Writer:
                 self.comment(b.text)
             elif isinstance(b, ToolCall):
                 self.lines_numbered(d.tool_call(b.station, b.role), n)
+            elif isinstance(b, SpindleOn) and b.rpm is not None:
+                self.lines_numbered(d.spindle_rpm(int(b.rpm), b.clockwise), n)
             elif isinstance(b, SpindleOn):
                 self.lines_numbered(d.spindle_on(b.surface_speed, int(b.max_rpm), b.clockwise), n)
             elif isinstance(b, Coolant):

@@ -38,6 +38,9 @@ class LinuxCNC(Dialect):
     def spindle_on(self, surface_speed: float, max_rpm: int, clockwise: bool) -> list[str]:
         return [f"G96 D{max_rpm} S{int(surface_speed)} {'M3' if clockwise else 'M4'}", "G95"]
 
+    def spindle_rpm(self, rpm: int, clockwise: bool) -> list[str]:
+        return [f"G97 S{rpm} {'M3' if clockwise else 'M4'}", "G95"]
+
     def tip_code(self, tool: ToolSheet) -> str:
         return f"orientation Q{9 if tool.offsets.nose_radius > 0 else 0}"
 

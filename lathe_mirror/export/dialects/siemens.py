@@ -10,7 +10,8 @@ within the arc radius tolerance the control accepts as a circle's end-point erro
 
 The tool data are an initialisation file in the control's own form (tools.ini, loaded as
 the TO_INI archive): per tool its name ($TC_TP2), type ($TC_DP1: 500 roughing, 510
-finishing, 530 parting), cutting edge position ($TC_DP2: 9, the nose centre), lengths 1 and
+finishing, 530 parting, 500 the boring bar, 200 the twist drill, 220 the centre drill),
+cutting edge position ($TC_DP2: 9, the nose centre), lengths 1 and
 2 (X, Z, $TC_DP3 / $TC_DP4: 0 until touched off) and the nose radius ($TC_DP6).
 """
 
@@ -27,7 +28,7 @@ if TYPE_CHECKING:
     from ...shop.setup import ToolSheet
 
 #: $TC_DP1 of each role's tool (Siemens' turning tool types).
-TOOL_TYPES = {"roughing": 500, "finishing": 510, "parting": 530}
+TOOL_TYPES = {"roughing": 500, "finishing": 510, "parting": 530, "boring": 500, "drill": 200, "centre": 220}
 _TOOL = re.compile(r'T\s*=\s*"T(\d+)"')
 
 
