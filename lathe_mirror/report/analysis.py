@@ -145,7 +145,9 @@ def mirror_figures(profile: Profile, mirror: Mirror, zones=None, *, edge_mm: flo
     images unobstructed on the exact design (optics.radial: every pixel centre, aligned
     camera; equal to optics.distortion's per-pixel figures over the usable annulus, which
     the tests check); those per-pixel figures (with the pixels the step wall vignettes
-    counted too under "with_vignetted") are kept alongside (`optics_distortion`).
+    counted too under "with_vignetted") are kept alongside (`optics_distortion`), at every
+    pixel of a sensor up to optics.sampling.PIXELS_PER_LOBE a lobe, every stride-th row and
+    column of a larger one.
     zones (optics.zones.Zones): the optical figures over each lobe's used zone (the ring
     the nose cannot reach left out), its image radii under "zone_px". edge_mm
     (polish.clear_edge_mm): the edge band's own figures (optics.radial.radial_figures).
@@ -234,7 +236,8 @@ def report_lens(mirror: Mirror, settings: Settings, seen: Mirror | None = None):
 def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None):
     """Each mirror's image of the paper's room (blurred by the lens, optics.defocus), and
     each made image's difference to the exact, on the sensor binned to
-    optics.sampling.PIXELS_PER_LOBE (the design's own sensor up to 1 megapixel a lobe)."""
+    optics.sampling.PIXELS_PER_LOBE (the design's own sensor while its larger lobe has at
+    most that many pixel centres: the paper's; a 12-megapixel sensor binned 3 x 3)."""
     scene = scene_for(settings, mirror)
     seen = sampled_mirror(mirror, pixel_stride(mirror))
     lens, blur = report_lens(mirror, settings, seen)
