@@ -1,5 +1,5 @@
 """Cost by samples (issue 34): the figures that go pixel by pixel take a stated density of
-the sensor (optics.sampling.PIXELS_PER_LOBE, tolerance.samples.SAMPLE_RADII_PER_LOBE), and
+the sensor (optics.sampling.PIXELS_PER_LOBE, tolerance.samples.SAMPLE_LOBE_PX), and
 halving or doubling it moves each sampled figure by less than its stated precision, on the
 paper default and on a 12-megapixel design at fast settings.
 
@@ -112,10 +112,10 @@ def test_halving_and_doubling_the_trials_sample_keeps_the_monte_carlo(design, mo
     from lathe_mirror.tolerance.runs import monte_carlo
 
     name, settings, mirror, made, zn, job = design
-    base = samples.SAMPLE_RADII_PER_LOBE
+    base = samples.SAMPLE_LOBE_PX
     out = {}
-    for n in _densities(base):
-        monkeypatch.setattr(samples, "SAMPLE_RADII_PER_LOBE", n)
+    for n in (base / 2, base, 2 * base):
+        monkeypatch.setattr(samples, "SAMPLE_LOBE_PX", n)
         mc = monte_carlo(mirror, settings, Program.BEST, 2400.0, job=job)
         out[n] = (mc.yield_fraction, np.asarray(mc.figures.calibrated["image_displacement_px_rms"]))
     y0, r0 = out[base]
@@ -128,19 +128,20 @@ def test_halving_and_doubling_the_trials_sample_keeps_the_monte_carlo(design, mo
 
 def test_the_paper_samples_every_pixel_and_every_bin(design):
     """The paper default's figures are its exact per-pixel ones: stride 1, and its Monte
-    Carlo lobes (71 and 48 bins of 4 px) under SAMPLE_RADII_PER_LOBE."""
+    Carlo lobes (71 and 48 bins of 4 px; 281 and 192 px wide) under SAMPLE_LOBE_PX, at the
+    default bin and at 1 px; a 12-MP lobe is cut into SAMPLE_LOBE_PX / bin_px bins."""
     from lathe_mirror.optics.radial import lobe_pixel_radii
 
     name, settings, mirror, made, zn, _ = design
-    bins = [lobe_pixel_radii(mirror, k, bin_px=settings.tolerance.bin_px, zones=zn, max_radii=None).radius_px.size
-            for k in (0, 1)]
-    if name == "paper":
-        assert sampling.pixel_stride(mirror) == 1
-        assert max(bins) <= samples.SAMPLE_RADII_PER_LOBE
-    else:  # 915 and 523 px wide lobes in 4 px bins: cut to the stated number
-        assert min(bins) > samples.SAMPLE_RADII_PER_LOBE
-        assert all(samples.pixel_sample(mirror, k, bin_px=settings.tolerance.bin_px, azimuths=1, zones=zn).u.size
-                   == samples.SAMPLE_RADII_PER_LOBE for k in (0, 1))
+    for bin_px in (settings.tolerance.bin_px, 1.0):
+        native = [lobe_pixel_radii(mirror, k, bin_px=bin_px, zones=zn, max_radii=None).radius_px.size for k in (0, 1)]
+        got = [samples.pixel_sample(mirror, k, bin_px=bin_px, azimuths=1, zones=zn).u.size for k in (0, 1)]
+        if name == "paper":
+            assert sampling.pixel_stride(mirror) == 1
+            assert got == native
+        else:  # 915 and 523 px wide lobes: cut to the stated number
+            assert min(native) > samples.SAMPLE_LOBE_PX / bin_px
+            assert got == [math.ceil(samples.SAMPLE_LOBE_PX / bin_px)] * 2
 
 
 def test_the_report_renders_of_a_large_sensor_move_with_its_binning(design, monkeypatch):
