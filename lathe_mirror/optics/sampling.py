@@ -26,7 +26,10 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
+
 from ..design import Camera, Mirror
+from .radial import sensor_radii
 
 #: The most pixel centres of one lobe a per-pixel figure is taken at: the larger lobe's
 #: count over this, square-rooted and rounded up, is the stride. 640,000 keeps the paper's
@@ -37,10 +40,6 @@ PIXELS_PER_LOBE = 640_000
 def lobe_pixels(mirror: Mirror) -> int:
     """Pixel centres of the larger lobe's designed image (Mirror.image_radii_px: the inner
     disc, the outer annulus), on the design camera's sensor."""
-    import numpy as np
-
-    from .radial import sensor_radii
-
     rho, cnt = sensor_radii(tuple(int(n) for n in mirror.camera.sensor_px))
     radii = mirror.image_radii_px
     inner = int(np.sum(cnt[rho < radii["inner_disc"][1]]))
