@@ -12,13 +12,16 @@ Two ways, each for the figures it keeps:
   stride x stride of the design's (pitch stride x t_pixel, sensor_px // stride, every
   r_pixel / stride, so Eq. 6's h and every sheet are the same). A figure that needs a
   pixel's neighbours (an image's blur and SSIM, the stereo matcher's window) is taken on
-  it: the report's renders and its range from the image.
+  it: the report's renders and its range from the image. Those are the binned sensor's
+  figures, not estimates of the full sensor's: the range from the image is a coarser
+  pixel's (its definition in the report says "binned"), the image difference moves a few
+  per cent with the binning.
 
 PIXELS_PER_LOBE sets the stride: the paper's lobes (248,000 and 497,000 pixel centres on
 1008 x 1018) stay at stride 1, so its figures are exact and its files the same bytes; a
 12-megapixel sensor (4000 x 3000 with the outer rim at 1500 px: 4.3 M centres in the
-outer lobe) is sampled at stride 3. The figures' stated precision against the density
-(halving and doubling PIXELS_PER_LOBE) is tested in tests/test_sampling.py.
+outer lobe) is sampled at stride 3. The strided figures' stated precision against the
+density (halving and doubling PIXELS_PER_LOBE: 0.5 %) is tested in tests/test_sampling.py.
 """
 
 from __future__ import annotations
