@@ -73,6 +73,7 @@ class DistortionMaps:
     vignetted: np.ndarray
     left_range: np.ndarray
     hit_radius_mm: np.ndarray
+    stride: int = 1  # the maps hold every stride-th row and column of the sensor (image_displacement)
 
     @property
     def annulus(self) -> np.ndarray:
@@ -94,7 +95,10 @@ class DistortionMaps:
         image radius lies in its used_px: the ring the nose cannot reach left out), as
         optics.radial.radial_figures(..., zones=) gives them; "zone_px" states it. edge_mm > 0:
         the pixels whose made ray meets the lobe within edge_mm of its edges (a polished
-        part's turned-down edge, optics.radial.edge_mask) on their own under "edge"."""
+        part's turned-down edge, optics.radial.edge_mask) on their own under "edge".
+        Maps of every stride-th row and column (stride > 1): the pixel counts are the
+        sample's times stride^2, the sensor's to within the sample's edge rows."""
+        per = self.stride * self.stride
         lobes = []
         for k, name in enumerate(LOBE_NAMES):
             in_lobe = self.lobe == k
@@ -106,12 +110,12 @@ class DistortionMaps:
             left = in_lobe & self.left_range & ~self.vignetted
             entry = {
                 "name": name,
-                "pixels": int(clear.sum()),
-                "pixels_lost": int((in_lobe & ~self.usable).sum()),
-                "pixels_left_range": int(left.sum()),
+                "pixels": per * int(clear.sum()),
+                "pixels_lost": per * int((in_lobe & ~self.usable).sum()),
+                "pixels_left_range": per * int(left.sum()),
                 "left_range_pct": float(100.0 * left.sum() / max(int((in_lobe & ~self.vignetted).sum()), 1)),
-                "pixels_vignetted": int((use & self.blocked).sum()),
-                "with_vignetted": {"pixels": int(use.sum())},
+                "pixels_vignetted": per * int((use & self.blocked).sum()),
+                "with_vignetted": {"pixels": per * int(use.sum())},
             }
             for key, arr, scale in (
                 ("ray_deviation_deg", self.ray_deviation_rad, math.degrees(1.0)),
@@ -126,21 +130,24 @@ class DistortionMaps:
             if edge_mm > 0:
                 with np.errstate(invalid="ignore"):
                     band = in_lobe & ~self.vignetted & edge_mask(self.mirror, k, self.hit_radius_mm, edge_mm)
-                entry["edge"] = {"band_mm": float(edge_mm), "pixels": int((band & clear).sum()),
-                                 "pixels_left_range": int((band & self.left_range).sum()),
+                entry["edge"] = {"band_mm": float(edge_mm), "pixels": per * int((band & clear).sum()),
+                                 "pixels_left_range": per * int((band & self.left_range).sum()),
                                  "image_displacement_px": _rms_max(self.image_displacement_px[band & clear])}
             lobes.append(entry)
         return {"lobes": lobes}
 
 
 def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = None, *,
-                       pose: CameraPose | None = ALIGNED, progress: bool = False) -> DistortionMaps:
+                       pose: CameraPose | None = ALIGNED, progress: bool = False,
+                       stride: int = 1) -> DistortionMaps:
     """Per-pixel ray deviation, image displacement (px) and viewpoint spread (mm), made vs exact.
 
     camera: default the mirror's design camera (full sensor). pose: a misaligned camera
     (traced in 3-D, about 10 s for the full sensor; the aligned case takes well under 1 s
     because every pixel of the same image radius shares its meridian trace).
-    progress: tqdm bars on stderr for the 3-D traces.
+    progress: tqdm bars on stderr for the 3-D traces. stride: the maps at every
+    stride-th row and column only, the middle pixel of each stride x stride block
+    (optics.sampling.pixel_stride: a large sensor sampled, figures in its own pixels).
     """
     check_type(made, "image_displacement: made", Profile, "a Profile (made_surface(...).profile, ExactProfile)")
     check_type(mirror, "image_displacement: mirror", Mirror, "a Mirror (settings.mirror())")
@@ -149,7 +156,8 @@ def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = No
     camera = camera or mirror.camera
     pose = pose or ALIGNED
     u, v = pixel_centres(camera)
-    u, v = u[..., 0], v[..., 0]
+    first = (int(stride) - 1) // 2
+    u, v = u[first::stride, first::stride, 0], v[first::stride, first::stride, 0]
     exact = ExactProfile(mirror)
     if pose.aligned:
         # Pixel centres are half-integers: (2u)^2 + (2v)^2 is an exact integer key of rho.
@@ -164,7 +172,7 @@ def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = No
         xy = np.stack([u, v], axis=-1)
         hm, he = (trace_pixels(p, camera, xy, pose=pose, progress=progress) for p in (made, exact))
         maps = _figures_of(mirror, camera, hm, he, xy)
-    return DistortionMaps(camera=camera, mirror=mirror, radius_px=np.hypot(u, v), **maps)
+    return DistortionMaps(camera=camera, mirror=mirror, radius_px=np.hypot(u, v), stride=int(stride), **maps)
 
 
 def usable_annulus(mirror: Mirror, camera: Camera | None = None, *,

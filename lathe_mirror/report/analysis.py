@@ -21,6 +21,7 @@ from ..optics.ranging.resolution import resolution_table
 from ..optics.ranging.stereo import error_curve, image_mask, prepare, range_figures, stereo_range
 from ..optics.ranging.truth import true_range
 from ..optics.render import image_difference, render_image
+from ..optics.sampling import pixel_stride, sampled_mirror
 from ..path import Arc, Line
 from ..profile import ExactProfile, Profile
 from ..results.base import Range, Stat, plain
@@ -151,14 +152,17 @@ def mirror_figures(profile: Profile, mirror: Mirror, zones=None, *, edge_mm: flo
     images unobstructed on the exact design (optics.radial: every pixel centre, aligned
     camera; equal to optics.distortion's per-pixel figures over the usable annulus, which
     the tests check); those per-pixel figures (with the pixels the step wall vignettes
-    counted too under "with_vignetted") are kept alongside (`optics_distortion`).
+    counted too under "with_vignetted") are kept alongside (`optics_distortion`), at every
+    pixel of a sensor up to optics.sampling.PIXELS_PER_LOBE a lobe, every stride-th row and
+    column of a larger one.
     zones (optics.zones.Zones): the optical figures over each lobe's used zone (the ring
     the nose cannot reach left out), its image radii under "zone_px". edge_mm
     (polish.clear_edge_mm): the edge band's own figures (optics.radial.radial_figures).
     """
     surf = profile_errors(profile, mirror)
     rad = radial_figures(profile, mirror, zones=zones, edge_mm=edge_mm)
-    full = image_displacement(profile, mirror).figures(zones)  # over the same zones as the radial figures
+    # over the same zones as the radial figures; a large sensor sampled (optics.sampling)
+    full = image_displacement(profile, mirror, stride=pixel_stride(mirror)).figures(zones)
     lobes = []
     for s, o, f in zip(surf["lobes"], rad["lobes"], full["lobes"]):
         lobes.append(LobeFigures(
@@ -227,22 +231,27 @@ def strategy_table(job: MachiningJob):
     return made, machine_table, tuple(table)
 
 
-def report_lens(mirror: Mirror, settings: Settings):
-    """The lens the report's images are blurred by, and each pixel's blur circle (px):
-    optics.defocus, as `render` and `stereo` blur theirs."""
+def report_lens(mirror: Mirror, settings: Settings, seen: Mirror | None = None):
+    """The lens the report's images are blurred by, and each pixel's blur circle (px of
+    `seen`'s camera, default the design's): optics.defocus, as `render` and `stereo` blur
+    theirs."""
     lens = lens_for(mirror, settings.optimize.focus_range_m * 1000.0)
-    return lens, blur_map(mirror, lens)
+    seen = mirror if seen is None else seen
+    return lens, blur_map(mirror, lens, seen.camera)
 
 
 def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None):
     """Each mirror's image of the paper's room (blurred by the lens, optics.defocus), and
-    each made image's difference to the exact."""
+    each made image's difference to the exact, on the sensor binned to
+    optics.sampling.PIXELS_PER_LOBE (the design's own sensor while its larger lobe has at
+    most that many pixel centres: the paper's; a 12-megapixel sensor binned 3 x 3)."""
     scene = scene_for(settings, mirror)
-    lens, blur = report_lens(mirror, settings)
-    images = {name: defocus_image(render_image(made[name], mirror, scene), blur) for name in MIRRORS}
+    seen = sampled_mirror(mirror, pixel_stride(mirror))
+    lens, blur = report_lens(mirror, settings, seen)
+    images = {name: defocus_image(render_image(made[name], seen, scene), blur) for name in MIRRORS}
     # Over the lobes' usable annuli, as `lathe-mirror render` states it (the one definition):
     # the step-vignetted band and the frame outside the mirror only dilute the difference.
-    mask = usable_annulus(mirror)
+    mask = usable_annulus(seen)
     stats = {name: ImageDifference.from_dict(image_difference(images["exact"], images[name], mask=mask))
              for name in MIRRORS if name != "exact"}
     return images, RenderFigures(against_exact=stats,
@@ -256,16 +265,18 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
     table at the exact mirror's achieved disparity precision, and the range maps (m,
     arrays for the plots)."""
     st = settings.stereo
-    grid, match = prepare(mirror, st.params)
+    stride = pixel_stride(mirror)
+    seen = sampled_mirror(mirror, stride)  # the sensor binned to optics.sampling.PIXELS_PER_LOBE
+    grid, match = prepare(seen, st.params)
     scene = scene_for(settings, mirror)
-    truth = true_range(mirror, scene, grid)
-    lens, blur = report_lens(mirror, settings)
-    mask = grow_mask(image_mask(mirror, grid, match.num_disparities), blur)
+    truth = true_range(mirror, scene, grid)  # the resolution model at one design pixel
+    lens, blur = report_lens(mirror, settings, seen)
+    mask = grow_mask(image_mask(seen, grid, match.num_disparities), blur)
     mirrors, maps = {}, {}
     precision = math.nan
     for name in MIRRORS:  # exact first: its disparity error is the matcher's precision
-        image = defocus_image(render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask), blur)
-        result = stereo_range(image, mirror, st.params)
+        image = defocus_image(render_image(made[name], seen, scene, supersample=st.supersample, pixels=mask), blur)
+        result = stereo_range(image, seen, st.params)
         fig = RangeFigures.from_dict(range_figures(result, truth, mirror,
                                                    precision_px=None if name == "exact" else precision))
         if name == "exact":
@@ -278,7 +289,8 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
         definition="range error = 100 (R - R_true) / R_true, R from the stereo centre triangulated from "
                    "StereoSGBM disparities of the two lobes' panoramas (rendered at supersample "
                    f"{st.supersample}, blurred by the lens's defocus: `defocus`), R_true the room along the "
-                   "outer lobe's pixel ray; over the common band's pixels with a range (valid_fraction of them)",
+                   "outer lobe's pixel ray; over the common band's pixels with a range (valid_fraction of them)"
+                   + (f"; on the sensor binned {stride} x {stride} (optics.sampling)" if stride > 1 else ""),
         supersample=st.supersample,
         matcher_precision_px=precision,
         resolution=ResolutionTable.from_dict(table),
