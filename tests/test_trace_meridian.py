@@ -15,7 +15,7 @@ from lathe_mirror.job import named_surface
 from lathe_mirror.optics.camera import pixel_centres
 from lathe_mirror.optics.rays import polyline_vertices
 from lathe_mirror.optics.trace import Fate, meridian_hits, trace_pixels
-from lathe_mirror.profile import ExactProfile, LobeSamples, PolylineProfile, Profile
+from lathe_mirror.profile import ExactProfile, LobeSamples, PolylineProfile, Profile, TabulatedProfile
 from lathe_mirror.settings import from_config
 
 
@@ -110,6 +110,40 @@ def crowded_polyline(mirror) -> PolylineProfile:
         r = np.unique(np.concatenate([[lo, hi], r, r[::40] + 1e-12, r[::40] + 2e-12]))
         lobes.append(LobeSamples(r, exact.z(r)))
     return PolylineProfile(*lobes, r_junction=exact.r_junction, r_max=exact.r_max, vertex_z=exact.vertex_z)
+
+
+def stepless_envelope(mirror) -> TabulatedProfile:
+    """A tabulated profile (z and slope) whose outer lobe starts at the junction level with
+    the inner one (no wall: every ray past the inner lobe meets the outer one), so the
+    outer lobe's first segment reaches below its first radius r_out0 and the rays just
+    past the junction take the table's general path (their root is moved up to r_out0)."""
+    exact = ExactProfile(mirror)
+    rj, r_max = exact.r_junction, exact.r_max
+    r_in = np.linspace(0.0, rj, 3001)
+    r_out = np.linspace(rj, r_max, 2001)
+    lift = float(exact.z(np.array(rj))) - float(mirror.lobes[1].z(np.array(rj)))
+    inner = (r_in, exact.z(r_in), exact.slope(r_in))
+    outer = (r_out, mirror.lobes[1].z(r_out) + lift, mirror.lobes[1].slope(r_out))
+    return TabulatedProfile(inner, outer, r_junction=rj, r_max=r_max, vertex_z=exact.vertex_z)
+
+
+def test_a_stepless_envelope_matches_the_plain_tracer(paper_mirror):
+    """The table's general path (a root below the outer lobe's first radius, roots rounded
+    off their segment at the vertices) against the plain tracer: fates and vignetting ray
+    for ray, hits and directions within 1e-12."""
+    profile = stepless_envelope(paper_mirror)
+    t_edge = profile.r_junction / float(profile.z(np.array(profile.r_junction)))
+    t = np.concatenate([hard_rays(profile, seed=11), t_edge * (1.0 + np.linspace(-1e-9, 1e-9, 2001))])
+    got, want = meridian_hits(profile, t), reference(profile, t)
+    assert np.array_equal(got.fate, want["fate"])
+    assert not np.any(got.fate == Fate.WALL)
+    assert np.array_equal(got.blocked, want["blocked"])
+    clamped = (got.fate == Fate.OUTER) & (got.r == np.nextafter(profile.r_junction, np.inf))
+    assert clamped.any()  # rays the general path moved up to the outer lobe's first radius
+    for key in ("r", "z", "out_r", "out_z"):
+        a, b = getattr(got, key), want[key]
+        assert np.array_equal(np.isnan(a), np.isnan(b)), key
+        assert np.nanmax(np.abs(a - b)) <= 1e-12, key
 
 
 @pytest.fixture(scope="module")
