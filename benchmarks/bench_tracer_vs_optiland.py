@@ -23,8 +23,8 @@ which other processes loading the machine skew less (on a 2-core machine loaded 
 over, the wall-clock ratios swing by 2x from run to run; the CPU ones by 10-20%). The
 yardstick (benchmarks/yardstick.py) is timed first and every time figure is also given in
 yardsticks. A made surface's fate table (optics.meridian_table, built on the first trace
-of a profile and kept while it lives) is built before the clock; its one-off cost is
-printed. Both sides are single-threaded
+of a profile and kept while it lives) is built before the clock: the first trace's time
+is printed. Both sides are single-threaded
 (numpy; optiland's conic kernel is a numba loop). rays/s counts each row's rays; the
 ratio is optiland's time over the row's (> 1: the project is faster). The load average
 is printed before and after. Before timing, the hit points and reflected directions of
@@ -214,7 +214,7 @@ def main() -> int:
     built = {}
     for name, prof in surfaces:
         t0 = time.perf_counter()
-        trace_pixels(prof, cam, xy[:4, :4])  # the per-profile tables
+        trace_pixels(prof, cam, xy)  # the first trace of a profile builds its tables
         built[name] = time.perf_counter() - t0
 
     exact = trace_pixels(surfaces[0][1], cam, xy)
@@ -255,7 +255,7 @@ def main() -> int:
         if other is not None:
             other.close()
     ref = best["optiland"]
-    print("  the first trace of each surface (its tables, once per profile): "
+    print("  the first trace of each surface (with its tables, once per profile): "
           + ", ".join(f"{name} {1e3 * t:.1f} ms" for name, t in built.items()))
     print(f"  {'':27s} {'rays':>8s} {'rays/s':>9s} (by CPU)  optiland's time / the row's (by CPU)  wall, CPU")
     if other is not None:

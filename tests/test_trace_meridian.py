@@ -12,7 +12,10 @@ import pytest
 
 from lathe_mirror.enums import Surface
 from lathe_mirror.job import named_surface
+from lathe_mirror.optics import meridian_roots
 from lathe_mirror.optics.camera import pixel_centres
+from lathe_mirror.optics.meridian_roots import fate_table
+from lathe_mirror.optics.meridian_table import FateTable
 from lathe_mirror.optics.rays import polyline_vertices
 from lathe_mirror.optics.trace import Fate, meridian_hits, trace_pixels
 from lathe_mirror.profile import ExactProfile, LobeSamples, PolylineProfile, Profile, TabulatedProfile
@@ -127,10 +130,11 @@ def stepless_envelope(mirror) -> TabulatedProfile:
     return TabulatedProfile(inner, outer, r_junction=rj, r_max=r_max, vertex_z=exact.vertex_z)
 
 
-def test_a_stepless_envelope_matches_the_plain_tracer(paper_mirror):
-    """The table's general path (a root below the outer lobe's first radius, roots rounded
-    off their segment at the vertices) against the plain tracer: fates and vignetting ray
-    for ray, hits and directions within 1e-12."""
+def test_a_stepless_envelope_matches_the_plain_tracer(paper_mirror, monkeypatch):
+    """The fate table's general path (a root below the outer lobe's first radius, roots
+    rounded off their segment at the vertices) against the plain tracer: fates and
+    vignetting ray for ray, hits and directions within 1e-12."""
+    monkeypatch.setattr(meridian_roots, "TABLE_MIN_RAYS", 0)  # the table from the first call
     profile = stepless_envelope(paper_mirror)
     t_edge = profile.r_junction / float(profile.z(np.array(profile.r_junction)))
     t = np.concatenate([hard_rays(profile, seed=11), t_edge * (1.0 + np.linspace(-1e-9, 1e-9, 2001))])
@@ -154,14 +158,26 @@ def surfaces(paper_mirror, paper_config):
             "paper": paper, "crowded": crowded_polyline(paper_mirror), "lowered": Lowered(paper, -0.01)}
 
 
-@pytest.mark.parametrize("name", ["exact", "uniform528", "paper", "crowded", "lowered"])
-def test_meridian_hits_match_the_plain_tracer(surfaces, name):
+@pytest.mark.parametrize("name", ["exact", "uniform528", "paper", "crowded", "lowered", "paper, table"])
+def test_meridian_hits_match_the_plain_tracer(surfaces, name, monkeypatch):
     """Fates and vignetting the same ray for ray; hits and reflected directions within
     1e-12 (mm, and of a unit vector); 1e-9 mm for the bisected reference of a profile the
-    tracer solves by Newton (its stop is 1e-12 mm in r, the slope of z amplifies it)."""
-    profile = surfaces[name]
+    tracer solves by Newton (its stop is 1e-12 mm in r, the slope of z amplifies it).
+    "paper, table": the tabulated envelope by its fate table (optics.meridian_table, built
+    from the first call here), which gives the polylines' solver's bits."""
+    profile = surfaces[name.split(",")[0]]
     t = hard_rays(profile, seed=len(name))
+    if name.endswith("table"):
+        p = profile  # a new profile, traced first by the polylines' solver (a call of few rays)
+        profile = TabulatedProfile(*p.lobes, r_junction=p.r_junction, r_max=p.r_max, vertex_z=p.vertex_z)
+        by_polylines = meridian_hits(profile, t)
+        monkeypatch.setattr(meridian_roots, "TABLE_MIN_RAYS", 0)
     got, want = meridian_hits(profile, t), reference(profile, t)
+    if name.endswith("table"):
+        # the table, kept with the profile, is what the second call used
+        assert isinstance(fate_table(profile, (0.0, 0.0, 0.0), 0.0), FateTable)
+        for key in ("fate", "r", "z", "out_r", "out_z", "blocked"):
+            assert getattr(got, key).tobytes() == getattr(by_polylines, key).tobytes(), key
     assert np.array_equal(got.fate, want["fate"])
     assert set(np.unique(got.fate)) == {Fate.INNER, Fate.OUTER, Fate.WALL, Fate.MISS}
     assert np.array_equal(got.blocked, want["blocked"])

@@ -95,7 +95,7 @@ def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None 
     shape = pixels_xy.shape[:-1]
     xy = pixels_xy.reshape(-1, 2)
     n = xy.shape[0]
-    merid = _Meridian(profile, min(n, _BLOCK))
+    merid = _Meridian(profile, min(n, _BLOCK), n)
     fate, blocked = np.empty(n, dtype=np.int8), np.empty(n, dtype=bool)
     point, direction = np.empty((n, 3)), np.empty((n, 3))
     t_over_px = camera.t_pixel / camera.f
@@ -114,17 +114,21 @@ def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None 
             np.multiply(rho, t_over_px, out=t)
             fate[a:b], r, z, out_r, out_z, blocked[a:b] = merid.block(t)
             p, d = point[a:b], direction[a:b]
-            if rho.all():  # off the principal point (always, for pixel centres): r cos = u (r / rho)
+            if rho.min() > 0.0:  # off the principal point (always, for pixel centres): r cos = u (r / rho)
                 r /= rho
                 out_r /= rho
-                cos, sin = u, v
-            else:
-                cos, sin = azimuth(u, v, rho)
-            p[:, 0] = np.multiply(r, cos, out=w)
-            p[:, 1] = np.multiply(r, sin, out=w)
+                p[:, 0] = np.multiply(r, u, out=w)
+                p[:, 1] = np.multiply(r, v, out=w)
+                d[:, 0] = np.multiply(out_r, u, out=w)
+                d[:, 1] = np.multiply(out_r, v, out=w)
+            else:  # a ray on the axis or a NaN (written as always: the sign of a NaN
+                # from two NaNs follows numpy's loop)
+                cos, sin = _turn(u, v, rho, r, out_r)
+                np.multiply(r, cos, out=p[:, 0])
+                np.multiply(r, sin, out=p[:, 1])
+                np.multiply(out_r, cos, out=d[:, 0])
+                np.multiply(out_r, sin, out=d[:, 1])
             p[:, 2] = z
-            d[:, 0] = np.multiply(out_r, cos, out=w)
-            d[:, 1] = np.multiply(out_r, sin, out=w)
             d[:, 2] = out_z
     return RayHits(fate=fate.reshape(shape), point=point.reshape(*shape, 3),
                    direction=direction.reshape(*shape, 3), blocked=blocked.reshape(shape))
@@ -135,7 +139,7 @@ def meridian_hits(profile: Profile, t: np.ndarray) -> MeridianHits:
     t = np.asarray(t, dtype=float)
     flat = t.reshape(-1)
     n = flat.size
-    merid = _Meridian(profile, min(n, _BLOCK))
+    merid = _Meridian(profile, min(n, _BLOCK), n)
     fate, blocked = np.empty(n, dtype=np.int8), np.empty(n, dtype=bool)
     r, z, out_r, out_z = (np.empty(n) for _ in range(4))
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -157,6 +161,27 @@ def meridian_hits(profile: Profile, t: np.ndarray) -> MeridianHits:
 _BLOCK = 1 << 14
 
 
+#: Rays that turn together: by r / rho times (u, v) if none of them is on the axis, else
+#: by their azimuth (u, v) / rho (the two differ in the last bit); a multiple of it is a
+#: block, so the bits never depend on _BLOCK.
+_TURN = 1 << 13
+
+
+def _turn(u: np.ndarray, v: np.ndarray, rho: np.ndarray, r: np.ndarray, out_r: np.ndarray):
+    """(cos, sin) that turn r and out_r (divided by rho in place where that is the way)
+    into the pixels' azimuths, _TURN rays at a time (a block holding a ray on the axis)."""
+    cos, sin = np.empty_like(u), np.empty_like(v)
+    for a in range(0, u.size, _TURN):
+        s = slice(a, a + _TURN)
+        if rho[s].all():
+            r[s] /= rho[s]
+            out_r[s] /= rho[s]
+            cos[s], sin[s] = u[s], v[s]
+        else:
+            cos[s], sin[s] = azimuth(u[s], v[s], rho[s])
+    return cos, sin
+
+
 #: Fate by the number of thresholds t_in <= t_wall <= t_rim that t is below.
 _FATE_BY_COUNT = np.array([Fate.MISS, Fate.OUTER, Fate.WALL, Fate.INNER], dtype=np.int8)
 _INNER = np.int8(Fate.INNER)  # (an IntEnum would make numpy cast the int8 fates to int64)
@@ -174,10 +199,11 @@ def _threshold(r: float, z: float) -> float:
 
 class _Meridian:
     """A profile's junction and rim, and its lobes' solver (a tabulated profile's fate
-    table, kept with the profile, else lobe_solver's), set up once per call, with the work
-    arrays of one block. Its block's arrays are valid until the next block."""
+    table, kept with the profile, else lobe_solver's), set up once per call of `rays`
+    rays, with the work arrays of one block. Its block's arrays are valid until the next
+    block."""
 
-    def __init__(self, profile: Profile, block: int = _BLOCK):
+    def __init__(self, profile: Profile, block: int = _BLOCK, rays: int = _BLOCK):
         self.profile = profile
         self.rj, self.r_max = rj, r_max = profile.r_junction, profile.r_max
         self.r_out0 = np.nextafter(rj, np.inf)  # the first radius of the outer lobe
@@ -190,7 +216,7 @@ class _Meridian:
         t_in = _threshold(rj, self.zi_j)
         t_wall = max(_threshold(rj, self.zo_j), t_in)
         self.t_fate = (t_in, t_wall, max(_threshold(r_max, self.z_rim), t_wall))
-        self.table = fate_table(profile, self.t_fate, float(self.r_out0))
+        self.table = fate_table(profile, self.t_fate, float(self.r_out0), rays)
         self.solve = None  # lobe_solver's, when needed (no table, or a t not finite)
         if self.table is not None:
             self.table_buffers = self.table.buffers(block)
