@@ -19,7 +19,12 @@ conic-only tracer would cost on the same rays).
 
 Alternating: each round times every project surface once, then optiland once; the figure
 is the best of --repeat rounds, by wall clock and (in brackets) by the process's CPU time,
-which other processes loading the machine skew less. Both sides are single-threaded
+which other processes loading the machine skew less (on a 2-core machine loaded 10 times
+over, the wall-clock ratios swing by 2x from run to run; the CPU ones by 10-20%). The
+yardstick (benchmarks/yardstick.py) is timed first and every time figure is also given in
+yardsticks. A made surface's fate table (optics.meridian_table, built on the first trace
+of a profile and kept while it lives) is built before the clock: the first trace's time
+is printed. Both sides are single-threaded
 (numpy; optiland's conic kernel is a numba loop). rays/s counts each row's rays; the
 ratio is optiland's time over the row's (> 1: the project is faster). The load average
 is printed before and after. Before timing, the hit points and reflected directions of
@@ -188,6 +193,9 @@ def main() -> int:
     if args.optiland_worker:
         return worker(args.optiland_worker)
 
+    import yardstick  # benchmarks/yardstick.py: the machine-speed reference, timed in every run
+
+    yardstick.start()
     from lathe_mirror.config import load
     from lathe_mirror.enums import Surface
     from lathe_mirror.job import named_surface
@@ -203,8 +211,11 @@ def main() -> int:
     n = xy[..., 0].size
     surfaces = [("exact", ExactProfile(mirror)), ("paper", named_surface(Surface.PAPER, mirror, s)),
                 ("best", named_surface(Surface.BEST, mirror, s))]
-    for _, prof in surfaces:
-        trace_pixels(prof, cam, xy[:4, :4])  # the per-profile tables
+    built = {}
+    for name, prof in surfaces:
+        t0 = time.perf_counter()
+        trace_pixels(prof, cam, xy)  # the first trace of a profile builds its tables
+        built[name] = time.perf_counter() - t0
 
     exact = trace_pixels(surfaces[0][1], cam, xy)
     fate = exact.fate.reshape(-1)
@@ -244,14 +255,18 @@ def main() -> int:
         if other is not None:
             other.close()
     ref = best["optiland"]
-    print(f"  {'':27s} {'rays':>8s} {'rays/s':>9s} (by CPU)  optiland's time / the row's (by CPU)")
+    print("  the first trace of each surface (with its tables, once per profile): "
+          + ", ".join(f"{name} {1e3 * t:.1f} ms" for name, t in built.items()))
+    print(f"  {'':27s} {'rays':>8s} {'rays/s':>9s} (by CPU)  optiland's time / the row's (by CPU)  wall, CPU")
     if other is not None:
-        print(f"  {'optiland  exact, lobe rays':27s} {on_lobes:8d} {on_lobes / ref[0]:9.3g} ({on_lobes / ref[1]:.3g})")
+        print(f"  {'optiland  exact, lobe rays':27s} {on_lobes:8d} {on_lobes / ref[0]:9.3g} ({on_lobes / ref[1]:.3g})"
+              f"  {'':18s}  {1e3 * ref[0]:.1f} ms, {1e3 * ref[1]:.1f} ms")
     for name, _, rays in rows:
         wall, cpu = best[name]
         k = rays[..., 0].size
-        ratio = "" if other is None else f"   {ref[0] / wall:.2f} ({ref[1] / cpu:.2f})"
-        print(f"  {'project   ' + name:27s} {k:8d} {k / wall:9.3g} ({k / cpu:.3g}){ratio}")
+        ratio = f"{'':18s}" if other is None else f"   {ref[0] / wall:5.2f} ({ref[1] / cpu:.2f})      "
+        print(f"  {'project   ' + name:27s} {k:8d} {k / wall:9.3g} ({k / cpu:.3g}){ratio}"
+              f"  {1e3 * wall:.1f} ms, {1e3 * cpu:.1f} ms")
     print(f"{load_text()} at the end")
     return 0
 

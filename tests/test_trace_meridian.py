@@ -12,10 +12,13 @@ import pytest
 
 from lathe_mirror.enums import Surface
 from lathe_mirror.job import named_surface
+from lathe_mirror.optics import meridian_roots
 from lathe_mirror.optics.camera import pixel_centres
+from lathe_mirror.optics.meridian_roots import fate_table
+from lathe_mirror.optics.meridian_table import FateTable
 from lathe_mirror.optics.rays import polyline_vertices
 from lathe_mirror.optics.trace import Fate, meridian_hits, trace_pixels
-from lathe_mirror.profile import ExactProfile, LobeSamples, PolylineProfile, Profile
+from lathe_mirror.profile import ExactProfile, LobeSamples, PolylineProfile, Profile, TabulatedProfile
 from lathe_mirror.settings import from_config
 
 
@@ -112,6 +115,41 @@ def crowded_polyline(mirror) -> PolylineProfile:
     return PolylineProfile(*lobes, r_junction=exact.r_junction, r_max=exact.r_max, vertex_z=exact.vertex_z)
 
 
+def stepless_envelope(mirror) -> TabulatedProfile:
+    """A tabulated profile (z and slope) whose outer lobe starts at the junction level with
+    the inner one (no wall: every ray past the inner lobe meets the outer one), so the
+    outer lobe's first segment reaches below its first radius r_out0 and the rays just
+    past the junction take the table's general path (their root is moved up to r_out0)."""
+    exact = ExactProfile(mirror)
+    rj, r_max = exact.r_junction, exact.r_max
+    r_in = np.linspace(0.0, rj, 3001)
+    r_out = np.linspace(rj, r_max, 2001)
+    lift = float(exact.z(np.array(rj))) - float(mirror.lobes[1].z(np.array(rj)))
+    inner = (r_in, exact.z(r_in), exact.slope(r_in))
+    outer = (r_out, mirror.lobes[1].z(r_out) + lift, mirror.lobes[1].slope(r_out))
+    return TabulatedProfile(inner, outer, r_junction=rj, r_max=r_max, vertex_z=exact.vertex_z)
+
+
+def test_a_stepless_envelope_matches_the_plain_tracer(paper_mirror, monkeypatch):
+    """The fate table's general path (a root below the outer lobe's first radius, roots
+    rounded off their segment at the vertices) against the plain tracer: fates and
+    vignetting ray for ray, hits and directions within 1e-12."""
+    monkeypatch.setattr(meridian_roots, "TABLE_MIN_RAYS", 0)  # the table from the first call
+    profile = stepless_envelope(paper_mirror)
+    t_edge = profile.r_junction / float(profile.z(np.array(profile.r_junction)))
+    t = np.concatenate([hard_rays(profile, seed=11), t_edge * (1.0 + np.linspace(-1e-9, 1e-9, 2001))])
+    got, want = meridian_hits(profile, t), reference(profile, t)
+    assert np.array_equal(got.fate, want["fate"])
+    assert not np.any(got.fate == Fate.WALL)
+    assert np.array_equal(got.blocked, want["blocked"])
+    clamped = (got.fate == Fate.OUTER) & (got.r == np.nextafter(profile.r_junction, np.inf))
+    assert clamped.any()  # rays the general path moved up to the outer lobe's first radius
+    for key in ("r", "z", "out_r", "out_z"):
+        a, b = getattr(got, key), want[key]
+        assert np.array_equal(np.isnan(a), np.isnan(b)), key
+        assert np.nanmax(np.abs(a - b)) <= 1e-12, key
+
+
 @pytest.fixture(scope="module")
 def surfaces(paper_mirror, paper_config):
     s = from_config(paper_config)
@@ -120,14 +158,26 @@ def surfaces(paper_mirror, paper_config):
             "paper": paper, "crowded": crowded_polyline(paper_mirror), "lowered": Lowered(paper, -0.01)}
 
 
-@pytest.mark.parametrize("name", ["exact", "uniform528", "paper", "crowded", "lowered"])
-def test_meridian_hits_match_the_plain_tracer(surfaces, name):
+@pytest.mark.parametrize("name", ["exact", "uniform528", "paper", "crowded", "lowered", "paper, table"])
+def test_meridian_hits_match_the_plain_tracer(surfaces, name, monkeypatch):
     """Fates and vignetting the same ray for ray; hits and reflected directions within
     1e-12 (mm, and of a unit vector); 1e-9 mm for the bisected reference of a profile the
-    tracer solves by Newton (its stop is 1e-12 mm in r, the slope of z amplifies it)."""
-    profile = surfaces[name]
+    tracer solves by Newton (its stop is 1e-12 mm in r, the slope of z amplifies it).
+    "paper, table": the tabulated envelope by its fate table (optics.meridian_table, built
+    from the first call here), which gives the polylines' solver's bits."""
+    profile = surfaces[name.split(",")[0]]
     t = hard_rays(profile, seed=len(name))
+    if name.endswith("table"):
+        p = profile  # a new profile, traced first by the polylines' solver (a call of few rays)
+        profile = TabulatedProfile(*p.lobes, r_junction=p.r_junction, r_max=p.r_max, vertex_z=p.vertex_z)
+        by_polylines = meridian_hits(profile, t)
+        monkeypatch.setattr(meridian_roots, "TABLE_MIN_RAYS", 0)
     got, want = meridian_hits(profile, t), reference(profile, t)
+    if name.endswith("table"):
+        # the table, kept with the profile, is what the second call used
+        assert isinstance(fate_table(profile, (0.0, 0.0, 0.0), 0.0), FateTable)
+        for key in ("fate", "r", "z", "out_r", "out_z", "blocked"):
+            assert getattr(got, key).tobytes() == getattr(by_polylines, key).tobytes(), key
     assert np.array_equal(got.fate, want["fate"])
     assert set(np.unique(got.fate)) == {Fate.INNER, Fate.OUTER, Fate.WALL, Fate.MISS}
     assert np.array_equal(got.blocked, want["blocked"])

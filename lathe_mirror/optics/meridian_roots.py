@@ -11,13 +11,16 @@ slope there. Camera frame, mm.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from ..design import Lobe
 from ..profile import ExactProfile, Profile, TabulatedProfile
+from .meridian_table import FateTable
 from .rays import ROOT_TOL_MM, Fate, polyline_vertices
 
-__all__ = ["lobe_solver", "per_fate"]
+__all__ = ["TABLE_MIN_RAYS", "fate_table", "lobe_solver", "per_fate"]
 
 
 def per_fate(inner: float, outer: float) -> np.ndarray:
@@ -78,25 +81,12 @@ class _Polylines:
 
     def __init__(self, profile: Profile, lobes: list[tuple], r_min: np.ndarray):
         self.profile, self.r_min = profile, r_min
-        self.search = _Search(np.concatenate([key for *_, key in lobes]))
-        self.m, self.c, self.r_lo, self.r_hi = [], [], [], []
-        for rs, zs, _ in lobes:
-            dr = rs[1:] - rs[:-1]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                m = (zs[1:] - zs[:-1]) / dr
-            self.m.append(m)
-            self.c.append(zs[:-1] - m * rs[:-1])
-            self.r_lo.append(rs[:-1])
-            self.r_hi.append(rs[1:])
-        self.m, self.c, self.r_lo, self.r_hi = (np.concatenate(x) for x in (self.m, self.c, self.r_lo, self.r_hi))
-        self.step = self.r_hi <= self.r_lo  # a vertical step in the table: the ray meets it there
+        keys, seg, self.step = _segments(profile, lobes)
+        self.search = _Search(keys)
+        self.m, self.c, self.r_lo, self.r_hi = seg["m"], seg["c"], seg["r_lo"], seg["r_hi"]
         self.any_step = bool(self.step.any())
-        self.ds = None
-        if type(profile).slope is TabulatedProfile.slope and lobes[0][0][-1] <= profile.r_junction:
-            ss = [profile.lobes[k][2] for k in (0, 1)]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                self.ds = np.concatenate([(x[1:] - x[:-1]) / (rs[1:] - rs[:-1]) for x, (rs, *_) in zip(ss, lobes)])
-            self.s_lo = np.concatenate([x[:-1] for x in ss])
+        self.ds = seg.get("ds")
+        self.s_lo = seg.get("s_lo")
 
     def __call__(self, t: np.ndarray, norm_d: np.ndarray, lobe: np.ndarray, inner: np.ndarray):
         j = self.search(t)
@@ -139,6 +129,69 @@ def _polyline_lobes(profile: Profile, t_in: float) -> list[tuple] | None:
         lobes.append((rs, zs, np.concatenate([[first], q[1:-1]])))
     keys = np.concatenate([key for *_, key in lobes])
     return lobes if bool(np.all(keys[1:] >= keys[:-1])) else None
+
+
+def _segments(profile: Profile, lobes: list[tuple]) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
+    """Both lobes' polylines as one table: the search keys, each segment's line z = m r + c
+    and ends r_lo, r_hi (and for a TabulatedProfile whose inner table ends by the
+    junction, its slope s_lo at r_lo and rate ds), and which segments are vertical steps."""
+    keys = np.concatenate([key for *_, key in lobes])
+    m, c, r_lo, r_hi = [], [], [], []
+    for rs, zs, _ in lobes:
+        dr = rs[1:] - rs[:-1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mk = (zs[1:] - zs[:-1]) / dr
+        m.append(mk)
+        c.append(zs[:-1] - mk * rs[:-1])
+        r_lo.append(rs[:-1])
+        r_hi.append(rs[1:])
+    seg = {k: np.concatenate(v) for k, v in (("m", m), ("c", c), ("r_lo", r_lo), ("r_hi", r_hi))}
+    if type(profile).slope is TabulatedProfile.slope and lobes[0][0][-1] <= profile.r_junction:
+        ss = [profile.lobes[k][2] for k in (0, 1)]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            seg["ds"] = np.concatenate([(x[1:] - x[:-1]) / (rs[1:] - rs[:-1]) for x, (rs, *_) in zip(ss, lobes)])
+        seg["s_lo"] = np.concatenate([x[:-1] for x in ss])
+    return keys, seg, seg["r_hi"] <= seg["r_lo"]
+
+
+_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_SEEN: weakref.WeakSet = weakref.WeakSet()
+#: Rays in one call from which a tabulated profile's fate table is built on its first
+#: trace (else on its second): the table costs about 20 ms once (a paper envelope,
+#: 77,000 intervals) and saves about 30 ns a ray and the polylines' 11 ms set-up a call.
+TABLE_MIN_RAYS = 1 << 18
+
+
+def fate_table(profile: Profile, t_fate: tuple[float, float, float], r_out0: float,
+               rays: int = TABLE_MIN_RAYS) -> FateTable | None:
+    """The profile's fate-interval table (optics.meridian_table) if it is tabulated with
+    its slope (a tool-nose envelope), else None; built when a call traces `rays` >=
+    TABLE_MIN_RAYS or the profile was traced before, then kept while the profile lives (a
+    profile is not changed once made)."""
+    try:
+        return _TABLES[profile]
+    except (KeyError, TypeError):
+        pass
+    if type(profile).slope is not TabulatedProfile.slope:
+        return None
+    if rays < TABLE_MIN_RAYS:
+        try:
+            if profile not in _SEEN:
+                _SEEN.add(profile)
+                return None
+        except TypeError:  # pragma: no cover - a profile that cannot be weakly referenced
+            return None
+    table = None
+    lobes = _polyline_lobes(profile, t_fate[0])
+    if lobes is not None:
+        keys, seg, step = _segments(profile, lobes)
+        if "ds" in seg:
+            table = FateTable(keys, seg, step, t_fate, r_out0)
+    try:
+        _TABLES[profile] = table
+    except TypeError:  # pragma: no cover - a profile that cannot be weakly referenced
+        pass
+    return table
 
 
 class _Search:

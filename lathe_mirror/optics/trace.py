@@ -16,7 +16,10 @@ Two paths, one answer:
       lobes in one bucketed table;
     - any other Profile (arcs, as-machined, polished): bracketed, safeguarded Newton on
       h(r), vectorised, to 1e-12 mm.
-  The roots are in optics.meridian_roots; the rays go through in blocks that stay in cache.
+  The roots are in optics.meridian_roots; a tabulated profile (a tool-nose envelope)
+  takes the fates, the segment and its slope from one table of t-intervals
+  (optics.meridian_table, built once per profile), to the same bits. The rays go
+  through in blocks that stay in cache.
 * General (3-D), for a misaligned camera (optics.trace3d): the lobe's quadric in closed
   form on its mirror's sheet, then safeguarded Newton on a made profile, all rays at once;
   a march for the few rays near a steep feature.
@@ -38,7 +41,7 @@ import numpy as np
 from ..design import Camera
 from ..profile import Profile
 from .camera import ALIGNED, CameraPose, ray_directions
-from .meridian_roots import lobe_solver, per_fate
+from .meridian_roots import fate_table, lobe_solver, per_fate
 from .rays import ROOT_TOL_MM, Fate, RayHits, azimuth, polyline_vertices
 from .trace3d import WALL_JUMP_MM, trace_rays
 
@@ -92,30 +95,41 @@ def trace_pixels(profile: Profile, camera: Camera, pixels_xy: np.ndarray | None 
     shape = pixels_xy.shape[:-1]
     xy = pixels_xy.reshape(-1, 2)
     n = xy.shape[0]
-    merid = _Meridian(profile)
+    merid = _Meridian(profile, min(n, _BLOCK), n)
     fate, blocked = np.empty(n, dtype=np.int8), np.empty(n, dtype=bool)
     point, direction = np.empty((n, 3)), np.empty((n, 3))
     t_over_px = camera.t_pixel / camera.f
-    for a in range(0, n, _BLOCK):
-        b = min(a + _BLOCK, n)
-        u, v = xy[a:b, 0], xy[a:b, 1]
-        rho = u * u
-        rho += v * v
-        np.sqrt(rho, out=rho)  # not np.hypot: 50 ns a ray, most of the tracer's time
-        fate[a:b], r, z, out_r, out_z, blocked[a:b] = merid.block(rho * t_over_px)
-        p, d = point[a:b], direction[a:b]
-        if rho.all():  # off the principal point (always, for pixel centres): r cos = u (r / rho)
-            r /= rho
-            out_r /= rho
-            cos, sin = u, v
-        else:
-            cos, sin = azimuth(u, v, rho)
-        np.multiply(r, cos, out=p[:, 0])
-        np.multiply(r, sin, out=p[:, 1])
-        p[:, 2] = z
-        np.multiply(out_r, cos, out=d[:, 0])
-        np.multiply(out_r, sin, out=d[:, 1])
-        d[:, 2] = out_z
+    # numpy's loops over a strided operand (a column of xy, point, direction) are not
+    # vectorised: the columns are copied once each way, the arithmetic runs contiguous
+    u_buf, v_buf, rho_buf, t_buf, w_buf = np.empty((5, min(n, _BLOCK)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for a in range(0, n, _BLOCK):
+            b = min(a + _BLOCK, n)
+            u, v, rho, t, w = (x[:b - a] for x in (u_buf, v_buf, rho_buf, t_buf, w_buf))
+            np.copyto(u, xy[a:b, 0])
+            np.copyto(v, xy[a:b, 1])
+            np.multiply(u, u, out=rho)
+            rho += np.multiply(v, v, out=t)
+            np.sqrt(rho, out=rho)  # not np.hypot: 50 ns a ray, most of the tracer's time
+            np.multiply(rho, t_over_px, out=t)
+            fate[a:b], r, z, out_r, out_z, blocked[a:b] = merid.block(t)
+            p, d = point[a:b], direction[a:b]
+            if rho.min() > 0.0:  # off the principal point (always, for pixel centres): r cos = u (r / rho)
+                r /= rho
+                out_r /= rho
+                p[:, 0] = np.multiply(r, u, out=w)
+                p[:, 1] = np.multiply(r, v, out=w)
+                d[:, 0] = np.multiply(out_r, u, out=w)
+                d[:, 1] = np.multiply(out_r, v, out=w)
+            else:  # a ray on the axis or a NaN (written as always: the sign of a NaN
+                # from two NaNs follows numpy's loop)
+                cos, sin = _turn(u, v, rho, r, out_r)
+                np.multiply(r, cos, out=p[:, 0])
+                np.multiply(r, sin, out=p[:, 1])
+                np.multiply(out_r, cos, out=d[:, 0])
+                np.multiply(out_r, sin, out=d[:, 1])
+            p[:, 2] = z
+            d[:, 2] = out_z
     return RayHits(fate=fate.reshape(shape), point=point.reshape(*shape, 3),
                    direction=direction.reshape(*shape, 3), blocked=blocked.reshape(shape))
 
@@ -125,12 +139,13 @@ def meridian_hits(profile: Profile, t: np.ndarray) -> MeridianHits:
     t = np.asarray(t, dtype=float)
     flat = t.reshape(-1)
     n = flat.size
-    merid = _Meridian(profile)
+    merid = _Meridian(profile, min(n, _BLOCK), n)
     fate, blocked = np.empty(n, dtype=np.int8), np.empty(n, dtype=bool)
     r, z, out_r, out_z = (np.empty(n) for _ in range(4))
-    for a in range(0, n, _BLOCK):
-        b = min(a + _BLOCK, n)
-        fate[a:b], r[a:b], z[a:b], out_r[a:b], out_z[a:b], blocked[a:b] = merid.block(flat[a:b])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for a in range(0, n, _BLOCK):
+            b = min(a + _BLOCK, n)
+            fate[a:b], r[a:b], z[a:b], out_r[a:b], out_z[a:b], blocked[a:b] = merid.block(flat[a:b])
     return MeridianHits(t=t, fate=fate.reshape(t.shape), r=r.reshape(t.shape), z=z.reshape(t.shape),
                         out_r=out_r.reshape(t.shape), out_z=out_z.reshape(t.shape),
                         blocked=blocked.reshape(t.shape))
@@ -139,13 +154,37 @@ def meridian_hits(profile: Profile, t: np.ndarray) -> MeridianHits:
 # --------------------------------------------------------------------------------------
 # The meridian tracer, a block of rays at a time
 
-#: Rays per block: the block's ~20 temporaries (8 bytes a ray each) stay in a core's L2
-#: cache, where a whole-sensor array (8 MB) would go to memory at every step.
-_BLOCK = 1 << 13
+#: Rays per block: the block's ~20 work arrays (8 bytes a ray each) stay within a core's
+#: L2 and the shared L3 caches, where a whole-sensor array (8 MB) would go to memory at
+#: every step, and the ~70 numpy calls a block makes cost little beside the block's work
+#: (8192 rays a block ran 10-30% slower on a loaded machine).
+_BLOCK = 1 << 14
+
+
+#: Rays that turn together: by r / rho times (u, v) if none of them is on the axis, else
+#: by their azimuth (u, v) / rho (the two differ in the last bit); a multiple of it is a
+#: block, so the bits never depend on _BLOCK.
+_TURN = 1 << 13
+
+
+def _turn(u: np.ndarray, v: np.ndarray, rho: np.ndarray, r: np.ndarray, out_r: np.ndarray):
+    """(cos, sin) that turn r and out_r (divided by rho in place where that is the way)
+    into the pixels' azimuths, _TURN rays at a time (a block holding a ray on the axis)."""
+    cos, sin = np.empty_like(u), np.empty_like(v)
+    for a in range(0, u.size, _TURN):
+        s = slice(a, a + _TURN)
+        if rho[s].all():
+            r[s] /= rho[s]
+            out_r[s] /= rho[s]
+            cos[s], sin[s] = u[s], v[s]
+        else:
+            cos[s], sin[s] = azimuth(u[s], v[s], rho[s])
+    return cos, sin
 
 
 #: Fate by the number of thresholds t_in <= t_wall <= t_rim that t is below.
 _FATE_BY_COUNT = np.array([Fate.MISS, Fate.OUTER, Fate.WALL, Fate.INNER], dtype=np.int8)
+_INNER = np.int8(Fate.INNER)  # (an IntEnum would make numpy cast the int8 fates to int64)
 
 
 def _threshold(r: float, z: float) -> float:
@@ -159,9 +198,12 @@ def _threshold(r: float, z: float) -> float:
 
 
 class _Meridian:
-    """A profile's junction and rim, and its lobes' solver, set up once per call."""
+    """A profile's junction and rim, and its lobes' solver (a tabulated profile's fate
+    table, kept with the profile, else lobe_solver's), set up once per call of `rays`
+    rays, with the work arrays of one block. Its block's arrays are valid until the next
+    block."""
 
-    def __init__(self, profile: Profile):
+    def __init__(self, profile: Profile, block: int = _BLOCK, rays: int = _BLOCK):
         self.profile = profile
         self.rj, self.r_max = rj, r_max = profile.r_junction, profile.r_max
         self.r_out0 = np.nextafter(rj, np.inf)  # the first radius of the outer lobe
@@ -174,45 +216,57 @@ class _Meridian:
         t_in = _threshold(rj, self.zi_j)
         t_wall = max(_threshold(rj, self.zo_j), t_in)
         self.t_fate = (t_in, t_wall, max(_threshold(r_max, self.z_rim), t_wall))
-        # a root at the junction belongs to the outer lobe; NaN off the lobes
-        self.r_min = per_fate(-np.inf, self.r_out0)
-        self.solve = lobe_solver(profile, self.r_min, t_in)
+        self.table = fate_table(profile, self.t_fate, float(self.r_out0), rays)
+        self.solve = None  # lobe_solver's, when needed (no table, or a t not finite)
+        if self.table is not None:
+            self.table_buffers = self.table.buffers(block)
+        self.f64 = np.empty((5, block))
+        self.bools = np.empty((3, block), dtype=bool)
 
     def block(self, t: np.ndarray) -> tuple[np.ndarray, ...]:
-        """fate, r, z, out_r, out_z, blocked of the rays r = t z (t 1-D)."""
-        # Classify by the ray's height where it reaches the junction and the rim (h
-        # monotone): inner if t zi_j <= r_junction, else the wall if t zo_j <= r_junction,
-        # else the outer lobe if t z_rim <= r_max, else a miss (and a NaN t).
-        t_in, t_wall, t_rim = self.t_fate
-        inner = t <= t_in
-        count = inner.view(np.int8) + (t <= t_wall).view(np.int8)
-        count += (t <= t_rim).view(np.int8)
-        fate = _FATE_BY_COUNT.take(count)
-        lobe = fate.astype(np.intp)
-
-        norm_d = t * t
+        """fate, r, z, out_r, out_z, blocked of the rays r = t z (t 1-D, at most `block`).
+        Floating-point warnings are the caller's (divisions by 0 for the rays on the axis
+        and off the lobes)."""
+        n = t.size
+        z, g, h, norm_d, out_z = (a[:n] for a in self.f64)
+        inner, blocked, other = (a[:n] for a in self.bools)
+        np.multiply(t, t, out=norm_d)
         norm_d += 1.0
         np.sqrt(norm_d, out=norm_d)
-        r, s = self.solve(t, norm_d, lobe, inner)  # NaN off the lobes
-        with np.errstate(divide="ignore", invalid="ignore"):
-            z = r / t  # on the ray
-        if not t.all():
+        t_min = t.min()
+        if self.table is not None and -np.inf < t_min and t.max() < np.inf:
+            fate, r, s = self.table(t, self.table_buffers, self.profile, self.rj)
+            np.equal(fate, _INNER, out=inner)
+        else:
+            if self.solve is None:  # a root at the junction belongs to the outer lobe; NaN off the lobes
+                self.solve = lobe_solver(self.profile, per_fate(-np.inf, self.r_out0), self.t_fate[0])
+            # Classify by the ray's height where it reaches the junction and the rim (h
+            # monotone): inner if t zi_j <= r_junction, else the wall if t zo_j <= r_junction,
+            # else the outer lobe if t z_rim <= r_max, else a miss (and a NaN t).
+            t_in, t_wall, t_rim = self.t_fate
+            np.less_equal(t, t_in, out=inner)
+            count = inner.view(np.int8) + np.less_equal(t, t_wall, out=other).view(np.int8)
+            count += np.less_equal(t, t_rim, out=other).view(np.int8)
+            fate = _FATE_BY_COUNT.take(count)
+            r, s = self.solve(t, norm_d, fate.astype(np.intp), inner)  # NaN off the lobes
+            past = r > self.rj
+            past &= inner
+            if past.any():  # a root rounded past the junction: the slope profile.slope gives there
+                s[past] = self.profile.slope(r[past])
+        np.divide(r, t, out=z)  # on the ray
+        if not t_min > 0.0:  # (or NaN)
             z[t == 0] = self.z_axis
-        past = r > self.rj
-        past &= inner
-        if past.any():  # a root rounded past the junction: the slope profile.slope gives there
-            s[past] = self.profile.slope(r[past])
 
         # Mirror reflection out = d - 2 (d.n) n in the meridian plane, d = (t, 1) / norm_d,
         # n = (s, -1) / sqrt(1 + s^2): out = (t - g s, 1 + g) / norm_d, g = 2 (t s - 1) / (1 + s^2).
-        g = t * s
+        np.multiply(t, s, out=g)
         g -= 1.0
         g += g
-        h = s * s
+        np.multiply(s, s, out=h)
         h += 1.0
         g /= h
         inv_d = np.divide(1.0, norm_d, out=norm_d)
-        out_z = g + 1.0
+        np.add(g, 1.0, out=out_z)
         out_z *= inv_d
         out_r = np.multiply(g, s, out=g)
         np.subtract(t, out_r, out=out_r)
@@ -221,14 +275,16 @@ class _Meridian:
         # Rays leaving the inner lobe cross r = r_junction (on the far side if out_r < 0);
         # there the material of the outer lobe starts at zo_j, and the outer sheet rises
         # faster than any reflected ray beyond (convex lobe), so that crossing decides.
-        with np.errstate(divide="ignore", invalid="ignore"):
-            z_at_wall = np.sign(out_r, out=h)
-            z_at_wall *= self.rj
+        if inner.any():
+            # (+-r_junction by out_r's sign: at out_r = 0, never blocked, and a NaN stays NaN)
+            z_at_wall = np.copysign(self.rj, out_r, out=h)
             z_at_wall -= r
             z_at_wall *= out_z
             z_at_wall /= out_r
             z_at_wall += z
-        blocked = z_at_wall > self.zo_j
-        blocked &= out_r != 0
-        blocked &= inner
+            np.greater(z_at_wall, self.zo_j, out=blocked)
+            blocked &= np.not_equal(out_r, 0.0, out=other)
+            blocked &= inner
+        else:
+            blocked[...] = False
         return fate, r, z, out_r, out_z, blocked
