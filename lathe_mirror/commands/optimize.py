@@ -271,7 +271,8 @@ def format_result(data: dict) -> str:
         row(f"{lobe} alpha [deg]", lambda d, k=k: f"{d['lobes'][k]['alpha_deg']:.3f}")
     row("baseline [mm]", lambda d: f"{d['baseline_mm']:.3f}")
     row("common band [deg]", lambda d: f"{d['band_deg']['min']:.2f}..{d['band_deg']['max']:.2f}")
-    row("R10 [m]", lambda d: f"{d['r10_m']:.4f}")
+    row("design R10 [m]", lambda d: f"{d['design_r10_m']:.4f}")
+    row("sharp R10 [m]", lambda d: f"{d['sharp_r10_m']:.4f}")
     row("delivered R10 p5 [m]", lambda d: f"{d['delivered_r10_m']:.4f}")
     row("blur [px]", lambda d: f"{d['blur_px']:.2f}")
     row("step [mm]", lambda d: f"{d['step_mm']:.3f} {d['recessed']}")
@@ -298,7 +299,7 @@ def format_result(data: dict) -> str:
         if "delivered_r10_m" in c:
             d, dd = c["delivered_r10_m"], c["delivered"]
             lines.append(f"delivered R10 (the made parts, calibrated, blur {dd['blur_px']:.1f} px): 5th percentile "
-                         f"{d['p5']:.4f} m, median {d['median']:.4f} m (design {d['design']:.4f} m)")
+                         f"{d['p5']:.4f} m, median {d['median']:.4f} m (design {d['design']:.4f} m, sharp {d['sharp']:.4f} m)")
         if "replaced" in c:
             r = c["replaced"]
             lines.append(f"the best design found (objective {r['objective']:.6g}) fails the tolerance verdict "
@@ -346,14 +347,14 @@ def _toml_comments(data: dict) -> list[str]:
                      f"{best_value(data, data['reference']):.6g} {data['objective_unit']}".rstrip())
     lines.append(f"seed {s['seed']}, {s['generations']} generations, {s['evaluations']} designs evaluated")
     lines.append(f"baseline {best['baseline_mm']:.3f} mm, common band {best['band_deg']['min']:.2f}.."
-                 f"{best['band_deg']['max']:.2f} deg, R10 {best['r10_m']:.4f} m, blur {best['blur_px']:.2f} px, "
+                 f"{best['band_deg']['max']:.2f} deg, design R10 {best['design_r10_m']:.4f} m (sharp {best['sharp_r10_m']:.4f}), blur {best['blur_px']:.2f} px, "
                  f"step {best['step_mm']:.3f} mm ({best['recessed']} lobe recessed), usable "
                  f"{100 * best['usable_share']:.1f} %")
     return lines
 
 
 def best_value(data: dict, fig: dict) -> float:
-    key = {"delivered_r10_p5": "delivered_r10_m", "r10": "r10_m", "baseline": "baseline_mm", "band_width": "band_width_deg",
+    key = {"delivered_r10_p5": "delivered_r10_m", "r10": "sharp_r10_m", "baseline": "baseline_mm", "band_width": "band_width_deg",
            "usable_area": "usable_share"}[data["objective"]]
     return fig[key]
 
