@@ -396,7 +396,7 @@ def test_robust_optimize_writes_the_allocated_tolerances_tolerance_confirms(tmp_
     assert d["design"] == pytest.approx(data["best"]["design_r10_m"], rel=1e-12)
     assert d["sharp"] == pytest.approx(data["best"]["sharp_r10_m"], rel=1e-12)
     circle2 = blur**2 + (2.44 * 0.55e-3 * 8.0 / 0.009) ** 2
-    assert d["design"] == pytest.approx(d["sharp"] / math.sqrt(1.0 + 0.01 + 0.03**2 * circle2), rel=1e-9)
+    assert d["design"] == pytest.approx(d["sharp"] / math.sqrt(1.0 + 0.01 + 0.03**2 * circle2), rel=1e-8)
     assert d["median"] <= d["design"] * (1 + 1e-12)
     assert check["yield"] < 0.95
     alloc = check["allocation"]

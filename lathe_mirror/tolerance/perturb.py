@@ -426,7 +426,7 @@ def _stereo(mirror: Mirror, bank: SurfaceBank, surf, tr: Trials, origin, rot, sp
     / R, R_X the signed range of X along W's direction; parallax error delta =
     B cos(elevation) (1 / R - 1 / R_X) (first order; finite where the depth error
     diverges), in px: |delta| / px_scale. A point either lobe does not show (ray off its
-    lobe, vignetted) is not seen.
+    lobe, vignetted, or leaving the lobe's range: _in_range) is not seen.
     """
     n = len(tr)
     R, M = sp.w.shape[:2]
@@ -438,7 +438,7 @@ def _stereo(mirror: Mirror, bank: SurfaceBank, surf, tr: Trials, origin, rot, sp
         u, v = model_pixels(mirror, k, np.broadcast_to(dirs, (n,) + dirs.shape), model)
         bad = ~(np.isfinite(u) & np.isfinite(v))
         u, v = np.where(bad, 0.0, u), np.where(bad, 0.0, v)
-        p, o, ok, blocked = _trace(mirror, bank, k, surf, tr, origin, rot, u, v)
+        p, o, ok, blocked = _in_range(mirror, k, _trace(mirror, bank, k, surf, tr, origin, rot, u, v))
         rays.append((p, o, ok & ~blocked & ~bad))
     x = triangulate(rays[0][0], rays[0][1], rays[1][0], rays[1][1])
     unit = np.tile(sp.unit, (R, 1))
