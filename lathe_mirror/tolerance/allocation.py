@@ -21,8 +21,10 @@ trial is the configured run's trial with its offsets scaled, so the two yields d
 by the trials the tightening flips). If it falls short, the surrogate is refitted to every
 trial traced so far (the confirming run's trials sit where the allocation is, the
 configured run's may sit far from it), its aim is raised by the shortfall, and the search
-continues (at most ROUNDS confirming runs). When the surrogate sees no allocation within the
-precision shop's values, the Monte Carlo judges all of them at once; if even that falls
+continues (at most ROUNDS confirming runs; an allocation already found short is never
+confirmed twice: the aim rises until the surrogate asks for a new one). When the surrogate
+sees no new allocation within the precision shop's values, the Monte Carlo judges all of
+them at once; if even that falls
 short, the statement names the parameter whose precision-shop value limits the yield
 most (the one the surrogate gains most from, set perfect).
 """
@@ -202,9 +204,15 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
         unreachable = ("no tolerance can fix it: the nominal part fails " + ", ".join(
             f"{c} ({_num(float(np.min(resp.phases[:, CRITERIA.index(c)])))} > {_num(ctx.limits[c])})"
             for c in nominal_fails) + " at every lattice phase")
+    tried: set[tuple[int, ...]] = set()
     while not reached and not unreachable and rounds < ROUNDS:
         rungs, scale, y_sur = _greedy(surrogate_yield, rungs, cost, aim, top, floor)
-        all_out = y_sur < aim
+        # an allocation a Monte Carlo already found short would only repeat its trials:
+        # the aim rises until the surrogate asks for something new, or cannot
+        while y_sur >= aim and tuple(rungs.values()) in tried and aim < 1.0:
+            aim = min(1.0, aim + max(1.0 / n, 0.5 * (1.0 - aim)))
+            rungs, scale, y_sur = _greedy(surrogate_yield, rungs, cost, aim, top, floor)
+        all_out = y_sur < aim or tuple(rungs.values()) in tried
         if all_out:
             # The surrogate sees no way within a precision shop's values: the Monte Carlo
             # judges them all at once, so the verdict and the yield quoted come from the
@@ -223,6 +231,7 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
         reached = confirm.yield_fraction >= target
         if reached:
             break
+        tried.add(tuple(rungs.values()))
         traced.append(confirm)
         _refit(sur, traced, keys)
         if all_out:
