@@ -276,6 +276,6 @@ def test_optimize_writes_a_runner_up_that_passes_nominal(tmp_path):
     r = check["replaced"]
     assert r["why"].startswith("the nominal part fails disparity_px (")
     assert r["tried"] and r["tried"][-1]["failing"] == [] and all(t.get("failing", [1]) for t in r["tried"][:-1])
-    assert data["best"]["r10_m"] <= r["objective"]
+    assert data["best"]["sharp_r10_m"] <= r["objective"]
     written = load(tmp_path / "best.toml")
     assert [lb.r_top for lb in written.lobes] == pytest.approx([lb["r_top"] for lb in data["best"]["lobes"]], rel=1e-9)

@@ -220,7 +220,7 @@ def test_optimize_beats_the_paper_in_its_own_envelope(tmp_path):
     assert data["reference_name"] == "paper" and data["reference_feasible"]
     assert data["gain"] >= 1.0
     assert all(c["slack"] >= 0 for c in data["constraints"])
-    assert data["reference"]["r10_m"] == pytest.approx(0.2344, abs=0.0005)
+    assert data["reference"]["sharp_r10_m"] == pytest.approx(0.2344, abs=0.0005)
     # the winner through the tolerance analysis: the nominal part passes every criterion
     check = data["check"]
     assert check["nominal_pass"] and all(c["pass"] for c in check["nominal"].values())
@@ -280,7 +280,7 @@ def test_written_design_reproduces_through_design_and_runs(tmp_path):
     assert fig["junction"]["step_mm"] == pytest.approx(best["step_mm"], rel=1e-9)
     # the same R10 from the design the file describes
     s = load(out)
-    assert r10(s.mirror(), (math.radians(-20), 0.0)) == pytest.approx(best["r10_m"], rel=1e-9)
+    assert r10(s.mirror(), (math.radians(-20), 0.0)) == pytest.approx(best["sharp_r10_m"], rel=1e-9)
     # the user's sections are carried over
     assert tomllib.loads(out.read_text())["stock"]["length"] == 50.0
     # the shop's stages on the written file: both programs (each with its second set-up,
@@ -382,7 +382,10 @@ def test_robust_optimize_writes_the_allocated_tolerances_tolerance_confirms(tmp_
     optimize writes the least-cost tolerances that reach it into best.toml with what they
     cost, and `tolerance --config best.toml` draws the same trials at them (the seed,
     common random numbers) and counts the same yield. The winner's delivered R10 sits
-    under its design R10 by the blur's matcher noise at least: R10 / sqrt(1 + (0.1 x blur)^2)."""
+    under its design R10, the nominal part's with the same blur, and the design's sits under
+    the sharp R10 by the matcher's noise on that blur: n^2 = 0.1^2 + (0.03 x blur)^2, the
+    blur circle the defocus and the Airy disc of f/8 on 9 um pixels (2.44 x 0.55 um x 8 /
+    9 um = 1.193 px) in quadrature."""
     cfg = tmp_path / "robust.toml"
     cfg.write_text(ROBUST)
     out = tmp_path / "best.toml"
@@ -393,8 +396,11 @@ def test_robust_optimize_writes_the_allocated_tolerances_tolerance_confirms(tmp_
     check = data["check"]
     d = check["delivered_r10_m"]
     blur = data["best"]["blur_px"]
-    assert d["design"] == pytest.approx(data["best"]["r10_m"], rel=1e-12)
-    assert d["median"] <= d["design"] / math.sqrt(1.0 + (0.1 * blur) ** 2) * (1 + 1e-12)
+    assert d["design"] == pytest.approx(data["best"]["design_r10_m"], rel=1e-12)
+    assert d["sharp"] == pytest.approx(data["best"]["sharp_r10_m"], rel=1e-12)
+    circle2 = blur**2 + (2.44 * 0.55e-3 * 8.0 / 0.009) ** 2
+    assert d["design"] == pytest.approx(d["sharp"] / math.sqrt(1.0 + 0.01 + 0.03**2 * circle2), rel=1e-8)
+    assert d["median"] <= d["design"] * (1 + 1e-12)
     assert check["yield"] < 0.95
     alloc = check["allocation"]
     assert alloc["reached"] and alloc["yield"] >= 0.95 and alloc["cost_ratio"] > 1.0

@@ -547,35 +547,40 @@ def test_a_columns_precision_comes_from_its_unit():
 
 
 def test_delivered_r10_of_a_perfect_sharp_part_is_the_papers(paper_mirror):
-    """No part error, no matcher noise: the paper's R10 (0.222 m over the common band,
-    optics.ranging.resolution); 1 px of part error and a 10 px blur matched to 0.1 px of
-    its width add 1 px and 1 px in quadrature: R10 / sqrt(3), and the robot reads at 1 m
-    10 % x (1 / 0.222) x sqrt(2) = 63.7 % (first order in the disparity error)."""
+    """Hand calculation. No part error, no blur, no matcher noise: the paper's sharp R10
+    (0.222 m over the common band, optics.ranging.resolution) is the design's. A 10 px
+    blur circle with 0.1 px of sharp matcher noise: n^2 = 0.1^2 + (0.03 x 10)^2 = 0.1, so
+    the design (the nominal part) delivers 0.222 / sqrt(1.1) and a part with 1 px of its
+    own disparity error 0.222 / sqrt(2.1); the robot reads at 1 m 10 % x (1 / 0.222) x
+    sqrt(1 + 0.1) = 47.2 % (first order in the disparity error)."""
     from lathe_mirror.tolerance.delivered import delivered_range
 
-    d = delivered_range(paper_mirror, np.array([0.0, 1.0]), blur_px=10.0, matching_noise_px=0.0, range_m=1.0)
-    assert d.design_r10_m == pytest.approx(0.222, abs=5e-4)
+    d = delivered_range(paper_mirror, np.array([0.0, 1.0]), blur_px=0.0, matching_noise_px=0.0, range_m=1.0)
+    assert d.design_r10_m == pytest.approx(0.222, abs=5e-4) and d.sharp_r10_m == d.design_r10_m
     assert d.r10_m[0] == pytest.approx(0.222, abs=5e-4)
     assert d.r10_m[1] == pytest.approx(0.222 / math.sqrt(2.0), abs=5e-4)
-    d = delivered_range(paper_mirror, np.array([1.0]), blur_px=10.0, matching_noise_px=0.1, range_m=1.0)
-    assert d.r10_m[0] == pytest.approx(0.222 / math.sqrt(3.0), abs=5e-4)
-    assert d.depth_error_pct[0] == pytest.approx(10.0 / 0.222 * math.sqrt(2.0), rel=3e-3)
-    # a blur under a pixel matches like a sharp pixel
-    sharp = delivered_range(paper_mirror, np.array([0.0]), blur_px=0.3, matching_noise_px=0.1, range_m=1.0)
-    assert sharp.r10_m[0] == pytest.approx(0.222 / math.sqrt(1.01), abs=5e-4)
+    d = delivered_range(paper_mirror, np.array([0.0, 1.0]), blur_px=10.0, matching_noise_px=0.1, range_m=1.0)
+    assert d.sharp_r10_m == pytest.approx(0.222, abs=5e-4)
+    assert d.design_r10_m == pytest.approx(0.222 / math.sqrt(1.1), abs=5e-4)
+    assert d.r10_m[0] == pytest.approx(d.design_r10_m, rel=1e-12)  # the nominal part delivers the design
+    assert d.r10_m[1] == pytest.approx(0.222 / math.sqrt(2.1), abs=5e-4)
+    assert d.depth_error_pct[1] == pytest.approx(10.0 / 0.222 * math.sqrt(1.1), rel=3e-3)
+    assert d.summary()["sharp"] == d.sharp_r10_m and d.summary()["design"] == d.design_r10_m
 
 
 def test_monte_carlo_quotes_the_delivered_range_per_trial(ctx):
-    """Every trial's delivered R10 is the design's over sqrt(1 + d^2 + (noise x blur)^2)
-    with d its own calibrated disparity (the band's median): recomputed by hand from the
-    trial table; the summary's p5 and median are the table's."""
+    """Every trial's delivered R10 is the sharp R10 over sqrt(1 + d^2 + n^2), with d its own
+    calibrated disparity (the band's median) and n^2 = 0.1^2 + (0.03 x 6)^2 the matcher's
+    noise on a 6 px blur: recomputed by hand from the trial table; the design's is the
+    same with d = 0; the summary's p5 and median are the table's."""
     c = dataclasses.replace(ctx, blur_px=6.0)
     res = run_monte_carlo(c)
     out = res.to_dict()
     per = out["per_trial"]
     d = res.figures.calibrated["disparity_px_median"][:, 0]
-    design = out["delivered_r10_m"]["design"]
-    want = design / np.sqrt(1.0 + d**2 + (0.1 * 6.0) ** 2)
+    design, sharp = out["delivered_r10_m"]["design"], out["delivered_r10_m"]["sharp"]
+    assert design == pytest.approx(sharp / math.sqrt(1.0 + 0.01 + 0.0324), rel=1e-12)
+    want = sharp / np.sqrt(1.0 + d**2 + 0.01 + 0.0324)
     assert np.allclose(per["delivered_r10_m"], want, rtol=1e-12)
     assert out["delivered_r10_m"]["p5"] == pytest.approx(np.quantile(want, 0.05, method="inverted_cdf"))
     assert out["delivered_r10_m"]["median"] <= design

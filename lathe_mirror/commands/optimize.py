@@ -97,7 +97,8 @@ def format_result(data: dict) -> str:
         row(f"{lobe} alpha [deg]", lambda d, k=k: f"{d['lobes'][k]['alpha_deg']:.3f}")
     row("baseline [mm]", lambda d: f"{d['baseline_mm']:.3f}")
     row("common band [deg]", lambda d: f"{d['band_deg']['min']:.2f}..{d['band_deg']['max']:.2f}")
-    row("R10 [m]", lambda d: f"{d['r10_m']:.4f}")
+    row("design R10 [m]", lambda d: f"{d['design_r10_m']:.4f}")
+    row("sharp R10 [m]", lambda d: f"{d['sharp_r10_m']:.4f}")
     row("delivered R10 p5 [m]", lambda d: f"{d['delivered_r10_m']:.4f}")
     row("blur [px]", lambda d: f"{d['blur_px']:.2f}")
     row("step [mm]", lambda d: f"{d['step_mm']:.3f} {d['recessed']}")
@@ -124,7 +125,7 @@ def format_result(data: dict) -> str:
         if "delivered_r10_m" in c:
             d, dd = c["delivered_r10_m"], c["delivered"]
             lines.append(f"delivered R10 (the made parts, calibrated, blur {dd['blur_px']:.1f} px): 5th percentile "
-                         f"{d['p5']:.4f} m, median {d['median']:.4f} m (design {d['design']:.4f} m)")
+                         f"{d['p5']:.4f} m, median {d['median']:.4f} m (design {d['design']:.4f} m, sharp {d['sharp']:.4f} m)")
         if "replaced" in c:
             r = c["replaced"]
             lines.append(f"the best design found (objective {r['objective']:.6g}) fails the tolerance verdict "

@@ -43,7 +43,7 @@ from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
 from ..enums import Mount
 from ..errors import DesignError
 from ..lathe import JAW_GAP, MIN_GRIP, Stock, Tool
-from ..optics.ranging.resolution import delivered_r10, r10
+from ..optics.ranging.resolution import blur_circle_px, delivered_r10, design_r10, r10
 from ..toolpath.checks import corner_nose, fillet_hidden_margin, reach_margin
 from ..toolpath.moves import Hand
 from .focus import defocus
@@ -82,7 +82,10 @@ class Problem:
 class Figures:
     """A design's figures (the table beside the paper's; the constraints' inputs).
 
-    r10_m: R10 over the required band (optics.ranging.resolution.r10). baseline_mm: F1
+    r10_m: the sharp R10 over the required band (optics.ranging.resolution.r10; the JSON's
+    sharp_r10_m); design_r10_m: the nominal part's R10 with its own blur and the matcher's
+    noise (resolution.design_r10: what optimize promises); delivered_r10_m: the surrogate of
+    the made parts' 5th percentile (resolution.delivered_r10). baseline_mm: F1
     to F1. band_deg: the common band (lowest, highest elevation). band_width_deg.
     usable_share: share of the inscribed circle's pixels that see the scene. blur_px,
     focus_mm: the thin-lens model's largest blur and focus distance. step_mm, recessed:
@@ -115,6 +118,7 @@ class Figures:
     bore_face_mm: float = field(default=0.0)  # the face's depth below the vertex over the mount bore's radius
     rim_depth_mm: float = field(default=0.0)  # the outer rim's depth below the vertex (the shoulder)
     delivered_r10_m: float = field(default=math.nan)  # the surrogate of the made parts' 5th percentile
+    design_r10_m: float = field(default=math.nan)  # the nominal part's, blur and matcher noise counted
 
     def objective(self, objective: Objective) -> float:
         """The value of `objective` (larger is better)."""
@@ -126,7 +130,8 @@ class Figures:
         """Plain data (JSON): the lobes under the configuration's keys, then the figures."""
         out = {"lobes": [{"name": s.name, "r_top": s.r_top, "r_pixel": s.r_pixel, "alpha_deg": s.alpha_deg}
                          for s in self.lobes]}
-        for k in ("r10_m", "delivered_r10_m", "baseline_mm", "band_width_deg", "usable_share", "blur_px", "focus_mm",
+        out["design_r10_m"], out["sharp_r10_m"] = self.design_r10_m, self.r10_m
+        for k in ("delivered_r10_m", "baseline_mm", "band_width_deg", "usable_share", "blur_px", "focus_mm",
                   "step_mm", "recessed", "vertex_mm", "far_mm", "depth_mm", "junction_margin_mm",
                   "fillet_hidden_mm", "reach_margin_deg", "hand"):
             out[k] = getattr(self, k)
@@ -279,7 +284,7 @@ def measure(mirror: Mirror, problem: Problem, lobes: tuple[LobeSpec, LobeSpec], 
     return Figures(
         lobes=lobes,
         r10_m=r10_m,
-        delivered_r10_m=_delivered(r10_m, blur.blur_px, problem),
+        **_ranges(r10_m, blur.blur_px, problem),
         baseline_mm=mirror.baseline,
         band_deg=(math.degrees(band[0]), math.degrees(band[1])),
         band_width_deg=max(0.0, math.degrees(band[1] - band[0])),
@@ -301,10 +306,16 @@ def measure(mirror: Mirror, problem: Problem, lobes: tuple[LobeSpec, LobeSpec], 
     )
 
 
-def _delivered(r10_m: float, blur_px: float, problem: Problem) -> float:
-    """The delivered-R10 surrogate (m): R10 over the disparity error the problem's made
-    parts and matcher leave on this design's blur (optics.ranging.resolution.delivered_r10)."""
-    return float(delivered_r10(r10_m, problem.made_disparity_px, blur_px, problem.matching_noise_px))
+def _ranges(r10_m: float, defocus_px: float, problem: Problem) -> dict[str, float]:
+    """design_r10_m and delivered_r10_m (m) of a design whose sharp R10 is r10_m and whose
+    defocus is defocus_px: the blur circle adds the lens's Airy disc
+    (optics.ranging.resolution.blur_circle_px); the design's R10 is the nominal part's
+    (design_r10), the delivered surrogate adds the problem's made parts' disparity error
+    (delivered_r10)."""
+    cam = problem.camera
+    b = blur_circle_px(defocus_px, cam.f_number, cam.t_pixel)
+    return {"design_r10_m": float(design_r10(r10_m, b, problem.matching_noise_px)),
+            "delivered_r10_m": float(delivered_r10(r10_m, problem.made_disparity_px, b, problem.matching_noise_px))}
 
 
 def _grip_mm() -> float:
@@ -370,7 +381,7 @@ def evaluate(x: np.ndarray, problem: Problem) -> tuple[float, np.ndarray]:
             v = violations(fig, problem)
             if late and not v.any():
                 r = r10(mirror, problem.settings.band)
-                fig = dataclasses.replace(fig, r10_m=r, delivered_r10_m=_delivered(r, fig.blur_px, problem))
+                fig = dataclasses.replace(fig, r10_m=r, **_ranges(r, fig.blur_px, problem))
     except (DesignError, ValueError, ZeroDivisionError, OverflowError):
         # no mirror (the design's own checks), or one whose geometry degenerates (no ray
         # meets a lobe): no design either

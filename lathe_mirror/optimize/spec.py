@@ -43,7 +43,7 @@ class Objective(str, Enum):
 
     @property
     def label(self) -> str:
-        return {"delivered_r10_p5": "delivered R10, 5th percentile [m]", "r10": "R10 [m]", "baseline": "baseline [mm]", "band_width": "common band [deg]",
+        return {"delivered_r10_p5": "delivered R10, 5th percentile [m]", "r10": "sharp R10 [m]", "baseline": "baseline [mm]", "band_width": "common band [deg]",
                 "usable_area": "usable share of the image"}[self.value]
 
 

@@ -65,10 +65,12 @@ def tolerance_html(tol: ToleranceAnalysis | None, img) -> str:
         block.append(img(f"monte_carlo_{name}", f"Monte Carlo histograms, {name} program"))
         if mc.delivered_r10_m is not None:
             d, dd = mc.delivered_r10_m, mc.delivered or {}
+            sharp = f" (sharp, the pixel alone: {_fmt(d['sharp'])} m)" if "sharp" in d else ""
             block.append(f"<p>Delivered range (tolerance/delivered.py): each trial's part, calibrated, its disparity "
                          f"error added in quadrature to the design's pixel and to the matcher's noise on the image "
                          f"blurred {_fmt(dd.get('blur_px', 0.0))} px: R10 {_fmt(d['p5'])} m at the 5th percentile, "
-                         f"{_fmt(d['median'])} m median, against the design's {_fmt(d['design'])} m.</p>")
+                         f"{_fmt(d['median'])} m median, against the design's {_fmt(d['design'])} m, the nominal "
+                         f"part with the same blur{sharp}.</p>")
         block.append(_stereo_html(t.stereo, spec))
         block.append(_sensitivity_html(t.sensitivity))
         inv = [(r.parameter, f"{_fmt(r.tolerance)} {r.unit}",

@@ -12,11 +12,21 @@ at the cost of a lookup. A greedy least-cost search (marginal analysis) tightens
 rung of TIGHTEN at a time, the parameter whose rung buys the most surrogate yield per unit
 of cost (cost of parameter i at k times tighter: cost_i x k, [tolerance.cost]), until the
 surrogate yield reaches the yield a Monte Carlo of n trials must show for its Wilson 95 %
-interval to clear the target; then loosens back any rung not needed. A Monte Carlo with the
-allocated tolerances confirms it, drawn from the configured run's seed (common random
-numbers, tolerance.registry: every trial is the configured run's trial with its offsets
-scaled, so the two yields differ only by the trials the tightening flips); if it falls short, the surrogate's
-aim is raised by the shortfall and the search continues (at most ROUNDS times).
+interval to clear the target; then loosens back any rung not needed. No tolerance is
+tightened past what a precision shop holds (tolerance.shops, the class's value: the
+tightest a shop can be asked for; a parameter no class lists stops at MAX_RUNGS rungs),
+the last rung landing on that value. A Monte Carlo with the allocated tolerances confirms
+it, drawn from the configured run's seed (common random numbers, tolerance.registry: every
+trial is the configured run's trial with its offsets scaled, so the two yields differ only
+by the trials the tightening flips). If it falls short, the surrogate is refitted to every
+trial traced so far (the confirming run's trials sit where the allocation is, the
+configured run's may sit far from it), its aim is raised by the shortfall, and the search
+continues (at most ROUNDS confirming runs; an allocation already found short is never
+confirmed twice: the aim rises until the surrogate asks for a new one). When the surrogate
+sees no new allocation within the precision shop's values, the Monte Carlo judges all of
+them at once; if even that falls
+short, the statement names the parameter whose precision-shop value limits the yield
+most (the one the surrogate gains most from, set perfect).
 """
 
 from __future__ import annotations
@@ -29,6 +39,7 @@ import numpy as np
 from .montecarlo import CRITERIA, Context, MonteCarloResult, run_monte_carlo
 from .sensitivity import Responses, judged_values
 from .registry import BY_KEY, standard_draws, tolerances_of
+from .shops import shop_values
 from .spec import PARAMETERS
 from .stats import percent_interval, wilson, yield_to_show
 
@@ -39,7 +50,7 @@ MAX_RUNGS = 20
 #: Draws of the surrogate (common random numbers for every candidate).
 SURROGATE_DRAWS = 4000
 #: Confirming Monte Carlo runs at most.
-ROUNDS = 3
+ROUNDS = 5
 
 
 @dataclass
@@ -177,11 +188,14 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
         return float(np.mean(sur.passes(phase, offsets(scale))))
 
     check = _surrogate_check(sur, mc, keys)
+    floor = precision_floor(base, keys)
+    top = {k: _top_rung(floor[k]) for k in keys}
     rungs = {k: 0 for k in keys}
     scale = {k: 1.0 for k in keys}
     aim = yield_to_show(target, n)
     history = []
     confirm = None
+    traced = [mc]
     reached = mc.yield_fraction >= target
     rounds = 0
     nominal_fails = [c for j, c in enumerate(CRITERIA) if not np.min(resp.phases[:, j]) <= lim[j]]
@@ -190,15 +204,20 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
         unreachable = ("no tolerance can fix it: the nominal part fails " + ", ".join(
             f"{c} ({_num(float(np.min(resp.phases[:, CRITERIA.index(c)])))} > {_num(ctx.limits[c])})"
             for c in nominal_fails) + " at every lattice phase")
+    tried: set[tuple[int, ...]] = set()
     while not reached and not unreachable and rounds < ROUNDS:
-        rungs, scale, y_sur = _greedy(surrogate_yield, rungs, cost, aim)
-        all_out = False
-        if y_sur < aim and rounds == 0:
-            # The surrogate sees no way: the Monte Carlo judges the tightest allocation itself
-            # (one more run), so the verdict and the yield quoted come from the same trials.
-            rungs = {k: MAX_RUNGS for k in keys}
-            scale = {k: TIGHTEN ** MAX_RUNGS for k in keys}
-            all_out = True
+        rungs, scale, y_sur = _greedy(surrogate_yield, rungs, cost, aim, top, floor)
+        # an allocation a Monte Carlo already found short would only repeat its trials:
+        # the aim rises until the surrogate asks for something new, or cannot
+        while y_sur >= aim and tuple(rungs.values()) in tried and aim < 1.0:
+            aim = min(1.0, aim + max(1.0 / n, 0.5 * (1.0 - aim)))
+            rungs, scale, y_sur = _greedy(surrogate_yield, rungs, cost, aim, top, floor)
+        all_out = y_sur < aim or tuple(rungs.values()) in tried
+        if all_out:
+            # The surrogate sees no way within a precision shop's values: the Monte Carlo
+            # judges them all at once, so the verdict and the yield quoted come from the
+            # same trials.
+            rungs, scale = dict(top), dict(floor)
         rounds += 1
         tol = {k: base[k] * scale[k] for k in keys}
         # the configured run's seed: its trials' standard draws scaled to the allocated
@@ -210,14 +229,17 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
                         "yield_wilson95": list(wilson(k_pass, n)), "seed": confirm.seed,
                         "tolerances": {k: tol[k] for k in keys}})
         reached = confirm.yield_fraction >= target
-        if not reached and all_out:
-            unreachable = (f"with every tolerance tightened {1 / TIGHTEN ** MAX_RUNGS:.0f} times the Monte Carlo "
-                           f"still passes only {percent_interval(k_pass, n)} of its trials")
+        if reached:
             break
-        if not reached:
-            if y_sur < aim:  # the surrogate could not reach its aim: nothing left to tighten
-                break
-            aim = min(1.0, aim + (target - confirm.yield_fraction) + 1.0 / n)
+        tried.add(tuple(rungs.values()))
+        traced.append(confirm)
+        _refit(sur, traced, keys)
+        if all_out:
+            unreachable = (f"with every tolerance at a precision shop's value the Monte Carlo still passes "
+                           f"only {percent_interval(k_pass, n)} of its trials; "
+                           f"{limiting(surrogate_yield, floor, keys)} limits it most")
+            break
+        aim = min(1.0, aim + (target - confirm.yield_fraction) + 1.0 / n)
     rows = []
     for k in keys:
         rows.append({"parameter": k, "what": PARAMETERS[k][0], "unit": PARAMETERS[k][1], "tolerance": base[k],
@@ -254,22 +276,57 @@ def statement(target: float, reached: bool, rows: list[dict], k: int, n: int, un
     return f"{goal} not confirmed: tightening {what or 'nothing'} gave a yield of {got}"
 
 
-def _greedy(surrogate_yield, rungs: dict[str, int], cost: dict[str, float], aim: float):
-    """Tighten rung by rung where the surrogate yield per unit cost gains most, until `aim`;
-    then loosen every rung that is not needed. Returns (rungs, scales, surrogate yield)."""
-    def scales(r):
-        return {k: TIGHTEN ** r[k] for k in r}
+def precision_floor(base: dict[str, float], keys) -> dict[str, float]:
+    """The smallest scale each tolerance may be allocated (allocated / configured): a
+    precision shop's value over the configured (1 when the configured is already as
+    tight), TIGHTEN^MAX_RUNGS for a parameter no shop class lists."""
+    precise = {k: v for section in shop_values("precision").values() for k, v in section.items()}
+    out = {}
+    for k in keys:
+        if k in precise and base[k] > 0:
+            out[k] = min(1.0, precise[k] / base[k])
+        else:
+            out[k] = TIGHTEN ** MAX_RUNGS
+    return out
 
-    r = dict(rungs)
+
+def _top_rung(floor: float) -> int:
+    """The rung whose scale reaches `floor` (scales clip at it)."""
+    if floor >= 1.0:
+        return 0
+    return int(math.ceil(math.log(floor) / math.log(TIGHTEN) - 1e-9))
+
+
+def limiting(surrogate_yield, floor: dict[str, float], keys) -> str:
+    """The parameter whose tolerance, at its floor, costs the surrogate's yield most: the
+    one whose setting perfect (0) gains most, named with its floor."""
+    base_y = surrogate_yield(floor)
+    gain = {k: surrogate_yield({**floor, k: 0.0}) - base_y for k in keys}
+    k = max(keys, key=lambda key: gain[key])
+    return f"{k} (perfect, the surrogate's yield would gain {100 * gain[k]:.1f} points)"
+
+
+def _greedy(surrogate_yield, rungs: dict[str, int], cost: dict[str, float], aim: float,
+            top: dict[str, int], floor: dict[str, float]):
+    """Tighten rung by rung where the surrogate yield per unit cost gains most, until `aim`
+    (no parameter past its top rung, where its scale is its floor); then loosen every rung
+    that is not needed. Returns (rungs, scales, surrogate yield)."""
+    def scale_of(k, r):
+        return max(TIGHTEN ** r, floor[k])
+
+    def scales(r):
+        return {k: scale_of(k, r[k]) for k in r}
+
+    r = {k: min(v, top[k]) for k, v in rungs.items()}
     y = surrogate_yield(scales(r))
     while y < aim:
         best, best_gain, best_y = None, 0.0, y
         for k in r:
-            if r[k] >= MAX_RUNGS:
+            if r[k] >= top[k]:
                 continue
             trial = {**r, k: r[k] + 1}
             yk = surrogate_yield(scales(trial))
-            dc = cost[k] * (TIGHTEN ** -trial[k] - TIGHTEN ** -r[k])
+            dc = cost[k] * (1.0 / scale_of(k, trial[k]) - 1.0 / scale_of(k, r[k]))
             gain = (yk - y) / dc
             if yk > y and gain > best_gain:
                 best, best_gain, best_y = k, gain, yk
@@ -288,6 +345,16 @@ def _greedy(surrogate_yield, rungs: dict[str, int], cost: dict[str, float], aim:
             if yk >= aim:
                 r, y, changed = trial, yk, True
     return r, scales(r), y
+
+
+def _refit(sur: Surrogate, runs: list[MonteCarloResult], keys) -> None:
+    """Refit the surrogate's scales to every trial of `runs` (Monte Carlo results)."""
+    phase = np.concatenate([m.trials.phase for m in runs])
+    x = {k: np.concatenate([BY_KEY[k].magnitude(m.trials, {"nose_mm": m.nominal_nose_mm,
+                                                            "time_s": m.nominal_time_s}) for m in runs])
+         for k in keys}
+    actual = np.concatenate([judged_values(m.figures, m.settings.spec.calibrated) for m in runs])
+    sur.calibrate(phase, x, actual)
 
 
 def _surrogate_check(sur: Surrogate, mc: MonteCarloResult, keys) -> dict:

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..design import Mirror
-from ..optics.radial import used_extent
+from ..optics.radial import in_lobe_range, used_extent
 from ..optics.stereo import capped_abs_error, triangulate
 from ..toolpath.metrics import slope_error
 from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals
@@ -103,7 +103,7 @@ class TrialFigures:
     """Figures per trial. raw / calibrated: name -> array (LOBE_FIGURES: (trials, 2);
     STEREO_FIGURES: (trials, ranges)); slope_error_rad_rms and normal_deviation_mm_rms
     (trials, 2) of the surface; lost_fraction (trials,) of the sample's pixels whose made
-    ray misses their lobe; calibration: what was fitted."""
+    ray misses their lobe or leaves its range; calibration: what was fitted."""
 
     raw: dict[str, np.ndarray]
     calibrated: dict[str, np.ndarray]
@@ -159,8 +159,10 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
     A ring of pixels at a lobe's edge that sees a feature a few micrometres wide (the flank
     of the groove a larger nose cuts at the step: ~200 px off) would otherwise set a lobe's
     RMS alone; a calibration rejects such points, and the robot loses them as it loses the
-    step's ring. Pixels whose ray misses the lobe (past the rim of a tilted camera) count
-    in lost_fraction.
+    step's ring. Pixels whose ray misses the lobe (past the rim of a tilted camera), or
+    lands but leaves the lobe's range (the exact lobe would image its direction outside
+    its designed annulus: optics.radial.in_lobe_range, the rule render and calib apply),
+    count in lost_fraction, never as a displacement.
     calibrate=False skips the calibration fit (the calibrated figures then equal the raw).
     chunk: trials per vectorised batch. The bank must hold every trial's nose (ensure).
     zones: optics.zones.Zones: the slope error and normal deviation over its used zone
@@ -186,6 +188,7 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
             tr.tool_x_mm = tr.tool_x_mm + tr.machine_x_mm  # the pass shifted in X, as a setting error
         origin, rotation = poses(tr, seat_pivot_mm)
         traced = [_trace(mirror, bank, k, surf, tr, origin, rotation, samples[k].u, samples[k].v) for k in (0, 1)]
+        traced = [_in_range(mirror, k, t) for k, t in enumerate(traced)]
         valid = [t[2] for t in traced]
         n_lost = sum(np.sum(np.where(valid[k], 0.0, samples[k].weight[None, :]), axis=1) for k in (0, 1))
         lost[sl] = n_lost / (samples[0].weight.sum() + samples[1].weight.sum())
@@ -287,6 +290,16 @@ def _lookup_with_slope(bank: SurfaceBank, k: int, grid: np.ndarray, rows: np.nda
     f = g - i0
     a, b = grid[rows, i0], grid[rows, i0 + 1]
     return a * (1.0 - f) + b * f, (b - a) / bank.dr[k]
+
+
+def _in_range(mirror: Mirror, k: int, traced: tuple) -> tuple:
+    """_trace's result with `ok` cleared where the made direction has left lobe k's range:
+    the design's own model (no calibration) images it outside the lobe's annulus."""
+    p, o, ok, blocked = traced
+    n = o.shape[0]
+    design = Calibration.identity(n, ((0.0, 1.0), (0.0, 1.0)))  # no radial terms: the span is unused
+    mu, mv = model_pixels(mirror, k, o, design)
+    return p, o, ok & in_lobe_range(mirror, k, np.hypot(mu, mv)), blocked
 
 
 def _trace(mirror: Mirror, bank: SurfaceBank, k: int, surfs, tr: Trials, origin, rot, u, v):
@@ -407,7 +420,7 @@ def _stereo(mirror: Mirror, bank: SurfaceBank, surf, tr: Trials, origin, rot, sp
     / R, R_X the signed range of X along W's direction; parallax error delta =
     B cos(elevation) (1 / R - 1 / R_X) (first order; finite where the depth error
     diverges), in px: |delta| / px_scale. A point either lobe does not show (ray off its
-    lobe, vignetted) is not seen.
+    lobe, vignetted, or leaving the lobe's range: _in_range) is not seen.
     """
     n = len(tr)
     R, M = sp.w.shape[:2]
@@ -419,7 +432,7 @@ def _stereo(mirror: Mirror, bank: SurfaceBank, surf, tr: Trials, origin, rot, sp
         u, v = model_pixels(mirror, k, np.broadcast_to(dirs, (n,) + dirs.shape), model)
         bad = ~(np.isfinite(u) & np.isfinite(v))
         u, v = np.where(bad, 0.0, u), np.where(bad, 0.0, v)
-        p, o, ok, blocked = _trace(mirror, bank, k, surf, tr, origin, rot, u, v)
+        p, o, ok, blocked = _in_range(mirror, k, _trace(mirror, bank, k, surf, tr, origin, rot, u, v))
         rays.append((p, o, ok & ~blocked & ~bad))
     x = triangulate(rays[0][0], rays[0][1], rays[1][0], rays[1][1])
     unit = np.tile(sp.unit, (R, 1))

@@ -17,7 +17,14 @@ gives the range error of a 1-px disparity error against range and elevation
 
 On the paper's mirror R10 = 0.222 m (the inner lobe alone would give 0.246 m, the outer
 alone 0.523 m). `r10` is the one definition the design optimiser shares: closed form, no
-tracing, about 0.1 ms.
+tracing, about 0.1 ms. It is the sharp R10, limited by the pixel alone: a real image is
+blurred (the lens's defocus, `optics.focus`, and diffraction, `airy_px`) and a matcher
+finds a blurred feature less precisely, so the design's R10 (`design_r10`, what
+`optimize` promises) counts the matcher's noise on the nominal part's own blur, and a
+made part's (`delivered_r10`) its calibrated disparity error too:
+
+    design R10 = R10 / sqrt(1 + n^2),   delivered R10 = R10 / sqrt(1 + d^2 + n^2),
+    n = hypot(matching_noise_px, BLUR_NOISE_PER_PX x b)   (px; b the blur circle, px).
 
 Camera frame, mm and radians; R10 in metres.
 """
@@ -34,6 +41,18 @@ from ...inputs import check_real, check_type, short
 BAND_SAMPLES = 513
 #: The fraction of range one pixel of disparity may cost at R10.
 R10_FRACTION = 0.1
+#: The matcher's added disparity noise per px of blur circle (px/px): OpenCV's SGBM at the
+#: project's defaults (block 7, contrast 0.25) on a dead-leaves pair (discs of 2-25 px,
+#: edges of every orientation) blurred by discs of 5-40 px, with sensor noise of 4 grey
+#: levels of 255: the RMS disparity error grows from its sharp 0.24 px as
+#: sqrt(0.24^2 + (k b)^2) with k = 0.028 (0.017 at 2 grey levels, 0.043 at 8);
+#: tests/test_delivered.py measures it again. Why linear: a block matcher's disparity
+#: variance is the noise variance over the window's sum of squared image gradients
+#: (Sabater, Morel, Almansa 2011, SIAM J. Imaging Sci. 4(1), "How accurate can block
+#: matches be in stereo vision?"), and an edge blurred over b px has its slope cut by b.
+BLUR_NOISE_PER_PX = 0.03
+#: The wavelength (mm) of the Airy disc: the middle of the visible band, 550 nm.
+AIRY_WAVELENGTH_MM = 0.00055
 
 
 def r10(mirror: Mirror, band: tuple[float, float] | None = None) -> float:
@@ -53,15 +72,40 @@ def r10(mirror: Mirror, band: tuple[float, float] | None = None) -> float:
     return float(np.median(R10_FRACTION * mirror.baseline * np.cos(el) / per_px)) * 1e-3
 
 
+def blur_noise_px(blur_px: float, matching_noise_px: float) -> float:
+    """The matcher's disparity noise (px) on an image blurred into circles blur_px across:
+    its noise on a sharp image (matching_noise_px) and BLUR_NOISE_PER_PX of the blur
+    circle, in quadrature (module doc)."""
+    return float(np.hypot(matching_noise_px, BLUR_NOISE_PER_PX * max(float(blur_px), 0.0)))
+
+
+def airy_px(f_number: float, t_pixel: float) -> float:
+    """The Airy disc's diameter to its first dark ring, 2.44 lambda N (px of t_pixel mm),
+    at AIRY_WAVELENGTH_MM: the blur a perfect lens leaves in focus."""
+    return 2.44 * AIRY_WAVELENGTH_MM * float(f_number) / float(t_pixel)
+
+
+def blur_circle_px(defocus_px: float, f_number: float, t_pixel: float) -> float:
+    """The blur circle the matcher sees (px): the thin-lens defocus and the Airy disc in
+    quadrature (the usual combination of independent blur widths)."""
+    return float(np.hypot(defocus_px, airy_px(f_number, t_pixel)))
+
+
 def delivered_r10(r10_m, disparity_px, blur_px: float, matching_noise_px: float):
-    """The R10 (m) a made part delivers (tolerance.delivered): the design's R10 over the
-    disparity error its matcher and part leave, in units of the design's pixel,
-    sqrt(1 + d^2 + (matching_noise_px x max(blur_px, 1))^2); d (px) the part's own
-    disparity error after calibration, blur_px the blur circle's diameter (a matcher
-    locates a feature to matching_noise_px of its width). Broadcasts over r10_m and d."""
-    noise = matching_noise_px * max(float(blur_px), 1.0)
+    """The R10 (m) a made part delivers (tolerance.delivered): the sharp R10 (`r10`) over
+    the disparity error its matcher and part leave, in units of the design's pixel,
+    sqrt(1 + d^2 + n^2), n = blur_noise_px(blur_px, matching_noise_px); d (px) the
+    part's own disparity error after calibration, blur_px the blur circle's diameter
+    (`blur_circle_px`). Broadcasts over r10_m and d."""
+    noise = blur_noise_px(blur_px, matching_noise_px)
     d = np.asarray(disparity_px, float)
     return np.asarray(r10_m, float) / np.sqrt(1.0 + d * d + noise * noise)
+
+
+def design_r10(sharp_r10_m, blur_px: float, matching_noise_px: float):
+    """The design's R10 (m): what the nominal part delivers with its own blur and the
+    matcher's noise (delivered_r10 with d = 0), the range `optimize` promises."""
+    return delivered_r10(sharp_r10_m, 0.0, blur_px, matching_noise_px)
 
 
 def band_elevations(mirror: Mirror, band: tuple[float, float] | None = None,
