@@ -292,12 +292,13 @@ def test_written_design_reproduces_through_design_and_runs(tmp_path):
         tp = run_cli("toolpath", "--config", str(out), "--strategy", strategy, "-o", f"{shop}/")
         assert tp.returncode == 0, tp.stderr[-3000:]
     exe = require_program("rs274")
-    (tmp_path / "tools.tbl").write_text("".join(f"T{k} P{k} X0 Z0 D0.4 Q9\n" for k in (1, 2, 3, 4, 5)))
+    # the tool table toolpath writes beside its programs (the second set-up's drills and bar too)
+    assert (shop / "tools.tbl").exists()
     programs = sorted(shop.glob("*.ngc"))
     assert [p.name for p in programs] == ["mirror_arcs.ngc", "mirror_arcs_op2.ngc", "mirror_paper.ngc",
                                           "mirror_paper_op2.ngc"]
     for prog in programs:
-        res = subprocess.run([exe, "-t", str(tmp_path / "tools.tbl"), "-g", str(prog)], capture_output=True,
+        res = subprocess.run([exe, "-t", str(shop / "tools.tbl"), "-g", str(prog)], capture_output=True,
                              text=True, cwd=tmp_path, env=dict(os.environ, HOME=str(tmp_path)), timeout=120)
         assert res.returncode == 0, res.stdout[-2000:]
         if prog.name.endswith("_op2.ngc"):  # the second set-up (back face, bore) has no optical surface
