@@ -79,7 +79,7 @@ def format_figures(fig: dict) -> str:
         f"surface {fig['surface']} ({fig['made_mirror']}): {fig['grid']['n_elevation']} x {fig['grid']['n_azimuth']} px panoramas over "
         f"{fig['grid']['band_deg']['min']:.2f} to {fig['grid']['band_deg']['max']:.2f} deg "
         f"({fig['grid']['elevation_step_deg']:.4f} deg/px), baseline {fig['baseline_mm']:.3f} mm, "
-        f"R10 {fig['r10_m']:.3f} m",
+        f"sharp R10 (1 px of disparity) {fig['r10_m']:.3f} m",
         f"ranged {100 * fig['valid_fraction']:.1f} % of the common band's {fig['pixels']} px; "
         f"|range error| median {e['median']:.2f} %, RMS {e['rms']:.2f} % (signed median {e['signed_median']:+.2f} %); "
         f"|disparity error| median {d['median']:.3f} px, RMS {d['rms']:.3f} px",
