@@ -111,6 +111,23 @@ def pytest_collection_modifyitems(config, items):
     items.sort(key=lambda item: rank.get(item.path.stem, len(rank)))  # stable: a module's own order kept
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _commands_run_serially_here():
+    """A command called in this process without --workers runs its trials here, not in a
+    pool of all the cores ([compute] workers = 0): the suite's own workers (pytest-xdist)
+    already hold the cores, and a nested pool of 2 doubled the CPU of the same work
+    (tolerance, docs_fast.toml: 14.4 s against 7.2 s on the 2-core reference machine) for
+    the same bytes (compute's executors give one answer, tests/test_compute.py). A test of
+    the pool asks for it (--workers 2, compute.session(workers=2)); a fresh process
+    (run_cli(fresh=True), subprocess) keeps the default."""
+    from lathe_mirror import compute
+
+    patch = pytest.MonkeyPatch()
+    patch.setattr(compute, "default_workers", lambda: 1)
+    yield
+    patch.undo()
+
+
 @pytest.fixture(scope="session")
 def paper_config() -> dict:
     return default_config()
