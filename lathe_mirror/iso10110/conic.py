@@ -24,7 +24,7 @@ import numpy as np
 
 from ..design import Lobe, Mirror, conic_sag
 from ..errors import InputError
-from ..toolpath import usable_ranges
+from ..optics.polishing_curve import clear_aperture
 
 #: Sag-table spacing (mm of radius) unless asked for a finer one.
 SAG_STEP_MM = 0.5
@@ -43,7 +43,7 @@ class Conic:
     R: vertex radius of curvature (c = 1/R). k: conic constant. vertex_z: the vertex's
     machine Z (Z = 0 at the mirror's vertex, the inner lobe's; part in -Z): 0 for the inner
     lobe, the outer lobe's (virtual) vertex behind it. clear_aperture: (r_min, r_max) the
-    camera uses (toolpath.usable_ranges) less the polished edge band (clear_apertures). focal_distance_2e: the paper's Table 1 `c`.
+    camera uses less the polished edge band (clear_apertures: the polishing analysis's rule). focal_distance_2e: the paper's Table 1 `c`.
     above_pinhole: the vertex's height above the camera's pinhole (camera frame).
     """
 
@@ -96,19 +96,11 @@ def mirror_conics(mirror: Mirror, edge_mm: float = 0.0) -> tuple[Conic, Conic]:
 
 
 def clear_apertures(mirror: Mirror, edge_mm: float) -> tuple[tuple[float, float], tuple[float, float]]:
-    """Each lobe's clear aperture (r_min, r_max), mm: the radii the camera uses
-    (toolpath.usable_ranges) less edge_mm (polish.clear_edge_mm, mm) at each edge of the
-    lobe, the step and the outer rim (the axis is no edge): the band a polish turns down,
-    which the polishing analysis leaves out of its figures too (optics.polishing_curve.
-    clear_aperture, the same rule). InputError when a lobe has none left."""
-    out = []
-    for k, (lo, hi) in enumerate(usable_ranges(mirror)):
-        lobe_lo, lobe_hi = (0.0, mirror.r_junction) if k == 0 else (mirror.r_junction, mirror.r_max)
-        if k == 1:
-            lo = max(lo, lobe_lo + edge_mm)
-        hi = min(hi, lobe_hi - edge_mm)
-        if hi <= lo:
-            raise InputError(f"polish.clear_edge_mm = {edge_mm:g} mm: the {mirror.lobes[k].name} lobe's clear "
-                             f"aperture would be empty; allowed a narrower band")
-        out.append((float(lo), float(hi)))
-    return tuple(out)
+    """Each lobe's clear aperture (r_min, r_max), mm: the polishing analysis's
+    (optics.polishing_curve.clear_aperture, one rule): the radii the image uses less edge_mm
+    (polish.clear_edge_mm, mm) at each edge of the lobe, the step and the outer rim (the axis
+    is no edge), the band a polish turns down. InputError when a lobe has none left."""
+    try:
+        return tuple((float(lo), float(hi)) for lo, hi in (clear_aperture(mirror, k, edge_mm) for k in (0, 1)))
+    except ValueError as e:
+        raise InputError(f"{e}; allowed a narrower polish.clear_edge_mm") from None

@@ -33,7 +33,9 @@ from typing import TYPE_CHECKING
 from ..errors import InputError
 from ..lathe import DRILL_POINT_DEG, Tool, bore_drill_mm
 
+from .operations import OperationWriter
 from .program import BORING_STATION, CENTRE_DRILL_STATION, DRILL_STATION
+from .tool_shapes import boring_bar_shape, drill_shape
 
 if TYPE_CHECKING:
     from ..body import BodySpec
@@ -106,8 +108,6 @@ def bore_plan(body: BodySpec, opts: ToolpathSettings, nose_radius: float, *, ver
 
 def boring_shapes(plan: BorePlan, opts: ToolpathSettings) -> dict:
     """{station: ToolShape} of the bore's tools (shop.tool_shapes)."""
-    from .tool_shapes import boring_bar_shape, drill_shape
-
     return {CENTRE_DRILL_STATION: drill_shape(SPOT_DRILL_MM, SPOT_POINT_DEG),
             DRILL_STATION: drill_shape(plan.drill_mm, DRILL_POINT_DEG),
             BORING_STATION: boring_bar_shape(plan.bar, opts.boring_bar_min_bore_mm, opts.boring_bar_shank_mm)}
@@ -145,8 +145,6 @@ def write_bore(planner, pos: tuple[float, float], rough: float, finish: float, b
     spot, drill, rough, finish. planner: the operation writers' (shop.operations.Planner);
     pos: where the tool is (mm); rough, finish: the bar's feeds (mm/rev); up / down round to
     the lattice; levels(hi, lo) the nose-centre Z of levels from hi down to lo."""
-    from .operations import OperationWriter
-
     fa, rho, clr = opts.max_finish_depth_mm, plan.bar.nose_radius, opts.clearance
     safe = up(fa + clr)
     ops: list[Operation] = []

@@ -24,6 +24,8 @@ from typing import TYPE_CHECKING
 
 from .program import (BORING_STATION, CENTRE_DRILL_STATION, DRILL_STATION, OPPOSITE_ROUGHING_STATION, PARTING_STATION,
                       stations)
+from .boring import DRILL_POINT_DEG, MAX_BAR_OVERHANG, SPOT_DRILL_MM, SPOT_POINT_DEG
+from .second import grip_needed
 from .tool_shapes import INSERT_IC, edge_length
 
 if TYPE_CHECKING:
@@ -281,8 +283,6 @@ def bore_sheets(plan, opts, diameter_mode: bool) -> list[ToolSheet]:
     """The bore's tools (shop.boring): the spot drill and the drill on the axis (their point
     the controlled point: Z with the point touching the face, X0 on the spindle axis) and
     the boring bar (its nose centre, X touched on a bore with the nose's +r side)."""
-    from .boring import DRILL_POINT_DEG, MAX_BAR_OVERHANG, SPOT_DRILL_MM, SPOT_POINT_DEG
-
     point = Offsets(nose_radius=0.0, diameter_mode=diameter_mode, x_side="outside")
     held = ("in a drill holder (collet) on the turret, its axis on the spindle axis (X0: set it on centre with a "
             "test indicator); no hand")
@@ -346,7 +346,6 @@ def second_sheet(program: Program, simulation: Simulation, first_tools: list[Too
                                stock_after=fig.stock_after, removed=fig.removed)
                 for op, fig in zip(program.operations, simulation.operations))
     lo, hi = su.grip
-    from .second import grip_needed
 
     return SecondSheet(name=program.name, work_zero=su.work_zero, holding=su.holding, grip_mm=hi - lo,
                        min_grip_mm=grip_needed(su.top, program.options.min_grip_mm),
