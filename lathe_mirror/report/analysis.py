@@ -260,13 +260,14 @@ def report_lens(mirror: Mirror, settings: Settings):
 SSIM_REACH_PX = 6
 
 
-def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None):
+def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None, *,
+                   names: tuple[str, ...] = MIRRORS):
     """Each mirror's image of the paper's room (blurred by the lens, optics.defocus), and
     each made image's difference to the exact, over the lobes' usable annuli: every pixel
     while the larger lobe has at most optics.sampling.PIXELS_PER_LOBE (the paper's), else
     the pixels in the azimuth sectors that hold that many (optics.sampling.azimuth_sectors:
     traced out to the blur's and the SSIM window's reach, so each counted pixel's value is
-    the full image's; the images black outside them)."""
+    the full image's; the images black outside them). names: the mirrors, "exact" first."""
     scene = scene_for(settings, mirror)
     lens, blur = report_lens(mirror, settings)
     # Over the lobes' usable annuli, as `lathe-mirror render` states it (the one definition):
@@ -277,9 +278,9 @@ def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None):
     if sectors is not None:
         mask &= sectors.pixels(mirror.camera.sensor_px)
         traced = grow_mask(mask, blur + 2.0 * SSIM_REACH_PX)
-    images = {name: defocus_image(render_image(made[name], mirror, scene, pixels=traced), blur) for name in MIRRORS}
+    images = {name: defocus_image(render_image(made[name], mirror, scene, pixels=traced), blur) for name in names}
     stats = {name: ImageDifference.from_dict(image_difference(images["exact"], images[name], mask=mask))
-             for name in MIRRORS if name != "exact"}
+             for name in names if name != "exact"}
     return images, RenderFigures(against_exact=stats,
                                  defocus=DefocusFigures.from_dict(blur_figures(mirror, lens, zones)))
 
