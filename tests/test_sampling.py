@@ -194,14 +194,17 @@ def test_a_sampled_render_is_the_full_render_on_its_pixels(design, monkeypatch):
 #: The 12-MP renders' sampling noise: RMS grey-level difference and SSIM of the paper
 #: program's part against the exact, the spread (max - min) over the wedges' phase 0, 1/4,
 #: 1/2, 3/4 at the stated density (measured: see the test).
-RENDER_RMS_SPREAD = 0.10
-RENDER_SSIM_SPREAD = 0.02
+RENDER_RMS_SPREAD = 0.13
+RENDER_SSIM_SPREAD = 0.12
 
 
 def test_the_report_renders_of_a_large_sensor_keep_their_figures(design, monkeypatch):
     """The 12-MP renders' difference at half, the stated and double density moves by less
-    than its sampling noise (RENDER_*_SPREAD: measured spread over the wedges' phase 0.06
-    of the RMS, relative, and 0.01 of the SSIM)."""
+    than its sampling noise (RENDER_*_SPREAD: measured over the wedges' phase 0, 1/4, 1/2,
+    3/4 RMS 77.9 / 75.9 / 80.5 / 70.9, 12 % of the phase-0 figure, SSIM 0.333 / 0.433 /
+    0.426 / 0.445; half and double density RMS 73.3 and 78.8, SSIM 0.373 and 0.339). The
+    binned sensor it replaces read 86.9 / 81.6 / 77.1 and 0.29 / 0.31 / 0.34 at strides
+    4 / 3 / 2: a coarser camera's figures, not a sample of this one's."""
     from lathe_mirror.report.analysis import render_mirrors
 
     name, settings, mirror, made, zn, _ = design
@@ -223,18 +226,19 @@ def test_the_report_renders_of_a_large_sensor_keep_their_figures(design, monkeyp
 #: The 12-MP range from the image's sampling noise (exact mirror, fast settings): the
 #: spread (max - min) over the wedges' phase of the median range error (relative) and of
 #: the valid fraction at the stated density (measured: see the test).
-RANGE_MEDIAN_SPREAD = 0.30
-RANGE_VALID_SPREAD = 0.11
+RANGE_MEDIAN_SPREAD = 0.25
+RANGE_VALID_SPREAD = 0.12
 
 
 def test_the_range_from_a_large_sensors_image_keeps_its_figures(design, monkeypatch):
     """The exact mirror's range from the image on the 12-MP design at half, the stated and
     double density: the median range error and the valid fraction move by less than their
     sampling noise (RANGE_*_SPREAD, the spread over the wedges' phase 0, 1/4, 1/2, 3/4 at
-    the stated density: measured 4.20 / 5.38 / 5.68 / 5.12 %, 27 % of the phase-0 figure,
-    and 0.30-0.41); half and double density measured 5.44 and 4.88 %, 0.39 and 0.42. Against
+    the stated density: measured 5.13 / 3.95 / 5.12 / 4.63 %, 23 % of the phase-0 figure,
+    and 0.394 / 0.295 / 0.301 / 0.282); half and double density measured 5.11 and 4.75 %,
+    0.366 and 0.397. Against
     the whole panorama (6.37 %, 0.41) the wedges read low, a bias this test does not bound:
-    the matcher's memory along azimuth (optics.ranging.stereo.SECTOR_MEMORY_DEG)."""
+    the matcher's memory along azimuth (optics.ranging.stereo.sector_margin)."""
     from lathe_mirror.report.analysis import ranging_figures
 
     name, settings, mirror, made, zn, _ = design

@@ -278,7 +278,9 @@ def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None, *
     if sectors is not None:
         mask &= sectors.pixels(mirror.camera.sensor_px)
         traced = grow_mask(mask, blur + 2.0 * SSIM_REACH_PX)
-    images = {name: defocus_image(render_image(made[name], mirror, scene, pixels=traced), blur) for name in names}
+    # blurred only where traced (optics.defocus: the tiles holding them), the rest black
+    images = {name: defocus_image(render_image(made[name], mirror, scene, pixels=traced), blur, pixels=traced)
+              for name in names}
     stats = {name: ImageDifference.from_dict(image_difference(images["exact"], images[name], mask=mask))
              for name in names if name != "exact"}
     return images, RenderFigures(against_exact=stats,
@@ -302,10 +304,12 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
     truth = true_range(mirror, scene, counted)
     lens, blur = report_lens(mirror, settings)
     mask = grow_mask(image_mask(mirror, grid, match.num_disparities, sectors, margin), blur)
+    blurred = None if sectors is None else mask
     mirrors, maps = {}, {}
     precision = math.nan
     for name in names:  # exact first: its disparity error is the matcher's precision
-        image = defocus_image(render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask), blur)
+        image = defocus_image(render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask), blur,
+                              pixels=blurred)
         result = stereo_range(image, mirror, st.params, sectors=sectors)
         fig = RangeFigures.from_dict(range_figures(result, truth, mirror,
                                                    precision_px=None if name == "exact" else precision))

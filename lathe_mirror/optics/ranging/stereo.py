@@ -208,24 +208,21 @@ def stereo_range(image: np.ndarray, mirror: Mirror, params: StereoParams = Stere
                         colour=np.clip(np.rint(colour), 0, 255).astype(np.uint8), match=mp)
 
 
-#: Azimuth (deg) matched beyond each side of a wedge for the matcher's memory: SGBM_3WAY
-#: aggregates its costs along the transposed panorama's columns (azimuth), and across flat
-#: colour (a wall) a path keeps its disparity for tens of degrees, so a wedge cut short
-#: starts its paths without that history and keeps fewer, better matches there: the
-#: sample reads low. Measured on the 12-MP design at fast settings, exact mirror, median
-#: range error: the whole panorama 6.37 %; wedges at phase 0 with 1 / 4.7 / 7 (this) / 9.5
-#: / 14 deg of margin 5.13 / 5.29 / 5.38 / 5.60 / 5.85 %, each degree costing 2 x SECTORS
-#: deg of the turn traced and matched; at 7 deg over four phases 4.2 to 5.7 % (sampling
-#: noise, tests/test_sampling.py).
-SECTOR_MEMORY_DEG = 6.0
-
-
 def sector_margin(mirror: Mirror, grid: PanoramaGrid, mp: MatchParams, params: StereoParams) -> int:
     """Columns matched beyond a wedge's edge and dropped: the reach along azimuth of the
-    equalising blur (3 sigma), the matcher's window (its left-right check's and speckle
-    filter's neighbours: 3 windows) and SECTOR_MEMORY_DEG of azimuth."""
+    equalising blur (3 sigma) and of the matcher's window (its left-right check's and
+    speckle filter's neighbours: 3 windows).
+
+    Not the matcher's memory: SGBM_3WAY aggregates its costs along the transposed
+    panorama's columns (azimuth), and across flat colour (a wall) a path keeps its
+    disparity for tens of degrees, so a wedge starts its paths without that history and
+    keeps fewer, better matches there: the sample reads low. Measured on the 12-MP design
+    at fast settings, exact mirror, median range error: the whole panorama 6.37 %; wedges
+    at phase 0 with 1 (this) / 4.7 / 7 / 9.5 / 14 deg of margin 5.13 / 5.29 / 5.38 / 5.60 /
+    5.85 %, each degree costing 2 SECTORS deg of the turn traced and matched, against a
+    spread over the wedges' phase of 4.2 to 5.7 % (tests/test_sampling.py)."""
     blur = math.ceil(3.0 * equalising_blur(mirror, grid)[1]) if params.equalise else 0
-    return blur + 3 * mp.block_size + int(math.ceil(math.radians(SECTOR_MEMORY_DEG) / grid.azimuth_step))
+    return blur + 3 * mp.block_size
 
 
 def _match_columns(grey: np.ndarray, mirror: Mirror, grid: PanoramaGrid, mp: MatchParams,
