@@ -11,12 +11,13 @@ camera's own, at its full resolution:
   estimated from the sample.
 * Azimuth sectors (`azimuth_sectors`): SECTORS contiguous wedges of the image, spread
   evenly round the axis, holding PIXELS_PER_LOBE pixel centres of the larger lobe between
-  them. A figure that needs a pixel's neighbours (an image's blur and SSIM, the stereo
-  matcher's window and its aggregation along the panorama) is taken on the wedges' pixels,
-  each rendered and matched with its neighbours out to the filters' reach (margins traced
-  and matched but not counted), so each counted pixel's value is the full image's; only
-  the statistic over azimuth is sampled: the report's renders and its range from the
-  image.
+  them. A figure that needs a pixel's neighbours is taken on the wedges' pixels, each
+  traced with its neighbours out to the filters' reach (margins traced but not counted):
+  the report's renders (the blur and the SSIM window: each counted pixel's value is the
+  full image's, only the statistic over azimuth is sampled) and its range from the image
+  (the matcher's window and its blur: but the matcher's cost aggregation runs along
+  azimuth for tens of degrees over flat colour, so a wedge's matches are not all the whole
+  panorama's and its figures read low; optics.ranging.stereo.sector_margin).
 
 PIXELS_PER_LOBE sets both: the paper's lobes (248,000 and 497,000 pixel centres on
 1008 x 1018) are taken whole, so its figures are exact and its files the same bytes; a

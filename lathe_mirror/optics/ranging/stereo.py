@@ -220,7 +220,7 @@ def sector_margin(mirror: Mirror, grid: PanoramaGrid, mp: MatchParams, params: S
     at fast settings, exact mirror, median range error: the whole panorama 6.37 %; wedges
     at phase 0 with 1 (this) / 4.7 / 7 / 9.5 / 14 deg of margin 5.13 / 5.29 / 5.38 / 5.60 /
     5.85 %, each degree costing 2 SECTORS deg of the turn traced and matched, against a
-    spread over the wedges' phase of 4.2 to 5.7 % (tests/test_sampling.py)."""
+    spread over the wedges' phase of 3.9 to 5.1 % at 1 deg (tests/test_sampling.py)."""
     blur = math.ceil(3.0 * equalising_blur(mirror, grid)[1]) if params.equalise else 0
     return blur + 3 * mp.block_size
 
