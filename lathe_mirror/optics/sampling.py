@@ -90,21 +90,25 @@ class AzimuthSectors:
         width = min(self.width + 2.0 * margin, 2.0 * math.pi / self.count)
         return AzimuthSectors(self.count, width, self.start - 0.5 * (width - self.width))
 
-    def distance(self, azimuth: np.ndarray) -> np.ndarray:
-        """Angle (rad, >= 0) from each azimuth to the nearest wedge; 0 inside one."""
-        period = 2.0 * math.pi / self.count
-        x = np.mod(np.asarray(azimuth, float) - self.start, period)  # from its wedge's start
-        return np.where(x < self.width, 0.0, np.minimum(x - self.width, period - x))
-
     def pixels(self, sensor_px: tuple[int, int], slack_px: float = 0.0) -> np.ndarray:
         """(H, W) bool: the pixel centres within a wedge, or within slack_px px of one
-        (across the wedge's edge: an angle slack_px / rho at the centre's radius rho)."""
+        across an edge (each wedge's two edges and its apex moved out by slack_px). Side
+        tests by cross products with each edge's direction (no angle per pixel: products
+        and sums round the same on every machine)."""
         w, h = sensor_px
-        x = np.arange(w) + 0.5 - w / 2.0
-        y = np.arange(h) + 0.5 - h / 2.0
-        rho = np.hypot(x[None, :], y[:, None])
-        az = np.arctan2(y[:, None], x[None, :])
-        return self.distance(az) * rho <= slack_px
+        x = (np.arange(w) + 0.5 - w / 2.0)[None, :]
+        y = (np.arange(h) + 0.5 - h / 2.0)[:, None]
+        out = np.zeros((h, w), bool)
+        period = 2.0 * math.pi / self.count
+        if self.width > math.pi:  # not convex: no wedge wider than half a turn is cut
+            raise ValueError(f"AzimuthSectors.pixels: wedges of {self.width} rad, at most pi")
+        for k in range(self.count):
+            a = self.start + k * period
+            b, m = a + self.width, a + 0.5 * self.width
+            out |= ((x * math.sin(a) - y * math.cos(a) <= slack_px)      # not before edge a
+                    & (y * math.cos(b) - x * math.sin(b) <= slack_px)   # nor past edge b
+                    & (x * math.cos(m) + y * math.sin(m) >= -slack_px))  # on the wedge's side
+        return out
 
     def columns(self, n_azimuth: int, margin: int = 0) -> list[np.ndarray]:
         """Per wedge, the panorama columns (of n_azimuth over the turn, column i's centre at

@@ -303,7 +303,11 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
     counted = grid if sectors is None else grid.with_columns(np.concatenate(sectors.columns(grid.n_azimuth)))
     truth = true_range(mirror, scene, counted)
     lens, blur = report_lens(mirror, settings)
-    mask = grow_mask(image_mask(mirror, grid, match.num_disparities, sectors, margin), blur)
+    if sectors is None:
+        mask = grow_mask(image_mask(mirror, grid, match.num_disparities), blur)
+    else:  # the blur's reach added to the annuli and the wedges (no distance transform of 12 MP)
+        reach = math.ceil(float(np.max(blur)) / 2.0) + 1
+        mask = image_mask(mirror, grid, match.num_disparities, sectors, margin, grow_px=reach)
     blurred = None if sectors is None else mask
     mirrors, maps = {}, {}
     precision = math.nan

@@ -136,12 +136,13 @@ def equalising_blur(mirror: Mirror, grid: PanoramaGrid) -> tuple[float, float]:
 
 
 def image_mask(mirror: Mirror, grid: PanoramaGrid, rows_above: int,
-               sectors: AzimuthSectors | None = None, margin: int = 0) -> np.ndarray:
+               sectors: AzimuthSectors | None = None, margin: int = 0, grow_px: float = 0.0) -> np.ndarray:
     """(H, W) bool: the image pixels the unwrap of either lobe samples (the annuli of
     image radii over the grid's elevations, rows_above rows beyond each end included, with
     two pixels to spare for the bilinear footprint): all a render for stereo needs. With
     sectors: only within their wedges widened by margin panorama columns (and the two
-    pixels), all stereo_range(sectors=) samples."""
+    pixels), all stereo_range(sectors=) samples. grow_px: that many pixels more across
+    every edge (a blur's reach: a superset of optics.defocus.grow_mask's)."""
     w, h = mirror.camera.sensor_px
     x = np.arange(w) + 0.5 - w / 2.0
     y = np.arange(h) + 0.5 - h / 2.0
@@ -153,9 +154,9 @@ def image_mask(mirror: Mirror, grid: PanoramaGrid, rows_above: int,
         r = ideal_radius_px(lobe, mirror.camera, el[(el >= lo) & (el <= hi)])
         r = r[np.isfinite(r)]
         if r.size:
-            mask |= (rho >= r.min() - 2.0) & (rho <= r.max() + 2.0)
+            mask |= (rho >= r.min() - 2.0 - grow_px) & (rho <= r.max() + 2.0 + grow_px)
     if sectors is not None:  # a column's centre is in its wedge: half a column more reaches its edge
-        mask &= sectors.widened((margin + 0.5) * grid.azimuth_step).pixels((w, h), slack_px=2.0)
+        mask &= sectors.widened((margin + 0.5) * grid.azimuth_step).pixels((w, h), slack_px=2.0 + grow_px)
     return mask
 
 
