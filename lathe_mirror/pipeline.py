@@ -47,9 +47,9 @@ from .optics.zones import zones_for
 from .profile import ExactProfile, Profile
 from .progress import Stages
 from .report.analysis import (
-    FIGURE_DEFINITIONS,
     MIRRORS,
     ReportData,
+    figure_definitions,
     mirror_figures,
     ranging_figures,
     render_mirrors,
@@ -94,7 +94,7 @@ def report_figures(settings: Settings, *, progress: bool = False, renders: bool 
              "baseline": mirror.baseline, "angle_2m": math.degrees(mirror.baseline / 2000.0)}
     data = ReportData(design=DesignFigures.from_dict(design_figures(mirror)),
                       notes=(TABLE1_SWAP_NOTE, *(n.format(**facts) for n in NOTES)),
-                      definitions=dict(FIGURE_DEFINITIONS),
+                      definitions=figure_definitions(mirror),
                       spec=spec_of(settings))  # R, k, sag tables, ISO 10110 tolerances (lathe-mirror spec)
     steps.done()
 

@@ -7,11 +7,12 @@ The stated precisions: the per-pixel image figures (image displacement, ray devi
 viewpoint spread; RMS and max per lobe) 0.5 % of themselves, their pixel counts 0.1 %; the
 Monte Carlo's yield unchanged, the trials' mean RMS image displacement per lobe 1 %, the
 median trial's change 2 % (a trial near the outlier cut moves more: up to 15 % at half the
-paper's bins). The report's renders and range from the image on a large sensor are those of its
-binned sensor (figures of the binning, optics.sampling): the renders' test states how far
-they move with it; the range from the image moves as a coarser pixel does (measured on
-the 12-MP design, strides 4 / 3 / 2: the exact mirror's median range error 10.1 / 8.7 /
-7.1 %), so no precision is claimed for it.
+paper's bins). The report's renders and range from the image on a large sensor are taken
+over azimuth sectors of full-resolution pixels (optics.sampling.azimuth_sectors): a
+sampled render is the full render on the counted pixels (tested to the byte), so its
+figures move with the density only by which part of the room the wedges see; the bounds
+below are that sampling noise, the spread of each figure across the wedges' phase at the
+stated density (measured, in each test's docstring).
 """
 
 from __future__ import annotations
@@ -74,20 +75,31 @@ def test_the_stride_follows_the_lobes_pixel_count(design):
                               - mirror.image_radii_px["outer_annulus"][0] ** 2)) < 2e-3 * n
 
 
-def test_the_binned_sensor_sees_the_same_mirror(design):
-    """sampled_mirror: the same sheets (Eq. 6's h from the binned camera), and a world
-    direction imaged at 1/stride of the design camera's radius."""
-    *_, mirror, _, _, _ = design
-    seen = sampling.sampled_mirror(mirror, 3)
-    cam = seen.camera
-    assert cam.t_pixel == pytest.approx(3 * mirror.camera.t_pixel, rel=1e-15)
-    assert cam.sensor_px == tuple(n // 3 for n in mirror.camera.sensor_px)
-    for lobe, mine in zip(mirror.lobes, seen.lobes):
-        assert (mine.a, mine.b, mine.e, mine.h, mine.r_top) == (lobe.a, lobe.b, lobe.e, lobe.h, lobe.r_top)
-        assert cam.f * mine.r_top / (cam.t_pixel * mine.r_pixel) == pytest.approx(lobe.h, rel=1e-12)  # Eq. 6
-        el = np.radians([-30.0, -10.0, 0.0, 5.0])
-        assert np.allclose(ideal_radius_px(mine, cam, el), ideal_radius_px(lobe, mirror.camera, el) / 3.0,
-                           rtol=1e-12, equal_nan=True)
+def test_the_sectors_hold_the_stated_pixels(design):
+    """azimuth_sectors: none on the paper (every pixel); on the 12-MP design SECTORS wedges
+    whose share of the turn is PIXELS_PER_LOBE over the larger lobe's centres, so a centred
+    annulus (the outer lobe) has that many centres in them (area: to 0.5 %, counted by hand
+    from each centre's angle), and the panorama columns in them are that share of the turn."""
+    name, settings, mirror, *_ = design
+    sec = sampling.azimuth_sectors(mirror)
+    if name == "paper":
+        assert sec is None
+        return
+    n = sampling.lobe_pixels(mirror)
+    assert sec.count == sampling.SECTORS and sec.fraction == pytest.approx(sampling.PIXELS_PER_LOBE / n, rel=1e-12)
+    w, h = settings.camera.sensor_px
+    x = np.arange(w) + 0.5 - w / 2.0
+    y = np.arange(h) + 0.5 - h / 2.0
+    rho = np.hypot(x[None, :], y[:, None])
+    lo, hi = mirror.image_radii_px["outer_annulus"]
+    ang = np.degrees(np.arctan2(y[:, None], x[None, :])) % 45.0  # 8 wedges from 0 deg, each sec.width wide
+    inside = (ang < np.degrees(sec.width)) & (rho > lo) & (rho <= hi)
+    assert abs(int(inside.sum()) - sampling.PIXELS_PER_LOBE) < 5e-3 * sampling.PIXELS_PER_LOBE
+    # the same centres as by hand, but for a few on a wedge's edge (rounding of the angle)
+    assert np.count_nonzero(sec.pixels((w, h)) != (ang < np.degrees(sec.width))) < 1e-5 * w * h
+    cols = sec.columns(7608)
+    assert len(cols) == 8 and abs(sum(c.size for c in cols) - sec.fraction * 7608) <= 8
+    assert all(np.all(np.diff(c) == 1) for c in cols)
 
 
 def _densities(base: int) -> tuple[int, int, int]:
@@ -146,25 +158,100 @@ def test_the_paper_samples_every_pixel_and_every_bin(design):
             assert got == [math.ceil(samples.SAMPLE_LOBE_PX / bin_px)] * 2
 
 
-def test_the_report_renders_of_a_large_sensor_move_with_its_binning(design, monkeypatch):
-    """The report's image differences on a 12-MP sensor are its binned sensor's (stride 4,
-    3, 2 at half, the stated and double density): the RMS grey-level difference within
-    10 % and the SSIM within 0.05 of the stated density's (measured: 6.5 %, 0.03)."""
+def _made(mirror, made):
     from lathe_mirror.profile import ExactProfile
+
+    return {"exact": ExactProfile(mirror), "paper": made}
+
+
+def test_a_sampled_render_is_the_full_render_on_its_pixels(design, monkeypatch):
+    """The paper's renders cut to sectors (PIXELS_PER_LOBE lowered to 120,000): on the
+    counted pixels the images are the full render's byte for byte (the blur's and the SSIM
+    window's neighbours traced), black beyond the traced margin, and the difference is the
+    full images' over the same pixels (image_difference on the full render)."""
+    from lathe_mirror.optics.distortion import usable_annulus
+    from lathe_mirror.optics.render import image_difference
+    from lathe_mirror.report.analysis import render_mirrors
+
+    name, settings, mirror, made, zn, _ = design
+    if name != "paper":
+        pytest.skip("the full 12-MP render is the cost being saved")
+    full, full_fig = render_mirrors(_made(mirror, made), mirror, settings, zn, names=("exact", "paper"))
+    monkeypatch.setattr(sampling, "PIXELS_PER_LOBE", 120_000)
+    part, fig = render_mirrors(_made(mirror, made), mirror, settings, zn, names=("exact", "paper"))
+    sec = sampling.azimuth_sectors(mirror)
+    counted = sec.pixels(settings.camera.sensor_px) & usable_annulus(mirror)
+    assert 0.2 < counted.sum() / usable_annulus(mirror).sum() < 0.3  # 120,000 of 491,000 centres
+    for k in ("exact", "paper"):
+        assert np.array_equal(part[k][counted], full[k][counted])
+        assert not part[k][~sec.pixels(settings.camera.sensor_px, slack_px=40.0)].any()
+    want = image_difference(full["exact"], full["paper"], mask=counted)
+    assert fig.against_exact["paper"].rms == pytest.approx(want["rms"], rel=1e-12)
+    assert fig.against_exact["paper"].ssim == pytest.approx(want["ssim"], rel=1e-12)
+    assert abs(fig.against_exact["paper"].rms / full_fig.against_exact["paper"].rms - 1) < 0.2
+
+
+#: The 12-MP renders' sampling noise: RMS grey-level difference and SSIM of the paper
+#: program's part against the exact, the spread (max - min) over the wedges' phase 0, 1/4,
+#: 1/2, 3/4 at the stated density (measured: see the test).
+RENDER_RMS_SPREAD = 0.13
+RENDER_SSIM_SPREAD = 0.12
+
+
+def test_the_report_renders_of_a_large_sensor_keep_their_figures(design, monkeypatch):
+    """The 12-MP renders' difference at half, the stated and double density moves by less
+    than its sampling noise (RENDER_*_SPREAD: measured over the wedges' phase 0, 1/4, 1/2,
+    3/4 RMS 77.9 / 75.9 / 80.5 / 70.9, 12 % of the phase-0 figure, SSIM 0.333 / 0.433 /
+    0.426 / 0.445; half and double density RMS 73.3 and 78.8, SSIM 0.373 and 0.339). The
+    binned sensor it replaces read 86.9 / 81.6 / 77.1 and 0.29 / 0.31 / 0.34 at strides
+    4 / 3 / 2: a coarser camera's figures, not a sample of this one's."""
     from lathe_mirror.report.analysis import render_mirrors
 
     name, settings, mirror, made, zn, _ = design
     if name == "paper":
-        pytest.skip("the paper's renders are per pixel (stride 1)")
-    made_d = {"exact": ExactProfile(mirror), "paper": made, "best": made, "polished": made}
+        pytest.skip("the paper's renders are per pixel (every pixel)")
     base = sampling.PIXELS_PER_LOBE
     got = {}
     for n in _densities(base):
         monkeypatch.setattr(sampling, "PIXELS_PER_LOBE", n)
-        images, fig = render_mirrors(made_d, mirror, settings, zn)
+        images, fig = render_mirrors(_made(mirror, made), mirror, settings, zn, names=("exact", "paper"))
         got[n] = fig.against_exact["paper"]
-        assert images["exact"].shape[:2] == tuple(k // sampling.pixel_stride(mirror) for k in (3000, 4000))
+        assert images["exact"].shape[:2] == (3000, 4000)  # the camera's own pixels
     ref = got[base]
     for n, d in got.items():
-        assert abs(d.rms / ref.rms - 1.0) < 0.10, (n, d, ref)
-        assert abs(d.ssim - ref.ssim) < 0.05, (n, d, ref)
+        assert abs(d.rms / ref.rms - 1.0) < RENDER_RMS_SPREAD, (n, d, ref)
+        assert abs(d.ssim - ref.ssim) < RENDER_SSIM_SPREAD, (n, d, ref)
+
+
+#: The 12-MP range from the image's sampling noise (exact mirror, fast settings): the
+#: spread (max - min) over the wedges' phase of the median range error (relative) and of
+#: the valid fraction at the stated density (measured: see the test).
+RANGE_MEDIAN_SPREAD = 0.25
+RANGE_VALID_SPREAD = 0.12
+
+
+def test_the_range_from_a_large_sensors_image_keeps_its_figures(design, monkeypatch):
+    """The exact mirror's range from the image on the 12-MP design at half, the stated and
+    double density: the median range error and the valid fraction move by less than their
+    sampling noise (RANGE_*_SPREAD, the spread over the wedges' phase 0, 1/4, 1/2, 3/4 at
+    the stated density: measured 5.13 / 3.95 / 5.12 / 4.63 %, 23 % of the phase-0 figure,
+    and 0.394 / 0.295 / 0.301 / 0.282); half and double density measured 5.11 and 4.75 %,
+    0.366 and 0.397. Against
+    the whole panorama (6.37 %, 0.41) the wedges read low, a bias this test does not bound:
+    the matcher's memory along azimuth (optics.ranging.stereo.sector_margin)."""
+    from lathe_mirror.report.analysis import ranging_figures
+
+    name, settings, mirror, made, zn, _ = design
+    if name == "paper":
+        pytest.skip("the paper's range from the image is over every column")
+    base = sampling.PIXELS_PER_LOBE
+    got = {}
+    for n in _densities(base):
+        monkeypatch.setattr(sampling, "PIXELS_PER_LOBE", n)
+        fig, maps = ranging_figures(_made(mirror, made), mirror, settings, zn, names=("exact",))
+        got[n] = fig.mirrors["exact"]
+        assert "azimuth sectors" in fig.definition
+    ref = got[base]
+    for n, f in got.items():
+        assert abs(f.range_error_pct.median / ref.range_error_pct.median - 1) < RANGE_MEDIAN_SPREAD, (n, f, ref)
+        assert abs(f.valid_fraction - ref.valid_fraction) < RANGE_VALID_SPREAD, (n, f, ref)

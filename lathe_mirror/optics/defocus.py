@@ -136,20 +136,50 @@ def grow_mask(mask: np.ndarray, diameter_px: np.ndarray | float) -> np.ndarray:
     return distance_transform_edt(~mask) <= reach
 
 
-def defocus_image(image: np.ndarray, diameter_px: np.ndarray) -> np.ndarray:
+def defocus_image(image: np.ndarray, diameter_px: np.ndarray, *, pixels: np.ndarray | None = None,
+                  tile: int = 256) -> np.ndarray:
     """The image (H, W, 3) uint8 averaged over a uniform disc of each pixel's diameter
     (diameter_px, (H, W) px): the bands' disc convolutions blended linearly in diameter
     (module doc; zero beyond the image's border). Same shape and dtype; the same input
-    gives the same bytes."""
+    gives the same bytes.
+
+    pixels: (H, W) bool, the pixels wanted (the rest 0): only the tile x tile blocks that
+    hold any are blurred, each with a margin of the largest disc's reach, so a wanted
+    pixel is the whole image's (the bands are the whole map's; OpenCV's direct filter on
+    the small discs here, tested against the whole image in tests/test_sampling.py)."""
+    d = np.asarray(diameter_px, float)
+    if d.shape != np.shape(image)[:2]:
+        raise ValueError(f"defocus_image: diameters {d.shape} are not the image's {np.shape(image)[:2]}")
+    if not float(d.max()) > 1.0:  # every disc within its pixel: the image as traced
+        out = np.asarray(image, np.uint8).copy()
+        if pixels is not None:
+            out[~np.asarray(pixels, bool)] = 0
+        return out
+    bands = band_diameters(float(d.max()))
+    if pixels is None:
+        return _blend(image, d, bands)
+    pixels = np.asarray(pixels, bool)
+    h, w = pixels.shape
+    reach = int(math.ceil(bands[-1] / 2.0)) + 1
+    out = np.zeros(np.shape(image), np.uint8)
+    rows = np.flatnonzero(np.add.reduceat(np.add.reduceat(pixels, np.arange(0, h, tile), axis=0),
+                                          np.arange(0, w, tile), axis=1).ravel())
+    n_cols = (w + tile - 1) // tile
+    for i in rows:  # one block a tile (a few hundred), not a pixel
+        r0, c0 = (i // n_cols) * tile, (i % n_cols) * tile
+        r1, c1 = min(r0 + tile, h), min(c0 + tile, w)
+        a0, b0, a1, b1 = max(r0 - reach, 0), max(c0 - reach, 0), min(r1 + reach, h), min(c1 + reach, w)
+        part = _blend(image[a0:a1, b0:b1], d[a0:a1, b0:b1], bands)
+        out[r0:r1, c0:c1] = part[r0 - a0:r1 - a0, c0 - b0:c1 - b0]
+    out[~pixels] = 0
+    return out
+
+
+def _blend(image: np.ndarray, d: np.ndarray, bands: list[float]) -> np.ndarray:
+    """defocus_image's blend of the bands' disc convolutions (uint8 out)."""
     import cv2  # lazy: OpenCV only where an image is blurred (render, stereo, the report)
 
     img = np.ascontiguousarray(image, np.float32)
-    d = np.asarray(diameter_px, float)
-    if d.shape != img.shape[:2]:
-        raise ValueError(f"defocus_image: diameters {d.shape} are not the image's {img.shape[:2]}")
-    if not float(d.max()) > 1.0:  # every disc within its pixel: the image as traced
-        return np.asarray(image, np.uint8).copy()
-    bands = band_diameters(float(d.max()))
     d32 = d.astype(np.float32)
     out = np.zeros_like(img)
     for b, db in enumerate(bands):

@@ -2,36 +2,39 @@
 pixel centres per lobe, so a 12-megapixel design costs what the paper's 1-megapixel one
 does. `render` of the full image stays per pixel; this is for figures.
 
-Two ways, each for the figures it keeps:
+Two ways, each for the figures it keeps; in both every pixel is one of the design
+camera's own, at its full resolution:
 
 * A stride over the real pixel centres (`pixel_stride`): every stride-th row and column,
   the sample's centres the sensor's own (optics.distortion.image_displacement(stride=)).
   A figure that is a statistic of independent pixels (RMS, max, a count's share) is
-  estimated from the sample; the figures stay in the design camera's pixels.
-* A binned sensor (`sampled_mirror`): the same lobes seen by a camera whose pixels are
-  stride x stride of the design's (pitch stride x t_pixel, sensor_px // stride, every
-  r_pixel / stride, so Eq. 6's h and every sheet are the same). A figure that needs a
-  pixel's neighbours (an image's blur and SSIM, the stereo matcher's window) is taken on
-  it: the report's renders and its range from the image. Those are the binned sensor's
-  figures, not estimates of the full sensor's: the range from the image is a coarser
-  pixel's (its definition in the report says "binned"), the image difference moves a few
-  per cent with the binning.
+  estimated from the sample.
+* Azimuth sectors (`azimuth_sectors`): SECTORS contiguous wedges of the image, spread
+  evenly round the axis, holding PIXELS_PER_LOBE pixel centres of the larger lobe between
+  them. A figure that needs a pixel's neighbours is taken on the wedges' pixels, each
+  traced with its neighbours out to the filters' reach (margins traced but not counted):
+  the report's renders (the blur and the SSIM window: each counted pixel's value is the
+  full image's, only the statistic over azimuth is sampled) and its range from the image
+  (the matcher's window and its blur: but the matcher's cost aggregation runs along
+  azimuth for tens of degrees over flat colour, so a wedge's matches are not all the whole
+  panorama's and its figures read low; optics.ranging.stereo.sector_margin).
 
-PIXELS_PER_LOBE sets the stride: the paper's lobes (248,000 and 497,000 pixel centres on
-1008 x 1018) stay at stride 1, so its figures are exact and its files the same bytes; a
-12-megapixel sensor (4000 x 3000 with the outer rim at 1500 px: 4.3 M centres in the
-outer lobe) is sampled at stride 3. The strided figures' stated precision against the
-density (halving and doubling PIXELS_PER_LOBE: 0.5 %) is tested in tests/test_sampling.py.
+PIXELS_PER_LOBE sets both: the paper's lobes (248,000 and 497,000 pixel centres on
+1008 x 1018) are taken whole, so its figures are exact and its files the same bytes; a
+12-megapixel sensor (4000 x 3000 with the outer rim at 1500 px: 4.1 M centres in the
+outer lobe) is sampled at stride 3 and in wedges of 16 % of the turn. The figures'
+stated precision against the density (halving and doubling PIXELS_PER_LOBE) is tested in
+tests/test_sampling.py.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..design import Camera, Mirror
+from ..design import Mirror
 from .radial import sensor_radii
 
 #: The most pixel centres of one lobe a per-pixel figure is taken at: the larger lobe's
@@ -60,20 +63,78 @@ def pixel_stride(mirror: Mirror, pixels_per_lobe: int | None = None) -> int:
     return 1 if n <= pixels_per_lobe else int(math.ceil(math.sqrt(n / pixels_per_lobe)))
 
 
-def sampled_camera(camera: Camera, stride: int) -> Camera:
-    """The camera binned stride x stride: pitch stride x t_pixel, sensor_px // stride (the
-    same field of view to within a pixel); the camera itself at stride 1."""
-    if stride == 1:
-        return camera
-    w, h = (max(2, int(n) // stride) for n in camera.sensor_px)
-    return dataclasses.replace(camera, t_pixel=camera.t_pixel * stride, sensor_px=(w, h))
+#: Wedges the azimuth sample is cut into: more spread the sample round the room, each costs
+#: its margins (the matcher's reach, twice).
+SECTORS = 8
+#: Where in its period (0..1 of 2 pi / SECTORS) the first wedge starts: 0, the +x axis.
+PHASE = 0.0
 
 
-def sampled_mirror(mirror: Mirror, stride: int) -> Mirror:
-    """The same mirror seen by the binned camera (sampled_camera): each lobe's r_pixel in
-    the binned pixels, so Eq. 6's h = f R_top / (T_pixel R_pixel) and every sheet are
-    unchanged; the mirror itself at stride 1."""
-    if stride == 1:
-        return mirror
-    return Mirror(sampled_camera(mirror.camera, stride),
-                  *(dataclasses.replace(lobe, r_pixel=lobe.r_pixel / stride) for lobe in mirror.lobes))
+@dataclass(frozen=True)
+class AzimuthSectors:
+    """count wedges of the image, each `width` rad of azimuth, the first starting at
+    `start` rad and the rest every 2 pi / count (azimuth in the camera frame: the image's
+    atan2(v, u), as optics.ranging.rectify measures it)."""
+
+    count: int
+    width: float
+    start: float
+
+    @property
+    def fraction(self) -> float:
+        """Share of the turn the wedges cover."""
+        return self.count * self.width / (2.0 * math.pi)
+
+    def widened(self, margin: float) -> AzimuthSectors:
+        """The wedges with `margin` rad more on either side (at most the whole period)."""
+        width = min(self.width + 2.0 * margin, 2.0 * math.pi / self.count)
+        return AzimuthSectors(self.count, width, self.start - 0.5 * (width - self.width))
+
+    def pixels(self, sensor_px: tuple[int, int], slack_px: float = 0.0) -> np.ndarray:
+        """(H, W) bool: the pixel centres within a wedge, or within slack_px px of one
+        across an edge (each wedge's two edges and its apex moved out by slack_px). Side
+        tests by cross products with each edge's direction (no angle per pixel: products
+        and sums round the same on every machine)."""
+        w, h = sensor_px
+        x = (np.arange(w) + 0.5 - w / 2.0)[None, :]
+        y = (np.arange(h) + 0.5 - h / 2.0)[:, None]
+        out = np.zeros((h, w), bool)
+        period = 2.0 * math.pi / self.count
+        if self.width > math.pi:  # not convex: no wedge wider than half a turn is cut
+            raise ValueError(f"AzimuthSectors.pixels: wedges of {self.width} rad, at most pi")
+        for k in range(self.count):
+            a = self.start + k * period
+            b, m = a + self.width, a + 0.5 * self.width
+            out |= ((x * math.sin(a) - y * math.cos(a) <= slack_px)      # not before edge a
+                    & (y * math.cos(b) - x * math.sin(b) <= slack_px)   # nor past edge b
+                    & (x * math.cos(m) + y * math.sin(m) >= -slack_px))  # on the wedge's side
+        return out
+
+    def columns(self, n_azimuth: int, margin: int = 0) -> list[np.ndarray]:
+        """Per wedge, the panorama columns (of n_azimuth over the turn, column i's centre at
+        (i + 1/2) 2 pi / n_azimuth) whose centres lie in it, in order round the turn, with
+        `margin` more columns either side (indices modulo n_azimuth)."""
+        step = 2.0 * math.pi / n_azimuth
+        period = 2.0 * math.pi / self.count
+        out = []
+        for k in range(self.count):
+            a = self.start + k * period
+            first = int(math.ceil((a - 1e-12) / step - 0.5))  # first centre at or after a
+            last = int(math.ceil((a + self.width - 1e-12) / step - 0.5))  # first centre past the end
+            out.append(np.mod(np.arange(first - margin, max(last, first) + margin), n_azimuth))
+        return out
+
+
+def azimuth_sectors(mirror: Mirror, pixels_per_lobe: int | None = None, *,
+                    phase: float | None = None) -> AzimuthSectors | None:
+    """The wedges holding pixels_per_lobe (default PIXELS_PER_LOBE) of the larger lobe's
+    pixel centres, SECTORS of them evenly round the axis; None while the lobe has no more
+    (every pixel is taken). phase: where in its period (0..1) the first wedge starts,
+    default PHASE."""
+    pixels_per_lobe = PIXELS_PER_LOBE if pixels_per_lobe is None else pixels_per_lobe
+    phase = PHASE if phase is None else phase
+    n = lobe_pixels(mirror)
+    if n <= pixels_per_lobe:
+        return None
+    period = 2.0 * math.pi / SECTORS
+    return AzimuthSectors(SECTORS, period * pixels_per_lobe / n, period * float(phase))

@@ -18,10 +18,10 @@ from ..optics.defocus import blur_figures, blur_map, defocus_image, grow_mask, l
 from ..optics.distortion import image_displacement, usable_annulus
 from ..optics.radial import lobe_pixel_radii, radial_displacement, radial_figures, used_extent
 from ..optics.ranging.resolution import resolution_table
-from ..optics.ranging.stereo import error_curve, image_mask, prepare, range_figures, stereo_range
+from ..optics.ranging.stereo import error_curve, image_mask, prepare, range_figures, sector_margin, stereo_range
 from ..optics.ranging.truth import true_range
 from ..optics.render import image_difference, render_image
-from ..optics.sampling import pixel_stride, sampled_mirror
+from ..optics.sampling import PIXELS_PER_LOBE, azimuth_sectors, lobe_pixels, pixel_stride
 from ..path import Arc, Line
 from ..profile import ExactProfile, Profile
 from ..results.base import Range, Stat, plain
@@ -65,6 +65,23 @@ FIGURE_DEFINITIONS = {
                              "image_displacement_px)",
     "blur_px": "the thin-lens blur circle's diameter at each pixel (renders and ranging; defocus)",
 }
+
+
+def figure_definitions(mirror: Mirror) -> dict[str, str]:
+    """FIGURE_DEFINITIONS, and on a sensor sampled (optics.sampling: a lobe of more than
+    PIXELS_PER_LOBE pixel centres) the sample ("sampled_pixels"); the paper's: none."""
+    out = dict(FIGURE_DEFINITIONS)
+    sectors = azimuth_sectors(mirror)
+    if sectors is not None:
+        stride = pixel_stride(mirror)
+        out["sampled_pixels"] = (
+            f"the larger lobe has {lobe_pixels(mirror):,} pixel centres, more than "
+            f"optics.sampling.PIXELS_PER_LOBE ({PIXELS_PER_LOBE:,}): the mirrors' per-pixel figures "
+            f"(optics_distortion) over every {stride}th row and column; the renders' differences and the "
+            f"range from the image over {sectors.count} azimuth sectors evenly round the axis, "
+            f"{100.0 * sectors.fraction:.1f} % of the turn, each pixel the camera's own (traced and matched "
+            "with its neighbours out to the filters' reach); the report's images black outside them")
+    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -231,66 +248,95 @@ def strategy_table(job: MachiningJob):
     return made, machine_table, tuple(table)
 
 
-def report_lens(mirror: Mirror, settings: Settings, seen: Mirror | None = None):
-    """The lens the report's images are blurred by, and each pixel's blur circle (px of
-    `seen`'s camera, default the design's): optics.defocus, as `render` and `stereo` blur
-    theirs."""
+def report_lens(mirror: Mirror, settings: Settings):
+    """The lens the report's images are blurred by, and each pixel's blur circle (px):
+    optics.defocus, as `render` and `stereo` blur theirs."""
     lens = lens_for(mirror, settings.optimize.focus_range_m * 1000.0)
-    seen = mirror if seen is None else seen
-    return lens, blur_map(mirror, lens, seen.camera)
+    return lens, blur_map(mirror, lens, mirror.camera)
 
 
-def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None):
+#: How far (px) the SSIM's window (image_difference: a Gaussian of sigma 1.5 px cut at 3.5
+#: sigma) reaches from a pixel: a sampled render traces this far beyond the counted pixels.
+SSIM_REACH_PX = 6
+
+
+def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None, *,
+                   names: tuple[str, ...] = MIRRORS):
     """Each mirror's image of the paper's room (blurred by the lens, optics.defocus), and
-    each made image's difference to the exact, on the sensor binned to
-    optics.sampling.PIXELS_PER_LOBE (the design's own sensor while its larger lobe has at
-    most that many pixel centres: the paper's; a 12-megapixel sensor binned 3 x 3)."""
+    each made image's difference to the exact, over the lobes' usable annuli: every pixel
+    while the larger lobe has at most optics.sampling.PIXELS_PER_LOBE (the paper's), else
+    the pixels in the azimuth sectors that hold that many (optics.sampling.azimuth_sectors:
+    traced out to the blur's and the SSIM window's reach, so each counted pixel's value is
+    the full image's; the images black outside them). names: the mirrors, "exact" first."""
     scene = scene_for(settings, mirror)
-    seen = sampled_mirror(mirror, pixel_stride(mirror))
-    lens, blur = report_lens(mirror, settings, seen)
-    images = {name: defocus_image(render_image(made[name], seen, scene), blur) for name in MIRRORS}
+    lens, blur = report_lens(mirror, settings)
     # Over the lobes' usable annuli, as `lathe-mirror render` states it (the one definition):
     # the step-vignetted band and the frame outside the mirror only dilute the difference.
-    mask = usable_annulus(seen)
+    mask = usable_annulus(mirror)
+    sectors = azimuth_sectors(mirror)
+    traced = None
+    if sectors is not None:
+        mask &= sectors.pixels(mirror.camera.sensor_px)
+        traced = grow_mask(mask, blur + 2.0 * SSIM_REACH_PX)
+    # blurred only where traced (optics.defocus: the tiles holding them), the rest black
+    images = {name: defocus_image(render_image(made[name], mirror, scene, pixels=traced), blur, pixels=traced)
+              for name in names}
     stats = {name: ImageDifference.from_dict(image_difference(images["exact"], images[name], mask=mask))
-             for name in MIRRORS if name != "exact"}
+             for name in names if name != "exact"}
     return images, RenderFigures(against_exact=stats,
                                  defocus=DefocusFigures.from_dict(blur_figures(mirror, lens, zones)))
 
 
 def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings,
-                    zones=None) -> tuple[RangingFigures, RangeMaps]:
-    """Range from the image for each of MIRRORS (optics.ranging, the [stereo] settings,
-    aligned camera): figures per mirror against the room's true range, the resolution
-    table at the exact mirror's achieved disparity precision, and the range maps (m,
-    arrays for the plots)."""
+                    zones=None, *, names: tuple[str, ...] = MIRRORS) -> tuple[RangingFigures, RangeMaps]:
+    """Range from the image for each of names (default MIRRORS, exact first; optics.ranging,
+    the [stereo] settings, aligned camera): figures per mirror against the room's true
+    range, the resolution table at the exact mirror's achieved disparity precision, and the
+    range maps (m, arrays for the plots; NaN outside the sampled columns). Every column of
+    the panorama while the larger lobe has at most optics.sampling.PIXELS_PER_LOBE pixels,
+    else the columns in its azimuth sectors (stereo_range(sectors=))."""
     st = settings.stereo
-    stride = pixel_stride(mirror)
-    seen = sampled_mirror(mirror, stride)  # the sensor binned to optics.sampling.PIXELS_PER_LOBE
-    grid, match = prepare(seen, st.params)
+    sectors = azimuth_sectors(mirror)
+    grid, match = prepare(mirror, st.params)
     scene = scene_for(settings, mirror)
-    truth = true_range(mirror, scene, grid)  # the resolution model at one design pixel
-    lens, blur = report_lens(mirror, settings, seen)
-    mask = grow_mask(image_mask(seen, grid, match.num_disparities), blur)
+    margin = 0 if sectors is None else sector_margin(mirror, grid, match, st.params)
+    counted = grid if sectors is None else grid.with_columns(np.concatenate(sectors.columns(grid.n_azimuth)))
+    truth = true_range(mirror, scene, counted)
+    lens, blur = report_lens(mirror, settings)
+    if sectors is None:
+        mask = grow_mask(image_mask(mirror, grid, match.num_disparities), blur)
+    else:  # the blur's reach added to the annuli and the wedges (no distance transform of 12 MP)
+        reach = math.ceil(float(np.max(blur)) / 2.0) + 1
+        mask = image_mask(mirror, grid, match.num_disparities, sectors, margin, grow_px=reach)
+    blurred = None if sectors is None else mask
     mirrors, maps = {}, {}
     precision = math.nan
-    for name in MIRRORS:  # exact first: its disparity error is the matcher's precision
-        image = defocus_image(render_image(made[name], seen, scene, supersample=st.supersample, pixels=mask), blur)
-        result = stereo_range(image, seen, st.params)
+    for name in names:  # exact first: its disparity error is the matcher's precision
+        image = defocus_image(render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask), blur,
+                              pixels=blurred)
+        result = stereo_range(image, mirror, st.params, sectors=sectors)
         fig = RangeFigures.from_dict(range_figures(result, truth, mirror,
                                                    precision_px=None if name == "exact" else precision))
         if name == "exact":
             precision = fig.disparity_error_px.precision
         curve = ErrorCurve.from_dict({**error_curve(result, truth, mirror, precision), "precision_px": precision})
         mirrors[name] = dataclasses.replace(fig, error_curve=curve)
-        maps[name] = result.range_map.range_mm / 1e3
+        rng = result.range_map.range_mm / 1e3
+        if sectors is not None:  # the map over the turn, the columns not sampled without a range
+            full = np.full(grid.shape, np.nan)
+            full[:, np.asarray(counted.columns)] = rng
+            rng = full
+        maps[name] = rng
     table = resolution_table(mirror, RESOLUTION_RANGES_M, RESOLUTION_ELEVATIONS_DEG, precision * grid.step)
     figures = RangingFigures(
         definition="range error = 100 (R - R_true) / R_true, R from the stereo centre triangulated from "
                    "StereoSGBM disparities of the two lobes' panoramas (rendered at supersample "
                    f"{st.supersample}, blurred by the lens's defocus: `defocus`), R_true the room along the "
                    "outer lobe's pixel ray; over the common band's pixels with a range (valid_fraction of them)"
-                   + (f"; on the sensor binned {stride} x {stride} (optics.sampling)" if stride > 1 else ""),
+                   + ("" if sectors is None else
+                      f"; sampled: the panorama columns in {sectors.count} azimuth sectors evenly round the axis, "
+                      f"{100.0 * sectors.fraction:.1f} % of the turn (optics.sampling.PIXELS_PER_LOBE pixels of the "
+                      f"larger lobe), each matched at full resolution with {margin} columns either side"),
         supersample=st.supersample,
         matcher_precision_px=precision,
         resolution=ResolutionTable.from_dict(table),
@@ -298,4 +344,3 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
         defocus=DefocusFigures.from_dict(blur_figures(mirror, lens, zones)),
     )
     return figures, RangeMaps(maps=maps, band_deg=tuple(math.degrees(x) for x in grid.band))
-

@@ -36,16 +36,23 @@ class PanoramaGrid:
     """An azimuth x elevation grid over an elevation band.
 
     band: (lowest, highest) elevation, rad. n_elevation: rows over the band. n_azimuth:
-    columns over the full turn.
+    columns over the full turn. columns: the turn's columns the grid holds, in order (a
+    sample of azimuth, optics.sampling.AzimuthSectors); None: all of them.
     """
 
     band: tuple[float, float]
     n_elevation: int
     n_azimuth: int
+    columns: tuple[int, ...] | None = None
 
     def __post_init__(self) -> None:
-        if not (self.band[1] > self.band[0] and self.n_elevation >= 1 and self.n_azimuth >= 1):
+        if not (self.band[1] > self.band[0] and self.n_elevation >= 1 and self.n_azimuth >= 1
+                and (self.columns is None or len(self.columns) >= 1)):
             raise InputError(f"panorama grid {self}: needs a non-empty band and at least one row and column")
+
+    def with_columns(self, columns) -> PanoramaGrid:
+        """The same grid holding only these of the turn's columns (indices, in order)."""
+        return PanoramaGrid(self.band, self.n_elevation, self.n_azimuth, tuple(int(i) for i in columns))
 
     @property
     def step(self) -> float:
@@ -60,7 +67,7 @@ class PanoramaGrid:
     @property
     def shape(self) -> tuple[int, int]:
         """(rows, columns) of a panorama on this grid."""
-        return (self.n_elevation, self.n_azimuth)
+        return (self.n_elevation, self.n_azimuth if self.columns is None else len(self.columns))
 
     def elevations(self, rows_above: int = 0, rows_below: int = 0) -> np.ndarray:
         """Row-centre elevations (rad), top row first; rows_above / rows_below extra rows
@@ -69,8 +76,9 @@ class PanoramaGrid:
         return self.band[1] - (j + 0.5) * self.step
 
     def azimuths(self) -> np.ndarray:
-        """Column-centre azimuths (rad) in [0, 2 pi)."""
-        return (np.arange(self.n_azimuth) + 0.5) * self.azimuth_step
+        """Column-centre azimuths (rad) in [0, 2 pi) of the columns held."""
+        i = np.arange(self.n_azimuth) if self.columns is None else np.asarray(self.columns)
+        return (i + 0.5) * self.azimuth_step
 
     def pixel_of(self, elevation: np.ndarray | float, azimuth: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
         """Fractional (row, column) of directions (rad); row j's centre is j, column i's i."""
