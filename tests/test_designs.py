@@ -257,7 +257,7 @@ def test_the_seat_tilts_about_the_rim_by_default(design_settings):
 
 
 def test_optimize_writes_a_runner_up_that_passes_nominal(tmp_path):
-    """The paper camera on a 0.01 mm lattice with a 0.1 mm nose: the best design the search
+    """The paper camera on a 0.02 mm lattice with a 0.1 mm nose: the best design the search
     finds fails the tolerance verdict nominal (its facets' disparity, NOMINAL_FAILS); the
     command tries the search's runner-up designs and writes the first that passes, saying
     what it replaced and why, with the lower objective it costs (strict JSON). The R10
@@ -265,7 +265,7 @@ def test_optimize_writes_a_runner_up_that_passes_nominal(tmp_path):
     from conftest import run_cli
 
     cfg = tmp_path / "coarse.toml"
-    cfg.write_text("[tool]\nnose_radius = 0.1\n[machine]\nresolution = 0.01\n[toolpath]\ngouge_tolerance = 0.01\n"
+    cfg.write_text("[tool]\nnose_radius = 0.1\n[machine]\nresolution = 0.02\n[toolpath]\ngouge_tolerance = 0.02\n"
                    "[optimize]\nmaxiter = 120\nobjective = \"r10\"\n" + FAST)
     p = run_cli("optimize", "--config", str(cfg), "--json", "--no-progress", "--workers", "1",
                 "-o", str(tmp_path / "best.toml"))
