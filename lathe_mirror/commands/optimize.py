@@ -55,7 +55,8 @@ def run(args: argparse.Namespace) -> int:
     ref_name = "paper" if _is_paper(settings) else "configured"
     result, data = optimize_design(settings, lambda s: check_made(s, "the best design found"),
                                    workers=min(max(ex.workers, 1), 64),  # optimize.workers' range
-                                   check=not args.no_check, progress=not args.no_progress, ref_name=ref_name)
+                                   check=not args.no_check, progress=not args.no_progress, ref_name=ref_name,
+                                   as_written=_as_written(settings.camera))
     if out is not None:
         from ..export.design_toml import design_toml, write_design_toml
         from ..export.files import write_bytes
@@ -73,6 +74,21 @@ def run(args: argparse.Namespace) -> int:
         data["output"] = {"design": str(out), "pareto_plot": str(pareto_path)}
     print_result(args, data, format_result)
     return 0
+
+
+def _as_written(camera):
+    """The lobes as the design file holds them (export.design_toml's digits, read back):
+    the winner optimize checks is the design it writes."""
+    import dataclasses
+    import tomllib
+
+    from ..export.design_toml import design_toml
+
+    def read_back(lobes):
+        doc = tomllib.loads(design_toml(camera, lobes))["lobes"]
+        return tuple(dataclasses.replace(s, **doc[s.name]) for s in lobes)
+
+    return read_back
 
 
 def format_result(data: dict) -> str:

@@ -14,6 +14,7 @@ import dataclasses
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from ..design import LobeSpec
 from ..errors import InputError
 from ..tolerance.runs import made_disparity, winner_check
 from ..tolerance.spec import MACHINE_DRAWN
@@ -27,6 +28,9 @@ if TYPE_CHECKING:
 
 #: A design's feasibility check: raises InputError naming what cannot be made.
 CheckMade = Callable[["Settings"], None]
+#: The lobes as the design file holds them (its floats' digits): what `tolerance --config`
+#: on the written file judges, so the winner's check judges the same.
+AsWritten = Callable[[tuple[LobeSpec, LobeSpec]], tuple[LobeSpec, LobeSpec]]
 
 
 def problem_of(settings: Settings) -> Problem:
@@ -38,15 +42,21 @@ def problem_of(settings: Settings) -> Problem:
 
 
 def optimize_design(settings: Settings, check_made: CheckMade, *, workers: int, check: bool = True,
-                    progress: bool = False, ref_name: str = "configured") -> tuple[SearchResult, dict]:
+                    progress: bool = False, ref_name: str = "configured",
+                    as_written: AsWritten | None = None) -> tuple[SearchResult, dict]:
     """The search on `workers` processes of the active executor, the winner through
-    check_made and (check) its tolerance check; (the search's result, the figures)."""
+    check_made and (check) its tolerance check; (the search's result, the figures).
+    as_written: the lobes as the design file will hold them; the winner (and any runner-up)
+    is that design, so the check judges the part `tolerance --config` on the file judges."""
     problem = problem_of(settings)
     robust = settings.optimize.objective is Objective.DELIVERED
     made = None
     if robust:
         problem, made = made_parts(problem, settings, progress=progress)
     result = search(problem, workers=workers, progress=progress)
+    if as_written is not None:
+        lobes = as_written(result.best)
+        result = dataclasses.replace(result, best=lobes, best_figures=figures(lobes, problem))
     best = dataclasses.replace(settings, lobes=result.best)
     check_made(best)
     verdict = None
@@ -54,7 +64,8 @@ def optimize_design(settings: Settings, check_made: CheckMade, *, workers: int, 
         verdict = winner_check(best.mirror(), best, progress=progress,
                                blur_px=design_blur_px(best.mirror(), best), allocate=robust)
         if not verdict["nominal_pass"]:  # the runner-up designs, until one passes nominal
-            result, best, verdict = runner_up(result, problem, settings, verdict, check_made, progress=progress)
+            result, best, verdict = runner_up(result, problem, settings, verdict, check_made, progress=progress,
+                                              as_written=as_written)
     return result, result_figures(result, problem, settings, made, verdict, ref_name)
 
 
@@ -145,7 +156,8 @@ def bound_warnings(result, problem) -> list[str]:
     return out
 
 
-def runner_up(result, problem, settings, check: dict, check_made: CheckMade, *, progress: bool = False):
+def runner_up(result, problem, settings, check: dict, check_made: CheckMade, *, progress: bool = False,
+              as_written: AsWritten | None = None):
     """The winner fails the tolerance verdict nominal (a made-part figure the search does
     not model): the search's runner-up designs (optimize.search.alternates), best first,
     each through check_made and the nominal verdict; the first that passes replaces the
@@ -153,6 +165,7 @@ def runner_up(result, problem, settings, check: dict, check_made: CheckMade, *, 
     obj0 = result.best_figures.objective(problem.settings.objective)
     tried = []
     for lobes in alternates(result, problem):
+        lobes = lobes if as_written is None else as_written(lobes)
         cand = dataclasses.replace(settings, lobes=lobes)
         fig = figures(lobes, problem)
         obj = fig.objective(problem.settings.objective)
