@@ -58,9 +58,8 @@ DESIGNS = {
 }
 
 
-@pytest.fixture(scope="session")
-def design_settings(tmp_path_factory):
-    d = tmp_path_factory.mktemp("designs")
+def load_designs(d) -> dict:
+    """{name: Settings} of every matrix design at fast settings, each written to d as a file."""
     out = {}
     for name, text in DESIGNS.items():
         p = d / f"{name}.toml"
@@ -69,6 +68,11 @@ def design_settings(tmp_path_factory):
         p.write_text(text + FAST + fine)
         out[name] = load(p)
     return out
+
+
+@pytest.fixture(scope="session")
+def design_settings(tmp_path_factory):
+    return load_designs(tmp_path_factory.mktemp("designs"))
 
 
 def _finite(x, path="") -> list[str]:

@@ -10,7 +10,6 @@ import math
 import numpy as np
 import pytest
 
-from lathe_mirror.config import load
 from lathe_mirror.enums import Strategy
 from lathe_mirror.job import MachiningJob
 from lathe_mirror.optics.distortion import image_displacement
@@ -18,7 +17,7 @@ from lathe_mirror.optics.radial import LOBE_RANGE_SLACK_PX, lobe_pixel_radii, ra
 from lathe_mirror.optics.zones import zones_for
 from lathe_mirror.profile import ExactProfile, Profile
 
-from test_designs import DESIGNS, FAST
+from test_designs import DESIGNS, load_designs
 
 
 class RolledRim(Profile):
@@ -86,14 +85,7 @@ def test_a_ray_that_leaves_its_lobe_is_lost_not_displaced(paper_mirror):
 
 @pytest.fixture(scope="module")
 def matrix(tmp_path_factory):
-    d = tmp_path_factory.mktemp("matrix")
-    out = {}
-    for name, text in DESIGNS.items():
-        p = d / f"{name}.toml"
-        fine = "resolution_mm = 0.0005\n" if "resolution = 0.001\n" in text else ""
-        p.write_text(text + FAST + fine)
-        out[name] = load(p)
-    return out
+    return load_designs(tmp_path_factory.mktemp("matrix"))
 
 
 @pytest.mark.parametrize("name", list(DESIGNS))

@@ -20,20 +20,11 @@ from lathe_mirror.optics.rays import polyline_vertices
 from lathe_mirror.optics.trace import Fate, meridian_hits, trace_pixels
 from lathe_mirror.profile import ExactProfile, LobeSamples, PolylineProfile, Profile, TabulatedProfile
 from lathe_mirror.settings import from_config
+from test_trace import Shifted
 
 
-class Lowered(Profile):
-    """A profile the tracer knows nothing of (Newton): another one lowered by dz (mm)."""
-
-    def __init__(self, base: Profile, dz: float):
-        self.base, self.dz = base, dz
-        self.r_junction, self.r_max, self.vertex_z = base.r_junction, base.r_max, base.vertex_z + dz
-
-    def z(self, r):
-        return self.base.z(r) + self.dz
-
-    def slope(self, r):
-        return self.base.slope(r)
+# a profile the tracer knows nothing of (Newton): another one lowered by dz (mm)
+Lowered = Shifted
 
 
 def reference(profile: Profile, t: np.ndarray) -> dict[str, np.ndarray]:
