@@ -274,7 +274,11 @@ class _ForkPool(Mapper):
     def kill(self) -> None:
         """SIGKILL every worker (they ignore the ending signals) and the workers of their
         own pools (a background task's), and reap them all: none is left to init."""
-        grandchildren = _children_of({p.pid for p in self.procs if p.pid}) if self.nested > 1 else []
+        grandchildren = []
+        if self.nested > 1:  # stopped first, so that none forks a worker after the listing
+            pids = {p.pid for p in self.procs if p.pid}
+            _stop(pids)
+            grandchildren = _children_of(pids)
         for p in self.procs:
             with contextlib.suppress(Exception):
                 p.kill()
@@ -344,6 +348,30 @@ def _adopt_orphans() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(36, 1, 0, 0, 0)  # PR_SET_CHILD_SUBREAPER
     except (OSError, AttributeError):  # pragma: no cover - not Linux
         pass
+
+
+def _stop(pids: set[int], timeout: float = 2.0) -> None:
+    """SIGSTOP the processes and wait (at most `timeout` s) until each is stopped or gone:
+    a stopped process forks no more, so a listing of its children after is complete."""
+    import time
+
+    for pid in pids:
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGSTOP)
+    deadline = time.monotonic() + timeout
+    waiting = set(pids)
+    while waiting and time.monotonic() < deadline:
+        for pid in list(waiting):
+            try:
+                with open(f"/proc/{pid}/stat", "rb") as f:
+                    stat = f.read()
+            except OSError:  # gone (or not Linux: nothing to wait for)
+                waiting.discard(pid)
+                continue
+            if stat[stat.rindex(b")") + 2:][:1] in (b"T", b"t", b"Z", b"X"):
+                waiting.discard(pid)
+        if waiting:
+            time.sleep(0.001)
 
 
 def _children_of(parents: set[int]) -> list[int]:
