@@ -274,11 +274,13 @@ class _ForkPool(Mapper):
     def kill(self) -> None:
         """SIGKILL every worker (they ignore the ending signals) and the workers of their
         own pools (a background task's), and reap them all: none is left to init."""
-        grandchildren = []
-        if self.nested > 1:  # stopped first, so that none forks a worker after the listing
-            pids = {p.pid for p in self.procs if p.pid}
-            _stop(pids)
-            grandchildren = _children_of(pids)
+        grandchildren: list[int] = []  # every descendant, a generation after the other
+        if self.nested > 1:  # each generation stopped first: none forks after its listing
+            level = {p.pid for p in self.procs if p.pid}
+            while level:
+                _stop(level)
+                level = set(_children_of(level)) - set(grandchildren)
+                grandchildren += sorted(level)
         for p in self.procs:
             with contextlib.suppress(Exception):
                 p.kill()
@@ -288,7 +290,7 @@ class _ForkPool(Mapper):
         for p in self.procs:
             with contextlib.suppress(Exception):
                 p.join(timeout=_REAP_S)
-        for pid in grandchildren:  # ours now (_adopt_orphans), their parent reaped above
+        for pid in grandchildren:  # ours now (_adopt_orphans), their parents reaped before them
             with contextlib.suppress(ChildProcessError, OSError):
                 os.waitpid(pid, 0)
         self._close_conns()
