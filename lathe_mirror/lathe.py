@@ -46,6 +46,31 @@ def bore_drill_mm(bar_min_bore_mm: float) -> float:
 #: They grip at least this long (mm): toolpath.min_grip_mm's default (shop.second checks
 #: the configured one, and the part's stand-out besides).
 MIN_GRIP = float(declared_key("toolpath.min_grip_mm").default)
+#: The soft jaws' grip per mm the part stands out of them: a cut at the part's end tips it
+#: about the jaws' end with the stand-out as its lever, against the jaws' friction couple
+#: over the grip (a chuck maker's tilting check, e.g. Forkardt's operating manuals,
+#: "permissible overhang length"); the jaws' step the part is seated on takes the rest of
+#: the moment, so half the stand-out, not all of it.
+GRIP_PER_STAND_OUT = 0.5
+
+
+def grip_needed(top: float, min_grip: float) -> float:
+    """The least grip (mm) of the second set-up's soft jaws on a part whose parted face
+    stands at Z `top` (mm, above the finished back face): toolpath.min_grip_mm
+    (`min_grip`), and GRIP_PER_STAND_OUT of the length the part stands out of the jaws
+    (top + JAW_GAP), the lever a cut at the part's end has about the jaws' end. The one
+    rule shop.second checks and optimize constrains."""
+    return max(min_grip, GRIP_PER_STAND_OUT * (top + JAW_GAP))
+
+
+def parting_corner_z(length: float, back_allowance: float, width: float, resolution: float) -> float:
+    """The parting blade's programmed Z (mm, its chuck-side corner; first set-up frame, Z0
+    at the vertex) for a body `length` mm long from the vertex: the slot [Z, Z + width]
+    with its part side at least `back_allowance` below the body, rounded down to the
+    lattice `resolution`. The parted face then stands -(Z + width) - length above the
+    body's end (shop.partoff places the blade here; optimize counts the stand-out)."""
+    top = -(length + back_allowance)  # the slot's part side, at most here
+    return round(math.floor((top - width) / resolution + 1e-9) * resolution, 6)
 
 
 @dataclass(frozen=True)

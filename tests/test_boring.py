@@ -53,6 +53,58 @@ def test_the_drills_remove_what_their_cones_and_cylinders_hold(paper):
     assert shop.second_simulation.contacts == ()
 
 
+def test_a_drill_gives_how_deep_it_drilled_not_its_radius(paper):
+    """A drill's depth of cut would be its radius whatever the program does (4.25 mm on
+    the sheet beside a 0.4 mm facing cut); it is n/a, and the sheet gives what a machinist
+    sets a drill by, by hand from the plan: the face stands FA above Z0 when the drills go
+    in, the spot drill's point goes SPOT_R below it (a 90 deg cone SPOT_R across at the
+    face; its full 10 mm never enters: -), the drill's point to the apex on the lattice,
+    0.1 + 8.455 = 8.555 mm, and its full diameter a cone height 4.25 / tan 59 deg less,
+    6.0014 mm (6 mm less the floor's 0.1 mm left for the finish, plus the apex's rounding)."""
+    from lathe_mirror.export.setup_sheet import setup_sheet_html
+
+    _, shop = paper
+    ops = {op.name: op for op in shop.second_simulation.operations}
+    h = DRILL_R / math.tan(math.radians(59.0))
+    apex = math.floor((-DEPTH + FA - h) / RES + 1e-9) * RES
+    assert apex == pytest.approx(-8.455, abs=1e-9)
+    spot, drill = ops["centre drill"], ops["drill"]
+    assert spot.max_depth_of_cut_mm is None and drill.max_depth_of_cut_mm is None
+    # the stock's top after the facing is FA to the simulation's 1e-4 mm
+    assert spot.drilled_depth_mm == pytest.approx(SPOT_R, abs=2e-4) and spot.drilled_full_depth_mm is None
+    assert drill.drilled_depth_mm == pytest.approx(FA - apex, abs=2e-4)
+    assert drill.drilled_full_depth_mm == pytest.approx(FA - apex - h, abs=2e-4)
+    assert all(op.drilled_depth_mm is None and op.max_depth_of_cut_mm > 0 for op in ops.values()
+               if op.station not in (6, 7))
+    page = setup_sheet_html(shop.sheet)
+    rows = {m.group(1): m.group(0) for m in re.finditer(r"<tr><td>([a-z ]+)</td><td>T\d</td>.*?</tr>", page)}
+    assert "<td class='n'>n/a</td><td class='n'>8.555 / 6.001</td>" in rows["drill"]
+    assert "<td class='n'>n/a</td><td class='n'>4.750 / -</td>" in rows["centre drill"]
+    assert "<td class='n'>0.400</td><td class='n'></td>" in rows["face back"]  # the facing: the 0.5 mm allowance less the 0.1 left, one level
+    assert "drilled 8.56 mm deep to the point" in page and "max depth of cut 4.25" not in page
+
+
+def test_the_reports_program_table_gives_both_set_ups_and_the_drilled_depth(paper):
+    """The report's table of the programs (report.json's shop section as `run` writes it):
+    the second set-up's operations under its own name, a drill's depth of cut n/a and its
+    drilled depth as on the sheet (the hand values above, the page's 4 decimals)."""
+    from lathe_mirror.report.report import programs_table
+
+    _, shop = paper
+    row = {"name": shop.program.name, "setup_sheet": f"{shop.program.name}.setup.html", **shop.simulation.figures(),
+           "second_setup": {"name": shop.second.name, **shop.second_simulation.figures()}}
+    page = programs_table([row])
+    assert f"<td>{shop.second.name}</td><td>face back</td>" in page
+    h = DRILL_R / math.tan(math.radians(59.0))
+    point, full = map(float, re.search(r"<td>drill</td><td>T7</td><td>\d+</td><td>n/a</td><td>([\d.]+) / ([\d.]+)</td>",
+                                       page).groups())
+    assert point == pytest.approx(FA + 8.455, abs=2e-4) and full == pytest.approx(FA + 8.455 - h, abs=2e-4)
+    spot = float(re.search(r"<td>centre drill</td><td>T6</td><td>\d+</td><td>n/a</td><td>([\d.]+) / -</td>", page)[1])
+    assert spot == pytest.approx(SPOT_R, abs=2e-4)
+    total = shop.simulation.cycle_time_s + shop.second_simulation.cycle_time_s
+    assert "cycle time of both set-ups" in page and f"<th>{total:.1f}</th>" in page
+
+
 def test_rs274_runs_the_second_set_up_with_the_written_tool_table(paper, tmp_path):
     """The tools.tbl the project writes beside the programs holds every station both
     set-ups call; rs274 runs the second set-up to its end with it, changing tools in the

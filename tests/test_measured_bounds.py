@@ -284,3 +284,91 @@ def test_a_zipped_areal_format_is_bounded_too(tmp_path, monkeypatch):
     monkeypatch.setenv("LATHE_MIRROR_MAX_GIB", "0.1")
     with pytest.raises(InputError, match=r"bomb.plux .*LAYER_0.raw.*0.125 GiB.*limit 0.1 GiB"):
         read_measurement(p)
+
+
+# --------------------------------------------------------------------------------------
+# .zon (Keyence: a zip behind a preview image, its members zstd frames that declare no size)
+
+
+def _zon_bytes(members: dict[str, bytes]) -> bytes:
+    """A Keyence .zon as surfalize's reader (and Gwyddion's zonfile.c) lays it out: an
+    8-byte "KPK" block, a BMP whose header states its size (here only its 14-byte file
+    header), then the zip of `members` (stored: the members' own bytes, zstd or not)."""
+    import struct
+
+    bmp = b"BM" + struct.pack("<IHHI", 14, 0, 0, 14)
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w", compression=zipfile.ZIP_STORED) as z:
+        for name, content in members.items():
+            z.writestr(name, content)
+    return b"KPK\x00\x00\x00\x00\x00" + bmp + out.getvalue()
+
+
+def _zstd_zeros(nbytes: int) -> bytes:
+    """One zstd frame of `nbytes` zeros (a multiple of 128 KiB) that declares no content
+    size, written from the format's definition (RFC 8878): the magic 0xFD2FB528, a frame
+    header descriptor of 0 (no content size, no checksum, not single-segment), a window
+    descriptor of 0x38 (exponent 7: a 2^17 = 128 KiB window), then RLE blocks of the
+    largest size, 128 KiB: a 3-byte little-endian header (last-block bit, type 1 = RLE in
+    bits 1-2, the size in bits 3-23) and the one byte repeated. 4 bytes per 128 KiB."""
+    block = 128 << 10
+    assert nbytes % block == 0
+    n = nbytes // block
+    head = (1 << 1 | block << 3).to_bytes(3, "little") + b"\x00"
+    last = (1 | 1 << 1 | block << 3).to_bytes(3, "little") + b"\x00"
+    return b"\x28\xb5\x2f\xfd\x00\x38" + head * (n - 1) + last
+
+
+ZON_XML = (b"<Calibration><XYCalibration><MeterPerPixel>1e-05</MeterPerPixel></XYCalibration>"
+           b"<ZCalibration><MeterPerUnit>1e-09</MeterPerUnit></ZCalibration></Calibration>")
+
+
+def test_a_zon_reads_back_and_its_zstd_bomb_is_refused(tmp_path, monkeypatch):
+    """A real .zon: a 30 x 40 height map of int32 nm (10 um pixels) behind the 16-byte
+    header (x, y, item size 4, row stride), zstd-compressed without a declared size, reads
+    back in mm. The same file with the heights' member replaced by 64 MiB of zeros in a
+    256-byte zstd frame is refused at LATHE_MIRROR_MAX_GIB = 0.1 GiB, before surfalize
+    inflates it: 0.1 GiB / 8 bytes of float64 working memory per inflated byte =
+    13421772 bytes allowed."""
+    import struct
+
+    import zstandard
+
+    from lathe_mirror.errors import InputError
+    from lathe_mirror.measure.readers import read_measurement
+
+    yy, xx = np.mgrid[0:30, 0:40]
+    z_nm = (1000 * (xx - 20) ** 2 // 10 + 50 * yy).astype("<i4")
+    body = struct.pack("<IIII", 40, 30, 4, 40 * 4) + z_nm.tobytes()
+    c = zstandard.ZstdCompressor().compressobj()
+    frame = c.compress(body) + c.flush()
+    assert zstandard.frame_content_size(frame) == -1  # no size declared, as Keyence writes them
+    good = tmp_path / "good.zon"
+    good.write_bytes(_zon_bytes({"calib.xml": ZON_XML, "height.bin": frame}))
+    m = read_measurement(good)
+    assert np.allclose(m.z, z_nm * 1e-6) and np.allclose(np.diff(m.x), 0.01) and np.allclose(np.diff(m.y), 0.01)
+
+    bomb = _zstd_zeros(64 << 20)
+    assert len(bomb) == 6 + 4 * 512
+    p = tmp_path / "bomb.zon"
+    p.write_bytes(_zon_bytes({"calib.xml": ZON_XML, "height.bin": bomb}))
+    monkeypatch.setenv("LATHE_MIRROR_MAX_GIB", "0.1")
+    allowed = int(0.1 * 2**30) // 8
+    assert allowed == 13421772
+    with pytest.raises(InputError, match=rf"bomb.zon .*'height.bin' is a zstd stream that inflates to at least "
+                                         rf"\d+ bytes, the members together past the {allowed} bytes.*limit of 0.1 GiB"):
+        read_measurement(p)
+    monkeypatch.delenv("LATHE_MIRROR_MAX_GIB")
+    assert read_measurement(good).z.shape == (30, 40)  # the default limit reads the real one
+
+
+def test_a_zon_bomb_beyond_the_default_limit_is_refused_within_the_memory_bound(tmp_path):
+    """4 GiB of zeros in a 128 KiB zstd frame (surfalize would inflate it whole: past the
+    3 GiB address space of the reading process) refused by `measure` at the default 8 GiB
+    limit (1 GiB inflated, 8 bytes of working memory each), counted a chunk at a time,
+    within the time bound, one line."""
+    p = tmp_path / "bomb.zon"
+    p.write_bytes(_zon_bytes({"calib.xml": ZON_XML, "height.bin": _zstd_zeros(4 << 30)}))
+    assert p.stat().st_size < 200_000
+    refused(["measure", str(p)], phrases=["bomb.zon", "'height.bin'", "zstd", f"{(8 << 30) // 8} bytes",
+                                          "LATHE_MIRROR_MAX_GIB"], fresh=True)

@@ -92,7 +92,7 @@ def test_both_set_ups_touch_nothing_and_the_part_comes_off(made):
     ops2 = [op.name for op in shop.second_simulation.operations]
     bore = ["centre drill", "drill", "bore", "finish bore", "finish back"]
     assert ops2 == ["face back", *{"paper": bore, "recessed": bore, "boss": ["boss", "finish mount"]}[name]]
-    # the turning tools' depth of cut within the roughing depth (a drill's is its radius)
+    # the turning tools' depth of cut within the roughing depth (a drill has none: n/a, its drilled depth instead)
     assert all(op.max_depth_of_cut_mm <= opts.rough_depth + 0.01 for op in shop.second_simulation.operations
                if op.station not in (6, 7))
     # the mount's face finished by the finishing tool (station 2, or 4 in the opposite hand) at the

@@ -180,6 +180,12 @@ class BodySpec:
     mount_depth: float = setting("cad.mount_depth")
     min_wall: float = setting("cad.min_wall")
 
+    @property
+    def length(self) -> float:
+        """From the vertex plane to the body's lowest point, mm: the thickness, plus the
+        boss's length when the mount is a boss (what the part-off cuts below)."""
+        return self.thickness + (self.mount_depth if self.mount is Mount.BOSS else 0.0)
+
     def __post_init__(self) -> None:
         # Each length within its key's declaration (cad.<field>): the line load() gives;
         # what the mirror asks of them (close_body) is checked with the mirror.

@@ -114,8 +114,10 @@ def check(args: argparse.Namespace, settings) -> int:
         print_json(sim.figures())
     else:
         for op in sim.operations:
-            print(f"{op.name}: removed {op.removed_volume_mm3:.0f} mm^3, max depth of cut "
-                  f"{op.max_depth_of_cut_mm:.3f} mm, air {op.air_time_s:.1f} s, time {op.cycle_time_s:.1f} s")
+            cut = (f"max depth of cut {op.max_depth_of_cut_mm:.3f} mm" if op.drilled_depth_mm is None
+                   else f"drilled {op.drilled_depth_mm:.3f} mm deep to the point")  # a drill's depth of cut is its radius
+            print(f"{op.name}: removed {op.removed_volume_mm3:.0f} mm^3, {cut}, air {op.air_time_s:.1f} s, "
+                  f"time {op.cycle_time_s:.1f} s")
         print(f"no contact at rapid, none with the insert's body; cycle time {sim.cycle_time_s:.1f} s")
     return 0
 

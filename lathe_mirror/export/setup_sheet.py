@@ -101,7 +101,7 @@ def setup_sheet_html(sheet: SetupSheet) -> str:
         out.append(
             f"<tr><td>{e(op.name)}</td><td>T{op.station}</td><td>N{op.restart_block}</td>"
             f"<td class='n'>{f['feed_mm_rev']:g}</td><td class='n'>{f['removed_volume_mm3']:.0f}</td>"
-            f"<td class='n'>{f['max_depth_of_cut_mm']:.3f}</td><td class='n'>{f['max_chip_section_mm2']:.4f}</td>"
+            f"<td class='n'>{_depth_of_cut(f)}</td><td class='n'>{f['max_chip_section_mm2']:.4f}</td>"
             f"<td class='n'>{f['max_removal_rate_cm3_min']:.1f}</td><td class='n'>{f['plunge_mm']:.2f}</td>"
             f"<td class='n'>{_time(f['cut_time_s'])}</td><td class='n'>{_time(f['air_time_s'])}</td>"
             f"<td class='n'>{_time(f['rapid_time_s'])}</td><td class='n'>{_time(f['cycle_time_s'])}</td></tr>")
@@ -164,6 +164,19 @@ def _tool_table(tools, diameter_mode: bool) -> str:
     return "".join(out) + "</table>"
 
 
+def _depth_of_cut(f: dict) -> str:
+    """An operation's largest depth of cut (mm), n/a for a drill (its radius, not a setting)."""
+    return "n/a" if f["max_depth_of_cut_mm"] is None else f"{f['max_depth_of_cut_mm']:.3f}"
+
+
+def _drilled(f: dict) -> str:
+    """A drill's depths (mm): to the point / at full diameter (- where only the cone went in)."""
+    if f["drilled_depth_mm"] is None:
+        return ""
+    full = f["drilled_full_depth_mm"]
+    return f"{f['drilled_depth_mm']:.3f} / " + ("-" if full is None else f"{full:.3f}")
+
+
 def _row(head: str, value: str) -> str:
     return f"<tr><th>{html.escape(head)}</th><td>{value}</td></tr>"
 
@@ -188,13 +201,19 @@ def _second_html(sheet: SetupSheet) -> list[str]:
     out += [_row("touch-off", e(line)) for line in sec.touch_off]
     out += ["</table>", _tool_table(sec.tools, sheet.diameter_mode),
             "<table><tr><th>operation</th><th>tool</th><th>restart at</th><th>feed mm/rev</th>"
-            "<th>removed mm&sup3;</th><th>max depth of cut mm</th><th>time</th></tr>"]
+            "<th>removed mm&sup3;</th><th>max depth of cut mm</th><th>drilled depth mm: to the point / "
+            "full &Oslash;</th><th>time</th></tr>"]
     for op in sec.operations:
         f = op.figures
         out.append(f"<tr><td>{e(op.name)}</td><td>T{op.station}</td><td>N{op.restart_block}</td>"
                    f"<td class='n'>{f['feed_mm_rev']:g}</td><td class='n'>{f['removed_volume_mm3']:.0f}</td>"
-                   f"<td class='n'>{f['max_depth_of_cut_mm']:.3f}</td><td class='n'>{_time(f['cycle_time_s'])}</td></tr>")
+                   f"<td class='n'>{_depth_of_cut(f)}</td><td class='n'>{_drilled(f)}</td>"
+                   f"<td class='n'>{_time(f['cycle_time_s'])}</td></tr>")
     out.append("</table>")
+    if any(op.figures["drilled_depth_mm"] is not None for op in sec.operations):
+        out.append("<p>A drill's depth of cut is its radius whatever the program does (n/a): a drill is set "
+                   "and checked by how deep its point goes below the face it enters and how deep the hole has "
+                   "its full diameter (-: only the point's cone goes in, as a spot drill's).</p>")
     for i, op in enumerate(sec.operations):
         out.append(f"<h3>second set-up, {e(op.name)}</h3>"
                    f"{_stock_picture(sheet, op, f'second-op{i + 1}', sec.stock_start, sec.part, sec.deepest_z_mm)}")
@@ -210,6 +229,7 @@ def _stock_picture(sheet: SetupSheet, op, ident: str, stock_start=None, part=Non
     x0, z0, x1, z1 = stock_start.bounds
     f = op.figures
     title = (f"after {op.name}: {f['removed_volume_mm3']:.0f} mm\u00b3 removed, "
-             f"max depth of cut {f['max_depth_of_cut_mm']:.2f} mm")
+             + (f"drilled {f['drilled_depth_mm']:.2f} mm deep to the point" if f["drilled_depth_mm"] is not None
+                else f"max depth of cut {f['max_depth_of_cut_mm']:.2f} mm"))
     return stock_svg(op.stock_after, op.removed, sheet.part if part is None else part,
                      (-1.0, x1 + 2.0), (max(z0, deepest - 4.0), z1 + 1.0), title, ident)

@@ -11,8 +11,11 @@ read for what it declares before its library is handed the bytes:
         x, y, z with validity bits;
   datx  every link inside the file (no external or soft link), every dataset stored in
         the file (no external storage, no virtual dataset) and its declared shape x itemsize.
-  a zip of surfalize's (.plux, .vk6, ...): its members' declared sizes (check_zip); a
-        format that compresses without declaring the size (.zon's zstd) is not bounded.
+  a zip of surfalize's (.plux, .vk6, ...): its members' declared sizes (check_zip);
+  zon   Keyence's zip behind a preview image (surfalize reads it): its members' declared
+        sizes, then each member that is a zstd stream (whose frames need not declare their
+        size) decompressed as a stream, counted a chunk at a time and never held, stopping
+        at the limit (check_zon).
 
 The grid's working memory (`BYTES_PER_POINT` per measured point) is checked against
 `memory_limit()` (LATHE_MIRROR_MAX_GIB, the limit the commands' cost estimates use).
@@ -100,8 +103,8 @@ def check_x3p(data: bytes, name: str) -> None:
 def check_zip(data: bytes, name: str) -> None:
     """A zip container of another format (surfalize's .plux, .vk6, .vk7, ...): its members'
     declared sizes, inflated and then held as float64 maps (BYTES_PER_POINT / 8 bytes of
-    working memory per inflated byte, at most), within the memory limit. Formats that
-    compress without declaring the size (a zstd stream in .zon) are not bounded here."""
+    working memory per inflated byte, at most), within the memory limit. A .zon, whose
+    members are zstd streams that declare no size, is check_zon's."""
     import zipfile
 
     if not data.startswith(b"PK\x03\x04"):
@@ -117,6 +120,82 @@ def check_zip(data: bytes, name: str) -> None:
         big = max(members, key=lambda m: m.file_size)
         raise InputError(f"{name}: its members inflate to {total} bytes ({big.filename!r}: {big.file_size}), which "
                          f"need about {_gib(need)} of memory; limit {_gib(limit)} (LATHE_MIRROR_MAX_GIB)")
+
+
+#: The zstd frame's magic number (RFC 8878, 3.1.1): a .zon member that starts with it is
+#: decompressed by surfalize whole, however large.
+ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
+#: Bytes decompressed at a time while a zstd member is counted.
+_ZSTD_CHUNK = 1 << 20
+
+
+def check_zon(data: bytes, name: str) -> None:
+    """A .zon's members within the memory limit before surfalize reads it: the zip's
+    declared sizes (as check_zip), then each member that starts with ZSTD_MAGIC
+    decompressed as a stream across all its frames (surfalize decompresses it whole, and
+    its frames need not declare a size) and counted, never held, stopping as soon as the
+    members together inflate past the limit: memory_limit() / (BYTES_PER_POINT / 8) bytes,
+    each inflated byte held as a float64 map's share at most, as check_zip. Nothing of the
+    format is parsed here: the zip is found from its end as zipfile finds any zip (the
+    preview image before it is data zipfile skips)."""
+    import zipfile
+
+    try:
+        archive = zipfile.ZipFile(io.BytesIO(data))
+        members = archive.infolist()
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError):
+        return  # no zip in it: surfalize says so in its own words
+    per_byte = BYTES_PER_POINT // 8
+    limit = memory_limit()
+    allowed = int(limit // per_byte)
+    declared = sum(m.file_size for m in members)
+    if declared > allowed:
+        big = max(members, key=lambda m: m.file_size)
+        raise InputError(f"{name}: its members inflate to {declared} bytes ({big.filename!r}: {big.file_size}), which "
+                         f"need about {_gib(declared * per_byte)} of memory; limit {_gib(limit)} (LATHE_MIRROR_MAX_GIB)")
+    total = declared
+    for m in members:
+        try:
+            with archive.open(m) as f:
+                if f.read(len(ZSTD_MAGIC)) != ZSTD_MAGIC:
+                    continue
+            with archive.open(m) as f:
+                inflated = _zstd_inflated(f, allowed - total + m.file_size + 1)
+        except (zipfile.BadZipFile, RuntimeError, NotImplementedError, OSError, EOFError, ValueError) as exc:
+            raise InputError(f"{name}: member {m.filename!r} cannot be read ({type(exc).__name__}: "
+                             f"{' '.join(str(exc).split())[:200]})") from None
+        total += inflated - m.file_size  # the stream's inflated bytes held in place of its own
+        if total > allowed:
+            raise InputError(f"{name}: member {m.filename!r} is a zstd stream that inflates to at least {inflated} "
+                             f"bytes, the members together past the {allowed} bytes whose float64 maps fit the "
+                             f"memory limit of {_gib(limit)} (LATHE_MIRROR_MAX_GIB)")
+
+
+def _zstd_inflated(stream, cap: int) -> int:
+    """The bytes the zstd frames read from `stream` inflate to, counted _ZSTD_CHUNK at a
+    time and never held; the count stops at `cap` (a stream that reaches it inflates at
+    least that far). zstandard, the package surfalize reads zstd with below Python 3.14,
+    else the standard library's compression.zstd (what it uses from 3.14; not exercised
+    by the tests on 3.11). A broken stream raises ValueError."""
+    try:
+        import zstandard
+    except ImportError:  # Python >= 3.14
+        from compression.zstd import ZstdError, ZstdFile
+
+        reader, error = ZstdFile(stream), ZstdError
+    else:
+        reader, error = zstandard.ZstdDecompressor().stream_reader(stream, read_across_frames=True), zstandard.ZstdError
+    n = 0
+    try:
+        with reader:
+            while n < cap:
+                chunk = reader.read(min(_ZSTD_CHUNK, cap - n))
+                if not chunk:
+                    break
+                n += len(chunk)
+    except error as exc:
+        raise ValueError(f"a broken zstd stream: {exc}") from None
+    return n
 
 
 def check_hdf5(data: bytes, name: str) -> None:

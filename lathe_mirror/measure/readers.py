@@ -144,8 +144,12 @@ def _read_kind(path, data: bytes, kind: MeasuredFormat, name: str) -> Trace | Ar
         return _read_prf(data, name)
     if kind in (MeasuredFormat.DATX, MeasuredFormat.DAT):
         return _read_zygo(path, data, kind, name)
-    bounds.check_zip(data, name)
-    return _read_surfalize(data, Path(path).suffix.lower(), name)
+    suffix = Path(path).suffix.lower()
+    if suffix == ".zon" or data.startswith(b"KPK"):  # Keyence's zip behind a preview, its members zstd
+        bounds.check_zon(data, name)
+    else:
+        bounds.check_zip(data, name)
+    return _read_surfalize(data, suffix, name)
 
 
 def _checked(out: Trace | AreaMap, path) -> Trace | AreaMap:

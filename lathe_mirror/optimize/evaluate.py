@@ -22,7 +22,8 @@ The constraints (CONSTRAINTS, each named by the key that sets it):
              camera does not see it), tool.approach_angle (the held tool's flanks clear
              the profile),
              stock.diameter, stock.length and cad.thickness (the bar and the body hold it;
-             the second set-up's soft jaws grip the body's side below the rim's shoulder),
+             the second set-up's soft jaws grip the body's side below the rim's shoulder,
+             at least toolpath.min_grip_mm and half the part's stand-out: second_grip_mm),
              cad.mount_depth (the body's bore stays cad.min_wall below the face)
 Each violation is normalised by a natural unit (1 mm, 1 deg, 1 px, 1 % of the image,
 0.01 rad) so that they add up into one measure of infeasibility.
@@ -41,11 +42,11 @@ import numpy as np
 from ..body import BodySpec
 from ..design import Camera, LobeSpec, Mirror, mirror_from_specs
 from ..enums import Mount
-from ..errors import DesignError
-from ..lathe import JAW_GAP, MIN_GRIP, Stock, Tool
+from ..errors import DesignError, InputError
+from ..lathe import JAW_GAP, MIN_GRIP, Lathe, Stock, Tool, grip_needed, parting_corner_z
 from ..optics.ranging.resolution import blur_circle_px, delivered_r10, design_r10, r10
 from ..toolpath.checks import corner_nose, fillet_hidden_margin, reach_margin
-from ..toolpath.moves import Hand
+from ..toolpath.moves import Hand, ToolpathSettings
 from .focus import defocus
 from .spec import PARAMETERS, Objective, OptimizeSettings
 
@@ -65,7 +66,10 @@ class Problem:
     made_disparity_px, matching_noise_px: the delivered-R10 objective's surrogate
     (optics.ranging.resolution.delivered_r10): the made parts' disparity error after
     calibration at their 95th percentile (px; a small seeded Monte Carlo of the configured
-    design, tolerance.runs.made_disparity), and the matcher's noise on a one-pixel feature."""
+    design, tolerance.runs.made_disparity), and the matcher's noise on a one-pixel feature.
+    grip_mm: what the second set-up needs of the body's side below the rim's shoulder
+    (second_grip_mm of the configured body, [toolpath] and lathe; the default is the
+    default configuration's, JAW_GAP + MIN_GRIP)."""
 
     camera: Camera
     tool: Tool
@@ -76,6 +80,7 @@ class Problem:
     reference: tuple[LobeSpec, LobeSpec]
     made_disparity_px: float = 0.0
     matching_noise_px: float = 0.1
+    grip_mm: float = JAW_GAP + MIN_GRIP
 
 
 @dataclass(frozen=True)
@@ -229,8 +234,9 @@ CONSTRAINTS: tuple[Constraint, ...] = (
                lambda f, p: (f.depth_mm + p.clearance, p.stock.length)),
     Constraint("cad.thickness", "the mirror's depth plus cad.min_wall", "mm", +1, 1.0,
                lambda f, p: (f.depth_mm + p.body.min_wall, p.body.thickness)),
-    Constraint("cad.thickness", "the outer rim's depth plus the second set-up's grip (jaw gap and least grip)",
-               "mm", +1, 1.0, lambda f, p: (f.rim_depth_mm + _grip_mm(), p.body.thickness)),
+    Constraint("cad.thickness", "the outer rim's depth plus the second set-up's grip (jaw gap and least grip: "
+               "toolpath.min_grip_mm, half the stand-out)",
+               "mm", +1, 1.0, lambda f, p: (f.rim_depth_mm + p.grip_mm, p.body.thickness)),
     Constraint("cad.mount_depth", "the face's depth over the mount bore plus cad.min_wall and the bore's depth", "mm",
                +1, 1.0, lambda f, p: (f.bore_face_mm + p.body.min_wall + _bore_depth(p), p.body.thickness)),
 )
@@ -318,10 +324,47 @@ def _ranges(r10_m: float, defocus_px: float, problem: Problem) -> dict[str, floa
             "delivered_r10_m": float(delivered_r10(r10_m, problem.made_disparity_px, b, problem.matching_noise_px))}
 
 
-def _grip_mm() -> float:
-    """What the second set-up's soft jaws need of the body's side below the shoulder (mm):
-    shop.second's gap at the back plus its least grip (plan_second refuses less)."""
-    return JAW_GAP + MIN_GRIP
+def stand_out_mm(body: BodySpec, options: ToolpathSettings, lathe: Lathe) -> float:
+    """How far (mm) the parted face stands above the finished back face before the second
+    set-up faces it: the part-off's slot (lathe.parting_corner_z, where shop.partoff puts
+    the blade) below the body's length, toolpath.back_allowance_mm and the lattice's
+    rounding, plus the boss's length for a boss (the body's end is then the boss's)."""
+    z = parting_corner_z(body.length, options.back_allowance_mm, options.parting_width_mm, lathe.resolution)
+    return -(z + options.parting_width_mm) - body.thickness
+
+
+def second_grip_mm(body: BodySpec, options: ToolpathSettings, lathe: Lathe) -> float:
+    """What the second set-up's soft jaws need of the body's side below the rim's shoulder
+    (mm): shop.second's gap at the back (JAW_GAP) plus its least grip, the larger of the
+    configured toolpath.min_grip_mm and half the part's stand-out out of the jaws
+    (lathe.grip_needed, the rule plan_second refuses by)."""
+    return JAW_GAP + grip_needed(stand_out_mm(body, options, lathe), options.min_grip_mm)
+
+
+def check_grip_room(body: BodySpec, options: ToolpathSettings, lathe: Lathe) -> None:
+    """InputError (one line naming the binding key) when the second set-up's grip leaves
+    no room for any mirror: the jaws need second_grip_mm of the body's side below the rim's
+    shoulder, and the shoulder is at or below the vertex plane for every body a lathe can
+    make (the first set-up faces the bar through the axis down to the vertex, so nothing
+    of the face stands above it: rim depth >= 0), so a cad.thickness at most that long
+    holds no design at all, and the search need not start."""
+    need = second_grip_mm(body, options, lathe)
+    T = body.thickness
+    if need < T:
+        return
+    top = stand_out_mm(body, options, lathe)
+    if options.min_grip_mm >= grip_needed(top, 0.0):
+        what = f"toolpath.min_grip_mm = {options.min_grip_mm:g} mm"
+        allowed = f"allowed < {T - JAW_GAP:g} mm (cad.thickness less the jaws' {JAW_GAP:g} mm gap at the back)"
+    else:
+        what = (f"cad.mount_depth = {body.mount_depth:g} mm" if body.length > T
+                else f"toolpath.back_allowance_mm = {options.back_allowance_mm:g} mm")
+        allowed = (f"allowed a stand-out under {2 * (T - JAW_GAP) - JAW_GAP:.3f} mm above the back face "
+                   f"(now {top:.3f} mm)")
+    raise InputError(f"{what}: the second set-up's soft jaws need {need - JAW_GAP:.3f} mm of the body's side "
+                     f"(the larger of toolpath.min_grip_mm and half the {top + JAW_GAP:.3f} mm the parted part stands out of "
+                     f"them) plus their {JAW_GAP:g} mm gap at the back, {need:.3f} mm, and cad.thickness = {T:g} mm "
+                     f"leaves no mirror any room below its vertex; {allowed}, or cad.thickness > {need:.3f} mm")
 
 
 def _bore_depth(p: Problem) -> float:
@@ -394,5 +437,5 @@ def evaluate(x: np.ndarray, problem: Problem) -> tuple[float, np.ndarray]:
     return (INFEASIBLE + total if total > 0.0 else -obj), rec
 
 
-__all__ = ["CONSTRAINTS", "Constraint", "Figures", "PARAMETERS", "Problem", "constraint_table", "design_of", "evaluate",
-           "figures", "measure", "vector_of", "violations"]
+__all__ = ["CONSTRAINTS", "Constraint", "Figures", "PARAMETERS", "Problem", "check_grip_room", "constraint_table",
+           "design_of", "evaluate", "figures", "measure", "second_grip_mm", "stand_out_mm", "vector_of", "violations"]

@@ -18,7 +18,7 @@ from ..design import LobeSpec
 from ..errors import InputError
 from ..tolerance.runs import made_disparity, winner_check
 from ..tolerance.spec import MACHINE_DRAWN
-from .evaluate import Problem, constraint_table, figures, vector_of
+from .evaluate import Problem, check_grip_room, constraint_table, figures, second_grip_mm, vector_of
 from .focus import design_blur_px
 from .search import SearchResult, alternates, search
 from .spec import PARAMETERS, Objective
@@ -34,11 +34,14 @@ AsWritten = Callable[[tuple[LobeSpec, LobeSpec]], tuple[LobeSpec, LobeSpec]]
 
 
 def problem_of(settings: Settings) -> Problem:
-    """The search's problem: the configured camera, tool, stock, body and clearance under
-    [optimize], the configured lobes as the reference."""
+    """The search's problem: the configured camera, tool, stock, body, clearance and the
+    second set-up's grip under [optimize], the configured lobes as the reference.
+    InputError when the configured grip leaves no body possible (before any search)."""
+    check_grip_room(settings.body, settings.toolpath, settings.machine)
     return Problem(camera=settings.camera, tool=settings.tool, stock=settings.stock, body=settings.body,
                    clearance=settings.toolpath.clearance, settings=settings.optimize,
-                   reference=settings.lobes)
+                   reference=settings.lobes,
+                   grip_mm=second_grip_mm(settings.body, settings.toolpath, settings.machine))
 
 
 def optimize_design(settings: Settings, check_made: CheckMade, *, workers: int, check: bool = True,

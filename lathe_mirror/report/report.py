@@ -70,7 +70,7 @@ def render_html(data: ReportData) -> str:
         machine_table=_kv_table({**{f"lathe.{k}": v for k, v in data.machine.lathe.items()},
                                  **{f"tool.{k}": v for k, v in data.machine.tool.to_dict().items()}}),
         toolpath_table=_toolpath_table(data.toolpaths),
-        programs_table=_programs_table(data.shop),
+        programs_table=programs_table(data.shop),
         mirrors_table=_mirrors_table(data.mirrors),
         profile_plot=img("profile_error", "height error along the meridian"),
         images=img("images", "renders side by side"),
@@ -150,22 +150,33 @@ def _toolpath_table(rows: tuple[ToolpathFigures, ...]) -> str:
     return f"{note}<table>{head}{body}</table>"
 
 
-def _programs_table(programs: list | None) -> str:
-    """The programs' operations against the stock (lathe-mirror run; see their set-up sheets)."""
+def programs_table(programs: list | None) -> str:
+    """The programs' operations against the stock, both set-ups (lathe-mirror run; see their
+    set-up sheets). A drill's depth of cut is n/a (its radius whatever the program does);
+    how deep it drilled is its own column (to the point / at full diameter)."""
     if not programs:
         return ""
     head = ("<tr><th>program</th><th>operation</th><th>tool</th><th>removed mm&sup3;</th>"
-            "<th>max depth of cut mm</th><th>max chip section mm&sup2;</th><th>air s</th><th>time s</th></tr>")
+            "<th>max depth of cut mm</th><th>drilled depth mm: to the point / full &Oslash;</th>"
+            "<th>max chip section mm&sup2;</th><th>air s</th><th>time s</th></tr>")
     body = ""
     for p in programs:
-        for i, op in enumerate(p["operations"]):
-            body += (f"<tr><td>{html.escape(p['name']) if i == 0 else ''}</td><td>{html.escape(op['name'])}</td>"
-                     f"<td>T{op['tool']}</td><td>{op['removed_volume_mm3']:.0f}</td>"
-                     f"<td>{_fmt(op['max_depth_of_cut_mm'])}</td><td>{_fmt(op['max_chip_section_mm2'])}</td>"
-                     f"<td>{op['air_time_s']:.1f}</td><td>{op['cycle_time_s']:.1f}</td></tr>")
-        body += (f"<tr><th colspan='7'>{html.escape(p['name'])}: cycle time, set-up sheet "
+        setups = [(p["name"], p)] + ([(p["second_setup"]["name"], p["second_setup"])] if "second_setup" in p else [])
+        for name, run in setups:
+            for i, op in enumerate(run["operations"]):
+                ap, drilled = op["max_depth_of_cut_mm"], op.get("drilled_depth_mm")
+                full = op.get("drilled_full_depth_mm")
+                body += (f"<tr><td>{html.escape(name) if i == 0 else ''}</td><td>{html.escape(op['name'])}</td>"
+                         f"<td>T{op['tool']}</td><td>{op['removed_volume_mm3']:.0f}</td>"
+                         f"<td>{'n/a' if ap is None else _fmt(ap)}</td>"
+                         f"<td>{'' if drilled is None else _fmt(drilled) + ' / ' + ('-' if full is None else _fmt(full))}</td>"
+                         f"<td>{_fmt(op['max_chip_section_mm2'])}</td>"
+                         f"<td>{op['air_time_s']:.1f}</td><td>{op['cycle_time_s']:.1f}</td></tr>")
+        both = " of both set-ups" if len(setups) > 1 else ""
+        body += (f"<tr><th colspan='8'>{html.escape(p['name'])}: cycle time{both}, set-up sheet "
                  f"{html.escape(p['setup_sheet'])}; contact at rapid or with the body: "
-                 f"{len(p['contacts'])}</th><th>{p['cycle_time_s']:.1f}</th></tr>")
+                 f"{sum(len(run['contacts']) for _, run in setups)}</th>"
+                 f"<th>{sum(run['cycle_time_s'] for _, run in setups):.1f}</th></tr>")
     return ("<p>The whole programs simulated against the stock (nose and insert body): what each "
             f"operation removes and its time (G96 with the spindle cap).</p><table>{head}{body}</table>")
 

@@ -16,8 +16,8 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from ..enums import Mount
 from ..errors import InputError
+from ..lathe import parting_corner_z
 from ..path import Line
 from .program import (Comment, Coolant, Feed, FeedRate, Operation, ProgramEnd, ProgramStop, Rapid, SpindleOn,
                       SpindleStop, ToolCall, PARTING_STATION)
@@ -31,22 +31,20 @@ if TYPE_CHECKING:
 def body_length(body: BodySpec) -> float:
     """From the vertex plane to the body's lowest point, mm: the thickness, plus the
     boss's length when the mount is a boss."""
-    return body.thickness + (body.mount_depth if body.mount is Mount.BOSS else 0.0)
+    return body.length
 
 
 def parting_z(body: BodySpec, stock: Stock, options: ToolpathSettings, lathe: Lathe) -> float:
     """The blade's programmed Z (its chuck-side corner), on the lattice: the slot's part
     side at least back_allowance below the body's length. InputError (naming
     stock.length) when the slot would reach the chuck's jaws."""
-    res = lathe.resolution
-    top = -(body_length(body) + options.back_allowance_mm)  # the slot's part side, at most here
-    z = math.floor((top - options.parting_width_mm) / res + 1e-9) * res
+    z = parting_corner_z(body_length(body), options.back_allowance_mm, options.parting_width_mm, lathe.resolution)
     if z < -stock.length:
         need = body_length(body) + options.back_allowance_mm + options.parting_width_mm
         raise InputError(f"stock.length = {stock.length:g} mm: the part-off below the body "
                          f"(cad.thickness and its mount, toolpath.back_allowance_mm and the blade's "
                          f"toolpath.parting_width_mm) needs the bar {need:g} mm out of the jaws; allowed >= {need:g} mm")
-    return round(z, 6)
+    return z
 
 
 def partoff_operation(pos: tuple[float, float], home: tuple[float, float], z: float, stock: Stock,

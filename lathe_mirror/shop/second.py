@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING
 from ..body import design_meridian
 from ..enums import Mount
 from ..errors import InputError
-from ..lathe import JAW_GAP, JAW_WIDTH
+from ..lathe import GRIP_PER_STAND_OUT, JAW_GAP, JAW_WIDTH, grip_needed
 from ..toolpath.moves import Hand
 from .boring import BorePlan, bore_part, bore_plan, bore_tools, boring_shapes, write_bore
 from .operations import OperationWriter
@@ -47,13 +47,6 @@ from .tool_shapes import insert_shape
 
 if TYPE_CHECKING:
     from ..body import BodySpec
-
-#: The soft jaws' grip per mm the part stands out of them: a cut at the part's end tips it
-#: about the jaws' end with the stand-out as its lever, against the jaws' friction couple
-#: over the grip (a chuck maker's tilting check, e.g. Forkardt's operating manuals,
-#: "permissible overhang length"); the jaws' step the part is seated on takes the rest of
-#: the moment, so half the stand-out, not all of it.
-GRIP_PER_STAND_OUT = 0.5
 
 #: The name of the second set-up's first operation (shop.check tells its programs by it).
 FACE_BACK = "face back"
@@ -97,13 +90,6 @@ class SecondSetup:
                 f"diameter ({self.diameter:g} mm) gripping it from Z{lo:.3f} to Z{hi:.3f} "
                 f"({hi - lo:.1f} mm), the shoulder beyond the rim seated on the jaws' step; the optical "
                 "surface touches nothing (protect it with paper or film)")
-
-
-def grip_needed(top: float, min_grip: float) -> float:
-    """The least grip (mm) of the soft jaws on a part whose parted face stands at Z `top`
-    (mm): toolpath.min_grip_mm, and GRIP_PER_STAND_OUT of the length the part stands out of
-    the jaws (top + JAW_GAP), the lever a cut at the part's end has about the jaws' end."""
-    return max(min_grip, GRIP_PER_STAND_OUT * (top + JAW_GAP))
 
 
 def check_grip(grip: tuple[float, float], top: float, min_grip: float, thickness: float) -> None:

@@ -22,10 +22,10 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from ..lathe import grip_needed
 from .program import (BORING_STATION, CENTRE_DRILL_STATION, DRILL_STATION, OPPOSITE_ROUGHING_STATION, PARTING_STATION,
                       stations)
 from .boring import DRILL_POINT_DEG, MAX_BAR_OVERHANG, SPOT_DRILL_MM, SPOT_POINT_DEG
-from .second import grip_needed
 from .tool_shapes import INSERT_IC, edge_length
 
 if TYPE_CHECKING:

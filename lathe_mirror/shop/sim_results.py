@@ -74,7 +74,11 @@ class OperationFigures:
 
     removed_area_mm2: material removed in the (r, Z) plane; removed_volume_mm3: turned
     (2 pi r dA). max_depth_of_cut_mm: largest removed area per unit path (windows of
-    STAT_WINDOW mm). max_chip_section_mm2: largest depth x feed. max_removal_rate_cm3_min.
+    STAT_WINDOW mm); None for a drill (its lips cut from the axis to its radius whatever
+    the program does: no depth a machinist sets or checks), which gives drilled_depth_mm
+    (its point below the stock's top it entered) and drilled_full_depth_mm (where the hole
+    has the drill's full diameter; None when only the point's cone went in) instead
+    (tool_shapes.drill_figures). max_chip_section_mm2: largest depth x feed. max_removal_rate_cm3_min.
     cut_time_s, air_time_s (feed moves that remove nothing), rapid_time_s, cycle_time_s.
     max_part_cut_mm: deepest point of the designed part its cutting zone reached (the
     finishing contour's own gouge, a few microns, shows here). plunge_mm: path length
@@ -87,7 +91,7 @@ class OperationFigures:
     feed_mm_rev: float
     removed_area_mm2: float
     removed_volume_mm3: float
-    max_depth_of_cut_mm: float
+    max_depth_of_cut_mm: float | None
     max_chip_section_mm2: float
     max_removal_rate_cm3_min: float
     cut_time_s: float
@@ -97,6 +101,8 @@ class OperationFigures:
     plunge_mm: float
     stock_after: object = field(repr=False)
     removed: object = field(repr=False)
+    drilled_depth_mm: float | None = None
+    drilled_full_depth_mm: float | None = None
 
     @property
     def cycle_time_s(self) -> float:
@@ -112,7 +118,8 @@ class OperationFigures:
                 "max_removal_rate_cm3_min": self.max_removal_rate_cm3_min,
                 "cut_time_s": self.cut_time_s, "air_time_s": self.air_time_s,
                 "rapid_time_s": self.rapid_time_s, "cycle_time_s": self.cycle_time_s,
-                "max_part_cut_mm": self.max_part_cut_mm, "plunge_mm": self.plunge_mm}
+                "max_part_cut_mm": self.max_part_cut_mm, "plunge_mm": self.plunge_mm,
+                "drilled_depth_mm": self.drilled_depth_mm, "drilled_full_depth_mm": self.drilled_full_depth_mm}
 
 
 @dataclass(frozen=True)

@@ -10,15 +10,16 @@ move sweeps the convex insert into the convex hull of its two end positions, an 
 cut into chords, and what the tool sweeps on the far side of the spindle axis (r < 0)
 cuts the same material mirrored (the part turns).
 
-Per operation it reports the material removed (area in the (r, Z) plane and volume),
-the largest depth of cut (removed area per unit of path, over windows of at least
-STAT_WINDOW mm) and chip section (depth x feed), the largest removal rate, the time
-cutting, in the air and at rapid, and the cycle time: feeds per revolution at the G96
-surface speed, the spindle capped (rpm(r) = min(cap, 1000 V / (2 pi r))), rapids at the
-rapid rate. It finds, and `Simulation.check` refuses with one line naming the block:
-any stock or part touched at rapid (a rapid is checked over the box its two ends span,
-so a controller's dog-leg rapid is covered too), stock touched by the insert's body,
-a cut into the designed part deeper than the gouge tolerance, the chuck touched.
+Per operation it reports the material removed (area in the (r, Z) plane and volume), the
+largest depth of cut (removed area per unit of path, over windows of at least STAT_WINDOW
+mm; a drill, whose is its radius, how deep it drilled instead: tool_shapes.drill_figures)
+and chip section (depth x feed), the largest removal rate, the time cutting, in the air and
+at rapid, and the cycle time: feeds per revolution at the G96 surface speed, the spindle
+capped (rpm(r) = min(cap, 1000 V / (2 pi r))), rapids at the rapid rate. It finds, and
+`Simulation.check` refuses with one line naming the block: any stock or part touched at
+rapid (a rapid is checked over the box its two ends span, so a controller's dog-leg rapid is
+covered too), stock touched by the insert's body, a cut into the designed part deeper than
+the gouge tolerance, the chuck touched.
 """
 
 from __future__ import annotations
@@ -31,8 +32,8 @@ import numpy as np
 
 from ..path import Arc, Move
 from .sim_results import Contact, OperationFigures, SimMove, SimOperation, Simulation
-from .tool_shapes import (CUTTING_EDGE_FRACTION, INSERT_IC, cutting_zone, edge_length, insert_outline,  # noqa: F401
-                          insert_shape, reach_toward_axis)
+from .tool_shapes import (CUTTING_EDGE_FRACTION, INSERT_IC, cutting_zone, drill_figures, edge_length,  # noqa: F401
+                          insert_outline, insert_shape, reach_toward_axis)
 from .program import Feed, FeedRate, Rapid
 from .resume import Resume, run_inputs
 from .swept import Swept, snap, snap_geometry, sweep_rapids, swept_pieces
@@ -61,7 +62,6 @@ SHOULDER_ALLOWANCE = 0.05
 PLUNGE_ANGLE = math.radians(15.0)
 #: The chuck's jaws: from Z = -stock.length down, out to the bar's radius plus this (mm).
 JAW_HEIGHT = 10.0
-
 
 
 # --------------------------------------------------------------------------------------
@@ -350,11 +350,12 @@ class _Sim:
         else:
             cut_time = air_time = max_ap = max_chip = max_mrr = plunge = 0.0
         feed = next((m.feed for m in op.moves if not m.rapid), 0.0)
+        drill = drill_figures(self.shapes.get(op.station, self.shapes[None]), before, feeds)
         return OperationFigures(name=op.name, station=op.station, feed_mm_rev=feed, removed_area_mm2=area,
-                                removed_volume_mm3=volume, max_depth_of_cut_mm=max_ap,
+                                removed_volume_mm3=volume, max_depth_of_cut_mm=None if drill else max_ap,
                                 max_chip_section_mm2=max_chip, max_removal_rate_cm3_min=max_mrr,
                                 cut_time_s=cut_time, air_time_s=air_time, rapid_time_s=rapid_time,
-                                max_part_cut_mm=part_cut, plunge_mm=plunge, stock_after=after, removed=removed_geom)
+                                max_part_cut_mm=part_cut, plunge_mm=plunge, stock_after=after, removed=removed_geom, **drill)
 
     def rapid(self, mv: SimMove, op: str, regions: tuple) -> None:
         """Stock or part inside the tool swept along the rapid ("rapid"), else over the

@@ -144,6 +144,23 @@ def drill_shape(diameter: float, point_angle_deg: float) -> ToolShape:
     return ToolShape(kind="drill", outline=outline, cutting=cutting)
 
 
+def drill_figures(shape: ToolShape, before, feeds) -> dict:
+    """What a machinist sets a drill by, for an operation of the tool `shape` on the stock
+    `before` (shapely) whose feed moves are `feeds` (shop.stock's SimMove); {} for a tool
+    that is not a drill. drilled_depth_mm: how deep the point goes below the stock's top
+    (the face it enters); drilled_full_depth_mm: how deep the hole has the drill's full
+    diameter (the point's cone above the apex; None where only the cone went in, as a spot
+    drill's). A drill's depth of cut is its radius whatever the program does, so the
+    figures carry these instead (mm)."""
+    if shape.kind != "drill" or not feeds:
+        return {}
+    xy = shape.outline_xy
+    r = float(xy[:, 0].max())
+    cone = float(xy[xy[:, 0] >= r - 1e-12, 1].min())  # the apex at the origin, the full diameter from here up
+    point = float(before.bounds[3]) - min(float(mv.move.end[1]) for mv in feeds)
+    return {"drilled_depth_mm": point, "drilled_full_depth_mm": point - cone if point > cone else None}
+
+
 def boring_bar_shape(bar: Tool, min_bore: float, shank: float) -> ToolShape:
     """The boring bar seen in the (r, Z) plane, its nose centre at the origin: the insert
     (`bar`: an 80 deg C insert of BAR_INSERT_IC with its flanks up the wall and in along
