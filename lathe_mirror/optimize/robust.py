@@ -56,6 +56,9 @@ FRONT_STEP = 0.1
 #: 6 mm lens, most of it cutting the two phases' parts; the pass fraction's standard error
 #: at 95 % is 1.9 %).
 SMALL_TRIALS = 128
+#: Candidates judged by their small Monte Carlo at most (the front's first ones): a bound on
+#: the time a design no candidate rescues costs before its tolerances are allocated.
+SMALL_RUNS = 12
 #: Full Monte Carlos confirming candidates (the bisection's choice, then the next less
 #: sensitive ones) before the winner stands and its tolerances are allocated.
 CONFIRMS = 3
@@ -124,7 +127,7 @@ def robust_winner(result: SearchResult, problem: Problem, settings: Settings, ch
     # reaches the target and the full Monte Carlo confirms it (the yield is not monotone
     # along the front: S leaves out the machining, and the far end's designs fail other
     # criteria, so no bisection)
-    for i in range(len(front)):
+    for i in range(min(len(front), SMALL_RUNS)):
         if confirms >= CONFIRMS:
             break
         if not passes(i):
