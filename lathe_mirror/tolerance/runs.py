@@ -272,7 +272,9 @@ def made_disparity(mirror: Mirror, settings: Settings, *, trials: int = 64, phas
     spec's range) at `quantile` over a small seeded Monte Carlo (`trials` trials of the
     settings' seed, `phases` lattice phases) of the best program's part at the configured
     tolerances: the optimiser's delivered-R10 surrogate takes it as every candidate's part
-    error (optimize.evaluate.Problem.made_disparity_px). With its yield and delivered range."""
+    error (optimize.evaluate.Problem.made_disparity_px), and optimize.robust judges the
+    candidates of its front by their own. With its yield, each criterion's pass fraction
+    and the delivered range."""
     import numpy as np
 
     ts = settings.tolerance
