@@ -147,6 +147,10 @@ def format_result(data: dict) -> str:
             lines.append(f"the best design found (objective {r['objective']:.6g}) fails the tolerance verdict "
                          f"nominal ({r['why'].split(':')[0].removeprefix('the nominal part fails ')}): the best "
                          f"of the {len(r['tried'])} runner-up designs tried that passes is the winner")
+        if "replaced" in c.get("robust", {}):
+            from ..optimize.winner import robust_statement
+
+            lines.append(f"robust: {robust_statement(c)}")
         if "why" in c:
             lines.append(f"warning: {c['why']}")
     if best["hand"] != "as configured":

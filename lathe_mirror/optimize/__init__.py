@@ -16,6 +16,8 @@ Modules:
   search    search(problem) -> SearchResult: seeded differential evolution over processes
   pareto    pareto_front
   winner    the search and the winner's tolerance check as `lathe-mirror optimize` gives them
+  robust    a winner whose made parts fall short of the yield gives way to the most-ranging
+            candidate whose parts reach it (the decentre sensitivity front, small Monte Carlos)
 """
 
 from .evaluate import CONSTRAINTS, Figures, Problem, figures

@@ -37,7 +37,7 @@ from ..toolpath.metrics import slope_error
 from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals
 from .poses import PoseDraws, poses
 from .samples import PixelSample, StereoPoints, stereo_points
-from .surfaces import OFF_SURFACE_MM, SurfaceBank
+from .surfaces import SurfaceBank, off_lobe_cells
 
 #: Newton steps of the 3-D ray-surface intersection (2-3 from the exact sheet's hit).
 _MAX_ITER = 8
@@ -348,13 +348,13 @@ def _trace(mirror: Mirror, bank: SurfaceBank, k: int, surfs, tr: Trials, origin,
     if k == 1:
         ok &= np.abs(q_raw) > lo
     q = np.clip(np.abs(q_raw), lo, hi)
-    # Off the lobe's surface: a hit in a grid cell with a sample more than OFF_SURFACE_MM
-    # from the design (the step's wall, the groove a larger nose cuts into the outer lobe's
-    # edge, the rim a smaller one leaves on the inner lobe) hit the wall, not the lobe; the
-    # samples cannot say where in the cell the wall stands (the cell is 5 um, 0.06 px).
-    off = np.abs(z_grid - bank.design_z(k)[None, :]) >= OFF_SURFACE_MM
+    # Off the lobe's surface (surfaces.off_lobe_cells: the step's wall, the groove a larger
+    # nose cuts into the outer lobe's edge, the rim a smaller one leaves on the inner lobe,
+    # the cell the nose's corner turns down in): a hit in such a cell hit the wall, not the
+    # lobe; the samples cannot say where in the cell the wall stands (5 um, 0.06 px).
+    off = off_lobe_cells(z_grid, bank.design_z(k), bank.dr[k])
     i0 = np.clip(np.floor((q - bank.r0[k]) / bank.dr[k]).astype(np.intp), 0, bank.n[k] - 2)
-    ok &= settled & ~off[rows, i0] & ~off[rows, i0 + 1]
+    ok &= settled & ~off[rows, i0]
     slope = _lookup(bank, k, s_grid, rows, q) * np.sign(np.where(q_raw == 0, 1.0, q_raw))
     # Normal (toward the camera) of z = Z(rho): (s x/rho, s y/rho, -1) / sqrt(1 + s^2).
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -398,11 +398,13 @@ def _surface_errors(mirror: Mirror, bank: SurfaceBank, k: int, surf, tr: Trials,
     s_ex = lobe.slope(r)[None, :]
     slope_err = slope_error(s, s_ex)
     ndev = (z - lobe.z(r)[None, :]) / np.sqrt(1.0 + s_ex**2)
-    # A point in a grid cell with a sample off the lobe's surface (_trace's rule: the wall
-    # moved into the lobe, the groove's flank) is no slope of the lobe; its pixels are lost.
-    off = np.abs(surf[0] - bank.design_z(k)[None, :]) >= OFF_SURFACE_MM
-    off = off | np.roll(off, 1, axis=1) | np.roll(off, -1, axis=1)
-    i0 = np.clip(np.rint((q - bank.r0[k]) / bank.dr[k]).astype(np.intp), 0, bank.n[k] - 1)
+    # A point in a cell off the lobe's surface (_trace's rule, surfaces.off_lobe_cells: the
+    # wall moved into the lobe, the groove's flank, the nose's corner) is no slope of the
+    # lobe; its pixels are lost. The interpolated slope at a point is its cell's two
+    # samples', so the cell decides: a sample next to the corner's cell keeps its own slope
+    # (one-sided where the chords jump, _sample_slopes) and is judged.
+    off = off_lobe_cells(surf[0], bank.design_z(k), bank.dr[k])
+    i0 = np.clip(np.floor((q - bank.r0[k]) / bank.dr[k]).astype(np.intp), 0, bank.n[k] - 2)
     on = ~off[rows, i0]
     cnt = np.maximum(np.sum(on, axis=1), 1)
     return (np.sqrt(np.sum(np.where(on, slope_err**2, 0.0), axis=1) / cnt),

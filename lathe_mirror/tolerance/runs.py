@@ -177,7 +177,7 @@ def verdict(t: dict, spec: dict) -> dict:
 
 def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
                  polish_time_s: float | None = None, nominal_only: bool = False, blur_px: float = 0.0,
-                 allocate: bool = False) -> dict:
+                 allocate: bool = False, diagnose: bool = True) -> dict:
     """The optimiser's winner through the tolerance analysis of the best program with the
     configured tool and default tolerances: the nominal part (lattice phase 0, every
     parameter nominal) judged against the spec, and the Monte Carlo's yield against
@@ -190,7 +190,9 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
     "made_mirror". nominal_only: the nominal part alone (no Monte Carlo, no yield).
     allocate: when the yield falls short (the nominal part passing), the least-cost
     tolerances that reach the target instead of `yield_without` (tolerance.allocation,
-    confirmed on the same seed: "allocation", with the delivered range at them)."""
+    confirmed on the same seed: "allocation", with the delivered range at them).
+    diagnose=False: a yield short of the target is stated without `yield_without` (a Monte
+    Carlo per drawn parameter) or an allocation."""
     import numpy as np
 
     ts = settings.tolerance
@@ -239,6 +241,9 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
                 out["allocation"]["delivered_r10_m"] = confirm.delivered.summary()
             out["why"] = f"{head}; {alloc['statement']}"
             return out
+        if not diagnose:
+            out["why"] = head
+            return out
         # which tolerance makes the target out of reach: the yield with each drawn
         # parameter held perfectly (its tolerance 0, the others as configured; same seed)
         without = {}
@@ -267,7 +272,9 @@ def made_disparity(mirror: Mirror, settings: Settings, *, trials: int = 64, phas
     spec's range) at `quantile` over a small seeded Monte Carlo (`trials` trials of the
     settings' seed, `phases` lattice phases) of the best program's part at the configured
     tolerances: the optimiser's delivered-R10 surrogate takes it as every candidate's part
-    error (optimize.evaluate.Problem.made_disparity_px). With its yield and delivered range."""
+    error (optimize.evaluate.Problem.made_disparity_px), and optimize.robust judges the
+    candidates of its front by their own. With its yield, each criterion's pass fraction
+    and the delivered range."""
     import numpy as np
 
     ts = settings.tolerance
@@ -280,4 +287,6 @@ def made_disparity(mirror: Mirror, settings: Settings, *, trials: int = 64, phas
     d = mc.delivered.disparity_px
     return {"disparity_px": float(np.quantile(np.where(np.isfinite(d), d, np.inf), quantile, method="inverted_cdf")),
             "quantile": quantile, "trials": int(trials), "lattice_phases": ctx.settings.lattice_phases,
-            "seed": mc.seed, "yield": mc.yield_fraction, "delivered_r10_m": mc.delivered.summary()}
+            "seed": mc.seed, "yield": mc.yield_fraction,
+            "pass_fraction": {c: float(np.mean(mc.passed[c])) for c in CRITERIA},
+            "delivered_r10_m": mc.delivered.summary()}

@@ -56,8 +56,10 @@ TIME_NODES = (-1.0, -0.75, -0.5, -0.25, 0.0, 0.25, 0.5, 0.75, 1.0)
 #: the lobe's surface (the groove or rim at the step; polishing's form change is ~0.04 mm).
 OFF_SURFACE_MM = 0.1
 #: Slope (dimensionless) by which the chords either side of a sample must differ for the
-#: sample to sit at a jump (the step's wall, a groove): 0.5 is a kink of ~25 deg, far
-#: beyond any facet of a program on the lattice.
+#: sample to sit at a jump (the step's wall, a groove), and by which a cell's chord must
+#: miss the design's for the cell to be no part of the lobe (off_lobe_cells): 0.5 is a
+#: kink of ~25 deg, far beyond any facet of a program on the lattice and 25x the slope
+#: error the spec allows (0.02 rad).
 JUMP_SLOPE = 0.5
 
 
@@ -251,6 +253,20 @@ class _Given:
 def time_nodes(nominal_time_s: float, tolerance_s: float) -> np.ndarray:
     """Polishing-time snapshots (s, ascending, >= 0): nominal + TIME_NODES x tolerance."""
     return np.unique(np.clip([nominal_time_s + f * tolerance_s for f in TIME_NODES], 0.0, None))
+
+
+def off_lobe_cells(z: np.ndarray, design_z: np.ndarray, dr: float) -> np.ndarray:
+    """Which cells of a made surface's samples (between samples i and i + 1; z: (..., n) mm,
+    design_z: (n,) mm, the grid's step dr mm) are no part of the lobe's surface, (..., n - 1):
+    a cell with a sample OFF_SURFACE_MM or more off the design (the step's wall moved into
+    the lobe, a groove's floor), or whose chord misses the design's by more than JUMP_SLOPE
+    (the cell the wall's foot or the nose's corner falls in: a sample a few micrometres
+    down the corner is within OFF_SURFACE_MM, yet the cell's slope is the wall's). The
+    samples cannot say where in such a cell the lobe ends, so the whole cell is off: a ray
+    landing there hits the wall, and no slope of the lobe is judged there."""
+    dev = np.asarray(z, float) - np.asarray(design_z, float)
+    off = np.abs(dev) >= OFF_SURFACE_MM
+    return off[..., :-1] | off[..., 1:] | (np.abs(np.diff(dev, axis=-1)) > JUMP_SLOPE * dr)
 
 
 def _sample_slopes(r: np.ndarray, z: np.ndarray) -> np.ndarray:
