@@ -55,6 +55,10 @@ KEYS: tuple[Key, ...] = (
         help="the stereo matcher's sub-pixel noise, px: the depth error's floor"),
     Key('tolerance.target_yield', 0.95, "", 0.5, 0.999,
         help='the yield the allocation tightens the tolerances to reach (0.5 .. 0.999)'),
+    Key('tolerance.delivered_p5_min_fraction', 0.9, "", 0.5, 0.999,
+        help=("the delivered R10's 5th percentile over the Monte Carlo's made parts must reach at least this "
+              "fraction of the design's R10: the allocation tightens until both it and the target yield hold "
+              '(0.5 .. 0.999)')),
     Key('tolerance.spec.calibrated', True,
         choices='true or false',
         help=("judge what is left after a user's calibration (the camera's rotation and a smooth radial mapping per"

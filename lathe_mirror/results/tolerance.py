@@ -300,6 +300,23 @@ class AllocationRound(Result):
     yield_wilson95: tuple[float, float]
     seed: int
     tolerances: dict[str, float]
+    range_aim: float | None = omitted()
+    surrogate_range_share: float | None = omitted()
+    range_share: float | None = omitted()
+    delivered_r10_p5_m: float | None = omitted()
+
+
+@dataclass(**RESULT)
+class AllocationDelivered(Result):
+    """The allocation's second target: the delivered R10's p5 (m) against min_fraction of
+    the design's R10 (m), and the made-part disparity error (px) that keeps it."""
+
+    min_fraction: float
+    design_r10_m: float
+    p5_m: float
+    p5_fraction: float
+    disparity_limit_px: float
+    kept: bool
 
 
 @dataclass(**RESULT)
@@ -342,6 +359,7 @@ class Allocation(Result):
     cost_ratio: float
     surrogate: Surrogate
     unreachable: str
+    delivered: AllocationDelivered | None = omitted()
     statement: str
 
     def table(self) -> np.ndarray:

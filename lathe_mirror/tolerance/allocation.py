@@ -15,7 +15,18 @@ surrogate yield reaches the yield a Monte Carlo of n trials must show for its Wi
 interval to clear the target; then loosens back any rung not needed. No tolerance is
 tightened past what a precision shop holds (tolerance.shops, the class's value: the
 tightest a shop can be asked for; a parameter no class lists stops at MAX_RUNGS rungs),
-the last rung landing on that value. A Monte Carlo with the allocated tolerances confirms
+the last rung landing on that value.
+
+The delivered range is the allocation's second target: the 5th percentile of the made
+parts' delivered R10 (tolerance.delivered) must reach delivered_p5_min_fraction (f) of the
+design's R10. A part keeps f of the design's range exactly when its own disparity error d
+stays within d_max = sqrt((1 + n^2)(1 / f^2 - 1)) (delivered.disparity_limit_px), so the
+p5 holds when at most ceil(0.05 x trials) - 1 trials exceed d_max: a second surrogate of
+the same form, on d (the band's median at the spec's range, the delivered range's input),
+gives the share of draws within d_max, and the greedy search also needs that share to
+reach its aim (at first the share the p5 needs). While the share stays above its aim its
+penalty is 0 and the search is the yield's alone; a confirming run short of either target
+raises that target's aim by its shortfall. A Monte Carlo with the allocated tolerances confirms
 it, drawn from the configured run's seed (common random numbers, tolerance.registry: every
 trial is the configured run's trial with its offsets scaled, so the two yields differ only
 by the trials the tightening flips). If it falls short, the surrogate is refitted to every
@@ -36,7 +47,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .delivered import range_share
 from .montecarlo import CRITERIA, Context, MonteCarloResult, run_monte_carlo
+from .range_goal import RangeGoal, disparity_of, fit_tail, range_responses
 from .sensitivity import Responses, judged_values
 from .registry import BY_KEY, standard_draws, tolerances_of
 from .shops import shop_values
@@ -159,10 +172,11 @@ def no_margin_text(worst: np.ndarray, lim: np.ndarray, share: np.ndarray) -> str
 
 def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: float | None = None,
              progress: bool = False) -> tuple[dict, MonteCarloResult | None]:
-    """Least-cost tolerances that reach the target yield (default the settings'), confirmed
-    by a Monte Carlo on the same seed; mc is the Monte Carlo at the configured tolerances (its trials
-    check the surrogate). Returns the JSON-ready allocation and the last confirming Monte
-    Carlo (None when the configured tolerances already reach the target)."""
+    """Least-cost tolerances that reach the target yield (default the settings') and keep
+    the delivered R10's p5 within delivered_p5_min_fraction of the design's (module doc),
+    confirmed by a Monte Carlo on the same seed; mc is the Monte Carlo at the configured
+    tolerances (its trials check the surrogates). Returns the JSON-ready allocation and the
+    last confirming Monte Carlo (None when the configured tolerances already reach both)."""
     s = ctx.settings
     target = s.target_yield if target is None else float(target)
     n = s.trials
@@ -175,6 +189,8 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
     rng = np.random.default_rng(s.seed + 2)
     phase = rng.integers(0, len(ctx.bank.phases), SURROGATE_DRAWS)
     std = standard_draws(rng, SURROGATE_DRAWS, s.distribution)
+    goal = RangeGoal.of(mc, s.delivered_p5_min_fraction)
+    ranged = None if goal is None else Surrogate(range_responses(resp, s.spec.calibrated), np.array([goal.d_max_px]))
 
     def offsets(scale: dict[str, float]) -> dict[str, np.ndarray]:
         out = {}
@@ -184,19 +200,30 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
             out[k] = np.abs(d[0]) if p.one_sided else (np.hypot(d[0], d[1]) if p.paired else d[0])
         return out
 
+    def surrogate_yields(scale: dict[str, float]) -> tuple[float, float]:
+        """(yield, share of draws keeping the range) of the surrogates at `scale`."""
+        x = offsets(scale)
+        share = 1.0 if ranged is None else float(np.mean(ranged.passes(phase, x)))
+        return float(np.mean(sur.passes(phase, x))), share
+
     def surrogate_yield(scale: dict[str, float]) -> float:
-        return float(np.mean(sur.passes(phase, offsets(scale))))
+        return surrogate_yields(scale)[0]
 
     check = _surrogate_check(sur, mc, keys)
+    if ranged is not None:
+        _refit(ranged, [mc], keys, disparity_of, fit_tail)
     floor = precision_floor(base, keys)
     top = {k: _top_rung(floor[k]) for k in keys}
     rungs = {k: 0 for k in keys}
     scale = {k: 1.0 for k in keys}
     aim = yield_to_show(target, n)
+    aim_r = range_share(n)
+    y_sur = (0.0, 0.0)
     history = []
     confirm = None
     traced = [mc]
-    reached = mc.yield_fraction >= target
+    short_y, short_r = mc.yield_fraction < target, goal is not None and not goal.kept(mc)
+    reached = not (short_y or short_r)
     rounds = 0
     nominal_fails = [c for j, c in enumerate(CRITERIA) if not np.min(resp.phases[:, j]) <= lim[j]]
     unreachable = ""
@@ -204,15 +231,20 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
         unreachable = ("no tolerance can fix it: the nominal part fails " + ", ".join(
             f"{c} ({_num(float(np.min(resp.phases[:, CRITERIA.index(c)])))} > {_num(ctx.limits[c])})"
             for c in nominal_fails) + " at every lattice phase")
-    tried: set[tuple[int, ...]] = set()
+    # the configured tolerances (rung 0 everywhere) are mc's own: never confirmed again
+    tried: set[tuple[int, ...]] = {tuple(0 for _ in keys)}
     while not reached and not unreachable and rounds < ROUNDS:
-        rungs, scale, y_sur = _greedy(surrogate_yield, rungs, cost, aim, top, floor)
+        rungs, scale, y_sur = _greedy(surrogate_yields, rungs, cost, aim, aim_r, top, floor)
         # an allocation a Monte Carlo already found short would only repeat its trials:
-        # the aim rises until the surrogate asks for something new, or cannot
-        while y_sur >= aim and tuple(rungs.values()) in tried and aim < 1.0:
-            aim = min(1.0, aim + max(1.0 / n, 0.5 * (1.0 - aim)))
-            rungs, scale, y_sur = _greedy(surrogate_yield, rungs, cost, aim, top, floor)
-        all_out = y_sur < aim or tuple(rungs.values()) in tried
+        # the short target's aim rises until the surrogates ask for something new, or cannot
+        while (_met(y_sur, aim, aim_r) and tuple(rungs.values()) in tried
+               and ((short_y and aim < 1.0) or (short_r and aim_r < 1.0))):
+            if short_y:
+                aim = min(1.0, aim + max(1.0 / n, 0.5 * (1.0 - aim)))
+            if short_r:
+                aim_r = min(1.0, aim_r + max(1.0 / n, 0.5 * (1.0 - aim_r)))
+            rungs, scale, y_sur = _greedy(surrogate_yields, rungs, cost, aim, aim_r, top, floor)
+        all_out = not _met(y_sur, aim, aim_r) or tuple(rungs.values()) in tried
         if all_out:
             # The surrogate sees no way within a precision shop's values: the Monte Carlo
             # judges them all at once, so the verdict and the yield quoted come from the
@@ -225,21 +257,28 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
         confirm = run_monte_carlo(ctx, seed=s.seed, tolerances={**s.tolerances, **tol},
                                   progress=progress, desc=f"tolerance: confirming the allocation ({rounds})")
         k_pass = int(np.sum(confirm.pass_all))
-        history.append({"round": rounds, "aim": aim, "surrogate_yield": y_sur, "yield": k_pass / n,
+        history.append({"round": rounds, "aim": aim, "surrogate_yield": y_sur[0], "yield": k_pass / n,
                         "yield_wilson95": list(wilson(k_pass, n)), "seed": confirm.seed,
-                        "tolerances": {k: tol[k] for k in keys}})
-        reached = confirm.yield_fraction >= target
+                        "tolerances": {k: tol[k] for k in keys},
+                        **({} if goal is None else {"range_aim": aim_r, "surrogate_range_share": y_sur[1],
+                                                    "range_share": goal.share(confirm),
+                                                    "delivered_r10_p5_m": goal.p5(confirm)})})
+        short_y, short_r = confirm.yield_fraction < target, goal is not None and not goal.kept(confirm)
+        reached = not (short_y or short_r)
         if reached:
             break
         tried.add(tuple(rungs.values()))
         traced.append(confirm)
         _refit(sur, traced, keys)
+        if ranged is not None:
+            _refit(ranged, traced, keys, disparity_of, fit_tail)
         if all_out:
-            unreachable = (f"with every tolerance at a precision shop's value the Monte Carlo still passes "
-                           f"only {percent_interval(k_pass, n)} of its trials; "
-                           f"{limiting(surrogate_yield, floor, keys)} limits it most")
+            unreachable = _out_of_reach(goal, confirm, k_pass, n, short_y, surrogate_yields, floor, keys)
             break
-        aim = min(1.0, aim + (target - confirm.yield_fraction) + 1.0 / n)
+        if short_y:
+            aim = min(1.0, aim + (target - confirm.yield_fraction) + 1.0 / n)
+        if short_r:
+            aim_r = min(1.0, aim_r + (range_share(n) - goal.share(confirm)) + 1.0 / n)
     rows = []
     for k in keys:
         rows.append({"parameter": k, "what": PARAMETERS[k][0], "unit": PARAMETERS[k][1], "tolerance": base[k],
@@ -249,6 +288,7 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
     total = sum(cost[k] / scale[k] for k in keys)
     final = confirm if confirm is not None else mc
     k_final = int(np.sum(final.pass_all))
+    delivered = None if goal is None else goal.describe(final)
     out = {"program": ctx.program.value, "target_yield": target, "trials": n, "reached": bool(reached),
            "yield": k_final / n, "yield_wilson95": list(wilson(k_final, n)), "seed": final.seed,
            "confirmed_by": "a Monte Carlo of the same seed at the allocated tolerances" if confirm is not None else "the Monte Carlo at the configured tolerances",
@@ -256,13 +296,36 @@ def allocate(ctx: Context, resp: Responses, mc: MonteCarloResult, *, target: flo
            "surrogate": {"draws": SURROGATE_DRAWS, "yield_at_configured": surrogate_yield({k: 1.0 for k in keys}),
                          **check},
            "unreachable": unreachable,
-           "statement": statement(target, reached, rows, k_final, n, unreachable)}
+           **({} if delivered is None else {"delivered": delivered}),
+           "statement": statement(target, reached, rows, k_final, n, unreachable, delivered)}
     return out, confirm
 
 
-def statement(target: float, reached: bool, rows: list[dict], k: int, n: int, unreachable: str = "") -> str:
-    """One sentence: what to tighten to reach the target, and the yield that shows it."""
+def _met(y: tuple[float, float], aim: float, aim_r: float) -> bool:
+    return y[0] >= aim and y[1] >= aim_r
+
+
+def _out_of_reach(goal, confirm, k_pass: int, n: int, short_y: bool, surrogate_yields, floor, keys) -> str:
+    """Why the precision shop's values fall short: the yield, or else the delivered p5."""
+    if short_y:
+        return (f"with every tolerance at a precision shop's value the Monte Carlo still passes "
+                f"only {percent_interval(k_pass, n)} of its trials; "
+                f"{limiting(lambda sc: surrogate_yields(sc)[0], floor, keys)} limits it most")
+    p5 = goal.p5(confirm)
+    return (f"with every tolerance at a precision shop's value the delivered R10 p5 is still {_num(p5)} m, "
+            f"{100 * p5 / goal.design_m:.1f} % of the design's {_num(goal.design_m)} m (at least "
+            f"{100 * goal.fraction:g} % asked); {limiting(lambda sc: surrogate_yields(sc)[1], floor, keys)} "
+            "limits it most")
+
+
+def statement(target: float, reached: bool, rows: list[dict], k: int, n: int, unreachable: str = "",
+              delivered: dict | None = None) -> str:
+    """One sentence: what to tighten to reach the target, and the yield (and the delivered
+    R10's p5 against the design's) that shows it."""
     got = percent_interval(k, n)
+    if delivered is not None:
+        got += (f"; delivered R10 p5 {delivered['p5_m']:.4g} m, {100 * delivered['p5_fraction']:.1f} % of the "
+                f"design's {delivered['design_r10_m']:.4g} m (at least {100 * delivered['min_fraction']:g} % asked)")
     tight = [r for r in rows if r["tighten"]]
     goal = f"{100 * target:g} %"
     if not tight and reached:
@@ -306,11 +369,16 @@ def limiting(surrogate_yield, floor: dict[str, float], keys) -> str:
     return f"{k} (perfect, the surrogate's yield would gain {100 * gain[k]:.1f} points)"
 
 
-def _greedy(surrogate_yield, rungs: dict[str, int], cost: dict[str, float], aim: float,
+def _greedy(surrogate_yields, rungs: dict[str, int], cost: dict[str, float], aim: float, aim_r: float,
             top: dict[str, int], floor: dict[str, float]):
-    """Tighten rung by rung where the surrogate yield per unit cost gains most, until `aim`
-    (no parameter past its top rung, where its scale is its floor); then loosen every rung
-    that is not needed. Returns (rungs, scales, surrogate yield)."""
+    """Tighten rung by rung where the surrogate's score per unit cost gains most, until the
+    yield reaches `aim` and the share keeping the range `aim_r` (no parameter past its top
+    rung, where its scale is its floor); then loosen every rung that is not needed. The
+    score is the yield less the range share's shortfall (none while it holds: the yield's
+    search alone). Returns (rungs, scales, (surrogate yield, range share))."""
+    def score(yy):
+        return yy[0] + min(0.0, yy[1] - aim_r)
+
     def scale_of(k, r):
         return max(TIGHTEN ** r, floor[k])
 
@@ -318,43 +386,49 @@ def _greedy(surrogate_yield, rungs: dict[str, int], cost: dict[str, float], aim:
         return {k: scale_of(k, r[k]) for k in r}
 
     r = {k: min(v, top[k]) for k, v in rungs.items()}
-    y = surrogate_yield(scales(r))
-    while y < aim:
+    y = surrogate_yields(scales(r))
+    while not _met(y, aim, aim_r):
         best, best_gain, best_y = None, 0.0, y
         for k in r:
             if r[k] >= top[k]:
                 continue
             trial = {**r, k: r[k] + 1}
-            yk = surrogate_yield(scales(trial))
+            yk = surrogate_yields(scales(trial))
             dc = cost[k] * (1.0 / scale_of(k, trial[k]) - 1.0 / scale_of(k, r[k]))
-            gain = (yk - y) / dc
-            if yk > y and gain > best_gain:
+            gain = (score(yk) - score(y)) / dc
+            if score(yk) > score(y) and gain > best_gain:
                 best, best_gain, best_y = k, gain, yk
         if best is None:
             break
         r[best] += 1
         y = best_y
     changed = True
-    while changed and y >= aim:
+    while changed and _met(y, aim, aim_r):
         changed = False
         for k in sorted(r, key=lambda k: -cost[k]):
             if r[k] == 0:
                 continue
             trial = {**r, k: r[k] - 1}
-            yk = surrogate_yield(scales(trial))
-            if yk >= aim:
+            yk = surrogate_yields(scales(trial))
+            if _met(yk, aim, aim_r):
                 r, y, changed = trial, yk, True
     return r, scales(r), y
 
 
-def _refit(sur: Surrogate, runs: list[MonteCarloResult], keys) -> None:
-    """Refit the surrogate's scales to every trial of `runs` (Monte Carlo results)."""
+def _refit(sur: Surrogate, runs: list[MonteCarloResult], keys, actual_of=None, fit=None) -> None:
+    """Refit the surrogate's scales to every trial of `runs` (Monte Carlo results); actual_of:
+    a run's values of the surrogate's criteria (default its judged criteria); fit(sur,
+    phase, x, actual) (default Surrogate.calibrate)."""
     phase = np.concatenate([m.trials.phase for m in runs])
     x = {k: np.concatenate([BY_KEY[k].magnitude(m.trials, {"nose_mm": m.nominal_nose_mm,
                                                             "time_s": m.nominal_time_s}) for m in runs])
          for k in keys}
-    actual = np.concatenate([judged_values(m.figures, m.settings.spec.calibrated) for m in runs])
-    sur.calibrate(phase, x, actual)
+    actual = np.concatenate([judged_values(m.figures, m.settings.spec.calibrated) if actual_of is None
+                             else actual_of(m) for m in runs])
+    if fit is None:
+        sur.calibrate(phase, x, actual)
+    else:
+        fit(sur, phase, x, actual)
 
 
 def _surrogate_check(sur: Surrogate, mc: MonteCarloResult, keys) -> dict:

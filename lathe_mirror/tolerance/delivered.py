@@ -92,3 +92,21 @@ def delivered_range(mirror: Mirror, disparity_px: np.ndarray, *, blur_px: float,
     depth = 100.0 * R10_FRACTION * range_m / sharp * np.sqrt(d * d + noise * noise)
     design = float(design_r10(sharp, blur_px, matching_noise_px))
     return DeliveredRange(design, sharp, float(blur_px), float(matching_noise_px), float(range_m), d, r, depth)
+
+
+#: The delivered R10's percentile the allocation holds up (its 5th, as `summary` quotes).
+P5 = 0.05
+
+
+def disparity_limit_px(fraction: float, blur_noise: float) -> float:
+    """The largest made-part disparity error d (px) whose delivered R10 keeps `fraction` of
+    the design's: sharp / sqrt(1 + d^2 + n^2) >= fraction x sharp / sqrt(1 + n^2), i.e.
+    d^2 <= (1 + n^2)(1 / fraction^2 - 1), n the matcher's noise on the blurred image."""
+    return float(np.sqrt((1.0 + blur_noise**2) * (1.0 / fraction**2 - 1.0)))
+
+
+def range_share(n: int) -> float:
+    """The share of n trials that must keep the range for their P5 quantile (inverted_cdf,
+    as `summary`) to keep it: at most ceil(P5 n) - 1 of them below."""
+    return 1.0 - (int(np.ceil(P5 * n - 1e-9)) - 1) / n
+

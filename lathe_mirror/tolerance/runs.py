@@ -188,8 +188,9 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
     saying that none does alone. The part judged is `tolerance`'s: the best program
     polished for its polishing curve's time (or polish_time_s), its label under
     "made_mirror". nominal_only: the nominal part alone (no Monte Carlo, no yield).
-    allocate: when the yield falls short (the nominal part passing), the least-cost
-    tolerances that reach the target instead of `yield_without` (tolerance.allocation,
+    allocate: when the yield falls short or the delivered R10's p5 does
+    (tolerance.delivered_p5_min_fraction; the nominal part passing), the least-cost
+    tolerances that reach both instead of `yield_without` (tolerance.allocation,
     confirmed on the same seed: "allocation", with the delivered range at them).
     diagnose=False: a yield short of the target is stated without `yield_without` (a Monte
     Carlo per drawn parameter) or an allocation."""
@@ -224,8 +225,17 @@ def winner_check(mirror: Mirror, settings: Settings, *, progress: bool = False,
            "pass_fraction": {c: float(np.mean(mc.passed[c])) for c in CRITERIA},
            "delivered_r10_m": mc.delivered.summary(), "delivered": mc.delivered.to_dict(),
            "zones": ctx.zones.describe()}
+    dr = out["delivered_r10_m"]
+    range_short = dr["p5"] < ts.delivered_p5_min_fraction * dr["design"]
     if failing:
         out["why"] = why
+    elif allocate and y >= ts.target_yield and range_short:
+        alloc, confirm = allocate_tolerances(ctx, responses(ctx, progress=progress), mc, progress=progress)
+        out["allocation"] = alloc
+        if confirm is not None:
+            out["allocation"]["delivered_r10_m"] = confirm.delivered.summary()
+        out["why"] = (f"delivered R10 p5 {dr['p5']:.4g} m < {100 * ts.delivered_p5_min_fraction:g} % of the "
+                      f"design's {dr['design']:.4g} m; {alloc['statement']}")
     elif y < ts.target_yield:
         broken = [c for c in CRITERIA if float(np.mean(mc.passed[c])) < ts.target_yield]
         alone = ""

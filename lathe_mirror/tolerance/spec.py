@@ -69,6 +69,8 @@ class ToleranceSettings:
     seat tilts about; 0: the design's rim (pivot_mm). nose_step_mm: the drawn nose radius is rounded to this step and the
     part re-machined with it (mm). matching_noise_px: the stereo matcher's sub-pixel noise
     (px), the floor of the depth error. target_yield: the allocation's target (0..1).
+    delivered_p5_min_fraction: the allocation's other target, the delivered R10's 5th
+    percentile over the design's R10 (tolerance.allocation).
     cost: relative cost of holding each drawn parameter at its configured tolerance
     (tightening it by a factor k costs k times as much). machine_errors: tolerance of
     each [machine.errors] set-up error about its configured value ([tolerance.machine_errors],
@@ -91,6 +93,7 @@ class ToleranceSettings:
     nose_step_mm: float = setting("tolerance.nose_step_mm")
     matching_noise_px: float = setting("tolerance.matching_noise_px")
     target_yield: float = setting("tolerance.target_yield")
+    delivered_p5_min_fraction: float = setting("tolerance.delivered_p5_min_fraction")
     cost: dict[str, float] = setting("tolerance.cost", FLOATS)
     machine_errors: dict[str, float] = setting("tolerance.machine_errors", FLOATS)
     shop: str = setting("tolerance.shop")  # the shop class the tolerances came from (tolerance.shops)
