@@ -407,6 +407,11 @@ def test_robust_optimize_writes_the_allocated_tolerances_tolerance_confirms(tmp_
     assert alloc["reached"] and alloc["yield"] >= 0.95 and alloc["cost_ratio"] > 1.0
     text = out.read_text()
     assert f"their cost: {alloc['cost_ratio']:.3g} x" in text
+    # the second target: the delivered R10's p5 within 90 % of the design's (the default
+    # tolerance.delivered_p5_min_fraction), said in the file's comment
+    dv = alloc["delivered"]
+    assert dv["kept"] and dv["p5_m"] >= 0.9 * dv["design_r10_m"] and dv["min_fraction"] == 0.9
+    assert f"delivered R10 p5 {dv['p5_m']:.4g} m" in text
     written = tomllib.loads(text)["tolerance"]["params"]
     for r in alloc["tolerances"]:
         if r["tighten"]:
@@ -416,6 +421,7 @@ def test_robust_optimize_writes_the_allocated_tolerances_tolerance_confirms(tmp_
     mc = json.loads(tol.stdout)["programs"]["best"]["monte_carlo"]
     assert mc["yield"] == pytest.approx(alloc["yield"], abs=0.011)  # one trial in 100 may flip on the rounding
     assert mc["yield"] >= 0.95
+    assert mc["delivered_r10_m"]["p5"] >= 0.9 * mc["delivered_r10_m"]["design"]
     # the winner optimize checked is the design the file holds, digit for digit (its lobes
     # read back at the file's 12 digits): tolerance on the file judges the same part
     lobes = tomllib.loads(text)["lobes"]
