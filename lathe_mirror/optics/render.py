@@ -55,8 +55,13 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
             raise ValueError(f"render_image: pixels mask {pixels.shape} is not the image's {(h, w)}")
         u, v = u[pixels], v[pixels]  # (m, n): the masked pixels' samples
     u, v = u.reshape(-1), v.reshape(-1)
-    # One sample per pixel: quantise each chunk straight into the image; else average first.
-    rgb = np.zeros((u.size, 3), dtype=np.uint8 if n == 1 else float)
+    # Every hit shows one of the scene's 24 shaded pigments: each ray keeps the index of its
+    # pigment (1 byte, not 24 of RGB: a 4-sample render of the paper's sensor held 100 MB of
+    # float colours), BLACK where it sees no lobe; the image is looked up at the end.
+    colours = pigment_table(scene).reshape(-1, 3)  # row 2 surface + parity
+    black = colours.shape[0]
+    colours = np.concatenate([colours, np.zeros((1, 3))])
+    pigment = np.full(u.size, black, dtype=np.uint8 if black < 256 else np.uint16)
     seen = 0
     bar = None
     if progress:
@@ -66,13 +71,9 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
     # The radius key needs the sub-grid step 1 / (2 supersample), not the n = supersample^2
     # samples per pixel (a key range n times too large: 31 GiB at --supersample 8).
     aligned = _aligned_meridian(profile, camera, u, v, int(supersample)) if pose.aligned else None
-    # Every hit shows one of the scene's 24 shaded pigments: quantise those once, not per ray.
-    colours = pigment_table(scene)
-    if n == 1:
-        colours = _to_uint8(colours)
 
     def render_chunk(sl: slice) -> int:
-        """Shade one chunk of rays into its own slice of rgb; returns rays seeing a lobe."""
+        """Shade one chunk of rays into its own slice of `pigment`; returns rays seeing a lobe."""
         if aligned is not None:
             lit, oc, dc, n_seen = aligned(sl)
         else:
@@ -82,11 +83,12 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
             oc = [np.ascontiguousarray(hits.point[lit, i]) for i in range(3)]
             dc = [np.ascontiguousarray(hits.direction[lit, i]) for i in range(3)]
         if lit.any():
-            rgb[sl][lit] = colours[pigment_index(scene, oc, dc)]
+            surface, parity = pigment_index(scene, oc, dc)
+            pigment[sl][lit] = 2 * surface + parity
         return n_seen
 
     # numpy releases the GIL inside its loops: chunks shade in parallel threads, each into
-    # its own slice of rgb, so the image is the same whatever the thread count.
+    # its own slice of `pigment`, so the image is the same whatever the thread count.
     from concurrent.futures import ThreadPoolExecutor
 
     slices = [slice(a, min(a + CHUNK_RAYS, u.size)) for a in range(0, u.size, CHUNK_RAYS)]
@@ -102,7 +104,15 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
             "camera: no pixel sees the mirror (check [camera_pose] decentre / tilt_deg / "
             "axial_offset and the [camera] constants)"
         )
-    out = rgb if n == 1 else _to_uint8(rgb.reshape(-1, n, 3).mean(axis=1))
+    if n == 1:  # one sample per pixel: the quantised pigments
+        out = _to_uint8(colours)[pigment]
+    else:  # the mean of each pixel's samples, summed first to last (as numpy's mean), quantised
+        samples = pigment.reshape(-1, n)
+        total = colours[samples[:, 0]]
+        for k in range(1, n):
+            total += colours[samples[:, k]]
+        total /= n
+        out = _to_uint8(total)
     if pixels is None:
         return out.reshape(h, w, 3)
     image = np.zeros((h, w, 3), np.uint8)
