@@ -168,25 +168,36 @@ def image_difference(a: np.ndarray, b: np.ndarray, *, mask: np.ndarray | None = 
     2004, IEEE TIP 13(4)) on the luma Y = 0.299 R + 0.587 G + 0.114 B with their constants:
     Gaussian window sigma = 1.5 px, K1 = 0.01, K2 = 0.03, L = 255; mean over the mask.
     """
+    return image_differences(a, {"b": b}, mask=mask)["b"]
+
+
+def image_differences(a: np.ndarray, others: dict, *, mask: np.ndarray | None = None) -> dict:
+    """image_difference(a, b) of each named image b in `others`, {name: {"rms", "ssim"}}:
+    a's luma and its window sums made once (two of SSIM's five Gaussian filters a pair)."""
     from scipy.ndimage import gaussian_filter
 
     a = np.asarray(a, float)
-    b = np.asarray(b, float)
-    if a.shape != b.shape:
-        raise ValueError(f"image_difference: shapes differ {a.shape} vs {b.shape}")
     m = np.ones(a.shape[:2], bool) if mask is None else np.asarray(mask, bool)
-    diff = (a - b)[m]
-    rms = float(np.sqrt(np.mean(diff * diff))) if diff.size else float("nan")
     luma = np.array([0.299, 0.587, 0.114])
-    x, y = a @ luma, b @ luma
     c1, c2 = (0.01 * 255) ** 2, (0.03 * 255) ** 2
     g = lambda img: gaussian_filter(img, 1.5, truncate=3.5)  # noqa: E731  (11 x 11 window)
-    mx, my = g(x), g(y)
+    x = a @ luma
+    mx = g(x)
     sxx = g(x * x) - mx * mx
-    syy = g(y * y) - my * my
-    sxy = g(x * y) - mx * my
-    ssim_map = ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
-    return {"rms": rms, "ssim": float(ssim_map[m].mean()) if m.any() else float("nan")}
+    out = {}
+    for name, b in others.items():
+        b = np.asarray(b, float)
+        if a.shape != b.shape:
+            raise ValueError(f"image_difference: shapes differ {a.shape} vs {b.shape}")
+        diff = (a - b)[m]
+        rms = float(np.sqrt(np.mean(diff * diff))) if diff.size else float("nan")
+        y = b @ luma
+        my = g(y)
+        syy = g(y * y) - my * my
+        sxy = g(x * y) - mx * my
+        ssim_map = ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
+        out[name] = {"rms": rms, "ssim": float(ssim_map[m].mean()) if m.any() else float("nan")}
+    return out
 
 
 def difference_image(a: np.ndarray, b: np.ndarray, *, gain: float = 1.0) -> np.ndarray:
