@@ -14,6 +14,8 @@ inside corner, which it cannot reach.
 from __future__ import annotations
 
 import math
+import weakref
+from collections import OrderedDict
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -28,6 +30,13 @@ if TYPE_CHECKING:
 #: Radial spacing (mm) of the envelope's samples; the envelope is piecewise smooth,
 #: so linear interpolation between them errs by ~ spacing^2 / (8 rho) (< 2e-7 mm).
 GRID = 0.0005
+#: Envelopes cut in this process: (id of the toolpath, rho, include_junction) -> (a weak
+#: reference to that toolpath, the envelope). The planner hands out one Toolpath per
+#: program (toolpath.plan_toolpath), and `run` cuts the configured job's two programs with
+#: the programmed nose about 15 times each (0.6 s of CPU); a forked worker inherits them.
+_CUT: OrderedDict = OrderedDict()
+#: Envelopes kept (each ~2 MB of samples).
+CUT_KEPT = 8
 
 
 def contour_profile(toolpath: Toolpath) -> Profile:
@@ -65,6 +74,22 @@ def nose_envelope(toolpath: Toolpath, rho: float, *, include_junction: bool = Tr
     offset back, without the inside-corner fillet); the lobe's ends are extended along
     their last slope where no piece covers a radius.
     """
+    key = (id(toolpath), float(rho), bool(include_junction))
+    held = _CUT.get(key)
+    if held is not None and held[0]() is toolpath:
+        _CUT.move_to_end(key)
+        return held[1]
+    profile = _envelope(toolpath, rho, include_junction)
+    try:
+        _CUT[key] = (weakref.ref(toolpath), profile)
+    except TypeError:  # a stand-in for a Toolpath that takes no weak reference: not kept
+        return profile
+    if len(_CUT) > CUT_KEPT:
+        _CUT.popitem(last=False)
+    return profile
+
+
+def _envelope(toolpath: Toolpath, rho: float, include_junction: bool) -> TabulatedProfile:
     m = toolpath.mirror
     segs = toolpath.segments
     lobes = toolpath.lobe_of

@@ -7,7 +7,7 @@ Public API (stable names):
   image_displacement(made, mirror, camera=None, *, pose=...) -> DistortionMaps
   distortion_figures(made, mirror, camera=None, *, pose=...) -> {"lobes": [...]}
   render_image(profile, mirror, scene, camera=None, ...) -> (H, W, 3) uint8
-  image_difference(a, b, *, mask=None) -> {"rms", "ssim"}
+  image_difference(a, b, *, mask=None) -> {"rms", "ssim"};  image_differences(a, {name: b}, *, mask=None)
   build_scene(spec, *, mirror_top, mirror_radius) -> Scene;  reference_surface(name, mirror)
   polish_curve(profile, mirror, params) -> PolishCurve (figures against polishing time)
   optics.plots: displacement_vs_radius_png(maps), displacement_map_png(maps) -> PNG bytes

@@ -55,8 +55,13 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
             raise ValueError(f"render_image: pixels mask {pixels.shape} is not the image's {(h, w)}")
         u, v = u[pixels], v[pixels]  # (m, n): the masked pixels' samples
     u, v = u.reshape(-1), v.reshape(-1)
-    # One sample per pixel: quantise each chunk straight into the image; else average first.
-    rgb = np.zeros((u.size, 3), dtype=np.uint8 if n == 1 else float)
+    # Every hit shows one of the scene's 24 shaded pigments: each ray keeps the index of its
+    # pigment (1 byte, not 24 of RGB: a 4-sample render of the paper's sensor held 100 MB of
+    # float colours), BLACK where it sees no lobe; the image is looked up at the end.
+    colours = pigment_table(scene).reshape(-1, 3)  # row 2 surface + parity
+    black = colours.shape[0]
+    colours = np.concatenate([colours, np.zeros((1, 3))])
+    pigment = np.full(u.size, black, dtype=np.uint8 if black < 256 else np.uint16)
     seen = 0
     bar = None
     if progress:
@@ -66,13 +71,9 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
     # The radius key needs the sub-grid step 1 / (2 supersample), not the n = supersample^2
     # samples per pixel (a key range n times too large: 31 GiB at --supersample 8).
     aligned = _aligned_meridian(profile, camera, u, v, int(supersample)) if pose.aligned else None
-    # Every hit shows one of the scene's 24 shaded pigments: quantise those once, not per ray.
-    colours = pigment_table(scene)
-    if n == 1:
-        colours = _to_uint8(colours)
 
     def render_chunk(sl: slice) -> int:
-        """Shade one chunk of rays into its own slice of rgb; returns rays seeing a lobe."""
+        """Shade one chunk of rays into its own slice of `pigment`; returns rays seeing a lobe."""
         if aligned is not None:
             lit, oc, dc, n_seen = aligned(sl)
         else:
@@ -82,11 +83,12 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
             oc = [np.ascontiguousarray(hits.point[lit, i]) for i in range(3)]
             dc = [np.ascontiguousarray(hits.direction[lit, i]) for i in range(3)]
         if lit.any():
-            rgb[sl][lit] = colours[pigment_index(scene, oc, dc)]
+            surface, parity = pigment_index(scene, oc, dc)
+            pigment[sl][lit] = 2 * surface + parity
         return n_seen
 
     # numpy releases the GIL inside its loops: chunks shade in parallel threads, each into
-    # its own slice of rgb, so the image is the same whatever the thread count.
+    # its own slice of `pigment`, so the image is the same whatever the thread count.
     from concurrent.futures import ThreadPoolExecutor
 
     slices = [slice(a, min(a + CHUNK_RAYS, u.size)) for a in range(0, u.size, CHUNK_RAYS)]
@@ -102,7 +104,15 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
             "camera: no pixel sees the mirror (check [camera_pose] decentre / tilt_deg / "
             "axial_offset and the [camera] constants)"
         )
-    out = rgb if n == 1 else _to_uint8(rgb.reshape(-1, n, 3).mean(axis=1))
+    if n == 1:  # one sample per pixel: the quantised pigments
+        out = _to_uint8(colours)[pigment]
+    else:  # the mean of each pixel's samples, summed first to last (as numpy's mean), quantised
+        samples = pigment.reshape(-1, n)
+        total = colours[samples[:, 0]]
+        for k in range(1, n):
+            total += colours[samples[:, k]]
+        total /= n
+        out = _to_uint8(total)
     if pixels is None:
         return out.reshape(h, w, 3)
     image = np.zeros((h, w, 3), np.uint8)
@@ -158,25 +168,36 @@ def image_difference(a: np.ndarray, b: np.ndarray, *, mask: np.ndarray | None = 
     2004, IEEE TIP 13(4)) on the luma Y = 0.299 R + 0.587 G + 0.114 B with their constants:
     Gaussian window sigma = 1.5 px, K1 = 0.01, K2 = 0.03, L = 255; mean over the mask.
     """
+    return image_differences(a, {"b": b}, mask=mask)["b"]
+
+
+def image_differences(a: np.ndarray, others: dict, *, mask: np.ndarray | None = None) -> dict:
+    """image_difference(a, b) of each named image b in `others`, {name: {"rms", "ssim"}}:
+    a's luma and its window sums made once (two of SSIM's five Gaussian filters a pair)."""
     from scipy.ndimage import gaussian_filter
 
     a = np.asarray(a, float)
-    b = np.asarray(b, float)
-    if a.shape != b.shape:
-        raise ValueError(f"image_difference: shapes differ {a.shape} vs {b.shape}")
     m = np.ones(a.shape[:2], bool) if mask is None else np.asarray(mask, bool)
-    diff = (a - b)[m]
-    rms = float(np.sqrt(np.mean(diff * diff))) if diff.size else float("nan")
     luma = np.array([0.299, 0.587, 0.114])
-    x, y = a @ luma, b @ luma
     c1, c2 = (0.01 * 255) ** 2, (0.03 * 255) ** 2
     g = lambda img: gaussian_filter(img, 1.5, truncate=3.5)  # noqa: E731  (11 x 11 window)
-    mx, my = g(x), g(y)
+    x = a @ luma
+    mx = g(x)
     sxx = g(x * x) - mx * mx
-    syy = g(y * y) - my * my
-    sxy = g(x * y) - mx * my
-    ssim_map = ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
-    return {"rms": rms, "ssim": float(ssim_map[m].mean()) if m.any() else float("nan")}
+    out = {}
+    for name, b in others.items():
+        b = np.asarray(b, float)
+        if a.shape != b.shape:
+            raise ValueError(f"image_difference: shapes differ {a.shape} vs {b.shape}")
+        diff = (a - b)[m]
+        rms = float(np.sqrt(np.mean(diff * diff))) if diff.size else float("nan")
+        y = b @ luma
+        my = g(y)
+        syy = g(y * y) - my * my
+        sxy = g(x * y) - mx * my
+        ssim_map = ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
+        out[name] = {"rms": rms, "ssim": float(ssim_map[m].mean()) if m.any() else float("nan")}
+    return out
 
 
 def difference_image(a: np.ndarray, b: np.ndarray, *, gain: float = 1.0) -> np.ndarray:

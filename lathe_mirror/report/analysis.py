@@ -20,7 +20,7 @@ from ..optics.radial import lobe_pixel_radii, radial_displacement, radial_figure
 from ..optics.ranging.resolution import resolution_table
 from ..optics.ranging.stereo import error_curve, image_mask, prepare, range_figures, sector_margin, stereo_range
 from ..optics.ranging.truth import true_range
-from ..optics.render import image_difference, render_image
+from ..optics.render import image_differences, render_image
 from ..optics.sampling import PIXELS_PER_LOBE, azimuth_sectors, lobe_pixels, pixel_stride
 from ..path import Arc, Line
 from ..profile import ExactProfile, Profile
@@ -281,8 +281,8 @@ def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None, *
     # blurred only where traced (optics.defocus: the tiles holding them), the rest black
     images = {name: defocus_image(render_image(made[name], mirror, scene, pixels=traced), blur, pixels=traced)
               for name in names}
-    stats = {name: ImageDifference.from_dict(image_difference(images["exact"], images[name], mask=mask))
-             for name in names if name != "exact"}
+    diffs = image_differences(images["exact"], {name: images[name] for name in names if name != "exact"}, mask=mask)
+    stats = {name: ImageDifference.from_dict(d) for name, d in diffs.items()}
     return images, RenderFigures(against_exact=stats,
                                  defocus=DefocusFigures.from_dict(blur_figures(mirror, lens, zones)))
 

@@ -40,6 +40,11 @@ def png(fig, *, crop: bool = True) -> bytes:
     crop: to the drawn content (a tight bounding box: the figure drawn twice); False for a
     figure laid out already (tight_layout)."""
     buf = io.BytesIO()
+    if not crop and _pyplot().rcParams["figure.autolayout"] is False:
+        # tight_layout leaves a placeholder layout engine, for which savefig lays the figure
+        # out once more (a whole draw with the drawing switched off, a third of the cost of
+        # a 2 x 2 figure) to change nothing: the figure is laid out, so none (same pixels)
+        fig.set_layout_engine(None)
     fig.savefig(buf, format="png", dpi=100, metadata={"Software": None}, bbox_inches="tight" if crop else None)
     _pyplot().close(fig)
     return buf.getvalue()

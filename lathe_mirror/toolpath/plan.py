@@ -6,6 +6,7 @@ The strategies themselves are in paper.py, lattice.py and arcs.py (see the packa
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 
 from ..design import Mirror
 from ..errors import InputError
@@ -17,10 +18,20 @@ from .layout import Layout
 from .moves import BEST, Hand, Strategy, Toolpath
 from .paper import paper_points
 
+#: Programs planned in this process, by their arguments (a Toolpath is never changed once
+#: planned): `run` asks for the configured job's two programs about ten times (the checks,
+#: the report's stages, the shop programs, the tolerance's phase 0 and sensitivity; 0.6 s
+#: of CPU), and a forked worker inherits what its parent planned.
+_PLANNED: OrderedDict = OrderedDict()
+#: Programs kept (each a few hundred moves: ~5 kB pickled; the tolerance analysis plans 18
+#: lattice phases of each program).
+PLANNED_KEPT = 64
+
 
 def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy = BEST, *,
                   max_deviation: float = 0.01) -> Toolpath:
-    """Plan the finishing contour of `mirror` on `lathe` with `tool`.
+    """Plan the finishing contour of `mirror` on `lathe` with `tool` (planned once per
+    process for equal arguments: the same Toolpath is handed out again).
 
     max_deviation (mm): the largest normal deviation the budget must allow a polyline
     (decides "budget too small"; the config's toolpath.max_deviation).
@@ -30,6 +41,22 @@ def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy =
     cannot fit the junction, the held tool's flanks would rub the profile, or the contour
     leaves the lathe's travel.
     """
+    key = (mirror, lathe, tool, strategy, max_deviation, type(max_deviation))
+    try:
+        tp = _PLANNED.get(key)
+    except TypeError:  # a surface holding arrays (a compensated target) has no hash: plan it
+        return _plan(mirror, lathe, tool, strategy, max_deviation)
+    if tp is None:
+        tp = _plan(mirror, lathe, tool, strategy, max_deviation)
+        _PLANNED[key] = tp
+        if len(_PLANNED) > PLANNED_KEPT:
+            _PLANNED.popitem(last=False)
+    else:
+        _PLANNED.move_to_end(key)
+    return tp
+
+
+def _plan(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy, max_deviation: float) -> Toolpath:
     if not (isinstance(max_deviation, (int, float)) and math.isfinite(max_deviation) and max_deviation > 0):
         raise InputError(f"toolpath.max_deviation = {max_deviation!r} mm: must be a finite number > 0")
     if not isinstance(strategy, Strategy):
