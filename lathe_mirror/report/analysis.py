@@ -19,7 +19,7 @@ from ..optics.distortion import image_displacement, usable_annulus
 from ..optics.radial import lobe_pixel_radii, radial_displacement, radial_figures, used_extent
 from ..optics.ranging.resolution import resolution_table
 from ..optics.ranging.stereo import (SECTOR_LEAD_DEG, error_curve, image_mask, matched_sectors, prepare, range_figures,
-                                     sector_segments, stereo_range)
+                                     sector_margin, sector_segments, stereo_range)
 from ..optics.ranging.truth import true_range
 from ..optics.render import image_difference, render_image
 from ..optics.sampling import PIXELS_PER_LOBE, RANGE_SECTORS, azimuth_sectors, lobe_pixels, pixel_stride
@@ -324,18 +324,25 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
         [seg.counted for seg in sector_segments(sectors, grid, match, st.params, mirror)]))
     truth = true_range(mirror, scene, counted)
     lens, blur = report_lens(mirror, settings)
+    lead = None  # the pixels only the matcher's memory sees (sampled), rendered one ray a pixel
     if sectors is None:
         mask = grow_mask(image_mask(mirror, grid, match.num_disparities), blur)
     else:  # the blur's reach added to the annuli and the wedges (no distance transform of 12 MP)
         reach = math.ceil(float(np.max(blur)) / 2.0) + 1
         mask = image_mask(mirror, grid, match.num_disparities, matched_sectors(sectors, mirror, grid, match, st.params),
                           grow_px=reach)
+        if st.supersample > 1:  # the counted columns with the filters' reach either side at full supersample
+            side = sector_margin(mirror, grid, match, st.params) * grid.azimuth_step
+            lead = mask & ~image_mask(mirror, grid, match.num_disparities, sectors.extended(side, side), grow_px=reach)
     blurred = None if sectors is None else mask
     mirrors, maps = {}, {}
     precision = math.nan
     for name in names:  # exact first: its disparity error is the matcher's precision
-        image = defocus_image(render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask), blur,
-                              pixels=blurred)
+        image = render_image(made[name], mirror, scene, supersample=st.supersample,
+                             pixels=mask if lead is None else mask & ~lead)
+        if lead is not None:
+            image[lead] = render_image(made[name], mirror, scene, pixels=lead)[lead]
+        image = defocus_image(image, blur, pixels=blurred)
         result = stereo_range(image, mirror, st.params, sectors=sectors)
         fig = RangeFigures.from_dict(range_figures(result, truth, mirror,
                                                    precision_px=None if name == "exact" else precision))
@@ -359,7 +366,8 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
                       f"; sampled: the panorama columns in {sectors.count} azimuth sectors evenly round the axis, "
                       f"{100.0 * sectors.fraction:.1f} % of the turn (optics.sampling.PIXELS_PER_LOBE pixels of the "
                       f"larger lobe), each matched at full resolution with the whole panorama's context along "
-                      f"azimuth, at most {SECTOR_LEAD_DEG:g} deg of it (optics.ranging.stereo.sector_segments)"),
+                      f"azimuth, at most {SECTOR_LEAD_DEG:g} deg of it (optics.ranging.stereo.sector_segments; "
+                      "rendered one ray a pixel where only the matcher's memory sees it)"),
         supersample=st.supersample,
         matcher_precision_px=precision,
         resolution=ResolutionTable.from_dict(table),
