@@ -22,7 +22,7 @@ from ..optics.ranging.stereo import (SECTOR_LEAD_DEG, error_curve, image_mask, m
                                      sector_margin, sector_segments, stereo_range)
 from ..optics.ranging.truth import true_range
 from ..optics.render import image_difference, render_image
-from ..optics.sampling import PIXELS_PER_LOBE, RANGE_SECTORS, azimuth_sectors, lobe_pixels, pixel_stride
+from ..optics.sampling import PIXELS_PER_LOBE, RANGE_SECTORS, AzimuthSectors, azimuth_sectors, lobe_pixels, pixel_stride
 from ..path import Arc, Line
 from ..profile import ExactProfile, Profile
 from ..results.base import Range, Stat, plain
@@ -292,7 +292,8 @@ def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None, *
                                  defocus=DefocusFigures.from_dict(blur_figures(mirror, lens, zones)))
 
 
-def traced_pixels(counted: np.ndarray, sectors, blur_px: np.ndarray, sensor_px: tuple[int, int]) -> np.ndarray:
+def traced_pixels(counted: np.ndarray, sectors: AzimuthSectors, blur_px: np.ndarray,
+                  sensor_px: tuple[int, int]) -> np.ndarray:
     """The pixels a sampled render traces (H, W bool): every pixel within the blur's and
     the SSIM window's reach (optics.defocus.grow_mask's of blur + 2 SSIM_REACH_PX) of a
     counted pixel, so each counted pixel's value is the full image's. Built from the
