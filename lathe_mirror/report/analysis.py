@@ -18,10 +18,11 @@ from ..optics.defocus import blur_figures, blur_map, defocus_image, grow_mask, l
 from ..optics.distortion import image_displacement, usable_annulus
 from ..optics.radial import lobe_pixel_radii, radial_displacement, radial_figures, used_extent
 from ..optics.ranging.resolution import resolution_table
-from ..optics.ranging.stereo import error_curve, image_mask, prepare, range_figures, sector_margin, stereo_range
+from ..optics.ranging.stereo import (SECTOR_LEAD_DEG, error_curve, image_mask, matched_sectors, prepare, range_figures,
+                                     sector_margin, sector_segments, stereo_range)
 from ..optics.ranging.truth import true_range
 from ..optics.render import image_differences, render_image
-from ..optics.sampling import PIXELS_PER_LOBE, azimuth_sectors, lobe_pixels, pixel_stride
+from ..optics.sampling import PIXELS_PER_LOBE, RANGE_SECTORS, AzimuthSectors, azimuth_sectors, lobe_pixels, pixel_stride
 from ..path import Arc, Line
 from ..profile import ExactProfile, Profile
 from ..results.base import Range, Stat, plain
@@ -72,15 +73,17 @@ def figure_definitions(mirror: Mirror) -> dict[str, str]:
     PIXELS_PER_LOBE pixel centres) the sample ("sampled_pixels"); the paper's: none."""
     out = dict(FIGURE_DEFINITIONS)
     sectors = azimuth_sectors(mirror)
-    if sectors is not None:
+    ranged = azimuth_sectors(mirror, count=RANGE_SECTORS)
+    if sectors is not None and ranged is not None:
         stride = pixel_stride(mirror)
         out["sampled_pixels"] = (
             f"the larger lobe has {lobe_pixels(mirror):,} pixel centres, more than "
             f"optics.sampling.PIXELS_PER_LOBE ({PIXELS_PER_LOBE:,}): the mirrors' per-pixel figures "
-            f"(optics_distortion) over every {stride}th row and column; the renders' differences and the "
-            f"range from the image over {sectors.count} azimuth sectors evenly round the axis, "
-            f"{100.0 * sectors.fraction:.1f} % of the turn, each pixel the camera's own (traced and matched "
-            "with its neighbours out to the filters' reach); the report's images black outside them")
+            f"(optics_distortion) over every {stride}th row and column; the renders' differences over "
+            f"{sectors.count} azimuth sectors and the range from the image over {ranged.count}, evenly round the "
+            f"axis, {100.0 * sectors.fraction:.1f} % of the turn, each pixel the camera's own (traced and matched "
+            "with its neighbours out to the filters' reach, and the matcher's context along azimuth); the "
+            "report's images black outside them")
     return out
 
 
@@ -99,10 +102,12 @@ class ReportCurves:
 
 @dataclass(frozen=True, slots=True)
 class RangeMaps:
-    """Each mirror's range map (m; NaN where not ranged) over the common band (deg)."""
+    """Each mirror's range map (m; NaN where not ranged) over the common band (deg), and
+    the panorama columns ranged (a sample of azimuth, optics.sampling; None: all)."""
 
     maps: dict[str, np.ndarray]
     band_deg: tuple[float, float]
+    columns: tuple[int, ...] | None = None
 
 
 @dataclass
@@ -277,7 +282,7 @@ def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None, *
     traced = None
     if sectors is not None:
         mask &= sectors.pixels(mirror.camera.sensor_px)
-        traced = grow_mask(mask, blur + 2.0 * SSIM_REACH_PX)
+        traced = traced_pixels(mask, sectors, blur, mirror.camera.sensor_px)
     # blurred only where traced (optics.defocus: the tiles holding them), the rest black
     images = {name: defocus_image(render_image(made[name], mirror, scene, pixels=traced), blur, pixels=traced)
               for name in names}
@@ -285,6 +290,23 @@ def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None, *
     stats = {name: ImageDifference.from_dict(d) for name, d in diffs.items()}
     return images, RenderFigures(against_exact=stats,
                                  defocus=DefocusFigures.from_dict(blur_figures(mirror, lens, zones)))
+
+
+def traced_pixels(counted: np.ndarray, sectors: AzimuthSectors, blur_px: np.ndarray,
+                  sensor_px: tuple[int, int]) -> np.ndarray:
+    """The pixels a sampled render traces (H, W bool): every pixel within the blur's and
+    the SSIM window's reach (optics.defocus.grow_mask's of blur + 2 SSIM_REACH_PX) of a
+    counted pixel, so each counted pixel's value is the full image's. Built from the
+    wedges (their edges moved out by the reach) and a circle the reach beyond the farthest
+    counted pixel, which hold every disc of that reach about a counted pixel (no distance
+    transform of the sensor; a few more pixels than the discs')."""
+    reach = math.ceil(float(np.max(blur_px)) / 2.0 + SSIM_REACH_PX) + 1
+    w, h = sensor_px
+    rr, cc = np.nonzero(counted)
+    if rr.size == 0:
+        return np.zeros((h, w), bool)
+    farthest = float(np.max(np.hypot(cc + 0.5 - w / 2.0, rr + 0.5 - h / 2.0)))
+    return sectors.pixels(sensor_px, slack_px=reach, within_px=farthest + reach)
 
 
 def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings,
@@ -296,24 +318,32 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
     the panorama while the larger lobe has at most optics.sampling.PIXELS_PER_LOBE pixels,
     else the columns in its azimuth sectors (stereo_range(sectors=))."""
     st = settings.stereo
-    sectors = azimuth_sectors(mirror)
+    sectors = azimuth_sectors(mirror, count=RANGE_SECTORS)
     grid, match = prepare(mirror, st.params)
     scene = scene_for(settings, mirror)
-    margin = 0 if sectors is None else sector_margin(mirror, grid, match, st.params)
-    counted = grid if sectors is None else grid.with_columns(np.concatenate(sectors.columns(grid.n_azimuth)))
+    counted = grid if sectors is None else grid.with_columns(np.concatenate(
+        [seg.counted for seg in sector_segments(sectors, grid, match, st.params, mirror)]))
     truth = true_range(mirror, scene, counted)
     lens, blur = report_lens(mirror, settings)
+    lead = None  # the pixels only the matcher's memory sees (sampled), rendered one ray a pixel
     if sectors is None:
         mask = grow_mask(image_mask(mirror, grid, match.num_disparities), blur)
     else:  # the blur's reach added to the annuli and the wedges (no distance transform of 12 MP)
         reach = math.ceil(float(np.max(blur)) / 2.0) + 1
-        mask = image_mask(mirror, grid, match.num_disparities, sectors, margin, grow_px=reach)
+        mask = image_mask(mirror, grid, match.num_disparities, matched_sectors(sectors, mirror, grid, match, st.params),
+                          grow_px=reach)
+        if st.supersample > 1:  # the counted columns with the filters' reach either side at full supersample
+            side = sector_margin(mirror, grid, match, st.params) * grid.azimuth_step
+            lead = mask & ~image_mask(mirror, grid, match.num_disparities, sectors.extended(side, side), grow_px=reach)
     blurred = None if sectors is None else mask
     mirrors, maps = {}, {}
     precision = math.nan
     for name in names:  # exact first: its disparity error is the matcher's precision
-        image = defocus_image(render_image(made[name], mirror, scene, supersample=st.supersample, pixels=mask), blur,
-                              pixels=blurred)
+        image = render_image(made[name], mirror, scene, supersample=st.supersample,
+                             pixels=mask if lead is None else mask & ~lead)
+        if lead is not None:
+            image[lead] = render_image(made[name], mirror, scene, pixels=lead)[lead]
+        image = defocus_image(image, blur, pixels=blurred)
         result = stereo_range(image, mirror, st.params, sectors=sectors)
         fig = RangeFigures.from_dict(range_figures(result, truth, mirror,
                                                    precision_px=None if name == "exact" else precision))
@@ -336,11 +366,13 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
                    + ("" if sectors is None else
                       f"; sampled: the panorama columns in {sectors.count} azimuth sectors evenly round the axis, "
                       f"{100.0 * sectors.fraction:.1f} % of the turn (optics.sampling.PIXELS_PER_LOBE pixels of the "
-                      f"larger lobe), each matched at full resolution with {margin} columns either side"),
+                      f"larger lobe), each matched at full resolution with the whole panorama's context along "
+                      f"azimuth, at most {SECTOR_LEAD_DEG:g} deg of it (optics.ranging.stereo.sector_segments; "
+                      "rendered one ray a pixel where only the matcher's memory sees it)"),
         supersample=st.supersample,
         matcher_precision_px=precision,
         resolution=ResolutionTable.from_dict(table),
         mirrors=mirrors,
         defocus=DefocusFigures.from_dict(blur_figures(mirror, lens, zones)),
     )
-    return figures, RangeMaps(maps=maps, band_deg=tuple(math.degrees(x) for x in grid.band))
+    return figures, RangeMaps(maps=maps, band_deg=tuple(math.degrees(x) for x in grid.band), columns=counted.columns)

@@ -295,7 +295,7 @@ def plot_jobs(data: ReportData) -> list[tuple[str, object]]:
         jobs.append(("images", lambda: images_side_by_side(data.images)))
     if data.range_maps is not None:
         rm = data.range_maps
-        jobs.append(("range_maps", lambda: range_maps_png(rm.maps, rm.band_deg)))
+        jobs.append(("range_maps", lambda: range_maps_png(rm.maps, rm.band_deg, sampled=rm.columns)))
         jobs.append(("range_error", lambda: error_vs_range_png(
             {n: m.error_curve.to_dict() for n, m in data.ranging.mirrors.items()},
             title="median |range error| against range, each mirror, with the resolution model",

@@ -37,18 +37,35 @@ def range_map_png(range_m: np.ndarray, band_deg: tuple[float, float], *, title: 
     return png(fig)
 
 
-def range_maps_png(maps: dict[str, np.ndarray], band_deg: tuple[float, float]) -> bytes:
-    """Range panoramas of several mirrors stacked, titled by name, one colour bar."""
+def range_maps_png(maps: dict[str, np.ndarray], band_deg: tuple[float, float], *,
+                   sampled: np.ndarray | None = None) -> bytes:
+    """Range panoramas of several mirrors stacked, titled by name and the share of the
+    pixels ranged (map_title), one colour bar. sampled: the panorama columns ranged (a
+    sample of azimuth, optics.sampling; None: every column); the others drawn white."""
     plt = _pyplot()
     n = len(maps)
     fig, axes = plt.subplots(n, 1, figsize=(12, 1.9 * n + 0.4), squeeze=False, layout="constrained")
     im = None
     for ax, (name, rng) in zip(axes[:, 0], maps.items()):
-        im = _draw_map(ax, plt, rng, band_deg)
-        valid = float(np.isfinite(rng).mean()) if rng.size else 0.0
-        ax.set_title(f"{name}: {100 * valid:.1f} % of the band ranged", fontsize=9)
+        im = _draw_map(ax, plt, rng, band_deg, sampled=sampled)
+        ax.set_title(map_title(name, rng, sampled), fontsize=9)
     fig.colorbar(im, ax=axes[:, 0].tolist(), label="range (m)", fraction=0.03, pad=0.01)
     return png(fig)
+
+
+def map_title(name: str, range_m: np.ndarray, sampled: np.ndarray | None = None) -> str:
+    """A range map's title: the share of the pixels it ranged among those it tried, the
+    whole band, or with sampled (column indices) the band's pixels in those columns (and
+    the share of the turn they are)."""
+    rng = np.asarray(range_m)
+    if sampled is None:
+        share = float(np.isfinite(rng).mean()) if rng.size else 0.0
+        return f"{name}: {100 * share:.1f} % of the band ranged"
+    cols = np.unique(np.asarray(sampled, np.intp))
+    tried = rng[:, cols]
+    share = float(np.isfinite(tried).mean()) if tried.size else 0.0
+    return (f"{name}: {100 * share:.1f} % of the sampled band ranged "
+            f"({100 * cols.size / rng.shape[1]:.1f} % of the turn sampled, white: not sampled)")
 
 
 def error_vs_range_png(curves: dict[str, dict], *, title: str = "",
@@ -91,11 +108,16 @@ def png(fig) -> bytes:
     return buf.getvalue()
 
 
-def _draw_map(ax, plt, range_m: np.ndarray, band_deg: tuple[float, float]):
+def _draw_map(ax, plt, range_m: np.ndarray, band_deg: tuple[float, float], *, sampled: np.ndarray | None = None):
     cmap = plt.get_cmap("viridis").with_extremes(bad=NO_RANGE)
     lo, hi = band_deg
+    extent = (0.0, 360.0, lo, hi)
     im = ax.imshow(np.ma.masked_invalid(range_m), cmap=cmap, vmin=RANGE_SCALE_M[0], vmax=RANGE_SCALE_M[1],
-                   extent=(0.0, 360.0, lo, hi), aspect="auto", interpolation="nearest")
+                   extent=extent, aspect="auto", interpolation="nearest")
+    if sampled is not None:  # the columns not sampled in white over the map, so grey is "tried, no range"
+        veil = np.ones((1, np.shape(range_m)[1], 4))  # opaque white
+        veil[0, np.asarray(sampled, np.intp), 3] = 0.0  # clear over the sampled columns
+        ax.imshow(veil, extent=extent, aspect="auto", interpolation="nearest")
     ax.set_xlabel("azimuth (deg)")
     ax.set_ylabel("elevation (deg)")
     ax.set_xticks(np.arange(0, 361, 45))

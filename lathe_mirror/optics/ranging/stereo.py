@@ -136,28 +136,49 @@ def equalising_blur(mirror: Mirror, grid: PanoramaGrid) -> tuple[float, float]:
 
 
 def image_mask(mirror: Mirror, grid: PanoramaGrid, rows_above: int,
-               sectors: AzimuthSectors | None = None, margin: int = 0, grow_px: float = 0.0) -> np.ndarray:
+               sectors: AzimuthSectors | None = None, grow_px: float = 0.0) -> np.ndarray:
     """(H, W) bool: the image pixels the unwrap of either lobe samples (the annuli of
     image radii over the grid's elevations, rows_above rows beyond each end included, with
     two pixels to spare for the bilinear footprint): all a render for stereo needs. With
-    sectors: only within their wedges widened by margin panorama columns (and the two
-    pixels), all stereo_range(sectors=) samples. grow_px: that many pixels more across
-    every edge (a blur's reach: a superset of optics.defocus.grow_mask's)."""
+    sectors: only within these wedges (and the two pixels; matched_sectors: all
+    stereo_range(sectors=) samples). grow_px: that many pixels more across every edge (a
+    blur's reach: a superset of optics.defocus.grow_mask's)."""
     w, h = mirror.camera.sensor_px
     x = np.arange(w) + 0.5 - w / 2.0
     y = np.arange(h) + 0.5 - h / 2.0
-    rho = np.hypot(x[None, :], y[:, None])
-    mask = np.zeros((h, w), bool)
     el = grid.elevations(rows_above, rows_above)
+    rings = []
     for lobe in mirror.lobes:
         lo, hi = mirror.fov_usable(lobe)
         r = ideal_radius_px(lobe, mirror.camera, el[(el >= lo) & (el <= hi)])
         r = r[np.isfinite(r)]
         if r.size:
-            mask |= (rho >= r.min() - 2.0 - grow_px) & (rho <= r.max() + 2.0 + grow_px)
-    if sectors is not None:  # a column's centre is in its wedge: half a column more reaches its edge
-        mask &= sectors.widened((margin + 0.5) * grid.azimuth_step).pixels((w, h), slack_px=2.0 + grow_px)
+            rings.append((r.min() - 2.0 - grow_px, r.max() + 2.0 + grow_px))
+    if sectors is None:
+        rho = np.hypot(x[None, :], y[:, None])
+        mask = np.zeros((h, w), bool)
+        for lo, hi in rings:
+            mask |= (rho >= lo) & (rho <= hi)
+        return mask
+    # the radii only of the wedges' pixels (a column's centre is in its wedge: half a
+    # column more reaches its edge)
+    mask = sectors.widened(0.5 * grid.azimuth_step).pixels(
+        (w, h), slack_px=2.0 + grow_px, within_px=max((hi for _, hi in rings), default=0.0))
+    rr, cc = np.nonzero(mask)
+    rho = np.hypot(x[cc], y[rr])
+    keep = np.zeros(rho.shape, bool)
+    for lo, hi in rings:
+        keep |= (rho >= lo) & (rho <= hi)
+    mask[rr[~keep], cc[~keep]] = False
     return mask
+
+
+def matched_sectors(sectors: AzimuthSectors, mirror: Mirror, grid: PanoramaGrid, mp: MatchParams,
+                    params: StereoParams) -> AzimuthSectors:
+    """The wedges stereo_range(sectors=) matches: each led by sector_lead columns and
+    followed by sector_margin (sector_segments: the most it matches)."""
+    step = grid.azimuth_step
+    return sectors.extended(sector_lead(grid) * step, sector_margin(mirror, grid, mp, params) * step)
 
 
 def band_visibility(profile: Profile, mirror: Mirror, grid: PanoramaGrid,
@@ -182,24 +203,21 @@ def stereo_range(image: np.ndarray, mirror: Mirror, params: StereoParams = Stere
     """Range every reference pixel of a rendered or captured image (H, W, 3) uint8 (or
     (H, W) grey) of an aligned camera through the design's stereo geometry.
 
-    sectors (optics.sampling): only the panorama columns in these wedges, each wedge's
-    panoramas matched on their own with sector_margin columns either side (matched, then
-    dropped), so a kept column sees what the whole panorama's would; the result's grid
-    holds the kept columns (PanoramaGrid.columns). The image needs its pixels only in the
-    wedges widened by sector_margin (image_mask with the sectors)."""
+    sectors (optics.sampling): only the panorama columns in these wedges, each matched
+    with the context the whole panorama's matcher gives it (sector_segments: from where
+    the whole panorama's aggregation along azimuth starts, at most sector_lead columns
+    before, and sector_margin after), so a kept column's disparity is the whole
+    panorama's, or close to it where the lead is cut; the result's grid holds the kept
+    columns (PanoramaGrid.columns). The image needs its pixels only in matched_sectors."""
     grid, mp = prepare(mirror, params)
     img = np.asarray(image)
     grey = img.astype(np.float32) @ np.asarray(LUMA, np.float32) if img.ndim == 3 else img.astype(np.float32)
     if sectors is None:
         d, outer, inner = _match_columns(grey, mirror, grid, mp, params)
     else:
-        margin = sector_margin(mirror, grid, mp, params)
-        parts, kept = [], []
-        for cols in sectors.columns(grid.n_azimuth, margin):
-            part = _match_columns(grey, mirror, grid.with_columns(cols), mp, params)
-            parts.append([x[:, margin:cols.size - margin] for x in part])
-            kept.append(cols[margin:cols.size - margin])
-        grid = grid.with_columns(np.concatenate(kept))
+        segments = sector_segments(sectors, grid, mp, params, mirror)
+        parts = _match_segments(grey, mirror, grid, mp, params, segments)
+        grid = grid.with_columns(np.concatenate([seg.counted for seg in segments]))
         d, outer, inner = (np.concatenate(x, axis=1) for x in zip(*parts))
     colour = unwrap(img, mirror, 1, grid)[0]
     if colour.ndim == 2:
@@ -210,26 +228,99 @@ def stereo_range(image: np.ndarray, mirror: Mirror, params: StereoParams = Stere
 
 
 def sector_margin(mirror: Mirror, grid: PanoramaGrid, mp: MatchParams, params: StereoParams) -> int:
-    """Columns matched beyond a wedge's edge and dropped: the reach along azimuth of the
+    """Columns matched after a wedge's last and dropped: the reach along azimuth of the
     equalising blur (3 sigma) and of the matcher's window (its left-right check's and
-    speckle filter's neighbours: 3 windows).
-
-    Not the matcher's memory: SGBM_3WAY aggregates its costs along the transposed
-    panorama's columns (azimuth), and across flat colour (a wall) a path keeps its
-    disparity for tens of degrees, so a wedge starts its paths without that history and
-    keeps fewer, better matches there: the sample reads low. Measured on the 12-MP design
-    at fast settings, exact mirror, median range error: the whole panorama 6.37 %; wedges
-    at phase 0 with 1 (this) / 4.7 / 7 / 9.5 / 14 deg of margin 5.13 / 5.29 / 5.38 / 5.60 /
-    5.85 %, each degree costing 2 SECTORS deg of the turn traced and matched, against a
-    spread over the wedges' phase of 3.9 to 5.1 % at 1 deg (tests/test_sampling.py)."""
+    speckle filter's neighbours: 3 windows). The matcher's memory runs the other way
+    (sector_lead)."""
     blur = math.ceil(3.0 * equalising_blur(mirror, grid)[1]) if params.equalise else 0
     return blur + 3 * mp.block_size
+
+
+#: How far (deg of azimuth) before a sampled wedge its matching starts, at most: SGBM_3WAY
+#: aggregates its costs down the transposed panorama's rows (azimuth, increasing), and over
+#: flat colour a path keeps its disparity for tens of degrees, so a wedge matched from its
+#: own edge keeps fewer, better matches than the whole panorama gives the same columns.
+#: Measured on the 12-MP design (fast settings, exact mirror, 8 wedges at phase 0 and 1/2,
+#: each matched as one stripe): the wedges' median range error against the whole
+#: panorama's disparities on the same columns, with SECTOR_LEAD_DEG = 0 / 5 / 10 / 20 / 40:
+#: -17 and -21 / -10 and -6 / -3.5 and -1.3 / -1.8 and -0.9 / -0.3 and 0.0 %, matching
+#: 0.18 / 0.28 / 0.37 / 0.48 / 0.70 of the turn (phase 0).
+SECTOR_LEAD_DEG = 10.0
+
+
+def sector_lead(grid: PanoramaGrid) -> int:
+    """SECTOR_LEAD_DEG in panorama columns."""
+    return int(math.ceil(math.radians(SECTOR_LEAD_DEG) / grid.azimuth_step))
+
+
+#: OpenCV's SGBM_3WAY cuts the matched image's rows into this many stripes (fixed, so its
+#: output does not depend on the thread count: calib3d/src/stereosgbm.cpp, num_stripes),
+#: stripe k's output rows [k s, (k + 1) s) (s = ceil(rows / CV_STRIPES)) aggregated from
+#: row k s - overlap on, overlap = block_size // 2 + 1 + ceil(s / 10), fresh; stripe 0
+#: from row 0. On the whole panorama a column's context therefore starts at most a quarter
+#: turn and 10 % of it before; a wedge matched as an image of its own would be cut into
+#: four stripes of its own (a few degrees of memory), so the segments of all wedges are
+#: stacked four to an image, each segment starting where a stripe's aggregation does.
+CV_STRIPES = 4
+
+
+def cv_stripes(rows: int, block_size: int) -> tuple[int, int]:
+    """(stripe rows s, overlap) of SGBM_3WAY on an image of `rows` rows (CV_STRIPES)."""
+    size = int(math.ceil(rows / CV_STRIPES))
+    return size, block_size // 2 + 1 + int(math.ceil(0.1 * size))
+
+
+@dataclass(frozen=True)
+class Segment:
+    """Panorama columns matched as one run: `matched` (indices into the turn, contiguous),
+    the first `lead` of them context, the last `tail` the filters' reach, the rest counted."""
+
+    matched: np.ndarray
+    lead: int
+    tail: int
+
+    @property
+    def counted(self) -> np.ndarray:
+        return self.matched[self.lead:self.matched.size - self.tail]
+
+
+def sector_segments(sectors: AzimuthSectors, grid: PanoramaGrid, mp: MatchParams, params: StereoParams,
+                    mirror: Mirror) -> list[Segment]:
+    """The runs the wedges' columns are matched in: each wedge cut where the whole
+    panorama's matcher changes stripe (cv_stripes on its n_azimuth rows) or the turn
+    wraps, each run led by the columns back to where that stripe's aggregation starts
+    (at most sector_lead) and followed by sector_margin columns (not past the turn's end,
+    as on the whole panorama)."""
+    n = grid.n_azimuth
+    size, overlap = cv_stripes(n, mp.block_size)
+    lead_max, tail = sector_lead(grid), sector_margin(mirror, grid, mp, params)
+    out = []
+    for cols in sectors.columns(n):
+        cols = np.mod(cols, n)
+        stripe = np.minimum(cols // size, CV_STRIPES - 1)
+        cuts = np.flatnonzero((np.diff(stripe) != 0) | (np.diff(cols) != 1)) + 1
+        for run in np.split(cols, cuts):
+            first, last = int(run[0]), int(run[-1])
+            k = int(stripe[cols == first][0])
+            context = 0 if k == 0 else k * size - overlap
+            lead = min(lead_max, first - context)
+            after = min(tail, n - 1 - last)
+            out.append(Segment(np.arange(first - lead, last + 1 + after), lead, after))
+    return out
 
 
 def _match_columns(grey: np.ndarray, mirror: Mirror, grid: PanoramaGrid, mp: MatchParams,
                    params: StereoParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The reference pixels' disparity (NaN unmatched or unseen by either lobe) and both
     panoramas, on the grid's columns (matched as one image: contiguous in azimuth)."""
+    pano = _panoramas(grey, mirror, grid, mp, params)
+    return _kept(match(pano[0].T, pano[1].T, mp).T, pano, grid.n_elevation, mp.num_disparities)
+
+
+def _panoramas(grey: np.ndarray, mirror: Mirror, grid: PanoramaGrid, mp: MatchParams,
+               params: StereoParams) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Both lobes' panoramas as matched (num_disparities rows beyond the band each way;
+    the outer equalised) and where each lobe sees."""
     import cv2
 
     pad = mp.num_disparities
@@ -242,12 +333,60 @@ def _match_columns(grey: np.ndarray, mirror: Mirror, grid: PanoramaGrid, mp: Mat
     if params.equalise:
         rows, cols = equalising_blur(mirror, grid)
         outer = cv2.GaussianBlur(outer, (0, 0), sigmaX=cols, sigmaY=rows, borderType=cv2.BORDER_REPLICATE)
-    d = match(outer.T, inner.T, mp).T[pad:pad + n]
-    # A match is kept only where both lobes see what was matched.
+    return outer, inner, outer_seen, inner_seen
+
+
+def _kept(d: np.ndarray, pano, n: int, pad: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The band's disparities (d: the matcher's on the padded panoramas) kept where both
+    lobes see what was matched, and the band's panoramas."""
+    outer, inner, outer_seen, inner_seen = pano
+    d = d[pad:pad + n]
     rows = np.arange(n)[:, None] + pad
     hit = np.clip(np.rint(rows - np.nan_to_num(d)).astype(np.intp), 0, n + 2 * pad - 1)
-    ok = np.isfinite(d) & outer_seen[pad:pad + n] & inner_seen[hit, np.arange(grid.shape[1])[None, :]]
+    ok = np.isfinite(d) & outer_seen[pad:pad + n] & inner_seen[hit, np.arange(d.shape[1])[None, :]]
     return np.where(ok, d, np.nan), outer[pad:pad + n], inner[pad:pad + n]
+
+
+def _match_segments(grey: np.ndarray, mirror: Mirror, grid: PanoramaGrid, mp: MatchParams,
+                    params: StereoParams, segments: list[Segment]) -> list[tuple[np.ndarray, ...]]:
+    """Each segment's counted columns (disparity, outer and inner panorama), every segment
+    aggregated from its own first column as one of SGBM_3WAY's stripes: stacked four to an
+    image (CV_STRIPES), segment k from the row where stripe k's aggregation starts, its
+    first `overlap` rows (output by stripe k - 1) within its lead. A segment whose lead is
+    shorter starts an image (stripe 0 has no overlap)."""
+    panos = [_panoramas(grey, mirror, grid.with_columns(seg.matched), mp, params) for seg in segments]
+    longest = max(seg.matched.size for seg in segments)
+    size = longest
+    while size - cv_stripes(CV_STRIPES * size, mp.block_size)[1] < longest:  # segment k ends before k + 1 starts
+        size += 1
+    overlap = cv_stripes(CV_STRIPES * size, mp.block_size)[1]
+    # a counted column needs its own stripe's rows and their median filter's neighbour
+    # (OpenCV filters the stacked disparities 3 x 3)
+    images = [[i] for i, seg in enumerate(segments) if seg.lead < overlap + 1]
+    for i, seg in enumerate(segments):
+        if seg.lead < overlap + 1:
+            continue
+        free = next((im for im in images if len(im) < CV_STRIPES), None)
+        if free is None:
+            images.append([i])
+        else:
+            free.append(i)
+    out: list = [None] * len(segments)
+    width = panos[0][0].shape[0]
+    for members in images:
+        left = np.zeros((CV_STRIPES * size, width), np.float32)
+        right = np.zeros_like(left)
+        starts = [0 if k == 0 else k * size - overlap for k in range(len(members))]
+        for start, i in zip(starts, members):
+            m = segments[i].matched.size
+            left[start:start + m] = panos[i][0].T
+            right[start:start + m] = panos[i][1].T
+        d = match(left, right, mp)
+        for start, i in zip(starts, members):
+            seg = segments[i]
+            part = _kept(d[start:start + seg.matched.size].T, panos[i], grid.n_elevation, mp.num_disparities)
+            out[i] = tuple(x[:, seg.lead:seg.matched.size - seg.tail] for x in part)
+    return out
 
 
 def range_figures(result: StereoResult, truth: TrueRange, mirror: Mirror, *,
