@@ -79,7 +79,7 @@ def run_block(block: Block, cwd: Path, where: str, timeout: float = 900) -> str:
     stdout = []
     fresh = os.environ.get("LATHE_MIRROR_TEST_FRESH", "") not in ("", "0")
     while lines and not fresh and (m := _PLAIN.fullmatch(lines[0].strip())):
-        stdout.append(_in_process(m, cwd, f"{where}: example exited {{}}:\n{lines[0]}\n"))
+        stdout.append(_in_process(m, cwd, where))
         lines = lines[1:]
     if any(ln.strip() for ln in lines):
         rest = "\n".join(lines)
@@ -92,7 +92,7 @@ def run_block(block: Block, cwd: Path, where: str, timeout: float = 900) -> str:
     return "".join(stdout)
 
 
-def _in_process(m: re.Match, cwd: Path, failed: str) -> str:
+def _in_process(m: re.Match, cwd: Path, where: str) -> str:
     """One _PLAIN line by cli.main in cwd: what it leaves on stdout (cut, or sent to its file)."""
     from lathe_mirror.cli import main
 
@@ -107,9 +107,12 @@ def _in_process(m: re.Match, cwd: Path, failed: str) -> str:
                 status = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
     finally:
         os.chdir(old)
-    text, errors = ((s.flush(), s.buffer.getvalue().decode("utf-8"))[1] for s in (out, err))
+    out.flush()
+    err.flush()
+    text = out.buffer.getvalue().decode("utf-8")
     if status != 0:
-        raise ExampleFailed(failed.format(status) + f"--- stderr ---\n{errors[-3000:]}")
+        raise ExampleFailed(f"{where}: example exited {status}:\n{m.group(0)}\n"
+                            f"--- stderr ---\n{err.buffer.getvalue().decode('utf-8')[-3000:]}")
     if m["cut"]:
         kept = text.splitlines(keepends=True)
         text = "".join(kept[:int(m["n"])] if m["cut"] == "head" else kept[len(kept) - int(m["n"]):])
