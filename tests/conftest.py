@@ -94,16 +94,24 @@ def _run_in_process(args: list[str], cwd, env) -> subprocess.CompletedProcess:
     return subprocess.CompletedProcess(["lathe-mirror", *args], status, texts[0], texts[1])
 
 
-#: The modules that take longest (seconds of one worker on the reference machine, 2 cores),
-#: handed to the workers first: `--dist loadscope --no-loadscope-reorder` (scripts/test)
-#: gives each worker the next module in collection order as it frees, so with the longest
-#: first the two workers finish together instead of one waiting for the docs' site build
-#: (xdist's own order is by the number of tests, which put that 50 s module last).
-LONGEST_FIRST = ("test_docs", "test_report", "test_fuzz", "test_designs", "test_run", "test_machine_errors",
-                 "test_shop", "test_optimize", "test_reliability", "test_outer_step", "test_gcode", "test_calib",
-                 "test_measure", "test_compute", "test_povray", "test_job", "test_bounds", "test_measure_backlash",
-                 "test_tolerance", "test_trace3d", "test_ranging", "test_step", "test_polish", "test_measure_tolerance",
-                 "test_results", "test_cad_cli", "test_partoff", "test_api_script", "test_render")
+#: The modules that take longest, longest first (their seconds on one worker, from a
+#: `--durations=0` run of the whole suite scaled to the 2-core reference machine: test_docs
+#: ~85, test_optimize ~64, test_report ~53, test_sampling ~46, ... test_spec ~3; the rest
+#: under 3 s each), handed to the workers first: `--dist loadscope --no-loadscope-reorder`
+#: (scripts/test) gives each worker the next module in collection order as it frees, so with
+#: the longest first the two workers finish together instead of one waiting for the docs'
+#: site build (xdist's own order is by the number of tests, which put that module last)
+#: or starting test_sampling's 12-MP renders when the other has only small modules left.
+LONGEST_FIRST = ("test_docs", "test_optimize", "test_report", "test_sampling", "test_designs", "test_fuzz",
+                 "test_reliability", "test_shop", "test_gcode", "test_signals", "test_run", "test_calib",
+                 "test_outer_step", "test_measure_loop", "test_measure_judge", "test_job", "test_measure",
+                 "test_machine_errors", "test_boring", "test_compute", "test_tolerance", "test_bounds", "test_step",
+                 "test_drawing_callouts", "test_dialects", "test_povray", "test_partoff", "test_results",
+                 "test_trace3d", "test_plausible", "test_polish", "test_ranging", "test_measured_bounds",
+                 "test_gcode_optics", "test_finish_exit", "test_measure_tolerance", "test_measure_backlash",
+                 "test_cad_cli", "test_endpoints_commands", "test_api_misuse", "test_api_script", "test_config_cli",
+                 "test_layers", "test_machining", "test_render", "test_optics_distortion", "test_lazy_imports",
+                 "test_spec")
 
 
 def pytest_collection_modifyitems(config, items):

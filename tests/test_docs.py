@@ -45,6 +45,25 @@ def test_runnable_blocks_are_found_and_outputs_replaced(tmp_path):
     assert [b.kind for b in runnable.blocks(page)] == ["run", "output", "run", "output", "run", "output"]
 
 
+def test_a_plain_command_line_runs_in_process_as_bash_runs_it(tmp_path, monkeypatch):
+    """A block's leading plain `lathe-mirror` lines run in this process (tools/runnable.py):
+    the same page and the same files as bash running each in a fresh interpreter
+    (LATHE_MIRROR_TEST_FRESH=1); a failing one names its line and its error."""
+    page = ("<!-- run -->\n```sh\nlathe-mirror design | tail -3\nlathe-mirror design --json > d.json  # figures\n"
+            "lathe-mirror design | head -2\nhead -c 1 d.json\n```\n<!-- output -->\n```text\n```\n")
+    got = {}
+    for fresh in ("0", "1"):
+        monkeypatch.setenv("LATHE_MIRROR_TEST_FRESH", fresh)
+        (tmp_path / fresh).mkdir()
+        got[fresh] = (runnable.execute(page, tmp_path / fresh, "page"), (tmp_path / fresh / "d.json").read_text())
+    assert got["0"] == got["1"] and got["0"][1].startswith("{")
+    shown = got["0"][0].split("```text\n")[1].removesuffix("\n```\n")
+    assert len(shown.splitlines()) == 3 + 2 + 1 and shown.endswith("\n{")  # tail -3, head -2, the file's "{"
+    monkeypatch.setenv("LATHE_MIRROR_TEST_FRESH", "0")
+    with pytest.raises(runnable.ExampleFailed, match=r"(?s)exited 2:\nlathe-mirror design --config nope.toml\n.*nope"):
+        runnable.execute("<!-- run -->\n```sh\nlathe-mirror design --config nope.toml\n```\n", tmp_path, "page")
+
+
 #: The examples run on fast settings here (fewer trials, a smaller search): a site
 #: configuration merged under each example's own --config (config.SITE_CONFIG_VAR).
 FAST = {"LATHE_MIRROR_CONFIG": str(ROOT / "tests" / "data" / "docs_fast.toml")}

@@ -9,6 +9,7 @@ run and are left out.
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -105,10 +106,11 @@ def test_no_upward_import_and_no_private_name(module):
             f"{module} imports the private module {target}"
 
 
-def _graph(typing: bool) -> dict[str, set[str]]:
+@functools.cache  # parsed once a run (each is every module's syntax tree): read, never changed
+def _graph(typing: bool) -> dict[str, frozenset[str]]:
     """Each module's project imports (a name that is a module counts as it); typing: the
     imports under `if TYPE_CHECKING:` too."""
-    graph: dict[str, set[str]] = {}
+    graph: dict[str, frozenset[str]] = {}
     for module, path in MODULES.items():
         deps = set()
         for target, names in _runtime_imports(path, typing=typing):
@@ -118,7 +120,7 @@ def _graph(typing: bool) -> dict[str, set[str]]:
             if target in MODULES:
                 deps.add(target)
         deps.discard(module)
-        graph[module] = deps
+        graph[module] = frozenset(deps)
     return graph
 
 

@@ -206,10 +206,16 @@ def test_the_report_renders_of_a_large_sensor_keep_their_figures(design, monkeyp
     0.426 / 0.445; half and double density RMS 73.3 and 78.8, SSIM 0.373 and 0.339). The
     binned sensor it replaces read 86.9 / 81.6 / 77.1 and 0.29 / 0.31 / 0.34 at strides
     4 / 3 / 2: a coarser camera's figures, not a sample of this one's."""
+    from lathe_mirror.optics.distortion import usable_annulus
+    from lathe_mirror.report import analysis
     from lathe_mirror.report.analysis import render_mirrors
 
     name, settings, mirror, made, zn, _ = design
     assert name == "12mp"  # the paper's renders are per pixel (every pixel)
+    # The usable annuli are the design's alone (no density in them): traced once here, not
+    # at each density (a 12-MP trace, ~4 s each).
+    annulus = usable_annulus(mirror)
+    monkeypatch.setattr(analysis, "usable_annulus", lambda m: annulus.copy() if m is mirror else usable_annulus(m))
     base = sampling.PIXELS_PER_LOBE
     got = {}
     for n in _densities(base):

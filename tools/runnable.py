@@ -7,10 +7,20 @@ so a later block sees the files an earlier one wrote. A fenced block preceded by
 is replaced by what the previous runnable block printed on stdout, so a figure quoted in
 a page comes from the run, not from a hand. Used by the docs build (tools/mkdocs_hooks.py)
 and by tests/test_docs.py for the README.
+
+A block's leading `lathe-mirror` lines of the plain form (`lathe-mirror WORDS`, its stdout
+optionally cut by `| head -N` or `| tail -N` and sent to a file or /dev/null by `> PATH`)
+run in this process, by the command line's own entry point (cli.main, as the tests'
+run_cli does): the same stdout, files and exit status without a new interpreter's start-up
+and imports (0.5-1 s a command, 3 s more for `cad`'s CAD kernel), which the docs' ~40
+commands would each pay. The rest of a block from its first other line runs in bash.
+LATHE_MIRROR_TEST_FRESH=1 runs every line in bash (a process each, as a reader does).
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import re
 import subprocess
@@ -56,14 +66,61 @@ def environment() -> dict[str, str]:
     return env
 
 
+#: A plain command line run in this process: words without quotes, variables or globs; its
+#: stdout optionally through head or tail, then optionally to a file.
+_PLAIN = re.compile(r"lathe-mirror(?P<args>(?:[ \t]+[\w./:=+,@%-]+)+)[ \t]*"
+                    r"(?:\|[ \t]*(?P<cut>head|tail)[ \t]+-(?P<n>\d+)[ \t]*)?"
+                    r"(?:>[ \t]*(?P<to>[\w./-]+)[ \t]*)?(?:#.*)?")
+
+
 def run_block(block: Block, cwd: Path, where: str, timeout: float = 900) -> str:
     """Run one runnable block; its stdout, or ExampleFailed naming the page and command."""
-    proc = subprocess.run(["bash", "-euo", "pipefail", "-c", block.body], cwd=cwd,
-                          env=environment(), capture_output=True, text=True, timeout=timeout)
-    if proc.returncode != 0:
-        raise ExampleFailed(f"{where}: example exited {proc.returncode}:\n{block.body}\n"
-                            f"--- stderr ---\n{proc.stderr[-3000:]}")
-    return proc.stdout
+    lines = block.body.splitlines()
+    stdout = []
+    fresh = os.environ.get("LATHE_MIRROR_TEST_FRESH", "") not in ("", "0")
+    while lines and not fresh and (m := _PLAIN.fullmatch(lines[0].strip())):
+        stdout.append(_in_process(m, cwd, where))
+        lines = lines[1:]
+    if any(ln.strip() for ln in lines):
+        rest = "\n".join(lines)
+        proc = subprocess.run(["bash", "-euo", "pipefail", "-c", rest], cwd=cwd,
+                              env=environment(), capture_output=True, text=True, timeout=timeout)
+        if proc.returncode != 0:
+            raise ExampleFailed(f"{where}: example exited {proc.returncode}:\n{rest}\n"
+                                f"--- stderr ---\n{proc.stderr[-3000:]}")
+        stdout.append(proc.stdout)
+    return "".join(stdout)
+
+
+def _in_process(m: re.Match, cwd: Path, where: str) -> str:
+    """One _PLAIN line by cli.main in cwd: what it leaves on stdout (cut, or sent to its file)."""
+    from lathe_mirror.cli import main
+
+    out, err = (io.TextIOWrapper(io.BytesIO(), encoding="utf-8", newline="") for _ in range(2))
+    old = os.getcwd()
+    try:
+        os.chdir(cwd)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                status = main(m["args"].split())
+            except SystemExit as exc:  # argparse: a usage error
+                status = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    finally:
+        os.chdir(old)
+    out.flush()
+    err.flush()
+    text = out.buffer.getvalue().decode("utf-8")
+    if status != 0:
+        raise ExampleFailed(f"{where}: example exited {status}:\n{m.group(0)}\n"
+                            f"--- stderr ---\n{err.buffer.getvalue().decode('utf-8')[-3000:]}")
+    if m["cut"]:
+        kept = text.splitlines(keepends=True)
+        text = "".join(kept[:int(m["n"])] if m["cut"] == "head" else kept[len(kept) - int(m["n"]):])
+    if m["to"]:
+        if m["to"] != "/dev/null":
+            (cwd / m["to"]).write_text(text, encoding="utf-8")
+        return ""
+    return text
 
 
 def _shape(stdout: str, options: dict) -> str:
