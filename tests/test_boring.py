@@ -1,7 +1,8 @@
 """The mount's bore (issue 32): a centre drill, a drill and a boring bar, each on its own
 station in every control's tool data, rs274 running the second set-up with the tool
 table the project writes, the volumes the drills remove against hand calculations, and
-the refusals (a bore the bar does not fit, a bar standing out too far, a short grip)."""
+the refusals (a bore the bar does not fit, a bar standing out too far, a drill point
+near the optic: before the stock is simulated; a short grip)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import subprocess
 
 import pytest
 
-from conftest import require_program, run_cli
+from conftest import FRESH, require_program, run_cli
 from lathe_mirror.config import load
 from lathe_mirror.export.gcode import format_program, offset_table, sheet_tools
 from lathe_mirror.shop.programs import shop_programs
@@ -154,6 +155,22 @@ def test_the_sheet_lists_the_bore_tools_with_hand_and_spindle(paper):
     assert any("drilled hole" in line for line in sec.touch_off)
 
 
+def _no_simulation(monkeypatch):
+    """The stock simulation (shop.stock.simulate_program, as shop.programs calls it) made to
+    fail the test: a refusal that comes after it is not up front."""
+    def simulated(*args, **kwargs):
+        raise AssertionError("the stock was simulated before the refusal")
+
+    monkeypatch.setattr("lathe_mirror.shop.programs.simulate_program", simulated)
+    monkeypatch.setattr("lathe_mirror.shop.stock.simulate_program", simulated)
+
+
+#: A 26 mm deep, 10 mm bore (the 7 mm shank stands 28 mm out: 4 x 7, allowed) in the 30 mm
+#: body: the drill's point, its apex on the lattice, by hand, from the vertex at Z-30.
+DEEP_APEX = math.floor((-26.0 + FA - DRILL_R / math.tan(math.radians(59.0))) / RES + 1e-9) * RES
+
+
+@pytest.mark.skipif(FRESH, reason="the simulation is monkeypatched in this process")
 @pytest.mark.parametrize("text, phrase", [
     # the drill the bar enters (8.5 mm) + 2 x (0.1 finish + 0.2 nose + 0.25 clearance) = 9.6 mm
     ("[cad]\nmount_diameter = 9.0\n", "cad.mount_diameter = 9 mm: the bore is drilled 8.5 mm for the boring bar"),
@@ -161,15 +178,35 @@ def test_the_sheet_lists_the_bore_tools_with_hand_and_spindle(paper):
     # overhang: the 6 mm depth + 2 mm clearance = 8 mm, more than 4 x a 1.5 mm shank (6 mm)
     ("[toolpath]\nboring_bar_shank_mm = 1.5\n", "cad.mount_depth = 6 mm: the boring bar would stand 8 mm out"),
     ("[toolpath]\nboring_bar_shank_mm = 7.5\n", "toolpath.boring_bar_shank_mm = 7.5 mm"),
-    # the paper default grips 7.22 mm (the shoulder at Z-10.222 to the jaws' end at Z-3)
-    ("[toolpath]\nmin_grip_mm = 8.0\n", "7.22 mm; allowed a thickness that leaves at least 8.00 mm"),
+    # the drill's point 30 + DEEP_APEX (1.545) mm from the optic, under cad.min_wall = 2 mm
+    ("[cad]\nmount_depth = 26.0\nmount_diameter = 10.0\n[toolpath]\nboring_bar_shank_mm = 7.0\n",
+     "cad.mount_depth = 26 mm: the 8.5 mm drill's point would come "),
 ])
-def test_a_bore_or_grip_the_shop_cannot_do_is_refused(tmp_path, text, phrase):
+def test_a_bore_the_shop_cannot_do_is_refused_before_the_simulation(tmp_path, monkeypatch, text, phrase):
+    """`toolpath` refuses the bore's tools (shop.boring.bore_plan) from the plan, before it
+    simulates the stock (shop.programs.plan_checks, as `run` does)."""
+    _no_simulation(monkeypatch)
     cfg = tmp_path / "c.toml"
     cfg.write_text(text)
     res = run_cli("toolpath", "--config", str(cfg), "-o", str(tmp_path / "p.ngc"))
     err = res.stderr.strip().splitlines()
     assert res.returncode == 2 and len(err) == 1 and phrase in err[0], res.stderr
+    assert "Traceback" not in res.stderr and not (tmp_path / "p.ngc").exists()
+    if "drill's point" in phrase:
+        wall = float(re.search(r"would come ([\d.]+) mm from the optical surface", err[0])[1])
+        assert wall == pytest.approx(30.0 + DEEP_APEX, abs=0.006) and wall < 2.0
+        assert "cad.min_wall = 2 mm" in err[0]
+
+
+def test_a_short_grip_is_refused(tmp_path):
+    """The second set-up's grip comes from the parted part (after the first simulation)."""
+    cfg = tmp_path / "c.toml"
+    # the paper default grips 7.22 mm (the shoulder at Z-10.222 to the jaws' end at Z-3)
+    cfg.write_text("[toolpath]\nmin_grip_mm = 8.0\n")
+    res = run_cli("toolpath", "--config", str(cfg), "-o", str(tmp_path / "p.ngc"))
+    err = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and len(err) == 1, res.stderr
+    assert "7.22 mm; allowed a thickness that leaves at least 8.00 mm" in err[0], res.stderr
     assert "Traceback" not in res.stderr and not (tmp_path / "p.ngc").exists()
 
 

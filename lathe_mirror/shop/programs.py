@@ -143,8 +143,9 @@ def plan_checks(settings: Settings, mirror: Mirror, *,
     """The checks of shop_programs that need no simulation, in a fraction of a second: each
     strategy's whole program planned (shop.plan_program: the bar's diameter and length, the
     end position, the block numbers, the part-off below the body). InputError names the
-    setting. `run` makes them before any work and simulates in the background; the mount's
-    bore's tools too (shop.boring.bore_plan)."""
+    setting. `run` makes them before any work and simulates in the background, `toolpath`
+    before its simulation (toolpath_result); the mount's bore's tools too
+    (shop.boring.bore_plan: otherwise refused only after the first set-up's simulation)."""
     options = settings.toolpath
     job = MachiningJob.from_settings(settings, mirror)
     for strategy in strategies:
@@ -177,6 +178,7 @@ def toolpath_result(settings: Settings, mirror: Mirror, strategy: Strategy) -> t
     surface over the whole lobes, of the contour alone and over the radii the camera uses,
     and the simulation's figures of both set-ups."""
     tp = check_program(settings, mirror, strategy)
+    plan_checks(settings, mirror, strategies=(strategy,))  # the bar, the part-off, the bore: before the simulation
     shop = shop_program(tp, settings.stock, settings.toolpath, inspection=inspection_table(settings),
                         body=settings.body)
     made = as_machined(tp)
