@@ -8,11 +8,12 @@ that judged it."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
 
-from conftest import run_cli
+from conftest import FRESH, run_cli
 from shop_model import design_z
 
 
@@ -104,3 +105,28 @@ def test_a_part_with_large_setup_errors_is_this_part(mirror, tmp_path):
     assert abs(dg["nose_radius_error_mm"] - 0.06) <= 0.003, dg
     assert abs(dg["x_offset_mm"] - 0.05) <= 0.005, dg
     assert abs(dg["centre_height_mm"] - 0.1) <= 0.010, dg
+
+
+@pytest.mark.skipif(FRESH, reason="the fit is monkeypatched in this process")
+@pytest.mark.parametrize("case", ["within 1.4e-8 mm", "all x equal", "50 points"])
+def test_a_trace_the_fit_cannot_save_is_refused_before_it(mirror, tmp_path, monkeypatch, case):
+    """Too few points, one x, no heights: refused from the trace as read (measure.trace_checks),
+    the fit (seconds with --fit-conic) never called, with the verdict's own message: the
+    failing check named with its figure (the trace's own: 50 points, x 1.0 everywhere,
+    heights under the 1.4e-8 mm they were drawn in) and its likely cause."""
+    def fitted(*args, **kwargs):
+        raise AssertionError("the trace was fitted before the refusal")
+
+    import importlib
+
+    for name in ("lathe_mirror.measure.result", "lathe_mirror.measure.fit"):  # the package's name is a function's
+        monkeypatch.setattr(importlib.import_module(name), "fit_trace", fitted)
+    path, what = _traces(mirror, tmp_path)[case]
+    res = run_cli("measure", str(path), "--fit-conic", "--json")
+    line = res.stderr.strip()
+    assert res.returncode == 2 and res.stdout == "" and line.count("\n") == 0 and "Traceback" not in line, line
+    assert f"{path}: not a trace of this part: {what}: " in line and "likely cause" in line, line
+    figure = {"within 1.4e-8 mm": r"heights span ([-\d.e+]+) mm", "all x equal": r"x spans ([-\d.e+]+) mm",
+              "50 points": r"(\d+) points \(at least 200\)"}[case]
+    value = float(re.search(figure, line)[1])
+    assert {"within 1.4e-8 mm": 0.0 < value <= 1.4e-8, "all x equal": value == 0.0, "50 points": value == 50}[case]

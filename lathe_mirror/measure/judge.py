@@ -4,8 +4,10 @@ from it (a verdict, a diagnosis, a re-cut).
 A trace is taken as this part's profile when all of these hold (each a figure in the
 verdict, each refusal naming what does not fit and its likely cause):
 
-- the points: at least MIN_POINTS, spread in x (not all at one x), and at least
-  MIN_USED_SHARE of them on the lobes where a stylus follows (the fit's mask);
+- the points: at least MIN_POINTS, spread in x (not all at one x; these two and the
+  heights' floor below need no fit: measure.trace_checks holds them and its limits, and
+  measure.result.measure makes them before the fit too), and at least MIN_USED_SHARE of
+  them on the lobes where a stylus follows (the fit's mask);
 - the lateral extent: the used points span at least MIN_EXTENT_SHARE of each clear
   aperture they reach and reach at least one lobe's (a centimetre trace read as mm spans a
   tenth of it);
@@ -26,14 +28,13 @@ import numpy as np
 
 from ..optics.polishing_curve import clear_aperture
 from .result import Measurement
+from .trace_checks import check_row, refusal, trace_checks
 
-MIN_POINTS = 200
 MIN_USED_SHARE = 0.5
 MIN_EXTENT_SHARE = 0.5
 MAX_UNEXPLAINED_UM = 20.0
 MAX_FORM_RMS_UM = 150.0
 MAX_NOISE_UM = 5.0
-MIN_HEIGHT_SPAN_MM = 1e-4
 NOSE_RANGE = (0.5, 2.0)
 MAX_SETUP_MM = 0.5
 
@@ -44,20 +45,12 @@ def judge(meas: Measurement, form_pv_um: dict[str, float]) -> dict:
     fit, dg = meas.fit, meas.diagnosis
     m = fit.mirror
     x, z = fit.trace.x, fit.trace.z
-    checks: list[dict] = []
+    checks = trace_checks(x, z)  # points, x spread, heights: made before the fit too (measure.result.measure)
 
     def check(name, ok, figure, cause):
-        checks.append({"check": name, "ok": bool(ok), "figure": figure, "likely_cause": None if ok else cause})
+        checks.append(check_row(name, ok, figure, cause))
 
     n = int(x.size)
-    check("points", n >= MIN_POINTS, f"{n} points (at least {MIN_POINTS})",
-          "a trace cut short or a summary table, not a profile")
-    span_x = float(np.ptp(x)) if n else 0.0
-    check("x spread", span_x > 0, f"x spans {span_x:.4g} mm", "one column repeated: the x column is not a position")
-    span_z = float(np.ptp(z)) if n else 0.0
-    check("heights", span_z >= MIN_HEIGHT_SPAN_MM,
-          f"heights span {span_z:.3g} mm (a profile of this part spans its sag)",
-          "heights in the wrong unit or a constant column")
     used = int(np.count_nonzero(fit.used))
     share = used / max(n, 1)
     check("points used", share >= MIN_USED_SHARE, f"{100 * share:.1f} % of the points on the lobes (at least "
@@ -100,9 +93,5 @@ def judge(meas: Measurement, form_pv_um: dict[str, float]) -> dict:
           f"{dg.centre_height_mm:+.4f} mm (under {MAX_SETUP_MM:g} mm)", "a pip that is not the tool's")
     check("X offset", abs(dg.x_offset_mm) < MAX_SETUP_MM,
           f"{dg.x_offset_mm:+.4f} mm (under {MAX_SETUP_MM:g} mm)", "the trace is not this part")
-    bad = [c for c in checks if not c["ok"]]
-    refusal = None
-    if bad:
-        refusal = ("not a trace of this part: " + "; ".join(f"{c['check']}: {c['figure']}" for c in bad)
-                   + f"; likely cause: {bad[0]['likely_cause']}")
-    return {"this_part": not bad, "checks": checks, "refusal": refusal}
+    text = refusal(checks)
+    return {"this_part": text is None, "checks": checks, "refusal": text}

@@ -14,6 +14,7 @@ from ..profile import Profile
 from .diagnose import Diagnosis, TouchOff, diagnose
 from .fit import FitOptions, TraceFit, fit_trace, lobe_figures, profile_through_axis
 from .readers import AreaMap, read_measurement
+from .trace_checks import refuse_trace
 
 
 @dataclass(frozen=True)
@@ -44,7 +45,9 @@ def measure(path: str | Path, mirror: Mirror, nominal: Profile, programmed_nose_
     machine against `nominal`, the program's as-machined surface on a perfect machine cut
     with a nose of programmed_nose_mm (mm); toolpath: that program (its X directions: the
     backlash; None: backlash not judged); touch_off: how its offsets were set (the set-up
-    sheet's convention)."""
+    sheet's convention). InputError naming `path` when the trace fails a check that needs
+    no fit (measure.trace_checks: too few points, no x spread, no heights): no fit is spent
+    on it."""
     _check_path(path, "measure: path")
     check_type(mirror, "measure: mirror", Mirror, "a Mirror (settings.mirror())")
     check_type(nominal, "measure: nominal", Profile, "a Profile (the program's as-machined surface)")
@@ -54,6 +57,7 @@ def measure(path: str | Path, mirror: Mirror, nominal: Profile, programmed_nose_
     data = read_measurement(path, fmt)
     areal = isinstance(data, AreaMap)
     trace = profile_through_axis(data, mirror) if areal else data
+    refuse_trace(trace.x, trace.z, path)  # the checks that need no fit (measure.judge's first), before it
     fit = fit_trace(trace, mirror, nose_radius_mm=programmed_nose_mm, options=options)
     dg = diagnose(fit, nominal, programmed_nose_mm, resolution_mm=resolution_mm, toolpath=toolpath,
                   touch_off=touch_off)
