@@ -202,10 +202,10 @@ def image_differences(a: np.ndarray, others: dict, *, mask: np.ndarray | None = 
     g = lambda img: gaussian_filter(img, SSIM_SIGMA, truncate=SSIM_TRUNCATE)  # noqa: E731  (11 x 11 window)
     maps = {name: np.zeros((h, w)) for name in others}
     pad = SSIM_RADIUS_PX
-    for r0, r1, c0, c1_ in _boxes(m, SSIM_BAND_ROWS):
+    for top, bottom, left, right in _boxes(m, SSIM_BAND_ROWS):
         # the box padded by the reach (clipped to the frame), the values kept only in the box
-        pr0, pr1, pc0, pc1 = max(r0 - pad, 0), min(r1 + pad, h), max(c0 - pad, 0), min(c1_ + pad, w)
-        inner = (slice(r0 - pr0, r1 - pr0), slice(c0 - pc0, c1_ - pc0))
+        pr0, pr1, pc0, pc1 = max(top - pad, 0), min(bottom + pad, h), max(left - pad, 0), min(right + pad, w)
+        inner = (slice(top - pr0, bottom - pr0), slice(left - pc0, right - pc0))
         x = np.asarray(a[pr0:pr1, pc0:pc1], float) @ luma
         mx = g(x)
         sxx = g(x * x) - mx * mx
@@ -215,7 +215,7 @@ def image_differences(a: np.ndarray, others: dict, *, mask: np.ndarray | None = 
             syy = g(y * y) - my * my
             sxy = g(x * y) - mx * my
             ssim_map = ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
-            maps[name][r0:r1, c0:c1_] = ssim_map[inner]
+            maps[name][top:bottom, left:right] = ssim_map[inner]
     out = {}
     a_m = np.asarray(a[m], float)
     for name, b in others.items():
