@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from lathe_mirror.settings import from_config
-from lathe_mirror.optics.distortion import (distortion_figures, exact_image_point,
+from lathe_mirror.optics.distortion import (distortion_figures, exact_image_point, radius_keys,
                                             image_displacement)
 from lathe_mirror.optics.trace import trace_pixels
 from lathe_mirror.profile import ExactProfile, Profile
@@ -214,3 +214,16 @@ def test_polished_surface_is_the_polishing_curves_optimum(paper_mirror, paper_co
         assert lobe["image_displacement_px"]["rms"] == pytest.approx(
             curve.lobes[k]["image_displacement_px"]["rms"][i], rel=0.02)
         assert lobe["image_displacement_px"]["rms"] < made["lobes"][k]["image_displacement_px"]["rms"] / 3
+
+
+@pytest.mark.parametrize("w, h", [(8, 6), (7, 5), (40, 31)])
+def test_radius_keys_are_each_pixels_squared_doubled_radius(w, h):
+    """Every pixel's key is its own (2u)^2 + (2v)^2, the keys are the grid's distinct ones,
+    sorted (even and odd sensor sides: centres on half-integers or integers)."""
+    u = np.arange(w) + 0.5 - w / 2.0
+    v = np.arange(h) + 0.5 - h / 2.0
+    uniq, inverse = radius_keys(u, v)
+    own = [[round((2 * uu) ** 2 + (2 * vv) ** 2) for uu in u] for vv in v]
+    assert inverse.shape == (h, w)
+    assert uniq[inverse].tolist() == own
+    assert uniq.tolist() == sorted({k for row in own for k in row})

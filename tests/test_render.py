@@ -296,3 +296,37 @@ def test_png_bytes_decode_in_pillow_to_the_same_pixels():
     assert back.mode == "RGB" and back.size == (53, 37)
     assert np.array_equal(np.asarray(back), img)
     assert png_bytes(img) == data
+
+
+def _ssim_at(a, b, r, c):
+    """SSIM at pixel (r, c) written out: the 11 x 11 Gaussian window (sigma 1.5 px, weights
+    summed to 1) over the lumas, the frame mirrored about its edges (half-sample)."""
+    luma = np.array([0.299, 0.587, 0.114])
+    x = np.pad(a.astype(float) @ luma, 5, mode="symmetric")[r:r + 11, c:c + 11]
+    y = np.pad(b.astype(float) @ luma, 5, mode="symmetric")[r:r + 11, c:c + 11]
+    k = np.exp(-0.5 * (np.arange(-5, 6) / 1.5) ** 2)
+    wgt = np.outer(k, k) / k.sum() ** 2
+    mx, my = (wgt * x).sum(), (wgt * y).sum()
+    sxx, syy, sxy = (wgt * x * x).sum() - mx * mx, (wgt * y * y).sum() - my * my, (wgt * x * y).sum() - mx * my
+    c1, c2 = (0.01 * 255) ** 2, (0.03 * 255) ** 2
+    return ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
+
+
+def test_masked_ssim_is_the_windowed_sum_at_the_masked_pixels():
+    """A sparse mask (the frame's corners and edges, and pixels either side of the
+    filtered bands' and blocks' borders, 256 px): the SSIM is the mean of the windowed
+    sums at exactly those pixels, each seeing its full window of the frame (only boxes
+    round the masked pixels are filtered), and the RMS is over those pixels alone."""
+    rng = np.random.default_rng(7)
+    h, w = 530, 610
+    a = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+    b = np.clip(a.astype(int) + rng.integers(-40, 41, (h, w, 3)), 0, 255).astype(np.uint8)
+    pts = [(0, 0), (h - 1, w - 1), (0, w - 1), (h - 1, 3), (255, 255), (256, 256), (260, 250), (511, 2), (3, 512)]
+    mask = np.zeros((h, w), bool)
+    for r, c in pts:
+        mask[r, c] = True
+    d = image_difference(a, b, mask=mask)
+    want = np.mean([_ssim_at(a, b, r, c) for r, c in sorted(pts)])
+    assert d["ssim"] == pytest.approx(want, rel=1e-12)
+    diff = np.array([a[r, c].astype(float) - b[r, c] for r, c in pts])
+    assert d["rms"] == pytest.approx(np.sqrt(np.mean(diff**2)), rel=1e-12)

@@ -160,19 +160,29 @@ def image_displacement(made: Profile, mirror: Mirror, camera: Camera | None = No
     u, v = u[first::stride, first::stride, 0], v[first::stride, first::stride, 0]
     exact = ExactProfile(mirror)
     if pose.aligned:
-        # Pixel centres are half-integers: (2u)^2 + (2v)^2 is an exact integer key of rho.
-        key = np.rint((2 * u) ** 2 + (2 * v) ** 2).astype(np.int64)
-        uniq, inverse = np.unique(key, return_inverse=True)
+        uniq, inverse = radius_keys(u[0], v[:, 0])
         radii = np.sqrt(uniq) / 2.0
         hm, he = (trace_pixels(p, camera, radii_px=radii) for p in (made, exact))
         per = _figures_of(mirror, camera, hm, he, np.stack([radii, np.zeros_like(radii)], -1))
-        inverse = inverse.reshape(u.shape)
         maps = {k: a[inverse] for k, a in per.items()}
     else:
         xy = np.stack([u, v], axis=-1)
         hm, he = (trace_pixels(p, camera, xy, pose=pose, progress=progress) for p in (made, exact))
         maps = _figures_of(mirror, camera, hm, he, xy)
     return DistortionMaps(camera=camera, mirror=mirror, radius_px=np.hypot(u, v), stride=int(stride), **maps)
+
+
+def radius_keys(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct radii of the grid of pixel centres (u[j], v[i]) (px, 1-D), as the sorted
+    integer keys (2u)^2 + (2v)^2 (exact: the centres are half-integers), and each pixel's
+    index into them (len(v), len(u)): np.unique(key, return_inverse=True) of the whole grid.
+    Built on the grid of the distinct u^2 and v^2 (a pixel and its mirror images across the
+    axes share a key, so a quarter of the sensor's keys are sorted), then spread back."""
+    su, col = np.unique((2 * np.asarray(u, float)) ** 2, return_inverse=True)
+    sv, row = np.unique((2 * np.asarray(v, float)) ** 2, return_inverse=True)
+    key = np.rint(sv[:, None] + su[None, :]).astype(np.int64)
+    uniq, inverse = np.unique(key, return_inverse=True)
+    return uniq, inverse.reshape(key.shape)[row[:, None], col[None, :]]
 
 
 def usable_annulus(mirror: Mirror, camera: Camera | None = None, *,
