@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import functools
 import math
-from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Callable
 
@@ -103,23 +102,21 @@ def lobe_pixel_radii(mirror: Mirror, k: int, *, bin_px: float | None = None,
     zones: an optics.zones.Zones; the lobe's used zone only (the fillet ring the nose
     cannot reach left out).
     """
-    key = (mirror, k, bin_px, corner_mm, zones, max_radii)
     try:
-        px = _RADII.get(key)
+        hash((mirror, k, bin_px, corner_mm, zones, max_radii))
     except TypeError:  # an argument without a hash (a stand-in for the mirror or zones)
         return _pixel_radii(mirror, k, bin_px, corner_mm, zones, max_radii)
-    if px is None:
-        px = _pixel_radii(mirror, k, bin_px, corner_mm, zones, max_radii)
-        px.radius_px.setflags(write=False)
-        px.count.setflags(write=False)
-        _RADII[key] = px
-        if len(_RADII) > 32:
-            _RADII.popitem(last=False)
+    return _kept_pixel_radii(mirror, k, bin_px, corner_mm, zones, max_radii)
+
+
+@functools.lru_cache(maxsize=32)
+def _kept_pixel_radii(mirror: Mirror, k: int, bin_px, corner_mm: float, zones, max_radii) -> PixelRadii:
+    """lobe_pixel_radii's radii by their arguments (each a few thousand radii), read-only:
+    every caller is handed the same arrays."""
+    px = _pixel_radii(mirror, k, bin_px, corner_mm, zones, max_radii)
+    px.radius_px.setflags(write=False)
+    px.count.setflags(write=False)
     return px
-
-
-#: lobe_pixel_radii's radii by their arguments (each a few thousand radii).
-_RADII: OrderedDict = OrderedDict()
 
 
 def _pixel_radii(mirror: Mirror, k: int, bin_px, corner_mm: float, zones, max_radii) -> PixelRadii:

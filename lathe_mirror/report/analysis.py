@@ -21,7 +21,7 @@ from ..optics.ranging.resolution import resolution_table
 from ..optics.ranging.stereo import (SECTOR_LEAD_DEG, error_curve, image_mask, matched_sectors, prepare, range_figures,
                                      sector_margin, sector_segments, stereo_range)
 from ..optics.ranging.truth import true_range
-from ..optics.render import image_differences, render_image
+from ..optics.render import SSIM_RADIUS_PX, image_differences, render_image
 from ..optics.sampling import PIXELS_PER_LOBE, RANGE_SECTORS, AzimuthSectors, azimuth_sectors, lobe_pixels, pixel_stride
 from ..path import Arc, Line
 from ..profile import ExactProfile, Profile
@@ -260,9 +260,9 @@ def report_lens(mirror: Mirror, settings: Settings):
     return lens, blur_map(mirror, lens, mirror.camera)
 
 
-#: How far (px) the SSIM's window (image_difference: a Gaussian of sigma 1.5 px cut at 3.5
-#: sigma) reaches from a pixel: a sampled render traces this far beyond the counted pixels.
-SSIM_REACH_PX = 6
+#: How far (px) a sampled render traces beyond the counted pixels: the SSIM window's reach
+#: (optics.render.SSIM_RADIUS_PX, 5 px) and one pixel of margin.
+SSIM_REACH_PX = SSIM_RADIUS_PX + 1
 
 
 def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None, *,

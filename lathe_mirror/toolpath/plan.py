@@ -5,8 +5,8 @@ The strategies themselves are in paper.py, lattice.py and arcs.py (see the packa
 
 from __future__ import annotations
 
+import functools
 import math
-from collections import OrderedDict
 
 from ..design import Mirror
 from ..errors import InputError
@@ -18,13 +18,8 @@ from .layout import Layout
 from .moves import BEST, Hand, Strategy, Toolpath
 from .paper import paper_points
 
-#: Programs planned in this process, by their arguments (a Toolpath is never changed once
-#: planned): `run` asks for the configured job's two programs about ten times (the checks,
-#: the report's stages, the shop programs, the tolerance's phase 0 and sensitivity; 0.6 s
-#: of CPU), and a forked worker inherits what its parent planned.
-_PLANNED: OrderedDict = OrderedDict()
-#: Programs kept (each a few hundred moves: ~5 kB pickled; the tolerance analysis plans 18
-#: lattice phases of each program).
+#: Programs kept per process (each a few hundred moves: ~5 kB pickled; the tolerance
+#: analysis plans 18 lattice phases of each program).
 PLANNED_KEPT = 64
 
 
@@ -41,19 +36,11 @@ def plan_toolpath(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy =
     cannot fit the junction, the held tool's flanks would rub the profile, or the contour
     leaves the lathe's travel.
     """
-    key = (mirror, lathe, tool, strategy, max_deviation, type(max_deviation))
     try:
-        tp = _PLANNED.get(key)
+        hash((mirror, lathe, tool, strategy, max_deviation))
     except TypeError:  # a surface holding arrays (a compensated target) has no hash: plan it
         return _plan(mirror, lathe, tool, strategy, max_deviation)
-    if tp is None:
-        tp = _plan(mirror, lathe, tool, strategy, max_deviation)
-        _PLANNED[key] = tp
-        if len(_PLANNED) > PLANNED_KEPT:
-            _PLANNED.popitem(last=False)
-    else:
-        _PLANNED.move_to_end(key)
-    return tp
+    return _planned(mirror, lathe, tool, strategy, max_deviation)
 
 
 def _plan(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy, max_deviation: float) -> Toolpath:
@@ -88,6 +75,13 @@ def _plan(mirror: Mirror, lathe: Lathe, tool: Tool, strategy: Strategy, max_devi
         raise RuntimeError(f"{strategy.value}: {n_points} points exceed the budget {lathe.max_points}")
     check_travel(tp.points(), lathe, what="the finishing contour")
     return tp
+
+
+#: Programs planned in this process, by their arguments (a Toolpath is never changed once
+#: planned): `run` asks for the configured job's two programs about ten times (the checks,
+#: the report's stages, the shop programs, the tolerance's phase 0 and sensitivity; 0.6 s
+#: of CPU), and a forked worker inherits what its parent planned.
+_planned = functools.lru_cache(maxsize=PLANNED_KEPT, typed=True)(_plan)
 
 
 def _check_advancing(segs, lobes, lathe: Lathe, strategy: Strategy) -> None:
