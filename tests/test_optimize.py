@@ -156,7 +156,14 @@ def grid_r10(s, p, alpha):
     return r10(m, (math.radians(-20.0), 0.0))
 
 
-def test_search_lands_within_1_percent_of_a_dense_grid():
+@pytest.fixture(scope="module")
+def searched():
+    """The small problem searched on one worker: the result the grid test checks and the
+    two-worker search must repeat (one search, not one per test)."""
+    return search(small_problem(1))
+
+
+def test_search_lands_within_1_percent_of_a_dense_grid(searched):
     s = load()
     ps, als = np.linspace(0.45, 0.8, 71), np.linspace(0.0, 30.0, 61)
     grid = np.array([[grid_r10(s, p, a) for a in als] for p in ps])
@@ -166,7 +173,7 @@ def test_search_lands_within_1_percent_of_a_dense_grid():
     als2 = np.linspace(als[max(j - 1, 0)], als[min(j + 1, len(als) - 1)], 41)
     fine = max(grid_r10(s, p, a) for p in ps2 for a in als2)
     assert np.isfinite(fine)
-    res = search(small_problem())
+    res = searched
     assert res.best_figures.r10_m == pytest.approx(fine, rel=0.01)
     # and the grid, not the search, is the check: its best lies on the same design
     best = res.best
@@ -174,8 +181,8 @@ def test_search_lands_within_1_percent_of_a_dense_grid():
                                                                                      rel=1e-12)
 
 
-def test_same_seed_same_design_whatever_the_workers():
-    a = search(small_problem(1))
+def test_same_seed_same_design_whatever_the_workers(searched):
+    a = searched
     b = search(small_problem(2))
     assert a.best == b.best and a.evaluations == b.evaluations
 
