@@ -95,17 +95,17 @@ def _run_in_process(args: list[str], cwd, env) -> subprocess.CompletedProcess:
 
 
 #: The modules that take longest, longest first (their CPU seconds, user+sys with children,
-#: each module alone with `-n 0`, resource.getrusage, on the 2-core machine under load: test_docs
-#: ~79, test_optimize ~74, test_sampling ~54, test_report ~54, test_designs ~51, test_fuzz
-#: ~42, test_run ~40, test_shop, test_measure_loop, test_signals, test_sampled_range ~38-40,
-#: ... test_boring ~6; the rest under 5 s each), handed to the workers first: `--dist
-#: loadscope --no-loadscope-reorder` (scripts/test) gives each worker the next module in
-#: collection order as it frees, so with the longest first the two workers finish together
-#: instead of one waiting for the docs' site build (xdist's own order is by the number of
-#: tests, which put that module last) or starting a 40 s module when the other has only
-#: small modules left.
+#: each module alone with `-n 0` on the 2-core machine under load: test_docs ~79,
+#: test_optimize ~74, test_sampling ~54, test_report ~54, test_designs ~51, test_fuzz ~42,
+#: test_run ~40, test_shop, test_measure_loop, test_sampled_range ~38-40, test_calib ~32,
+#: test_signals ~30, ... test_boring ~6; the rest under 5 s each), handed to the workers
+#: first: `--dist loadscope --no-loadscope-reorder` (scripts/test) gives each worker the next
+#: module in collection order as it frees, so with the longest first the two workers finish
+#: together instead of one waiting for the docs' site build (xdist's own order is by the
+#: number of tests, which put that module last) or starting a 40 s module when the other has
+#: only small modules left.
 LONGEST_FIRST = ("test_docs", "test_optimize", "test_sampling", "test_report", "test_designs", "test_fuzz", "test_run",
-                 "test_shop", "test_measure_loop", "test_signals", "test_sampled_range", "test_calib",
+                 "test_shop", "test_measure_loop", "test_sampled_range", "test_calib", "test_signals",
                  "test_reliability", "test_gcode", "test_compute", "test_outer_step", "test_tolerance", "test_measure",
                  "test_bounds", "test_job", "test_machine_errors", "test_step", "test_measure_judge", "test_boring",
                  "test_drawing_callouts", "test_dialects", "test_povray", "test_partoff", "test_results",
