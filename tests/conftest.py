@@ -94,18 +94,20 @@ def _run_in_process(args: list[str], cwd, env) -> subprocess.CompletedProcess:
     return subprocess.CompletedProcess(["lathe-mirror", *args], status, texts[0], texts[1])
 
 
-#: The modules that take longest, longest first (their seconds on one worker, from a
-#: `--durations=0` run of the whole suite scaled to the 2-core reference machine: test_docs
-#: ~85, test_optimize ~64, test_report ~53, test_sampling ~46, ... test_spec ~3; the rest
-#: under 3 s each), handed to the workers first: `--dist loadscope --no-loadscope-reorder`
-#: (scripts/test) gives each worker the next module in collection order as it frees, so with
-#: the longest first the two workers finish together instead of one waiting for the docs'
-#: site build (xdist's own order is by the number of tests, which put that module last)
-#: or starting test_sampling's 12-MP renders when the other has only small modules left.
-LONGEST_FIRST = ("test_docs", "test_optimize", "test_report", "test_sampling", "test_designs", "test_fuzz",
-                 "test_reliability", "test_shop", "test_gcode", "test_signals", "test_run", "test_calib",
-                 "test_outer_step", "test_measure_loop", "test_measure_judge", "test_job", "test_measure",
-                 "test_machine_errors", "test_boring", "test_compute", "test_tolerance", "test_bounds", "test_step",
+#: The modules that take longest, longest first (their CPU seconds, user+sys with children,
+#: each module alone with `-n 0` on the 2-core machine under load: test_docs ~79,
+#: test_optimize ~74, test_sampling ~54, test_report ~54, test_designs ~51, test_fuzz ~42,
+#: test_run ~40, test_shop, test_measure_loop, test_sampled_range ~38-40, test_calib ~32,
+#: test_signals ~30, ... test_boring ~6; the rest under 5 s each), handed to the workers
+#: first: `--dist loadscope --no-loadscope-reorder` (scripts/test) gives each worker the next
+#: module in collection order as it frees, so with the longest first the two workers finish
+#: together instead of one waiting for the docs' site build (xdist's own order is by the
+#: number of tests, which put that module last) or starting a 40 s module when the other has
+#: only small modules left.
+LONGEST_FIRST = ("test_docs", "test_optimize", "test_sampling", "test_report", "test_designs", "test_fuzz", "test_run",
+                 "test_shop", "test_measure_loop", "test_sampled_range", "test_calib", "test_signals",
+                 "test_reliability", "test_gcode", "test_compute", "test_outer_step", "test_tolerance", "test_measure",
+                 "test_bounds", "test_job", "test_machine_errors", "test_step", "test_measure_judge", "test_boring",
                  "test_drawing_callouts", "test_dialects", "test_povray", "test_partoff", "test_results",
                  "test_trace3d", "test_plausible", "test_polish", "test_ranging", "test_measured_bounds",
                  "test_gcode_optics", "test_finish_exit", "test_measure_tolerance", "test_measure_backlash",

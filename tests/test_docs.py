@@ -51,14 +51,25 @@ def test_a_plain_command_line_runs_in_process_as_bash_runs_it(tmp_path, monkeypa
     (LATHE_MIRROR_TEST_FRESH=1); a failing one names its line and its error."""
     page = ("<!-- run -->\n```sh\nlathe-mirror design | tail -3\nlathe-mirror design --json > d.json  # figures\n"
             "lathe-mirror design | head -2\nhead -c 1 d.json\n```\n<!-- output -->\n```text\n```\n")
+    # Plain lines between bash's (tools/runnable.py splits the block): a heredoc whose body
+    # holds a '#' and a quote, an argument quoted over two lines, a comment with a quote.
+    page += ("<!-- run -->\n```sh\necho one  # the mirror's\ncat > c.toml <<'TOML'\n[camera]\nf = 6.0  # \"\nTOML\n"
+             "python -c \"\nprint('two')\"\nlathe-mirror design --config c.toml | head -1\ntail -1 c.toml\n```\n"
+             "<!-- output -->\n```text\n```\n")
+    # A variable set before a plain line: from there on the block runs in one bash.
+    page += ("<!-- run -->\n```sh\nX=three\nlathe-mirror design | head -1\necho $X\n```\n"
+             "<!-- output -->\n```text\n```\n")
     got = {}
     for fresh in ("0", "1"):
         monkeypatch.setenv("LATHE_MIRROR_TEST_FRESH", fresh)
         (tmp_path / fresh).mkdir()
         got[fresh] = (runnable.execute(page, tmp_path / fresh, "page"), (tmp_path / fresh / "d.json").read_text())
     assert got["0"] == got["1"] and got["0"][1].startswith("{")
-    shown = got["0"][0].split("```text\n")[1].removesuffix("\n```\n")
-    assert len(shown.splitlines()) == 3 + 2 + 1 and shown.endswith("\n{")  # tail -3, head -2, the file's "{"
+    shown = re.findall(r"(?s)```text\n(.*?)\n```", got["0"][0])
+    assert len(shown[0].splitlines()) == 3 + 2 + 1 and shown[0].endswith("\n{")  # tail -3, head -2, the file's "{"
+    lines = shown[1].splitlines()
+    assert lines[:2] == ["one", "two"] and lines[3] == 'f = 6.0  # "' and len(lines) == 4
+    assert lines[2] == shown[2].splitlines()[0] and shown[2].splitlines()[1:] == ["three"]
     monkeypatch.setenv("LATHE_MIRROR_TEST_FRESH", "0")
     with pytest.raises(runnable.ExampleFailed, match=r"(?s)exited 2:\nlathe-mirror design --config nope.toml\n.*nope"):
         runnable.execute("<!-- run -->\n```sh\nlathe-mirror design --config nope.toml\n```\n", tmp_path, "page")
@@ -71,11 +82,42 @@ FAST = {"LATHE_MIRROR_CONFIG": str(ROOT / "tests" / "data" / "docs_fast.toml")}
 
 @pytest.fixture(scope="module")
 def site(tmp_path_factory):
+    """`mkdocs build --strict -d OUT` in this process (mkdocs' own build, as its command line
+    calls it): the examples' plain command lines share this process's imports and planned
+    programs with the README's (test_readme_examples_run) instead of a new interpreter's.
+    Unlike the command line's -q, the warnings reach mkdocs' counter: strict fails on any."""
+    import logging
+
+    from mkdocs.commands.build import build
+    from mkdocs.config import load_config
+
     out = tmp_path_factory.mktemp("site")
-    proc = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q", "-d", str(out)],
-                          cwd=ROOT, capture_output=True, text=True, timeout=900,
-                          env={**runnable.environment(), **FAST, "NO_MKDOCS_2_WARNING": "1"})
-    assert proc.returncode == 0, proc.stderr[-4000:]
+    logger = logging.getLogger("mkdocs")
+    records: list[str] = []
+    keep = logging.Handler(logging.WARNING)
+    keep.emit = lambda record: records.append(f"{record.levelname}: {record.getMessage()}")
+    level, propagate = logger.level, logger.propagate
+    with pytest.MonkeyPatch.context() as env:
+        for key, value in {**runnable.environment(), **FAST, "NO_MKDOCS_2_WARNING": "1"}.items():
+            env.setenv(key, value)
+        env.chdir(ROOT)
+        logger.setLevel(logging.WARNING)
+        logger.propagate = False
+        logger.addHandler(keep)
+        try:
+            cfg = load_config(str(ROOT / "mkdocs.yml"), strict=True, site_dir=str(out))
+            cfg.plugins.on_startup(command="build", dirty=False)
+            try:
+                build(cfg, dirty=False)
+            finally:
+                cfg.plugins.on_shutdown()
+        except Exception as exc:  # mkdocs' Abort (strict), a failing example (PluginError)
+            pytest.fail(f"mkdocs build --strict: {exc}\n" + "\n".join(records)[-4000:], pytrace=False)
+        finally:
+            logger.removeHandler(keep)
+            logger.setLevel(level)
+            logger.propagate = propagate
+    assert not records, records
     return out
 
 

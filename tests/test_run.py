@@ -25,7 +25,9 @@ def test_run_writes_programs_cad_and_report(tmp_path):
     cfg = tmp_path / "small.toml"
     cfg.write_text(SMALL)
     out = tmp_path / "out"
-    proc = run_cli("run", "--config", str(cfg), "-o", str(out), fresh=True)  # the README's command, as typed
+    # the README's command, as typed, by the command line's entry point (run_cli: in this
+    # process, its trials on this worker; the pool's answer is the serial one, test_compute)
+    proc = run_cli("run", "--config", str(cfg), "-o", str(out))
     assert proc.returncode == 0, proc.stderr[-2000:]
     # With --config the programs and CAD go under the output directory, not the repository's.
     # each strategy's two set-ups in both dialects, one set-up sheet for both

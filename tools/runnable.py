@@ -8,13 +8,17 @@ is replaced by what the previous runnable block printed on stdout, so a figure q
 a page comes from the run, not from a hand. Used by the docs build (tools/mkdocs_hooks.py)
 and by tests/test_docs.py for the README.
 
-A block's leading `lathe-mirror` lines of the plain form (`lathe-mirror WORDS`, its stdout
+A block's `lathe-mirror` lines of the plain form (`lathe-mirror WORDS`, its stdout
 optionally cut by `| head -N` or `| tail -N` and sent to a file or /dev/null by `> PATH`)
 run in this process, by the command line's own entry point (cli.main, as the tests'
 run_cli does): the same stdout, files and exit status without a new interpreter's start-up
 and imports (0.5-1 s a command, 3 s more for `cad`'s CAD kernel), which the docs' ~40
-commands would each pay. The rest of a block from its first other line runs in bash.
-LATHE_MIRROR_TEST_FRESH=1 runs every line in bash (a process each, as a reader does).
+commands would each pay. The block's other commands (a heredoc, an argument quoted over
+several lines, a line continued by a backslash: each kept whole) run in bash between
+them, in the block's order, each run of them in one bash; a block with a command that
+leaves state for the next (cd, export, an assignment, source) runs in bash from that
+command on, as the state would not carry from one bash to the next. LATHE_MIRROR_TEST_FRESH=1 runs every line
+in bash (a process each, as a reader does).
 """
 
 from __future__ import annotations
@@ -75,21 +79,93 @@ _PLAIN = re.compile(r"lathe-mirror(?P<args>(?:[ \t]+[\w./:=+,@%-]+)+)[ \t]*"
 
 def run_block(block: Block, cwd: Path, where: str, timeout: float = 900) -> str:
     """Run one runnable block; its stdout, or ExampleFailed naming the page and command."""
-    lines = block.body.splitlines()
-    stdout = []
+    commands = _commands(block.body)
+    stdout, shell = [], []
     fresh = os.environ.get("LATHE_MIRROR_TEST_FRESH", "") not in ("", "0")
-    while lines and not fresh and (m := _PLAIN.fullmatch(lines[0].strip())):
+    for k, command in enumerate(commands):
+        m = None if fresh else _PLAIN.fullmatch(command.strip())
+        if m is None and _STATEFUL.match(command):  # the rest in one bash, as written
+            shell += commands[k:]
+            break
+        if m is None:
+            shell.append(command)
+            continue
+        stdout.append(_bash(shell, cwd, where, timeout))
+        shell = []
         stdout.append(_in_process(m, cwd, where))
-        lines = lines[1:]
-    if any(ln.strip() for ln in lines):
-        rest = "\n".join(lines)
-        proc = subprocess.run(["bash", "-euo", "pipefail", "-c", rest], cwd=cwd,
-                              env=environment(), capture_output=True, text=True, timeout=timeout)
-        if proc.returncode != 0:
-            raise ExampleFailed(f"{where}: example exited {proc.returncode}:\n{rest}\n"
-                                f"--- stderr ---\n{proc.stderr[-3000:]}")
-        stdout.append(proc.stdout)
+    stdout.append(_bash(shell, cwd, where, timeout))
     return "".join(stdout)
+
+
+def _bash(commands: list[str], cwd: Path, where: str, timeout: float) -> str:
+    """Run commands in one bash (-e -u -o pipefail); its stdout ("" for none to run)."""
+    if not any(c.strip() for c in commands):
+        return ""
+    rest = "\n".join(commands)
+    proc = subprocess.run(["bash", "-euo", "pipefail", "-c", rest], cwd=cwd,
+                          env=environment(), capture_output=True, text=True, timeout=timeout)
+    if proc.returncode != 0:
+        raise ExampleFailed(f"{where}: example exited {proc.returncode}:\n{rest}\n"
+                            f"--- stderr ---\n{proc.stderr[-3000:]}")
+    return proc.stdout
+
+
+#: A command that leaves state for the commands after it in the same shell.
+_STATEFUL = re.compile(r"\s*(?:cd|pushd|popd|export|source|\.|set|alias|unset|declare|[A-Za-z_]\w*=)(?:\s|$|(?<==))")
+_HEREDOC = re.compile(r"<<-?[ \t]*(['\"]?)(\w+)\1")
+
+
+def _commands(body: str) -> list[str]:
+    """A block's lines grouped into the commands bash reads: a heredoc's lines with the
+    line that opens it, the lines of an argument quoted over several lines together, and a
+    line ending in `\\` with the next."""
+    out: list[str] = []
+    current: list[str] = []
+    quote = ""          # the open quote character carried to the next line, if any
+    ends: list[str] = []  # the terminators of the heredocs still open
+    for line in body.splitlines():
+        current.append(line)
+        if ends:
+            if (line.lstrip("\t") if ends[0][0] == "-" else line) == ends[0][1:]:
+                ends.pop(0)
+        else:
+            quote, opened = _scan(line, quote)
+            ends += opened
+        if not ends and not quote and not line.endswith("\\"):
+            out.append("\n".join(current))
+            current = []
+    if current:
+        out.append("\n".join(current))
+    return out
+
+
+def _scan(line: str, quote: str) -> tuple[str, list[str]]:
+    """Read one line as bash does for quoting: the quote still open at its end and the
+    heredocs it opens ("-TAG" for <<-, " TAG" for <<), outside quotes and comments."""
+    opened, i, word_start = [], 0, True
+    while i < len(line):
+        c = line[i]
+        if quote == "'":
+            quote = "" if c == "'" else quote
+        elif quote == '"':
+            if c == "\\":
+                i += 1
+            elif c == '"':
+                quote = ""
+        elif c == "\\":
+            i += 1
+        elif c in "'\"":
+            quote = c
+        elif c == "#" and word_start:
+            break
+        elif c == "<" and not line.startswith("<<<", i) and (h := _HEREDOC.match(line, i)):
+            opened.append(("-" if line[i + 2] == "-" else " ") + h.group(2))
+            i = h.end()
+            word_start = False
+            continue
+        word_start = c in " \t;|&()"
+        i += 1
+    return quote, opened
 
 
 def _in_process(m: re.Match, cwd: Path, where: str) -> str:
