@@ -170,7 +170,7 @@ def fit(mirror: Mirror, pixels: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
         step = -np.linalg.solve(H + damp, g[..., None])[..., 0]
         cal = Calibration(cal.rotation @ _rodrigues(step[:, :3]),
                           cal.coeffs + step[:, 3:].reshape(n, 2, RADIAL_TERMS), span)
-        if it + 1 >= PLAIN_ITERATIONS:
+        if PLAIN_ITERATIONS <= it + 1 < PLAIN_ITERATIONS + ROBUST_ITERATIONS:  # the next iteration's weights
             for k in (0, 1):
                 res = residuals(mirror, k, directions[k], cal, pts[k][..., 0], pts[k][..., 1])
                 mag = np.where(np.isfinite(res), res, 0.0)
