@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
             say("lathe-mirror run: CAD")
             written["cad"], written["calib"] = write_cad_and_calibration(cad_dir, calib_dir, settings, mirror,
                                                                          files=files["cad"])
-            write_spec(out_dir, settings, None, files=files["spec"])  # the drawing beside the report (lathe-mirror spec)
+            write_spec(out_dir, settings, None, files=files["spec"])  # the drawing beside the report (`spec`)
 
         shops: list = []
         data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render,

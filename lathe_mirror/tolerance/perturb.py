@@ -34,7 +34,7 @@ from ..design import Mirror
 from ..optics.radial import in_lobe_range, used_extent
 from ..optics.stereo import capped_abs_error, triangulate
 from ..toolpath.metrics import slope_error
-from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals
+from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals, sheet_points
 from .poses import PoseDraws, poses
 from .samples import PixelSample, StereoPoints, stereo_points
 from .surfaces import SurfaceBank, off_lobe_cells
@@ -191,7 +191,10 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
         off = [off_lobe_cells(surf[k][0], bank.design_z(k), bank.dr[k]) for k in (0, 1)]
         traced = [_trace(mirror, bank, k, surf, tr, origin, rotation, samples[k].u, samples[k].v, off[k])
                   for k in (0, 1)]
-        traced = [_in_range(mirror, k, t) for k, t in enumerate(traced)]
+        # each made direction's point on the exact sheet: the same for the range check, the raw
+        # and the calibrated model (calibration.sheet_points)
+        points = [sheet_points(mirror, k, traced[k][1]) for k in (0, 1)]
+        traced = [_in_range(mirror, k, t, points[k]) for k, t in enumerate(traced)]
         valid = [t[2] for t in traced]
         n_lost = sum(np.sum(np.where(valid[k], 0.0, samples[k].weight[None, :]), axis=1) for k in (0, 1))
         lost[sl] = n_lost / (samples[0].weight.sum() + samples[1].weight.sum())
@@ -203,7 +206,7 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
             for k in (0, 1):
                 smp = samples[k]
                 p, o, ok, _ = traced[k]
-                disp = residuals(mirror, k, o, model, smp.u[None, :], smp.v[None, :])
+                disp = residuals(mirror, k, o, model, smp.u[None, :], smp.v[None, :], points[k])
                 landed = ok & np.isfinite(disp)
                 ok_k = landed & (disp <= outlier_px)
                 w = np.where(ok_k, smp.weight[None, :], 0.0)
@@ -301,13 +304,14 @@ def _lookup_with_slope(bank: SurfaceBank, k: int, grid: np.ndarray, rows: np.nda
     return a * (1.0 - f) + b * f, (b - a) / bank.dr[k]
 
 
-def _in_range(mirror: Mirror, k: int, traced: tuple) -> tuple:
+def _in_range(mirror: Mirror, k: int, traced: tuple, points: np.ndarray | None = None) -> tuple:
     """_trace's result with `ok` cleared where the made direction has left lobe k's range:
-    the design's own model (no calibration) images it outside the lobe's annulus."""
+    the design's own model (no calibration) images it outside the lobe's annulus. points:
+    the directions' sheet points (calibration.sheet_points), if made already."""
     p, o, ok, blocked = traced
     n = o.shape[0]
     design = Calibration.identity(n, ((0.0, 1.0), (0.0, 1.0)))  # no radial terms: the span is unused
-    mu, mv = model_pixels(mirror, k, o, design)
+    mu, mv = model_pixels(mirror, k, o, design, points)
     return p, o, ok & in_lobe_range(mirror, k, np.hypot(mu, mv)), blocked
 
 
