@@ -129,7 +129,9 @@ def stage_child(out_dir: str) -> None:
             cls = getattr(mod, cls_name)
             setattr(cls, attr, timed(name, cls.__dict__[attr]))
             continue
-        fn = getattr(mod, qual)
+        fn = getattr(mod, qual, None)
+        if fn is None:  # an older tree without it (A/B against a past commit): its figure stays 0
+            continue
         wrapper = timed(name, fn)
         for m in list(sys.modules.values()):  # every module that imported it by name
             d = getattr(m, "__dict__", None)
