@@ -155,8 +155,13 @@ class SampledProfile(Profile):
 
     def _eval(self, r: np.ndarray, nu: int) -> np.ndarray:
         r = np.asarray(r, dtype=float)
-        k = self.lobe_index(r)
-        return np.where(k == 0, self._splines[0](r, nu), self._splines[1](r, nu))
+        inner = self.lobe_index(r) == 0
+        if r.ndim == 0 or inner.all() or not inner.any():  # one lobe's spline: the other's is not evaluated
+            return np.asarray(self._splines[0 if inner.all() else 1](r, nu), dtype=float)
+        out = np.empty(r.shape)
+        out[inner] = self._splines[0](r[inner], nu)
+        out[~inner] = self._splines[1](r[~inner], nu)
+        return out
 
 
 def sample_lobes(profile: Profile, n: int = 4001) -> tuple[LobeSamples, LobeSamples]:

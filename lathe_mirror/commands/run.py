@@ -55,7 +55,6 @@ def run(args: argparse.Namespace) -> int:
     calib_dir = Path(args.calib_dir) if args.calib_dir else (Path("calib") if default else out_dir / "calib")
     strategies = (Strategy.PAPER, BEST)
     programs = program_names(strategies)
-    from ..iso10110 import spec_of
     from .spec import FILES as SPEC_FILES, write_spec
 
     for d, names, what in ((out_dir, list(REPORT_FILES) + list(SPEC_FILES), "-o/--output"), (gcode_dir, programs, "--gcode-dir"),
@@ -63,9 +62,10 @@ def run(args: argparse.Namespace) -> int:
                            (calib_dir, list(CALIB_FILES), "--calib-dir")):
         check_outputs(d, names, what)  # every output name, before any work
     mirror = design(settings)
-    # Both programs planned and simulated (the stock, the chuck, the part) in the background
-    # from here, beside the checks and the report's stages: a check that refuses ends it,
-    # and nothing is written before they pass (files commit as a set).
+    # Both programs planned and simulated (the stock, the chuck, the part), then the CAD,
+    # the calibration files and the spec drawing made (bytes), in the background from here,
+    # beside the checks and the report's stages: a check that refuses ends it, and nothing
+    # is written before they pass (files commit as a set; this process writes them).
     with active().background(_shop_programs, (settings, mirror, strategies)) as shops_bg:
         check_programs(settings, mirror)  # bad input stops here, before anything is written
         for strategy in strategies:
@@ -84,11 +84,13 @@ def run(args: argparse.Namespace) -> int:
             from ..export.reference import write_cad_and_calibration, write_programs
 
             say("lathe-mirror run: programs")
-            shops[:] = shops_bg.result()  # a design no program can cut, a program that touches the stock: stop here
+            made, files = shops_bg.result()  # a design no program can cut, a program that touches the stock: stop here
+            shops[:] = made
             written["gcode"] = write_programs(gcode_dir, shops)
             say("lathe-mirror run: CAD")
-            written["cad"], written["calib"] = write_cad_and_calibration(cad_dir, calib_dir, settings, mirror)
-            write_spec(out_dir, settings, spec_of(settings, as_turned=True))  # the drawing beside the report (lathe-mirror spec)
+            written["cad"], written["calib"] = write_cad_and_calibration(cad_dir, calib_dir, settings, mirror,
+                                                                         files=files["cad"])
+            write_spec(out_dir, settings, None, files=files["spec"])  # the drawing beside the report (`spec`)
 
         shops: list = []
         data = report_figures(settings, progress=not args.no_progress, renders=not args.no_render,
@@ -111,13 +113,21 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _shop_programs(task) -> list:
+def _shop_programs(task) -> tuple[list, dict]:
     """The checked, simulated programs (shop.programs.shop_programs) of task = (settings,
-    mirror, strategies)."""
+    mirror, strategies), and the bytes of the other files `run` writes beside them: the CAD
+    and the calibration files (export.reference.cad_and_calibration_files) and the spec's
+    JSON and drawing (spec.spec_files). Their making (OCP's import and the STEP, the
+    drawing's PDF and SVG: ~5 s) runs here, not in the process the report's stages wait on."""
+    from ..export.reference import cad_and_calibration_files
+    from ..iso10110 import spec_of
     from ..shop.programs import shop_programs
+    from .spec import spec_files
 
     settings, mirror, strategies = task
-    return shop_programs(settings, mirror, strategies=strategies)
+    shops = shop_programs(settings, mirror, strategies=strategies)
+    return shops, {"cad": cad_and_calibration_files(settings, mirror),
+                   "spec": spec_files(settings, spec_of(settings, as_turned=True))}
 
 
 def _sha256(path) -> str:

@@ -46,16 +46,26 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def write_spec(directory, settings, spec) -> None:
-    """The JSON and the drawing into `directory` (made if missing)."""
-    from ..body import design_meridian
-    from ..export.drawing import write_drawing
-    from ..export.files import json_text, write_text
+def write_spec(directory, settings, spec, *, files: dict[str, bytes] | None = None) -> None:
+    """The JSON and the drawing into `directory` (made if missing). files: spec_files's,
+    made already (`run` makes them in its background process)."""
+    from ..export.files import write_bytes
     from .common import output_dir
 
     d = output_dir(directory)
-    write_text(d / FILES[0], json_text(spec.to_dict()))
-    write_drawing(d, spec, design_meridian(settings.mirror(), settings.body))
+    files = spec_files(settings, spec) if files is None else files
+    for name in FILES:
+        write_bytes(d / name, files[name])
+
+
+def spec_files(settings, spec) -> dict[str, bytes]:
+    """The bytes of FILES: the spec's JSON and the drawing (PDF, SVG)."""
+    from ..body import design_meridian
+    from ..export.drawing import drawing_bytes
+    from ..export.files import json_text
+
+    drawing = drawing_bytes(spec, design_meridian(settings.mirror(), settings.body))
+    return {FILES[0]: json_text(spec.to_dict()).encode("utf-8"), FILES[1]: drawing["pdf"], FILES[2]: drawing["svg"]}
 
 
 def format_spec(d: dict) -> str:

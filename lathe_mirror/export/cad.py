@@ -116,13 +116,21 @@ def ok_figures(check: dict[str, Any], fmt: CadFormat) -> bool:
     return not check["audit_errors"]
 
 
-def write_reference_cad(out_dir: str | Path, model: CadModel, settings: CadSettings) -> list[Path]:
-    """Write a model's reference CAD into out_dir (the paper mirror's into `cad/`): the
-    designed and the programmed STEP and the meridian DXF (REFERENCE_FILES). The model must
-    hold the programmed face. Returns the paths."""
+def reference_cad_bytes(model: CadModel, settings: CadSettings) -> dict[str, bytes]:
+    """The bytes of a model's reference CAD, by file name (REFERENCE_FILES): the designed
+    and the programmed STEP and the meridian DXF. The model must hold the programmed face."""
     jobs = [(Which.DESIGN, CadFormat.STEP), (Which.PROGRAMMED, CadFormat.STEP),
             (Which.DESIGN, CadFormat.DXF)]
+    return {name: cad_bytes(model, which, fmt, settings) for name, (which, fmt) in zip(REFERENCE_FILES, jobs)}
+
+
+def write_reference_cad(out_dir: str | Path, model: CadModel, settings: CadSettings, *,
+                        data: dict[str, bytes] | None = None) -> list[Path]:
+    """Write a model's reference CAD into out_dir (the paper mirror's into `cad/`): the
+    designed and the programmed STEP and the meridian DXF (REFERENCE_FILES). The model must
+    hold the programmed face. data: reference_cad_bytes's, made already (e.g. in another
+    process). Returns the paths."""
     # Every file's bytes first: a failure leaves no mix of new and old reference files.
-    data = [cad_bytes(model, which, fmt, settings) for which, fmt in jobs]
+    data = reference_cad_bytes(model, settings) if data is None else data
     out = prepare_dir(out_dir)
-    return [write_bytes(out / name, d) for name, d in zip(REFERENCE_FILES, data)]
+    return [write_bytes(out / name, data[name]) for name in REFERENCE_FILES]

@@ -229,17 +229,17 @@ def monte_carlo_histograms(per_trial: dict, limits: dict, *, calibrated: bool, p
     fig, axes = plt.subplots(1, 4 if r10 is not None else 3, figsize=(14.5 if r10 is not None else 11, 3.2))
     if r10 is not None:
         r10 = 1e3 * np.asarray(r10, dtype=float)
-        axes[3].hist(np.nan_to_num(r10, nan=0.0), bins=40, color="grey", label="made parts")
+        axes[3].hist(np.nan_to_num(r10, nan=0.0), bins=40, color="grey", label="made parts", histtype="stepfilled")
         axes[3].axvline(1e3 * delivered["design"], color="black", ls="-", label="design")
         axes[3].axvline(1e3 * delivered["p5"], color="red", ls="--", label="5th percentile")
         axes[3].set_xlabel("delivered R10 (mm)")
     for k, name in enumerate(("inner", "outer")):
         axes[0].hist(np.clip(disp[:, k], 0, 5 * limits["image_displacement_px"]), bins=40, alpha=0.6,
-                     color=LOBE_COLOURS[name], label=name)
-        axes[2].hist(slope[:, k], bins=40, alpha=0.6, color=LOBE_COLOURS[name], label=name)
+                     color=LOBE_COLOURS[name], label=name, histtype="stepfilled")
+        axes[2].hist(slope[:, k], bins=40, alpha=0.6, color=LOBE_COLOURS[name], label=name, histtype="stepfilled")
     cap = 5 * limits["disparity_px"]
     axes[1].hist(np.clip(np.nan_to_num(disparity, nan=cap, posinf=cap), 0, cap), bins=40, color="grey",
-                 label="90 % of the band")
+                 label="90 % of the band", histtype="stepfilled")
     axes[0].axvline(limits["image_displacement_px"], color="red", ls="--", label="limit")
     axes[1].axvline(limits["disparity_px"], color="red", ls="--", label="limit")
     axes[2].axvline(limits["slope_error_rad"], color="red", ls="--", label="limit")

@@ -88,10 +88,13 @@ def lobe_span(u: np.ndarray, v: np.ndarray) -> tuple[float, float]:
     return (lo, hi if hi > lo else lo + 1.0)
 
 
-def model_pixels(mirror: Mirror, k: int, w: np.ndarray, cal: Calibration) -> tuple[np.ndarray, np.ndarray]:
+def model_pixels(mirror: Mirror, k: int, w: np.ndarray, cal: Calibration,
+                 points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Where the calibrated model of lobe k images world directions w (trials, m, 3)
-    (unit, from F1 outward): (u, v) px, each (trials, m); NaN where the lobe cannot see w."""
-    q, _ = _project(mirror, k, w, cal.rotation)
+    (unit, from F1 outward): (u, v) px, each (trials, m); NaN where the lobe cannot see w.
+    points: sheet_points(mirror, k, w), when the caller has them (they do not depend on
+    the calibration: one set serves the raw and the calibrated model)."""
+    q, _ = _project(mirror, k, w, cal.rotation, points)
     qr = _remap(q, cal.coeffs[:, k], cal.span[k])
     return qr[..., 0], qr[..., 1]
 
@@ -105,9 +108,10 @@ def model_directions(mirror: Mirror, k: int, u: np.ndarray, v: np.ndarray, cal: 
     u = np.broadcast_to(u, (n,) + np.shape(u)[-1:])
     v = np.broadcast_to(v, u.shape)
     rho_p = np.hypot(u, v)
-    # Undo the radial map: rho + h(rho) = rho_p, by fixed-point iteration (|h'| << 1).
+    # Undo the radial map: rho + h(rho) = rho_p, by fixed-point iteration (|h'| << 1); no
+    # map (the design's own model: every coefficient 0, h = 0 exactly) leaves rho_p as it is.
     rho = rho_p.copy()
-    for _ in range(4):
+    for _ in range(4 if np.any(cal.coeffs[:, k]) else 0):
         rho = rho_p - _poly(rho, cal.coeffs[:, k], cal.span[k])[0]
     scale = np.where(rho_p > 0, rho / np.where(rho_p > 0, rho_p, 1.0), 1.0)
     c = np.stack([u * scale * cam.t_pixel / cam.f, v * scale * cam.t_pixel / cam.f, np.ones_like(u)], axis=-1)
@@ -151,11 +155,12 @@ def fit(mirror: Mirror, pixels: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
     directions = [np.where(valid[k][:, sub[k], None], directions[k][:, sub[k]], np.array([1.0, 0.0, 0.0]))
                   for k in (0, 1)]
     huber = [np.ones_like(w) for w in base_w]
+    points = [sheet_points(mirror, k, directions[k]) for k in (0, 1)]  # every iteration's, the same
     for it in range(PLAIN_ITERATIONS + ROBUST_ITERATIONS):
         H = np.zeros((n, npar, npar))
         g = np.zeros((n, npar))
         for k in (0, 1):
-            res, jac, ok = _residual_and_jacobian(mirror, k, directions[k], cal, pts[k])
+            res, jac, ok = _residual_and_jacobian(mirror, k, directions[k], cal, pts[k], points[k])
             w = np.where(ok, base_w[k] * huber[k], 0.0)
             cols = list(range(3)) + list(range(3 + k * RADIAL_TERMS, 3 + (k + 1) * RADIAL_TERMS))
             jf = jac.reshape(n, -1, jac.shape[-1])
@@ -170,34 +175,44 @@ def fit(mirror: Mirror, pixels: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
         step = -np.linalg.solve(H + damp, g[..., None])[..., 0]
         cal = Calibration(cal.rotation @ _rodrigues(step[:, :3]),
                           cal.coeffs + step[:, 3:].reshape(n, 2, RADIAL_TERMS), span)
-        if it + 1 >= PLAIN_ITERATIONS:
+        if PLAIN_ITERATIONS <= it + 1 < PLAIN_ITERATIONS + ROBUST_ITERATIONS:  # the next iteration's weights
             for k in (0, 1):
-                res = residuals(mirror, k, directions[k], cal, pts[k][..., 0], pts[k][..., 1])
+                res = residuals(mirror, k, directions[k], cal, pts[k][..., 0], pts[k][..., 1], points[k])
                 mag = np.where(np.isfinite(res), res, 0.0)
                 huber[k] = np.minimum(1.0, HUBER_PX / np.maximum(mag, 1e-300))
     return cal
 
 
-def residuals(mirror: Mirror, k: int, w: np.ndarray, cal: Calibration, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+def residuals(mirror: Mirror, k: int, w: np.ndarray, cal: Calibration, u: np.ndarray, v: np.ndarray,
+              points: np.ndarray | None = None) -> np.ndarray:
     """|q'(w) - p| (px) of each pixel p = (u, v) of lobe k whose made direction is w
-    (trials, m, 3); NaN where the model cannot image w."""
-    mu, mv = model_pixels(mirror, k, w, cal)
+    (trials, m, 3); NaN where the model cannot image w. points: as model_pixels'."""
+    mu, mv = model_pixels(mirror, k, w, cal, points)
     return np.hypot(mu - u, mv - v)
 
 
 # --------------------------------------------------------------------------------------
 
 
-def _project(mirror: Mirror, k: int, w: np.ndarray, rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pixel q (trials, m, 2) of the exact sheet's point for direction w seen by the camera
-    rotated by `rotation`, and that point in the camera frame c (trials, m, 3)."""
+def sheet_points(mirror: Mirror, k: int, w: np.ndarray) -> np.ndarray:
+    """The exact sheet's point P = F1 + w b^2 / (a - e w_z) (mm, mirror frame) of lobe k
+    for directions w (..., 3); NaN where the lobe cannot see w."""
     lobe = mirror.lobes[k]
-    cam = mirror.camera
     den = lobe.a - lobe.e * w[..., 2]
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.where(den > 0, lobe.b**2 / den, np.nan)
     p = w * s[..., None]
     p[..., 2] += lobe.focus_z
+    return p
+
+
+def _project(mirror: Mirror, k: int, w: np.ndarray, rotation: np.ndarray,
+             points: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel q (trials, m, 2) of the exact sheet's point for direction w seen by the camera
+    rotated by `rotation`, and that point in the camera frame c (trials, m, 3). points:
+    sheet_points(mirror, k, w), if made already."""
+    cam = mirror.camera
+    p = sheet_points(mirror, k, w) if points is None else points
     c = p @ rotation  # R^T P, row-wise
     F = cam.f / cam.t_pixel
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -228,11 +243,12 @@ def _remap(q: np.ndarray, coeffs: np.ndarray, span) -> np.ndarray:
     return q * f[..., None]
 
 
-def _residual_and_jacobian(mirror, k, w, cal, pts):
+def _residual_and_jacobian(mirror, k, w, cal, pts, points=None):
     """Residual q'(w) - p (trials, m, 2), its Jacobian (trials, m, 2, 3 + RADIAL_TERMS)
-    in (rotation increment, lobe k's coefficients), and where it is defined."""
+    in (rotation increment, lobe k's coefficients), and where it is defined. points: the
+    sheet's points of w (sheet_points), if made already."""
     F = mirror.camera.f / mirror.camera.t_pixel
-    q, c = _project(mirror, k, w, cal.rotation)
+    q, c = _project(mirror, k, w, cal.rotation, points)
     rho = np.hypot(q[..., 0], q[..., 1])
     coeffs = cal.coeffs[:, k]
     h, dh, basis = _poly(rho, coeffs, cal.span[k])

@@ -34,7 +34,7 @@ from ..design import Mirror
 from ..optics.radial import in_lobe_range, used_extent
 from ..optics.stereo import capped_abs_error, triangulate
 from ..toolpath.metrics import slope_error
-from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals
+from .calibration import Calibration, fit, lobe_span, model_directions, model_pixels, residuals, sheet_points
 from .poses import PoseDraws, poses
 from .samples import PixelSample, StereoPoints, stereo_points
 from .surfaces import SurfaceBank, off_lobe_cells
@@ -187,8 +187,14 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
             surf = [machine_error_surface(bank, k, surf[k], tr) for k in (0, 1)]
             tr.tool_x_mm = tr.tool_x_mm + tr.machine_x_mm  # the pass shifted in X, as a setting error
         origin, rotation = poses(tr, seat_pivot_mm)
-        traced = [_trace(mirror, bank, k, surf, tr, origin, rotation, samples[k].u, samples[k].v) for k in (0, 1)]
-        traced = [_in_range(mirror, k, t) for k, t in enumerate(traced)]
+        # each lobe's cells off its surface, once a batch (every trace and the surface errors read them)
+        off = [off_lobe_cells(surf[k][0], bank.design_z(k), bank.dr[k]) for k in (0, 1)]
+        traced = [_trace(mirror, bank, k, surf, tr, origin, rotation, samples[k].u, samples[k].v, off[k])
+                  for k in (0, 1)]
+        # each made direction's point on the exact sheet: the same for the range check, the raw
+        # and the calibrated model (calibration.sheet_points)
+        points = [sheet_points(mirror, k, traced[k][1]) for k in (0, 1)]
+        traced = [_in_range(mirror, k, t, points[k]) for k, t in enumerate(traced)]
         valid = [t[2] for t in traced]
         n_lost = sum(np.sum(np.where(valid[k], 0.0, samples[k].weight[None, :]), axis=1) for k in (0, 1))
         lost[sl] = n_lost / (samples[0].weight.sum() + samples[1].weight.sum())
@@ -200,7 +206,7 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
             for k in (0, 1):
                 smp = samples[k]
                 p, o, ok, _ = traced[k]
-                disp = residuals(mirror, k, o, model, smp.u[None, :], smp.v[None, :])
+                disp = residuals(mirror, k, o, model, smp.u[None, :], smp.v[None, :], points[k])
                 landed = ok & np.isfinite(disp)
                 ok_k = landed & (disp <= outlier_px)
                 w = np.where(ok_k, smp.weight[None, :], 0.0)
@@ -220,11 +226,11 @@ def evaluate(mirror: Mirror, bank: SurfaceBank, trials: Trials, samples: tuple[P
                 out["viewpoint_spread_mm_rms"][sl, k] = _wrms(np.where(ok_k, spread, 0.0), w)
                 if keep_displacements and model is ident:
                     kept.append((k, sl, disp, ok_k))
-            stereo = _stereo(mirror, bank, surf, tr, origin, rotation, sp, model)
+            stereo = _stereo(mirror, bank, surf, tr, origin, rotation, sp, model, off)
             for key, v in stereo.items():
                 out[key][sl] = v
         for k in (0, 1):
-            slope[sl, k], ndev[sl, k] = _surface_errors(mirror, bank, k, surf[k], tr, zones=zones)
+            slope[sl, k], ndev[sl, k] = _surface_errors(mirror, bank, k, surf[k], tr, zones=zones, off=off[k])
         if progress is not None:
             progress.update(m)
     if not calibrate:
@@ -261,7 +267,13 @@ def _lookup(bank: SurfaceBank, k: int, grid: np.ndarray, rows: np.ndarray, q: np
     g = (q - bank.r0[k]) / bank.dr[k]
     i0 = np.clip(np.floor(g).astype(np.intp), 0, bank.n[k] - 2)
     f = g - i0
-    return grid[rows, i0] * (1.0 - f) + grid[rows, i0 + 1] * f
+    return _gather(grid, rows, i0) * (1.0 - f) + _gather(grid, rows, i0 + 1) * f
+
+
+def _gather(grid: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """grid[rows, cols] (rows broadcast against cols) as one flat take: the same values,
+    ~3x faster than numpy's two-array fancy indexing on the trials' (trials, n) tables."""
+    return np.take(grid.reshape(-1), rows * grid.shape[1] + cols)
 
 
 def _sheet_hit(lobe, o: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -288,25 +300,27 @@ def _lookup_with_slope(bank: SurfaceBank, k: int, grid: np.ndarray, rows: np.nda
     g = (q - bank.r0[k]) / bank.dr[k]
     i0 = np.clip(np.floor(g).astype(np.intp), 0, bank.n[k] - 2)
     f = g - i0
-    a, b = grid[rows, i0], grid[rows, i0 + 1]
+    a, b = _gather(grid, rows, i0), _gather(grid, rows, i0 + 1)
     return a * (1.0 - f) + b * f, (b - a) / bank.dr[k]
 
 
-def _in_range(mirror: Mirror, k: int, traced: tuple) -> tuple:
+def _in_range(mirror: Mirror, k: int, traced: tuple, points: np.ndarray | None = None) -> tuple:
     """_trace's result with `ok` cleared where the made direction has left lobe k's range:
-    the design's own model (no calibration) images it outside the lobe's annulus."""
+    the design's own model (no calibration) images it outside the lobe's annulus. points:
+    the directions' sheet points (calibration.sheet_points), if made already."""
     p, o, ok, blocked = traced
     n = o.shape[0]
     design = Calibration.identity(n, ((0.0, 1.0), (0.0, 1.0)))  # no radial terms: the span is unused
-    mu, mv = model_pixels(mirror, k, o, design)
+    mu, mv = model_pixels(mirror, k, o, design, points)
     return p, o, ok & in_lobe_range(mirror, k, np.hypot(mu, mv)), blocked
 
 
-def _trace(mirror: Mirror, bank: SurfaceBank, k: int, surfs, tr: Trials, origin, rot, u, v):
+def _trace(mirror: Mirror, bank: SurfaceBank, k: int, surfs, tr: Trials, origin, rot, u, v, off: np.ndarray):
     """Hit points, reflected unit directions (trials, m, 3), and masks (trials, m): ok, the
     ray lands on lobe k (not the wall, the other lobe, past the rim); blocked, leaving the
     recessed inner lobe it runs into the step wall (vignetted). u, v: px, (m,) shared by
-    the trials or (trials, m) each its own."""
+    the trials or (trials, m) each its own. off: the trials' cells off lobe k's surface
+    (surfaces.off_lobe_cells of its z table)."""
     surf = surfs[k]
     cam = mirror.camera
     dc = np.stack(np.broadcast_arrays(u * cam.t_pixel, v * cam.t_pixel, cam.f), axis=-1).astype(float)
@@ -352,9 +366,8 @@ def _trace(mirror: Mirror, bank: SurfaceBank, k: int, surfs, tr: Trials, origin,
     # nose cuts into the outer lobe's edge, the rim a smaller one leaves on the inner lobe,
     # the cell the nose's corner turns down in): a hit in such a cell hit the wall, not the
     # lobe; the samples cannot say where in the cell the wall stands (5 um, 0.06 px).
-    off = off_lobe_cells(z_grid, bank.design_z(k), bank.dr[k])
     i0 = np.clip(np.floor((q - bank.r0[k]) / bank.dr[k]).astype(np.intp), 0, bank.n[k] - 2)
-    ok &= settled & ~off[rows, i0]
+    ok &= settled & ~_gather(off, rows, i0)
     slope = _lookup(bank, k, s_grid, rows, q) * np.sign(np.where(q_raw == 0, 1.0, q_raw))
     # Normal (toward the camera) of z = Z(rho): (s x/rho, s y/rho, -1) / sqrt(1 + s^2).
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -380,9 +393,11 @@ def _trace(mirror: Mirror, bank: SurfaceBank, k: int, surfs, tr: Trials, origin,
     return p, out, ok, blocked
 
 
-def _surface_errors(mirror: Mirror, bank: SurfaceBank, k: int, surf, tr: Trials, stride: int = 4, zones=None):
+def _surface_errors(mirror: Mirror, bank: SurfaceBank, k: int, surf, tr: Trials, stride: int = 4, zones=None,
+                    off: np.ndarray | None = None):
     """RMS slope error (rad) and RMS normal deviation (mm) of lobe k per trial, uniform in r
-    over the extent the image uses (radial.used_extent: the zones' used zone if given)."""
+    over the extent the image uses (radial.used_extent: the zones' used zone if given).
+    off: the cells off the lobe's surface (default off_lobe_cells of surf's z)."""
     lobe = mirror.lobes[k]
     r = bank.r0[k] + bank.dr[k] * np.arange(0, bank.n[k], stride)
     if k == 1:
@@ -403,16 +418,17 @@ def _surface_errors(mirror: Mirror, bank: SurfaceBank, k: int, surf, tr: Trials,
     # lobe; its pixels are lost. The interpolated slope at a point is its cell's two
     # samples', so the cell decides: a sample next to the corner's cell keeps its own slope
     # (one-sided where the chords jump, _sample_slopes) and is judged.
-    off = off_lobe_cells(surf[0], bank.design_z(k), bank.dr[k])
+    if off is None:
+        off = off_lobe_cells(surf[0], bank.design_z(k), bank.dr[k])
     i0 = np.clip(np.floor((q - bank.r0[k]) / bank.dr[k]).astype(np.intp), 0, bank.n[k] - 2)
-    on = ~off[rows, i0]
+    on = ~_gather(off, rows, i0)
     cnt = np.maximum(np.sum(on, axis=1), 1)
     return (np.sqrt(np.sum(np.where(on, slope_err**2, 0.0), axis=1) / cnt),
             np.sqrt(np.sum(np.where(on, ndev**2, 0.0), axis=1) / cnt))
 
 
 def _stereo(mirror: Mirror, bank: SurfaceBank, surf, tr: Trials, origin, rot, sp: StereoPoints,
-            model: Calibration) -> dict[str, np.ndarray]:
+            model: Calibration, off: list[np.ndarray]) -> dict[str, np.ndarray]:
     """Stereo figures of each trial at each range, against `model`.
 
     The model believes a pixel pair shows the point W where its two model rays cross;
@@ -434,7 +450,7 @@ def _stereo(mirror: Mirror, bank: SurfaceBank, surf, tr: Trials, origin, rot, sp
         u, v = model_pixels(mirror, k, np.broadcast_to(dirs, (n,) + dirs.shape), model)
         bad = ~(np.isfinite(u) & np.isfinite(v))
         u, v = np.where(bad, 0.0, u), np.where(bad, 0.0, v)
-        p, o, ok, blocked = _in_range(mirror, k, _trace(mirror, bank, k, surf, tr, origin, rot, u, v))
+        p, o, ok, blocked = _in_range(mirror, k, _trace(mirror, bank, k, surf, tr, origin, rot, u, v, off[k]))
         rays.append((p, o, ok & ~blocked & ~bad))
     x = triangulate(rays[0][0], rays[0][1], rays[1][0], rays[1][1])
     unit = np.tile(sp.unit, (R, 1))
