@@ -102,6 +102,21 @@ def test_the_sectors_hold_the_stated_pixels(design):
     assert all(np.all(np.diff(c) == 1) for c in cols)
 
 
+def test_the_usable_annulus_is_the_designs_image_radii(design):
+    """usable_annulus (the exact mirror traced once per distinct image radius, spread to the
+    pixels) is the closed form of the design's radii, Mirror.image_radii_px: the inner disc
+    short of the step's vignetted band, and the outer annulus, every centre tested here."""
+    from lathe_mirror.optics.distortion import usable_annulus
+
+    name, settings, mirror, *_ = design
+    w, h = settings.camera.sensor_px
+    rho = np.hypot((np.arange(w) + 0.5 - w / 2.0)[None, :], (np.arange(h) + 0.5 - h / 2.0)[:, None])
+    radii = mirror.image_radii_px
+    lo, hi = radii["outer_annulus"]
+    want = (rho < radii["inner_blocked_by_step"][0]) | ((rho > lo) & (rho <= hi))
+    assert np.array_equal(usable_annulus(mirror), want), name
+
+
 def _densities(base: int) -> tuple[int, int, int]:
     return base // 2, base, 2 * base
 
