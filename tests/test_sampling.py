@@ -272,3 +272,23 @@ def test_the_range_from_a_large_sensors_image_keeps_its_figures(design, monkeypa
     for n, f in got.items():
         assert abs(f.range_error_pct.median / ref.range_error_pct.median - 1) < RANGE_MEDIAN_SPREAD, (n, f, ref)
         assert abs(f.valid_fraction - ref.valid_fraction) < RANGE_VALID_SPREAD, (n, f, ref)
+
+
+def test_a_large_render_is_drawn_from_block_means(monkeypatch):
+    """report.plots.drawn_image: an image whose shorter side holds DRAW_SHORT_PX f times is
+    drawn as the mean of f x f blocks (rounded half up; the rows and columns past the last
+    whole block dropped), counted by hand here; the paper's 1008 x 1018 as it is."""
+    from lathe_mirror.report import plots
+
+    paper = np.zeros((1018, 1008, 3), np.uint8)
+    assert plots.drawn_image(paper) is paper
+    monkeypatch.setattr(plots, "DRAW_SHORT_PX", 2)
+    img = np.zeros((5, 7, 3), np.uint8)  # f = 5 // 2 = 2: blocks of rows 0-1, 2-3 and columns 0-1, 2-3, 4-5
+    img[0, 0] = [255, 1, 2]  # block (0, 0): 255 / 4 = 63.75 -> 64; 1 / 4 -> 0; (2 + 1) / 4 = 0.75 -> 1
+    img[1, 1, 2] = 1
+    img[3, 5] = [10, 10, 10]  # block (1, 2): 2.5 -> 3 (half up)
+    img[4, :] = img[:, 6] = 200  # past the last whole block: dropped
+    want = np.zeros((2, 3, 3), np.uint8)
+    want[0, 0] = [64, 0, 1]
+    want[1, 2] = [3, 3, 3]
+    assert np.array_equal(plots.drawn_image(img), want)
