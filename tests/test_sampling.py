@@ -292,3 +292,22 @@ def test_a_large_render_is_drawn_from_block_means(monkeypatch):
     want[0, 0] = [64, 0, 1]
     want[1, 2] = [3, 3, 3]
     assert np.array_equal(plots.drawn_image(img), want)
+
+
+@pytest.mark.parametrize("design", ["paper"], indirect=True)
+def test_mirrors_rendered_over_one_sample_are_each_rendered_alone(design):
+    """render_images makes the samples' radii once for several profiles: each image is the
+    one render_image gives that profile alone (a made mirror between two exact ones, so a
+    table left over from the one before would show), at supersample 2 on a wedge."""
+    from lathe_mirror.job import scene_for
+    from lathe_mirror.optics.render import render_image, render_images
+    from lathe_mirror.profile import ExactProfile
+
+    name, settings, mirror, made, *_ = design
+    scene = scene_for(settings, mirror)
+    px = sampling.AzimuthSectors(1, 0.5, 0.2).pixels(settings.camera.sensor_px)
+    profiles = [ExactProfile(mirror), made, ExactProfile(mirror)]
+    together = list(render_images(profiles, mirror, scene, supersample=2, pixels=px))
+    assert np.array_equal(together[0], together[2]) and not np.array_equal(together[0], together[1])
+    for p, img in zip(profiles, together):
+        assert np.array_equal(img, render_image(p, mirror, scene, supersample=2, pixels=px))

@@ -21,7 +21,7 @@ from ..optics.ranging.resolution import resolution_table
 from ..optics.ranging.stereo import (SECTOR_LEAD_DEG, error_curve, image_mask, matched_sectors, prepare, range_figures,
                                      sector_margin, sector_segments, stereo_range)
 from ..optics.ranging.truth import true_range
-from ..optics.render import SSIM_RADIUS_PX, image_differences, render_image
+from ..optics.render import SSIM_RADIUS_PX, image_differences, render_images
 from ..optics.sampling import PIXELS_PER_LOBE, RANGE_SECTORS, AzimuthSectors, azimuth_sectors, lobe_pixels, pixel_stride
 from ..path import Arc, Line
 from ..profile import ExactProfile, Profile
@@ -284,8 +284,8 @@ def render_mirrors(made: dict, mirror: Mirror, settings: Settings, zones=None, *
         mask &= sectors.pixels(mirror.camera.sensor_px)
         traced = traced_pixels(mask, sectors, blur, mirror.camera.sensor_px)
     # blurred only where traced (optics.defocus: the tiles holding them), the rest black
-    images = {name: defocus_image(render_image(made[name], mirror, scene, pixels=traced), blur, pixels=traced)
-              for name in names}
+    images = {name: defocus_image(image, blur, pixels=traced)
+              for name, image in zip(names, render_images([made[n] for n in names], mirror, scene, pixels=traced))}
     diffs = image_differences(images["exact"], {name: images[name] for name in names if name != "exact"}, mask=mask)
     stats = {name: ImageDifference.from_dict(d) for name, d in diffs.items()}
     return images, RenderFigures(against_exact=stats,
@@ -338,11 +338,15 @@ def ranging_figures(made: dict[str, Profile], mirror: Mirror, settings: Settings
     blurred = None if sectors is None else mask
     mirrors, maps = {}, {}
     precision = math.nan
+    # each mirror's image over the same pixels (render_images: their samples' radii made once)
+    profiles = [made[name] for name in names]
+    sharp = render_images(profiles, mirror, scene, supersample=st.supersample,
+                          pixels=mask if lead is None else mask & ~lead)
+    leads = None if lead is None else render_images(profiles, mirror, scene, pixels=lead)
     for name in names:  # exact first: its disparity error is the matcher's precision
-        image = render_image(made[name], mirror, scene, supersample=st.supersample,
-                             pixels=mask if lead is None else mask & ~lead)
-        if lead is not None:
-            image[lead] = render_image(made[name], mirror, scene, pixels=lead)[lead]
+        image = next(sharp)
+        if leads is not None:
+            image[lead] = next(leads)[lead]
         image = defocus_image(image, blur, pixels=blurred)
         result = stereo_range(image, mirror, st.params, sectors=sectors)
         fig = RangeFigures.from_dict(range_figures(result, truth, mirror,
