@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -51,18 +52,49 @@ def render_images(profiles, mirror: Mirror, scene: Scene, camera: Camera | None 
                   pixels: np.ndarray | None = None,
                   progress: bool = False) -> Iterator[np.ndarray]:
     """render_image of each of several profiles (an iterable of Profile) over the same
-    pixels, one image at a time: the samples' coordinates and (aligned camera) each
-    sample's distinct image radius are made once for all of them, so the images are
-    render_image's to the byte at the cost of their rays alone (a 12-MP report's four
-    mirrors: the radius tables of 5 M samples made once, not four times)."""
-    check_type(mirror, "render_image: mirror", Mirror, "a Mirror (settings.mirror())")
-    check_type(scene, "render_image: scene", Scene, "a Scene (build_scene(settings.scene))")
-    if camera is not None:
-        check_type(camera, "render_image: camera", Camera, "a Camera")
-    check_real(supersample, "render_image: supersample", lo=1, integer=True)
+    pixels, one image at a time: the samples (render_sample) are made once for all of
+    them, so the images are render_image's to the byte at the cost of their rays alone (a
+    12-MP report's four mirrors: the radius tables of 5 M samples made once, not four times)."""
     profiles = list(profiles)
     for profile in profiles:
         check_type(profile, "render_image: profile", Profile, "a Profile (made_surface(...).profile, ExactProfile)")
+    check_type(scene, "render_image: scene", Scene, "a Scene (build_scene(settings.scene))")
+    sample = render_sample(mirror, camera, pose=pose, supersample=supersample, window=window, pixels=pixels)
+    for profile in profiles:
+        yield sample.render(profile, scene, progress=progress)
+
+
+@dataclass(frozen=True)
+class RenderSample:
+    """The rays of a render, whatever the mirror (render_sample): the samples' image
+    coordinates u, v (px, 1-D), the image's (h, w, samples per pixel), the pixels rendered
+    (None: all) and, for an aligned camera, the samples' distinct image radii (px) and each
+    sample's index into them."""
+
+    camera: Camera
+    pose: CameraPose
+    u: np.ndarray
+    v: np.ndarray
+    shape: tuple[int, int, int]
+    pixels: np.ndarray | None
+    radii: tuple[np.ndarray, np.ndarray] | None
+
+    def render(self, profile: Profile, scene: Scene, *, progress: bool = False) -> np.ndarray:
+        """render_image of profile over these rays: (H, W, 3) uint8."""
+        check_type(scene, "render_image: scene", Scene, "a Scene (build_scene(settings.scene))")
+        return _render_one(profile, self.camera, scene, self.pose, self.u, self.v, self.radii, self.shape,
+                           self.pixels, progress)
+
+
+def render_sample(mirror: Mirror, camera: Camera | None = None, *, pose: CameraPose | None = ALIGNED,
+                  supersample: int = 1, window: tuple[int, int, int, int] | None = None,
+                  pixels: np.ndarray | None = None) -> RenderSample:
+    """The rays render_image traces (its arguments' meaning), made once for any number of
+    profiles (RenderSample.render)."""
+    check_type(mirror, "render_image: mirror", Mirror, "a Mirror (settings.mirror())")
+    if camera is not None:
+        check_type(camera, "render_image: camera", Camera, "a Camera")
+    check_real(supersample, "render_image: supersample", lo=1, integer=True)
     camera = camera or mirror.camera
     pose = pose or ALIGNED
     u, v = pixel_centres(camera, supersample=supersample, window=window)
@@ -76,8 +108,7 @@ def render_images(profiles, mirror: Mirror, scene: Scene, camera: Camera | None 
     # The radius key needs the sub-grid step 1 / (2 supersample), not the n = supersample^2
     # samples per pixel (a key range n times too large: 31 GiB at --supersample 8).
     radii = _sample_radii(u, v, int(supersample)) if pose.aligned else None
-    for profile in profiles:
-        yield _render_one(profile, camera, scene, pose, u, v, radii, (h, w, n), pixels, progress)
+    return RenderSample(camera, pose, u, v, (h, w, n), pixels, radii)
 
 
 def _render_one(profile: Profile, camera: Camera, scene: Scene, pose: CameraPose, u: np.ndarray,
