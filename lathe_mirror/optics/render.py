@@ -240,9 +240,10 @@ def image_difference(a: np.ndarray, b: np.ndarray, *, mask: np.ndarray | None = 
 #: int(3.5 * 1.5 + 0.5) = 5 px from a pixel (scipy.ndimage.gaussian_filter's radius).
 SSIM_SIGMA, SSIM_TRUNCATE = 1.5, 3.5
 SSIM_RADIUS_PX = int(SSIM_TRUNCATE * SSIM_SIGMA + 0.5)
-#: Rows of the bands image_differences filters in (each band's boxes padded by the window's
-#: reach: 2 x 5 rows more to filter a band, about 4 %).
-SSIM_BAND_ROWS = 256
+#: Rows (and columns) of the blocks image_differences filters in (each box padded by the
+#: window's reach, 2 x 5 rows and columns): 64 fits a large sensor's azimuth wedges closer
+#: than 256 (12 MP, three images: 1.5-2.1 -> 1.0-1.3 s) at the paper's cost (0.4 s).
+SSIM_BAND_ROWS = 64
 
 
 def image_differences(a: np.ndarray, others: dict, *, mask: np.ndarray | None = None) -> dict:
