@@ -102,6 +102,21 @@ def test_the_sectors_hold_the_stated_pixels(design):
     assert all(np.all(np.diff(c) == 1) for c in cols)
 
 
+def test_the_usable_annulus_is_the_designs_image_radii(design):
+    """usable_annulus (the exact mirror traced once per distinct image radius, spread to the
+    pixels) is the closed form of the design's radii, Mirror.image_radii_px: the inner disc
+    short of the step's vignetted band, and the outer annulus, every centre tested here."""
+    from lathe_mirror.optics.distortion import usable_annulus
+
+    name, settings, mirror, *_ = design
+    w, h = settings.camera.sensor_px
+    rho = np.hypot((np.arange(w) + 0.5 - w / 2.0)[None, :], (np.arange(h) + 0.5 - h / 2.0)[:, None])
+    radii = mirror.image_radii_px
+    lo, hi = radii["outer_annulus"]
+    want = (rho < radii["inner_blocked_by_step"][0]) | ((rho > lo) & (rho <= hi))
+    assert np.array_equal(usable_annulus(mirror), want), name
+
+
 def _densities(base: int) -> tuple[int, int, int]:
     return base // 2, base, 2 * base
 
@@ -257,3 +272,42 @@ def test_the_range_from_a_large_sensors_image_keeps_its_figures(design, monkeypa
     for n, f in got.items():
         assert abs(f.range_error_pct.median / ref.range_error_pct.median - 1) < RANGE_MEDIAN_SPREAD, (n, f, ref)
         assert abs(f.valid_fraction - ref.valid_fraction) < RANGE_VALID_SPREAD, (n, f, ref)
+
+
+def test_a_large_render_is_drawn_from_block_means(monkeypatch):
+    """report.plots.drawn_image: an image whose shorter side holds DRAW_SHORT_PX f times is
+    drawn as the mean of f x f blocks (rounded half up; the rows and columns past the last
+    whole block dropped), counted by hand here; the paper's 1008 x 1018 as it is."""
+    from lathe_mirror.report import plots
+
+    paper = np.zeros((1018, 1008, 3), np.uint8)
+    assert plots.drawn_image(paper) is paper
+    monkeypatch.setattr(plots, "DRAW_SHORT_PX", 2)
+    img = np.zeros((5, 7, 3), np.uint8)  # f = 5 // 2 = 2: blocks of rows 0-1, 2-3 and columns 0-1, 2-3, 4-5
+    img[0, 0] = [255, 1, 2]  # block (0, 0): 255 / 4 = 63.75 -> 64; 1 / 4 -> 0; (2 + 1) / 4 = 0.75 -> 1
+    img[1, 1, 2] = 1
+    img[3, 5] = [10, 10, 10]  # block (1, 2): 2.5 -> 3 (half up)
+    img[4, :] = img[:, 6] = 200  # past the last whole block: dropped
+    want = np.zeros((2, 3, 3), np.uint8)
+    want[0, 0] = [64, 0, 1]
+    want[1, 2] = [3, 3, 3]
+    assert np.array_equal(plots.drawn_image(img), want)
+
+
+@pytest.mark.parametrize("design", ["paper"], indirect=True)
+def test_mirrors_rendered_over_one_sample_are_each_rendered_alone(design):
+    """render_images makes the samples' radii once for several profiles: each image is the
+    one render_image gives that profile alone (a made mirror between two exact ones, so a
+    table left over from the one before would show), at supersample 2 on a wedge."""
+    from lathe_mirror.job import scene_for
+    from lathe_mirror.optics.render import render_image, render_images
+    from lathe_mirror.profile import ExactProfile
+
+    name, settings, mirror, made, *_ = design
+    scene = scene_for(settings, mirror)
+    px = sampling.AzimuthSectors(1, 0.5, 0.2).pixels(settings.camera.sensor_px)
+    profiles = [ExactProfile(mirror), made, ExactProfile(mirror)]
+    together = list(render_images(profiles, mirror, scene, supersample=2, pixels=px))
+    assert np.array_equal(together[0], together[2]) and not np.array_equal(together[0], together[1])
+    for p, img in zip(profiles, together):
+        assert np.array_equal(img, render_image(p, mirror, scene, supersample=2, pixels=px))

@@ -7,6 +7,7 @@ Public API (stable names):
   image_displacement(made, mirror, camera=None, *, pose=...) -> DistortionMaps
   distortion_figures(made, mirror, camera=None, *, pose=...) -> {"lobes": [...]}
   render_image(profile, mirror, scene, camera=None, ...) -> (H, W, 3) uint8
+  render_images(profiles, mirror, scene, ...) -> each profile's render_image, the samples made once
   image_difference(a, b, *, mask=None) -> {"rms", "ssim"};  image_differences(a, {name: b}, *, mask=None)
   build_scene(spec, *, mirror_top, mirror_radius) -> Scene;  reference_surface(name, mirror)
   polish_curve(profile, mirror, params) -> PolishCurve (figures against polishing time)

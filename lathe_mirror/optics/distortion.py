@@ -189,8 +189,19 @@ def usable_annulus(mirror: Mirror, camera: Camera | None = None, *,
                    pose: CameraPose | None = ALIGNED) -> np.ndarray:
     """The pixels (H, W bool) of the lobes' usable annuli that the step wall does not
     vignette: DistortionMaps.annulus, properties of the design alone, so every made mirror
-    (and its rendered image) is judged on the same pixels."""
-    return image_displacement(ExactProfile(mirror), mirror, camera, pose=pose).annulus
+    (and its rendered image) is judged on the same pixels.
+
+    Aligned camera: the exact mirror traced once at each distinct image radius (no made
+    mirror to compare, no per-pixel figure), the radii's verdicts spread to the pixels:
+    the same pixels as image_displacement(...).annulus at a tenth of its cost on 12 MP."""
+    pose = pose or ALIGNED
+    if not pose.aligned:
+        return image_displacement(ExactProfile(mirror), mirror, camera, pose=pose).annulus
+    camera = camera or mirror.camera
+    u, v = pixel_centres(camera)
+    uniq, inverse = radius_keys(u[0, :, 0], v[:, 0, 0])
+    he = trace_pixels(ExactProfile(mirror), camera, radii_px=np.sqrt(uniq) / 2.0)
+    return ((he.lobe >= 0) & ~he.blocked)[inverse]
 
 
 def distortion_figures(made: Profile, mirror: Mirror, camera: Camera | None = None, *,

@@ -9,6 +9,8 @@ are linear (no sRGB curve), as POV-Ray writes them with File_Gamma=1.0.
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -40,8 +42,56 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
     InputError if no pixel sees the mirror.
     """
     check_type(profile, "render_image: profile", Profile, "a Profile (made_surface(...).profile, ExactProfile)")
-    check_type(mirror, "render_image: mirror", Mirror, "a Mirror (settings.mirror())")
+    return next(render_images((profile,), mirror, scene, camera, pose=pose, supersample=supersample,
+                              window=window, pixels=pixels, progress=progress))
+
+
+def render_images(profiles, mirror: Mirror, scene: Scene, camera: Camera | None = None, *,
+                  pose: CameraPose | None = ALIGNED, supersample: int = 1,
+                  window: tuple[int, int, int, int] | None = None,
+                  pixels: np.ndarray | None = None,
+                  progress: bool = False) -> Iterator[np.ndarray]:
+    """render_image of each of several profiles (an iterable of Profile) over the same
+    pixels, one image at a time: the samples (render_sample) are made once for all of
+    them, so the images are render_image's to the byte at the cost of their rays alone (a
+    12-MP report's four mirrors: the radius tables of 5 M samples made once, not four times)."""
+    profiles = list(profiles)
+    for profile in profiles:
+        check_type(profile, "render_image: profile", Profile, "a Profile (made_surface(...).profile, ExactProfile)")
     check_type(scene, "render_image: scene", Scene, "a Scene (build_scene(settings.scene))")
+    sample = render_sample(mirror, camera, pose=pose, supersample=supersample, window=window, pixels=pixels)
+    for profile in profiles:
+        yield sample.render(profile, scene, progress=progress)
+
+
+@dataclass(frozen=True)
+class RenderSample:
+    """The rays of a render, whatever the mirror (render_sample): the samples' image
+    coordinates u, v (px, 1-D), the image's (h, w, samples per pixel), the pixels rendered
+    (None: all) and, for an aligned camera, the samples' distinct image radii (px) and each
+    sample's index into them."""
+
+    camera: Camera
+    pose: CameraPose
+    u: np.ndarray
+    v: np.ndarray
+    shape: tuple[int, int, int]
+    pixels: np.ndarray | None
+    radii: tuple[np.ndarray, np.ndarray] | None
+
+    def render(self, profile: Profile, scene: Scene, *, progress: bool = False) -> np.ndarray:
+        """render_image of profile over these rays: (H, W, 3) uint8."""
+        check_type(scene, "render_image: scene", Scene, "a Scene (build_scene(settings.scene))")
+        return _render_one(profile, self.camera, scene, self.pose, self.u, self.v, self.radii, self.shape,
+                           self.pixels, progress)
+
+
+def render_sample(mirror: Mirror, camera: Camera | None = None, *, pose: CameraPose | None = ALIGNED,
+                  supersample: int = 1, window: tuple[int, int, int, int] | None = None,
+                  pixels: np.ndarray | None = None) -> RenderSample:
+    """The rays render_image traces (its arguments' meaning), made once for any number of
+    profiles (RenderSample.render)."""
+    check_type(mirror, "render_image: mirror", Mirror, "a Mirror (settings.mirror())")
     if camera is not None:
         check_type(camera, "render_image: camera", Camera, "a Camera")
     check_real(supersample, "render_image: supersample", lo=1, integer=True)
@@ -55,6 +105,17 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
             raise ValueError(f"render_image: pixels mask {pixels.shape} is not the image's {(h, w)}")
         u, v = u[pixels], v[pixels]  # (m, n): the masked pixels' samples
     u, v = u.reshape(-1), v.reshape(-1)
+    # The radius key needs the sub-grid step 1 / (2 supersample), not the n = supersample^2
+    # samples per pixel (a key range n times too large: 31 GiB at --supersample 8).
+    radii = _sample_radii(u, v, int(supersample)) if pose.aligned else None
+    return RenderSample(camera, pose, u, v, (h, w, n), pixels, radii)
+
+
+def _render_one(profile: Profile, camera: Camera, scene: Scene, pose: CameraPose, u: np.ndarray,
+                v: np.ndarray, radii, shape: tuple[int, int, int], pixels: np.ndarray | None,
+                progress: bool) -> np.ndarray:
+    """One profile's image of the samples (u, v) (render_images)."""
+    h, w, n = shape
     # Every hit shows one of the scene's 24 shaded pigments: each ray keeps the index of its
     # pigment (1 byte, not 24 of RGB: a 4-sample render of the paper's sensor held 100 MB of
     # float colours), BLACK where it sees no lobe; the image is looked up at the end.
@@ -68,9 +129,7 @@ def render_image(profile: Profile, mirror: Mirror, scene: Scene, camera: Camera 
         from tqdm import tqdm
 
         bar = tqdm(total=u.size, unit="ray", unit_scale=True, desc="render", leave=False)
-    # The radius key needs the sub-grid step 1 / (2 supersample), not the n = supersample^2
-    # samples per pixel (a key range n times too large: 31 GiB at --supersample 8).
-    aligned = _aligned_meridian(profile, camera, u, v, int(supersample)) if pose.aligned else None
+    aligned = _aligned_meridian(profile, camera, u, v, radii) if radii is not None else None
 
     def render_chunk(sl: slice) -> int:
         """Shade one chunk of rays into its own slice of `pigment`; returns rays seeing a lobe."""
@@ -125,10 +184,9 @@ def _to_uint8(rgb: np.ndarray) -> np.ndarray:
     return np.clip(np.rint(rgb * 255.0), 0, 255).astype(np.uint8)
 
 
-def _aligned_meridian(profile: Profile, camera: Camera, u: np.ndarray, v: np.ndarray, n: int):
-    """Trace each distinct image radius once (an aligned camera's rays depend on the
-    radius only, and about 8 pixels share each); returns chunk(slice) -> (lit mask, hit
-    point columns x, y, z (mm), reflected direction columns, rays seeing a lobe).
+def _sample_radii(u: np.ndarray, v: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct image radii (px) of the samples (u, v) and each sample's index into
+    them: an aligned camera's rays depend on the radius only, and about 8 pixels share each.
 
     n is the supersampling factor (n x n samples per pixel): sample points sit at integer
     multiples of 1 / (2n) px from the principal point, so (2n u)^2 + (2n v)^2 is an exact
@@ -140,7 +198,14 @@ def _aligned_meridian(profile: Profile, camera: Camera, u: np.ndarray, v: np.nda
     uniq = np.flatnonzero(present)
     index = np.empty(present.size, dtype=np.int32)  # key -> position in uniq
     index[uniq] = np.arange(uniq.size, dtype=np.int32)
-    rho_u = np.sqrt(uniq) / (2 * n)
+    return np.sqrt(uniq) / (2 * n), index[key]
+
+
+def _aligned_meridian(profile: Profile, camera: Camera, u: np.ndarray, v: np.ndarray, radii):
+    """Trace each distinct image radius once (radii: _sample_radii's); returns
+    chunk(slice) -> (lit mask, hit point columns x, y, z (mm), reflected direction columns,
+    rays seeing a lobe)."""
+    rho_u, index = radii
     m = meridian_hits(profile, rho_u * (camera.t_pixel / camera.f))
 
     seen_u = m.fate <= Fate.OUTER
@@ -149,7 +214,7 @@ def _aligned_meridian(profile: Profile, camera: Camera, u: np.ndarray, v: np.nda
     rho_safe = np.where(rho_u > 0, rho_u, np.inf)
 
     def chunk(sl: slice):
-        i = index[key[sl]]
+        i = index[sl]
         lit = lit_u[i]
         n_seen = int(np.count_nonzero(seen_u[i]))
         j = i[lit]
@@ -175,9 +240,10 @@ def image_difference(a: np.ndarray, b: np.ndarray, *, mask: np.ndarray | None = 
 #: int(3.5 * 1.5 + 0.5) = 5 px from a pixel (scipy.ndimage.gaussian_filter's radius).
 SSIM_SIGMA, SSIM_TRUNCATE = 1.5, 3.5
 SSIM_RADIUS_PX = int(SSIM_TRUNCATE * SSIM_SIGMA + 0.5)
-#: Rows of the bands image_differences filters in (each band's boxes padded by the window's
-#: reach: 2 x 5 rows more to filter a band, about 4 %).
-SSIM_BAND_ROWS = 256
+#: Rows (and columns) of the blocks image_differences filters in (each box padded by the
+#: window's reach, 2 x 5 rows and columns): 64 fits a large sensor's azimuth wedges closer
+#: than 256 (12 MP, three images: 1.5-2.1 -> 1.0-1.3 s) at the paper's cost (0.4 s).
+SSIM_BAND_ROWS = 64
 
 
 def image_differences(a: np.ndarray, others: dict, *, mask: np.ndarray | None = None) -> dict:
