@@ -41,6 +41,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--profile", action="store_true", help="cProfile one run of every program (top 25)")
+    ap.add_argument("--sort", default="tottime")
+    ap.add_argument("--top", type=int, default=25)
     ap.add_argument("--json", type=Path, help="write every simulation's figures here")
     args = ap.parse_args()
 
@@ -60,7 +62,7 @@ def main() -> None:
             for prog in progs.values():
                 simulate_program(prog)
         prof.disable()
-        pstats.Stats(prof).sort_stats("tottime").print_stats(25)
+        pstats.Stats(prof).sort_stats(args.sort).print_stats(args.top)
         return
     figures = {}
     total_cpu = total_wall = 0.0
