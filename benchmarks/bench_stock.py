@@ -46,7 +46,7 @@ def main() -> None:
     ap.add_argument("--json", type=Path, help="write every simulation's figures here")
     args = ap.parse_args()
 
-    from lathe_mirror.shop.stock import simulate_program
+    from lathe_mirror.shop.stock import forget_runs, simulate_program
 
     with tempfile.TemporaryDirectory() as tmp:
         cfg = Path(tmp) / "recessed.toml"
@@ -71,6 +71,7 @@ def main() -> None:
         for name, prog in progs.items():
             cpu, wall = [], []
             for _ in range(args.repeat):
+                forget_runs()  # a fresh run each time, not the one this process kept
                 c0, w0 = time.process_time(), time.perf_counter()
                 sim = simulate_program(prog)
                 cpu.append(time.process_time() - c0)

@@ -24,6 +24,8 @@ the gouge tolerance, the chuck touched.
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import math
 from typing import TYPE_CHECKING
 
@@ -119,29 +121,62 @@ def simulate_setup(operations: list[SimOperation], shapes: dict, lathe: Lathe, s
     {station: ToolShape}, None the default. parting: see simulate. resume (shop.resume):
     start from the state the last run it kept had before the first operation this run
     does not share with it (the same figures and contacts as from the start), and keep
-    this run."""
-    import shapely
-
-    k0, figs, states = 0, [], []
+    this run. A run with the same inputs and operations as one of the last RUNS_KEPT of
+    this process is not replayed: its Simulation (immutable, shared) is returned."""
+    inputs = run_inputs(shapes, lathe, start, part, chuck, gouge_tolerance, rapid_rate)
+    kept = _kept_run(_run_key(inputs, operations, parting))
+    if not kept:
+        kept.append(_replay(operations, shapes, lathe, start, part, chuck, inputs, rapid_rate, gouge_tolerance,
+                            parting, resume))
+    sim, states, figs = kept[0]
     if resume is not None:
-        inputs = run_inputs(shapes, lathe, start, part, chuck, gouge_tolerance, rapid_rate)
-        k0 = resume.common(inputs, operations)
+        resume.keep(inputs, operations, states, figs)
+    return sim
+
+
+#: Runs simulate_setup keeps per process (check_made, the report and the tests simulate
+#: the same programs again; shop_program's re-planned run shares its first operations).
+RUNS_KEPT = 16
+
+
+def forget_runs() -> None:
+    """Drop the runs simulate_setup keeps (a test timing or comparing fresh runs)."""
+    _kept_run.cache_clear()
+
+
+@functools.lru_cache(maxsize=RUNS_KEPT)
+def _kept_run(key: bytes) -> list:
+    """The holder of the run with this key: empty until simulate_setup fills it with
+    (Simulation, the states before each operation, each one's figures), none of which
+    anyone mutates (frozen dataclasses, immutable geometry; a state resumes as a snapshot)."""
+    return []
+
+
+def _run_key(inputs: tuple, operations: list, parting) -> bytes:
+    """A run's inputs and operations as bytes (repr: every float exactly, -0.0 too)."""
+    return hashlib.sha256(repr((inputs, tuple(operations), parting)).encode()).digest()
+
+
+def _replay(operations, shapes, lathe, start, part, chuck, inputs, rapid_rate, gouge_tolerance, parting,
+            resume) -> tuple:
+    """simulate_setup's run, from the state resume kept before its first operation that
+    differs (from the bar when none): (Simulation, states, figures)."""
+    k0 = 0 if resume is None else resume.common(inputs, operations)
+    k0 = min(k0, len(resume.states) - 1) if k0 else 0  # a run the kept one ends within: its last one again
     if k0 > 0:
         sim = resume.states[k0].snapshot()
         figs, states = list(resume.figures[:k0]), list(resume.states[:k0])
     else:
+        figs, states = [], []
         sim = StockSim(shapes, lathe, *(snap_geometry(g) for g in (start, part, chuck)), gouge_tolerance)
     for op in operations[k0:]:
-        if resume is not None:
-            states.append(sim.snapshot())
+        states.append(sim.snapshot())
         figs.append(sim.operation(op, rapid_rate))
-    if resume is not None:
-        resume.keep(inputs, operations, states, figs)
     parted = None
     if parting is not None:
         parted = sim.separate(*parting)
-    return Simulation(operations=tuple(figs), contacts=tuple(sim.contacts), stock_start=start,
-                      part=part, diameter_mode=lathe.diameter_mode, parted=parted)
+    return (Simulation(operations=tuple(figs), contacts=tuple(sim.contacts), stock_start=start, part=part,
+                       diameter_mode=lathe.diameter_mode, parted=parted), states, figs)
 
 
 def shoulder_height(mirror: Mirror, tool: Tool) -> float:
