@@ -13,7 +13,7 @@ import numpy as np
 
 from ..path import Arc, Move
 from .sim_results import Contact, OperationFigures, SimMove, SimOperation
-from .swept import PLANE_TOL, Swept, ZonePlanes, snap, sweep_rapids, swept_pieces, zone_planes
+from .swept import PLANE_TOL, Swept, snap, sweep_rapids, swept_pieces
 from .tool_shapes import drill_figures
 
 #: Tile size of the bar's grid, mm.
@@ -162,8 +162,7 @@ class StockSim:
         p_a = np.zeros(len(p_s))
         swept = swept_pieces(self.ins_xy, self.cut_xy, p_s, p_e, self.part, self.part_boundary, self.chuck)
         shapely.prepare(swept.regions)
-        r = self.ins_xy[None, :, 0]
-        edges = zone_planes(swept.regions, np.minimum(p_s[:, None, 0] + r, p_e[:, None, 0] + r).min(axis=1) >= 0.0)
+        edges = _hull_planes(self.ins_xy, p_s, p_e)
         rapids = snap(np.array([[mv.move.start, mv.move.end] for mv in op.moves if mv.rapid], float).reshape(-1, 2, 2))
         rapid_regions = iter(sweep_rapids(self.ins_xy, rapids[:, 0], rapids[:, 1]))
         first = i_feed = 0  # the feed move's first piece, its index in feeds
@@ -234,10 +233,9 @@ class StockSim:
                 self.add(kind, op, mv, geom, region)
                 return
 
-    def feed_piece(self, mv: SimMove, op: str, swept: Swept, k: int, edges: ZonePlanes) -> tuple[float, float, float]:
-        """Cut the operation's straight piece k (swept: swept_pieces; edges: the convex
-        regions' half planes, zone_planes); returns (area removed mm^2, volume mm^3, depth
-        into the part mm). What the tiles lose (area, first moment) is what they had less
+    def feed_piece(self, mv: SimMove, op: str, swept: Swept, k: int, edges: tuple) -> tuple[float, float, float]:
+        """Cut the operation's straight piece k (swept: swept_pieces; edges: _hull_planes of
+        the pieces); returns (area removed mm^2, volume mm^3, depth into the part mm). What the tiles lose (area, first moment) is what they had less
         what is left (one overlay a tile, not two); the tool's cut itself, shapely's
         intersection, only where that is near 0 or the body may touch (cut_exactly)."""
         import shapely
@@ -259,12 +257,16 @@ class StockSim:
         left = shapely.difference(tiles, region)
         area, moment = _area_moment(left)
         removed = float((self.tile_area[idx] - area).sum())
-        lo, hi = edges.start[k], edges.stop[k]
-        if removed < EXACT_BELOW or lo < 0:
+        if removed < EXACT_BELOW:
             return self.cut_exactly(mv, op, swept, k, idx, tiles, left, area, moment) + (part_depth,)
-        # the cut's vertices: the tiles' inside the region and what is left's on its edge
+        # the cut's vertices: the tiles' inside the region and what is left's on its edge (the
+        # region: the hull, and where it crosses the axis the hull mirrored too)
+        normals, offsets = edges[0][k].T, edges[1][k]
         pts = np.concatenate([shapely.get_coordinates(tiles), shapely.get_coordinates(left)])
-        pts = pts[(pts @ edges.normals[lo:hi].T - edges.offsets[lo:hi]).max(axis=1) <= PLANE_TOL]
+        inside = (pts @ normals - offsets).max(axis=1) <= PLANE_TOL
+        if edges[2][k]:
+            inside |= ((pts * _MIRROR) @ normals - offsets).max(axis=1) <= PLANE_TOL
+        pts = pts[inside]
         if pts.size and not swept.within_zone(k, pts):
             return self.cut_exactly(mv, op, swept, k, idx, tiles, left, area, moment) + (part_depth,)
         volume = float(np.sum(2 * math.pi * (self.tile_moment[idx] - moment)))
@@ -339,6 +341,33 @@ def _pieces(move: Move) -> np.ndarray:
     n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / PIECE)))
     t = np.linspace(0.0, 1.0, n + 1)[:, None]
     return a + (b - a) * t
+
+
+_MIRROR = np.array([-1.0, 1.0])
+
+
+def _hull_planes(xy: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> tuple:
+    """The half planes n.p <= c of the convex hull of the convex shape xy (m, 2) at both
+    ends of each piece (n, 2), before it is folded about the axis: the shape's edges pushed
+    out to the farther end, and two along the piece. Returns unit normals (n, m + 2, 2),
+    offsets (n, m + 2) and whether the hull crosses the axis (n,)."""
+    edges = np.roll(xy, -1, axis=0) - xy
+    ccw = np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]) > 0
+    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1) * (1.0 if ccw else -1.0)
+    normals /= np.hypot(normals[:, 0], normals[:, 1])[:, None]
+    n = len(starts)
+    c = np.sum(normals * xy, axis=1)[None, :] + np.maximum(starts @ normals.T, ends @ normals.T)
+    d = ends - starts
+    length = np.hypot(d[:, 0], d[:, 1])
+    side = np.zeros((n, 2))
+    moving = length > 0
+    side[moving] = np.stack([d[moving, 1], -d[moving, 0]], axis=1) / length[moving, None]
+    side_n = np.stack([side, -side], axis=1)  # (n, 2, 2); a piece of no length: 0, no constraint
+    side_c = (side_n @ xy.T).max(axis=2) + np.einsum("nkj,nj->nk", side_n, starts)
+    side_c[~moving] = 0.0
+    folded = (np.minimum(starts[:, 0], ends[:, 0])[:, None] + xy[None, :, 0]).min(axis=1) < 0.0
+    return (np.concatenate([np.broadcast_to(normals, (n,) + normals.shape), side_n], axis=1),
+            np.concatenate([c, side_c], axis=1), folded)
 
 
 def _area_moment(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
