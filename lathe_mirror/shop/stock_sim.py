@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from ..path import Arc, Move
+from ..path import Arc
 from .sim_results import Contact, OperationFigures, SimMove, SimOperation
 from .swept import PLANE_TOL, Swept, snap, sweep_rapids, swept_pieces
 from .tool_shapes import drill_figures
@@ -155,7 +155,7 @@ class StockSim:
         part_cut = 0.0
         # the feed pieces, all swept first (what does not depend on the stock)
         feeds = [mv for mv in op.moves if not mv.rapid]
-        pts = [snap(_pieces(mv.move)) for mv in feeds]
+        pts = [snap(p) for p in _pieces([mv.move for mv in feeds])]
         p_s = np.concatenate([p[:-1] for p in pts]) if pts else np.empty((0, 2))
         p_e = np.concatenate([p[1:] for p in pts]) if pts else np.empty((0, 2))
         p_f = np.concatenate([np.full(len(p) - 1, mv.feed) for mv, p in zip(feeds, pts)]) if pts else np.empty(0)
@@ -220,6 +220,9 @@ class StockSim:
             self.check_chuck(region, mv, op)
             geom = None
             idx = self.tiles_near(region.bounds)
+            if idx.size:
+                shapely.prepare(region)
+                idx = idx[shapely.intersects(region, self.tiles[idx])]  # the others' intersection is empty
             if idx.size:
                 hit = shapely.intersection(self.tiles[idx], region)
                 hit = hit[shapely.area(hit) > 0]
@@ -328,19 +331,35 @@ class StockSim:
                                      depth=float(depth), at=at))
 
 
-def _pieces(move: Move) -> np.ndarray:
-    """Points along a move: a line in pieces of at most PIECE mm, an arc (LinuxCNC's
-    spiral when its radii differ) in chords of at most CHORD mm."""
-    if isinstance(move, Arc):
-        length = abs(move.sweep) * max(move.radius, move.end_radius)
-        n = max(2, int(math.ceil(length / CHORD)) + 1)
-        pts = move.sample(n)
-        pts[0], pts[-1] = move.start, move.end
-        return pts
-    a, b = np.asarray(move.start, float), np.asarray(move.end, float)
-    n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / PIECE)))
-    t = np.linspace(0.0, 1.0, n + 1)[:, None]
-    return a + (b - a) * t
+def _pieces(moves: list) -> list[np.ndarray]:
+    """Points along each move: a line in pieces of at most PIECE mm (numpy's linspace, all
+    lines at once), an arc (LinuxCNC's spiral when its radii differ) in chords of at most
+    CHORD mm."""
+    out: list = [None] * len(moves)
+    lines = [i for i, m in enumerate(moves) if not isinstance(m, Arc)]
+    for i in range(len(moves)):
+        if isinstance(moves[i], Arc):
+            move = moves[i]
+            length = abs(move.sweep) * max(move.radius, move.end_radius)
+            n = max(2, int(math.ceil(length / CHORD)) + 1)
+            pts = move.sample(n)
+            pts[0], pts[-1] = move.start, move.end
+            out[i] = pts
+    if lines:
+        a = np.array([moves[i].start for i in lines], dtype=float)
+        b = np.array([moves[i].end for i in lines], dtype=float)
+        d = b - a
+        n = np.maximum(1, np.ceil(np.hypot(d[:, 0], d[:, 1]) / PIECE).astype(int))
+        # linspace(0, 1, n + 1): k * (1 / n), the last exactly 1
+        k = np.arange(int(n.sum()) + len(lines)) - np.repeat(np.cumsum(n + 1) - (n + 1), n + 1)
+        step = np.repeat(1.0 / n, n + 1)
+        t = k * step
+        t[np.cumsum(n + 1) - 1] = 1.0
+        owner = np.repeat(np.arange(len(lines)), n + 1)
+        pts = a[owner] + d[owner] * t[:, None]
+        for j, chunk in enumerate(np.split(pts, np.cumsum(n + 1)[:-1])):
+            out[lines[j]] = chunk
+    return out
 
 
 _MIRROR = np.array([-1.0, 1.0])
