@@ -13,7 +13,7 @@ import numpy as np
 
 from ..path import Arc
 from .sim_results import Contact, OperationFigures, SimMove, SimOperation
-from .swept import PLANE_TOL, Swept, snap, sweep_rapids, swept_pieces
+from .swept import Swept, snap, sweep_rapids, swept_pieces
 from .tool_shapes import drill_figures
 
 #: Tile size of the bar's grid, mm.
@@ -25,9 +25,6 @@ CHORD = 0.5
 STAT_WINDOW = 0.5
 #: Contact below this area (mm^2) is float noise, not contact.
 AREA_TOL = 1e-6
-#: A piece whose cut (what the tiles lose, their area less what is left's) is under this
-#: (mm^2) is measured as shapely's intersection: 0 there means nothing is cut.
-EXACT_BELOW = 1e-9
 #: Depth (mm) of stock touched by the body that counts (below it: the stock's own
 #: polygon noise at the cutting edge's end).
 BODY_TOL = 1e-3
@@ -75,8 +72,7 @@ class StockSim:
         tiles = shapely.box(i * TILE, self.z_lo + j * TILE, np.minimum((i + 1) * TILE, r1),
                             np.minimum(self.z_lo + (j + 1) * TILE, self.z_hi))
         self.tiles = shapely.intersection(tiles, start)
-        self.tile_area, self.tile_moment = _area_moment(self.tiles)
-        self.alive = self.tile_area > 0
+        self.alive = shapely.area(self.tiles) > 0
         self.tile_bounds = shapely.bounds(self.tiles)
         self.grid = np.arange(self.nr * self.nz).reshape(self.nr, self.nz)  # tile (i, j)'s index
         self._stock = None
@@ -87,7 +83,6 @@ class StockSim:
         """A copy to go on from (the stock's tiles copied; the geometry itself is immutable)."""
         other = copy.copy(self)
         other.tiles, other.alive, other.tile_bounds = self.tiles.copy(), self.alive.copy(), self.tile_bounds.copy()
-        other.tile_area, other.tile_moment = self.tile_area.copy(), self.tile_moment.copy()
         other.contacts = list(self.contacts)
         return other
 
@@ -132,13 +127,11 @@ class StockSim:
             self._stock = shapely.union_all(self.tiles[self.alive])
         return self._stock
 
-    def set_tiles(self, idx: np.ndarray, left: np.ndarray, area: np.ndarray, moment: np.ndarray) -> None:
-        """The tiles idx are now `left`, of areas `area` and first moments about the axis `moment`."""
+    def set_tiles(self, idx: np.ndarray, left: np.ndarray) -> None:
         import shapely
 
         self.tiles[idx] = left
-        self.tile_area[idx], self.tile_moment[idx] = area, moment
-        self.alive[idx] = area > 0
+        self.alive[idx] = shapely.area(left) > 0
         self.tile_bounds[idx] = shapely.bounds(left)
         self._stock = None
 
@@ -161,8 +154,7 @@ class StockSim:
         p_f = np.concatenate([np.full(len(p) - 1, mv.feed) for mv, p in zip(feeds, pts)]) if pts else np.empty(0)
         p_a = np.zeros(len(p_s))
         swept = swept_pieces(self.ins_xy, self.cut_xy, p_s, p_e, self.part, self.part_boundary, self.chuck)
-        shapely.prepare(swept.regions)
-        edges = _hull_planes(self.ins_xy, p_s, p_e)
+        shapely.prepare(swept.regions)  # all at once, for feed_piece's intersects
         rapids = snap(np.array([[mv.move.start, mv.move.end] for mv in op.moves if mv.rapid], float).reshape(-1, 2, 2))
         rapid_regions = iter(sweep_rapids(self.ins_xy, rapids[:, 0], rapids[:, 1]))
         first = i_feed = 0  # the feed move's first piece, its index in feeds
@@ -176,7 +168,7 @@ class StockSim:
                 continue
             last = first + len(pts[i_feed]) - 1
             for k in range(first, last):
-                removed, vol, depth = self.feed_piece(mv, op.name, swept, k, edges)
+                removed, vol, depth = self.feed_piece(mv, op.name, swept, k)
                 area += removed
                 volume += vol
                 part_cut = max(part_cut, depth)
@@ -236,14 +228,12 @@ class StockSim:
                 self.add(kind, op, mv, geom, region)
                 return
 
-    def feed_piece(self, mv: SimMove, op: str, swept: Swept, k: int, edges: tuple) -> tuple[float, float, float]:
-        """Cut the operation's straight piece k (swept: swept_pieces; edges: _hull_planes of
-        the pieces); returns (area removed mm^2, volume mm^3, depth into the part mm). What the tiles lose (area, first moment) is what they had less
-        what is left (one overlay a tile, not two); the tool's cut itself, shapely's
-        intersection, only where that is near 0 or the body may touch (cut_exactly)."""
+    def feed_piece(self, mv: SimMove, op: str, swept: Swept, k: int) -> tuple[float, float, float]:
+        """Cut the operation's straight piece k (swept: swept_pieces); returns (area
+        removed mm^2, volume mm^3, depth into the part mm)."""
         import shapely
 
-        region = swept.regions[k]  # prepared (operation)
+        region = swept.regions[k]
         if swept.chuck[k]:
             self.chuck_contact(region, mv, op)
         part_depth = swept.depths[k]
@@ -257,45 +247,18 @@ class StockSim:
         idx, tiles = idx[touch], tiles[touch]
         if idx.size == 0:
             return 0.0, 0.0, part_depth
-        left = shapely.difference(tiles, region)
-        area, moment = _area_moment(left)
-        removed = float((self.tile_area[idx] - area).sum())
-        if removed < EXACT_BELOW:
-            return self.cut_exactly(mv, op, swept, k, idx, tiles, left, area, moment) + (part_depth,)
-        # the cut's vertices: the tiles' inside the region and what is left's on its edge (the
-        # region: the hull, and where it crosses the axis the hull mirrored too)
-        normals, offsets = edges[0][k].T, edges[1][k]
-        pts = np.concatenate([shapely.get_coordinates(tiles), shapely.get_coordinates(left)])
-        inside = (pts @ normals - offsets).max(axis=1) <= PLANE_TOL
-        if edges[2][k]:
-            inside |= ((pts * _MIRROR) @ normals - offsets).max(axis=1) <= PLANE_TOL
-        pts = pts[inside]
-        if pts.size and not swept.within_zone(k, pts):
-            return self.cut_exactly(mv, op, swept, k, idx, tiles, left, area, moment) + (part_depth,)
-        volume = float(np.sum(2 * math.pi * (self.tile_moment[idx] - moment)))
-        self.set_tiles(idx, left, area, moment)
-        return removed, volume, part_depth
-
-    def cut_exactly(self, mv: SimMove, op: str, swept: Swept, k: int, idx: np.ndarray, tiles: np.ndarray,
-                    left: np.ndarray, left_area: np.ndarray, left_moment: np.ndarray) -> tuple[float, float]:
-        """feed_piece from shapely's intersection of the tiles `idx` and piece k's region:
-        nothing cut when it has no area; the insert's body's contact, measured only where
-        the cut may stick out of the zone by AREA_TOL (not when its vertices are all in the
-        convex zone, and its pieces beyond the zone may add up to it). left: the tiles less
-        the region, with its areas and moments. Returns (area mm^2, volume mm^3)."""
-        import shapely
-
-        region = swept.regions[k]
         hit = shapely.intersection(tiles, region)
         areas = shapely.area(hit)
         removed = float(areas.sum())
         if removed <= 0.0:
-            return 0.0, 0.0
+            return 0.0, 0.0, part_depth
         if not areas.all():
             hit, areas = hit[areas > 0], areas[areas > 0]
         cx = shapely.get_x(shapely.centroid(hit))
         volume = float(np.sum(2 * math.pi * np.abs(cx) * areas))
         zone = swept.zones[k]
+        # the body's contact, measured only where the hit may stick out of the zone by AREA_TOL: not
+        # when its vertices are all in the (convex) zone, and its pieces beyond the zone may add up to it
         if (not swept.within_zone(k, shapely.get_coordinates(hit))
                 and float(shapely.area(shapely.difference(hit, zone)).sum()) > 0.5 * AREA_TOL):
             body = shapely.difference(shapely.union_all(hit), zone)
@@ -303,8 +266,8 @@ class StockSim:
                 depth = _depth_inside(body, zone.boundary)
                 if depth > BODY_TOL:
                     self.add("body", op, mv, body, None, depth=depth)
-        self.set_tiles(idx, left, left_area, left_moment)
-        return removed, volume
+        self.set_tiles(idx, shapely.difference(tiles, region))
+        return removed, volume, part_depth
 
     def check_chuck(self, region, mv: SimMove, op: str) -> None:
         import shapely
@@ -360,44 +323,6 @@ def _pieces(moves: list) -> list[np.ndarray]:
         for j, chunk in enumerate(np.split(pts, np.cumsum(n + 1)[:-1])):
             out[lines[j]] = chunk
     return out
-
-
-_MIRROR = np.array([-1.0, 1.0])
-
-
-def _hull_planes(xy: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> tuple:
-    """The half planes n.p <= c of the convex hull of the convex shape xy (m, 2) at both
-    ends of each piece (n, 2), before it is folded about the axis: the shape's edges pushed
-    out to the farther end, and two along the piece. Returns unit normals (n, m + 2, 2),
-    offsets (n, m + 2) and whether the hull crosses the axis (n,)."""
-    edges = np.roll(xy, -1, axis=0) - xy
-    ccw = np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]) > 0
-    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1) * (1.0 if ccw else -1.0)
-    normals /= np.hypot(normals[:, 0], normals[:, 1])[:, None]
-    n = len(starts)
-    c = np.sum(normals * xy, axis=1)[None, :] + np.maximum(starts @ normals.T, ends @ normals.T)
-    d = ends - starts
-    length = np.hypot(d[:, 0], d[:, 1])
-    side = np.zeros((n, 2))
-    moving = length > 0
-    side[moving] = np.stack([d[moving, 1], -d[moving, 0]], axis=1) / length[moving, None]
-    side_n = np.stack([side, -side], axis=1)  # (n, 2, 2); a piece of no length: 0, no constraint
-    side_c = (side_n @ xy.T).max(axis=2) + np.einsum("nkj,nj->nk", side_n, starts)
-    side_c[~moving] = 0.0
-    folded = (np.minimum(starts[:, 0], ends[:, 0])[:, None] + xy[None, :, 0]).min(axis=1) < 0.0
-    return (np.concatenate([np.broadcast_to(normals, (n,) + normals.shape), side_n], axis=1),
-            np.concatenate([c, side_c], axis=1), folded)
-
-
-def _area_moment(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Areas (mm^2) of geometries at r >= 0 and their first moments about the axis (r dA, mm^3)."""
-    import shapely
-
-    area = shapely.area(geoms)
-    moment = np.zeros(len(geoms))
-    some = area > 0
-    moment[some] = shapely.get_x(shapely.centroid(geoms[some])) * area[some]
-    return area, moment
 
 
 def _windowed_depth(area: np.ndarray, length: np.ndarray) -> np.ndarray:
