@@ -557,6 +557,33 @@ def test_a_program_simulated_again_is_not_replayed(arcs_shop, monkeypatch):
         with pytest.raises(AssertionError, match="replayed"):
             simulate_program(other)
 
+
+def test_a_first_set_up_against_another_part_goes_on_from_the_shared_stock(paper_mirror, arcs_shop, monkeypatch):
+    """The paper method's and the arc method's first set-ups differ only in the designed part
+    (its shoulder) and share the face and the roughing: the arc program simulated after the
+    paper one goes on from the stock the paper one left after them (those two operations not
+    replayed; only their depth into the part measured again) and gives what it gives from the
+    bar: every figure, the stock after each operation and the part it parts off bit for bit."""
+    import shapely
+
+    from lathe_mirror.shop.stock import StockSim, forget_runs
+
+    paper = shop_program(plan_toolpath(paper_mirror, LATHE, TOOL, Strategy.PAPER), STOCK, OPTIONS).program
+    arcs = arcs_shop.program
+    forget_runs()
+    fresh = simulate_program(arcs)
+    forget_runs()
+    simulate_program(paper)
+    replayed = []
+    real = StockSim.operation
+    monkeypatch.setattr(StockSim, "operation", lambda self, op, rate: replayed.append(op.name) or real(self, op, rate))
+    shared = simulate_program(arcs)
+    assert "face" not in replayed and "rough" not in replayed and replayed[0] == "semi-finish"
+    assert shared.figures() == fresh.figures()
+    for a, b in zip(shared.operations, fresh.operations):
+        assert shapely.to_wkb(a.stock_after) == shapely.to_wkb(b.stock_after)
+    assert shapely.to_wkb(shared.parted) == shapely.to_wkb(fresh.parted)
+
 def test_a_bar_held_too_far_out_is_refused(paper_mirror):
     """The first set-up's grip: a bar standing out of the jaws more than three of its
     diameters (76 mm: 228 mm) is refused before any simulation, naming stock.length; the

@@ -24,6 +24,7 @@ the gouge tolerance, the chuck touched.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import math
@@ -142,6 +143,7 @@ RUNS_KEPT = 16
 def forget_runs() -> None:
     """Drop the runs simulate_setup keeps (a test timing or comparing fresh runs)."""
     _kept_run.cache_clear()
+    _kept_stock.cache_clear()
 
 
 @functools.lru_cache(maxsize=RUNS_KEPT)
@@ -157,21 +159,64 @@ def _run_key(inputs: tuple, operations: list, parting) -> bytes:
     return hashlib.sha256(repr((inputs, tuple(operations), parting)).encode()).digest()
 
 
+@functools.lru_cache(maxsize=RUNS_KEPT)
+def _kept_stock(key: bytes) -> list:
+    """The holder of the last run (operations, states, figures) of these inputs but the
+    designed part (_stock_key), empty before it."""
+    return []
+
+
+def _stock_key(inputs: tuple) -> bytes:
+    """A run's inputs but the designed part (run_inputs' fourth), as bytes."""
+    return hashlib.sha256(repr(inputs[:3] + inputs[4:]).encode()).digest()
+
+
+def _shared_stock(inputs: tuple, operations: list, part) -> tuple | None:
+    """The state from which a run of these inputs goes on from the last one of the same
+    stock, tools and chuck against another designed part (the paper method's and the arc
+    method's first set-ups share the face and the roughing): the stock after their common
+    operations is the same whatever the part, and so are those operations' figures but the
+    depth into the part (StockSim.part_cut, measured again). None: nothing in common, or a
+    contact in it (a replay places it among the others). Returns (operations shared, the
+    state to go on from, the states before each shared one, their figures)."""
+    held = _kept_stock(_stock_key(inputs))
+    if not held:
+        return None
+    ops, states, figs = held[0]
+    k, n = 0, min(len(operations), len(ops), len(states) - 1)
+    while k < n and operations[k] == ops[k]:
+        k += 1
+    if k == 0 or states[k].contacts:
+        return None
+    sim = states[k].with_part(part)
+    new_figs = []
+    for op, fig in zip(operations[:k], figs):
+        cut = sim.part_cut(op)
+        if cut is None:
+            return None
+        new_figs.append(dataclasses.replace(fig, max_part_cut_mm=cut))
+    return k, sim, [s.with_part(part) for s in states[:k]], new_figs
+
+
 def _replay(operations, shapes, lathe, start, part, chuck, inputs, rapid_rate, gouge_tolerance, parting,
             resume) -> tuple:
     """simulate_setup's run, from the state resume kept before its first operation that
     differs (from the bar when none): (Simulation, states, figures)."""
     k0 = 0 if resume is None else resume.common(inputs, operations)
     k0 = min(k0, len(resume.states) - 1) if k0 else 0  # a run the kept one ends within: its last one again
+    shared = None if k0 else _shared_stock(inputs, operations, snap_geometry(part))
     if k0 > 0:
         sim = resume.states[k0].snapshot()
         figs, states = list(resume.figures[:k0]), list(resume.states[:k0])
+    elif shared is not None:
+        k0, sim, states, figs = shared
     else:
         figs, states = [], []
         sim = StockSim(shapes, lathe, *(snap_geometry(g) for g in (start, part, chuck)), gouge_tolerance)
     for op in operations[k0:]:
         states.append(sim.snapshot())
         figs.append(sim.operation(op, rapid_rate))
+    _kept_stock(_stock_key(inputs))[:] = [(list(operations), states, figs)]
     parted = None
     if parting is not None:
         parted = sim.separate(*parting)

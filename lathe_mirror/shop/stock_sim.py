@@ -13,7 +13,7 @@ import numpy as np
 
 from ..path import Arc
 from .sim_results import Contact, OperationFigures, SimMove, SimOperation
-from .swept import Swept, snap, sweep_rapids, swept_pieces
+from .swept import Swept, depth_inside, snap, sweep_pieces, sweep_rapids, swept_pieces
 from .tool_shapes import drill_figures
 
 #: Tile size of the bar's grid, mm.
@@ -86,6 +86,41 @@ class StockSim:
         other.contacts = list(self.contacts)
         return other
 
+    def with_part(self, part) -> StockSim:
+        """A snapshot held against another designed part (snapped, as the run's inputs are)."""
+        import shapely
+
+        other = self.snapshot()
+        other.part, other.part_boundary = part, part.boundary
+        shapely.prepare(part)
+        return other
+
+    def part_cut(self, op: SimOperation) -> float | None:
+        """How deep (mm) op's cutting zone reaches into the designed part
+        (OperationFigures.max_part_cut_mm: the same figure operation gives, which the stock
+        does not change); None when op touches the part beyond the gouge tolerance or at
+        rapid (a contact, which only a replay places among the others)."""
+        import shapely
+
+        self.use(op.station)
+        p_s, p_e, _ = _piece_ends([mv for mv in op.moves if not mv.rapid])
+        zones = sweep_pieces(self.cut_xy, p_s, p_e)
+        depth = np.zeros(len(zones))
+        meet = np.flatnonzero(shapely.intersects(self.part, zones))  # as swept_pieces
+        if meet.size:
+            inside = shapely.intersection(self.part, zones[meet])
+            real = shapely.area(inside) > 0
+            depth[meet[real]] = depth_inside(inside[real], self.part_boundary,
+                                             shapely.get_coordinates(self.part_boundary))
+        if depth.size and float(depth.max()) > self.gouge:
+            return None
+        rapids = snap(np.array([[mv.move.start, mv.move.end] for mv in op.moves if mv.rapid], float).reshape(-1, 2, 2))
+        for regions in sweep_rapids(self.ins_xy, rapids[:, 0], rapids[:, 1]):
+            for _, region in regions:
+                if shapely.intersects(self.part, region) and shapely.intersection(self.part, region).area > AREA_TOL:
+                    return None
+        return max(0.0, float(depth.max())) if depth.size else 0.0
+
     def use(self, station) -> None:
         """Take the tool of `station` (the default shape when it has none of its own)."""
         shape = self.shapes.get(station, self.shapes[None])
@@ -148,9 +183,7 @@ class StockSim:
         part_cut = 0.0
         # the feed pieces, all swept first (what does not depend on the stock)
         feeds = [mv for mv in op.moves if not mv.rapid]
-        pts = [snap(p) for p in _pieces([mv.move for mv in feeds])]
-        p_s = np.concatenate([p[:-1] for p in pts]) if pts else np.empty((0, 2))
-        p_e = np.concatenate([p[1:] for p in pts]) if pts else np.empty((0, 2))
+        p_s, p_e, pts = _piece_ends(feeds)
         p_f = np.concatenate([np.full(len(p) - 1, mv.feed) for mv, p in zip(feeds, pts)]) if pts else np.empty(0)
         p_a = np.zeros(len(p_s))
         swept = swept_pieces(self.ins_xy, self.cut_xy, p_s, p_e, self.part, self.part_boundary, self.chuck)
@@ -292,6 +325,15 @@ class StockSim:
         at = _deepest_point(geom, region.boundary if region is not None else None)
         self.contacts.append(Contact(kind=kind, operation=op, label=mv.label, area=float(geom.area),
                                      depth=float(depth), at=at))
+
+
+def _piece_ends(feeds: list) -> tuple[np.ndarray, np.ndarray, list]:
+    """The straight pieces of feed moves (SimMove): starts (n, 2), ends (n, 2), snapped
+    (swept's module doc), and each move's points."""
+    pts = [snap(p) for p in _pieces([mv.move for mv in feeds])]
+    if not pts:
+        return np.empty((0, 2)), np.empty((0, 2)), pts
+    return np.concatenate([p[:-1] for p in pts]), np.concatenate([p[1:] for p in pts]), pts
 
 
 def _pieces(moves: list) -> list[np.ndarray]:
