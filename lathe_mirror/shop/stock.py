@@ -20,6 +20,12 @@ capped (rpm(r) = min(cap, 1000 V / (2 pi r))), rapids at the rapid rate. It find
 rapid (a rapid is checked over the box its two ends span, so a controller's dog-leg rapid is
 covered too), stock touched by the insert's body, a cut into the designed part deeper than
 the gouge tolerance, the chuck touched.
+
+The replay itself is shop.stock_sim's. A process keeps its last runs (RUNS_KEPT): the same
+set-up and operations again return the run kept, and a first set-up that differs from the
+last one only in the designed part goes on from that one's stock after their common
+operations (the stock does not depend on the part; each shared operation's depth into it is
+measured again). Either gives the figures and geometry of a run from the bar, bit for bit.
 """
 
 from __future__ import annotations
