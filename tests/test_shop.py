@@ -500,7 +500,7 @@ def test_a_program_planned_again_is_simulated_from_its_first_finishing_pass(whic
     from lathe_mirror.shop.plan import plan_program
     from lathe_mirror.shop.programs import shop_programs
     from lathe_mirror.shop.resume import Resume
-    from lathe_mirror.shop.stock import operations_of
+    from lathe_mirror.shop.stock import forget_runs, operations_of
 
     path = None
     if which == "recessed":
@@ -509,6 +509,7 @@ def test_a_program_planned_again_is_simulated_from_its_first_finishing_pass(whic
     settings = load(path)
     mirror = settings.mirror()
     for shop in shop_programs(settings, mirror):
+        forget_runs()  # each run below replayed, not the one this process kept
         fresh = simulate_program(shop.program)
         assert shop.simulation.figures() == fresh.figures()
         assert shop.simulation.contacts == fresh.contacts == ()
@@ -522,9 +523,66 @@ def test_a_program_planned_again_is_simulated_from_its_first_finishing_pass(whic
         if len(first.operations) != len(shop.program.operations):  # planned again
             assert names[:3] == ["face", "rough", "semi-finish"] and names[3].startswith("finish 1/")
             assert len(resume.states) == len(first.operations)
+            forget_runs()
             again = simulate_program(shop.program, resume=resume)
             assert again.figures() == fresh.figures()
 
+
+
+def test_a_program_simulated_again_is_not_replayed(arcs_shop, monkeypatch):
+    """shop.stock keeps the last runs of the process by value: the same program again is
+    not replayed (its operations would raise here) and gives the run it kept; a program one
+    block of which ends 0.001 mm elsewhere is replayed."""
+    from lathe_mirror.shop.stock import StockSim, forget_runs
+
+    prog = arcs_shop.program
+    forget_runs()
+    first = simulate_program(prog)
+    assert first.figures() == arcs_shop.simulation.figures()
+
+    def replayed(*args, **kwargs):
+        raise AssertionError("replayed")
+
+    with monkeypatch.context() as m:
+        m.setattr(StockSim, "operation", replayed)
+        assert simulate_program(dataclasses.replace(prog)) is first
+        last = prog.operations[-1]
+        k = max(i for i, b in enumerate(last.blocks) if isinstance(b, Rapid))
+        end = last.blocks[k]
+        moved = dataclasses.replace(end, move=dataclasses.replace(end.move, end=(end.move.end[0] + 1e-3,
+                                                                                 end.move.end[1])))
+        blocks = last.blocks[:k] + (moved,) + last.blocks[k + 1:]
+        other = dataclasses.replace(prog, operations=prog.operations[:-1]
+                                    + (dataclasses.replace(last, blocks=blocks),))
+        with pytest.raises(AssertionError, match="replayed"):
+            simulate_program(other)
+
+
+def test_a_first_set_up_against_another_part_goes_on_from_the_shared_stock(paper_mirror, arcs_shop, monkeypatch):
+    """The paper method's and the arc method's first set-ups differ only in the designed part
+    (its shoulder) and share the face and the roughing: the arc program simulated after the
+    paper one goes on from the stock the paper one left after them (those two operations not
+    replayed; only their depth into the part measured again) and gives what it gives from the
+    bar: every figure, the stock after each operation and the part it parts off bit for bit."""
+    import shapely
+
+    from lathe_mirror.shop.stock import StockSim, forget_runs
+
+    paper = shop_program(plan_toolpath(paper_mirror, LATHE, TOOL, Strategy.PAPER), STOCK, OPTIONS).program
+    arcs = arcs_shop.program
+    forget_runs()
+    fresh = simulate_program(arcs)
+    forget_runs()
+    simulate_program(paper)
+    replayed = []
+    real = StockSim.operation
+    monkeypatch.setattr(StockSim, "operation", lambda self, op, rate: replayed.append(op.name) or real(self, op, rate))
+    shared = simulate_program(arcs)
+    assert "face" not in replayed and "rough" not in replayed and replayed[0] == "semi-finish"
+    assert shared.figures() == fresh.figures()
+    for a, b in zip(shared.operations, fresh.operations):
+        assert shapely.to_wkb(a.stock_after) == shapely.to_wkb(b.stock_after)
+    assert shapely.to_wkb(shared.parted) == shapely.to_wkb(fresh.parted)
 
 def test_a_bar_held_too_far_out_is_refused(paper_mirror):
     """The first set-up's grip: a bar standing out of the jaws more than three of its

@@ -20,46 +20,41 @@ capped (rpm(r) = min(cap, 1000 V / (2 pi r))), rapids at the rapid rate. It find
 rapid (a rapid is checked over the box its two ends span, so a controller's dog-leg rapid is
 covered too), stock touched by the insert's body, a cut into the designed part deeper than
 the gouge tolerance, the chuck touched.
+
+The replay itself is shop.stock_sim's. A process keeps its last runs (RUNS_KEPT): the same
+set-up and operations again return the run kept, and a first set-up that differs from the
+last one only in the designed part goes on from that one's stock after their common
+operations (the stock does not depend on the part; each shared operation's depth into it is
+measured again). Either gives the figures and geometry of a run from the bar, bit for bit.
 """
 
 from __future__ import annotations
 
-import copy
+import dataclasses
+import functools
+import hashlib
 import math
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..path import Arc, Move
-from .sim_results import Contact, OperationFigures, SimMove, SimOperation, Simulation
-from .tool_shapes import (CUTTING_EDGE_FRACTION, INSERT_IC, cutting_zone, drill_figures, edge_length,  # noqa: F401
+from .sim_results import Contact, OperationFigures, SimMove, SimOperation, Simulation  # noqa: F401
+from .stock_sim import (AREA_TOL, BODY_TOL, CHORD, PIECE, PLUNGE_ANGLE, STAT_WINDOW, TILE,  # noqa: F401
+                        StockSim, feed_time, rpm)
+from .tool_shapes import (CUTTING_EDGE_FRACTION, INSERT_IC, cutting_zone, edge_length,  # noqa: F401
                           insert_outline, insert_shape, reach_toward_axis)
 from .program import Feed, FeedRate, Rapid
 from .resume import Resume, run_inputs
-from .swept import Swept, snap, snap_geometry, sweep_rapids, swept_pieces
+from .swept import snap_geometry
 
 if TYPE_CHECKING:
     from ..design import Mirror
     from ..lathe import Lathe, Stock, Tool
     from .program import Program
 
-#: Tile size of the bar's grid, mm.
-TILE = 2.0
-#: Longest straight piece a move is cut into for the statistics, mm; arcs' chords, mm.
-PIECE = 1.0
-CHORD = 0.5
-#: Path length over which depth of cut is averaged, mm.
-STAT_WINDOW = 0.5
-#: Contact below this area (mm^2) is float noise, not contact.
-AREA_TOL = 1e-6
-#: Depth (mm) of stock touched by the body that counts (below it: the stock's own
-#: polygon noise at the cutting edge's end).
-BODY_TOL = 1e-3
 #: The shoulder beyond the rim is not optical; a program read back from a file may face
 #: it this far below where a nose leaving the rim along the lobe's slope would (mm).
 SHOULDER_ALLOWANCE = 0.05
-#: A feed within this angle (rad) of -Z that removes stock is a plunge.
-PLUNGE_ANGLE = math.radians(15.0)
 #: The chuck's jaws: from Z = -stock.length down, out to the bar's radius plus this (mm).
 JAW_HEIGHT = 10.0
 
@@ -133,29 +128,106 @@ def simulate_setup(operations: list[SimOperation], shapes: dict, lathe: Lathe, s
     {station: ToolShape}, None the default. parting: see simulate. resume (shop.resume):
     start from the state the last run it kept had before the first operation this run
     does not share with it (the same figures and contacts as from the start), and keep
-    this run."""
-    import shapely
-
-    k0, figs, states = 0, [], []
+    this run. A run with the same inputs and operations as one of the last RUNS_KEPT of
+    this process is not replayed: its Simulation (immutable, shared) is returned."""
+    inputs = run_inputs(shapes, lathe, start, part, chuck, gouge_tolerance, rapid_rate)
+    kept = _kept_run(_run_key(inputs, operations, parting))
+    if not kept:
+        kept.append(_replay(operations, shapes, lathe, start, part, chuck, inputs, rapid_rate, gouge_tolerance,
+                            parting, resume))
+    sim, states, figs = kept[0]
     if resume is not None:
-        inputs = run_inputs(shapes, lathe, start, part, chuck, gouge_tolerance, rapid_rate)
-        k0 = resume.common(inputs, operations)
+        resume.keep(inputs, operations, states, figs)
+    return sim
+
+
+#: Runs simulate_setup keeps per process (check_made, the report and the tests simulate
+#: the same programs again; shop_program's re-planned run shares its first operations).
+RUNS_KEPT = 16
+
+
+def forget_runs() -> None:
+    """Drop the runs simulate_setup keeps (a test timing or comparing fresh runs)."""
+    _kept_run.cache_clear()
+    _kept_stock.cache_clear()
+
+
+@functools.lru_cache(maxsize=RUNS_KEPT)
+def _kept_run(key: bytes) -> list:
+    """The holder of the run with this key: empty until simulate_setup fills it with
+    (Simulation, the states before each operation, each one's figures), none of which
+    anyone mutates (frozen dataclasses, immutable geometry; a state resumes as a snapshot)."""
+    return []
+
+
+def _run_key(inputs: tuple, operations: list, parting) -> bytes:
+    """A run's inputs and operations as bytes (repr: every float exactly, -0.0 too)."""
+    return hashlib.sha256(repr((inputs, tuple(operations), parting)).encode()).digest()
+
+
+@functools.lru_cache(maxsize=RUNS_KEPT)
+def _kept_stock(key: bytes) -> list:
+    """The holder of the last run (operations, states, figures) of these inputs but the
+    designed part (_stock_key), empty before it."""
+    return []
+
+
+def _stock_key(inputs: tuple) -> bytes:
+    """A run's inputs but the designed part (run_inputs' fourth), as bytes."""
+    return hashlib.sha256(repr(inputs[:3] + inputs[4:]).encode()).digest()
+
+
+def _shared_stock(inputs: tuple, operations: list, part) -> tuple | None:
+    """The state from which a run of these inputs goes on from the last one of the same
+    stock, tools and chuck against another designed part (the paper method's and the arc
+    method's first set-ups share the face and the roughing): the stock after their common
+    operations is the same whatever the part, and so are those operations' figures but the
+    depth into the part (StockSim.part_cut, measured again). None: nothing in common, or a
+    contact in it (a replay places it among the others). Returns (operations shared, the
+    state to go on from, the states before each shared one, their figures)."""
+    held = _kept_stock(_stock_key(inputs))
+    if not held:
+        return None
+    ops, states, figs = held[0]
+    k, n = 0, min(len(operations), len(ops), len(states) - 1)
+    while k < n and operations[k] == ops[k]:
+        k += 1
+    if k == 0 or states[k].contacts:
+        return None
+    sim = states[k].with_part(part)
+    new_figs = []
+    for op, fig in zip(operations[:k], figs):
+        cut = sim.part_cut(op)
+        if cut is None:
+            return None
+        new_figs.append(dataclasses.replace(fig, max_part_cut_mm=cut))
+    return k, sim, [s.with_part(part) for s in states[:k]], new_figs
+
+
+def _replay(operations, shapes, lathe, start, part, chuck, inputs, rapid_rate, gouge_tolerance, parting,
+            resume) -> tuple:
+    """simulate_setup's run, from the state resume kept before its first operation that
+    differs (from the bar when none): (Simulation, states, figures)."""
+    k0 = 0 if resume is None else resume.common(inputs, operations)
+    k0 = min(k0, len(resume.states) - 1) if k0 else 0  # a run the kept one ends within: its last one again
+    shared = None if k0 else _shared_stock(inputs, operations, snap_geometry(part))
     if k0 > 0:
         sim = resume.states[k0].snapshot()
         figs, states = list(resume.figures[:k0]), list(resume.states[:k0])
+    elif shared is not None:
+        k0, sim, states, figs = shared
     else:
-        sim = _Sim(shapes, lathe, *(snap_geometry(g) for g in (start, part, chuck)), gouge_tolerance)
+        figs, states = [], []
+        sim = StockSim(shapes, lathe, *(snap_geometry(g) for g in (start, part, chuck)), gouge_tolerance)
     for op in operations[k0:]:
-        if resume is not None:
-            states.append(sim.snapshot())
+        states.append(sim.snapshot())
         figs.append(sim.operation(op, rapid_rate))
-    if resume is not None:
-        resume.keep(inputs, operations, states, figs)
+    _kept_stock(_stock_key(inputs))[:] = [(list(operations), states, figs)]
     parted = None
     if parting is not None:
         parted = sim.separate(*parting)
-    return Simulation(operations=tuple(figs), contacts=tuple(sim.contacts), stock_start=start,
-                      part=part, diameter_mode=lathe.diameter_mode, parted=parted)
+    return (Simulation(operations=tuple(figs), contacts=tuple(sim.contacts), stock_start=start, part=part,
+                       diameter_mode=lathe.diameter_mode, parted=parted), states, figs)
 
 
 def shoulder_height(mirror: Mirror, tool: Tool) -> float:
@@ -183,317 +255,3 @@ def part_outline(mirror: Mirror, stock: Stock, shoulder_z: float, *, spacing: fl
     pts = ([(0.0, bottom)] + list(zip(ri, zi)) + list(zip(ro, zo))
            + [(rm, z_sh), (max(stock.radius, rm), z_sh), (max(stock.radius, rm), bottom)])
     return shapely.Polygon(pts).buffer(0)
-
-
-def rpm(r: np.ndarray, lathe: Lathe) -> np.ndarray:
-    """Spindle speed (rev/min) at radius r (mm) under G96: min(cap, 1000 V / (2 pi r))."""
-    r = np.abs(np.asarray(r, dtype=float))
-    with np.errstate(divide="ignore"):
-        n = np.where(r > 0, 1000.0 * lathe.surface_speed / (2 * math.pi * np.maximum(r, 1e-300)), np.inf)
-    return np.minimum(n, float(lathe.spindle_max_rpm))
-
-
-def feed_time(starts: np.ndarray, ends: np.ndarray, feed: np.ndarray, lathe: Lathe) -> np.ndarray:
-    """Time (s) of straight feed pieces (n, 2) -> (n, 2) at feed mm/rev under G96 with the
-    spindle cap: the length over feed x rpm(r), r linear along the piece (9-point
-    midpoint rule; the integrand is piecewise linear in r)."""
-    t = (np.arange(9) + 0.5) / 9
-    r = starts[:, None, 0] + (ends[:, None, 0] - starts[:, None, 0]) * t[None, :]
-    inv = np.mean(1.0 / rpm(r, lathe), axis=1)  # min per rev
-    length = np.hypot(*(ends - starts).T)
-    return 60.0 * length * inv / feed
-
-
-# --------------------------------------------------------------------------------------
-# The simulation
-
-
-class _Sim:
-    def __init__(self, shapes: dict, lathe, start, part, chuck, gouge_tolerance: float) -> None:
-        import shapely
-
-        self.lathe, self.gouge, self.shapes = lathe, gouge_tolerance, shapes
-        self.use(None)
-        self.part = part
-        self.part_boundary = self.part.boundary
-        shapely.prepare(self.part)
-        self.chuck = chuck
-        shapely.prepare(self.chuck)
-        # the stock, as tiles of its bounding box
-        r0, self.z_lo, r1, self.z_hi = start.bounds
-        self.nr = max(1, int(math.ceil(r1 / TILE)))
-        self.nz = max(1, int(math.ceil((self.z_hi - self.z_lo) / TILE)))
-        i, j = np.meshgrid(np.arange(self.nr, dtype=float), np.arange(self.nz, dtype=float), indexing="ij")
-        i, j = i.ravel(), j.ravel()
-        tiles = shapely.box(i * TILE, self.z_lo + j * TILE, np.minimum((i + 1) * TILE, r1),
-                            np.minimum(self.z_lo + (j + 1) * TILE, self.z_hi))
-        self.tiles = shapely.intersection(tiles, start)
-        self.alive = shapely.area(self.tiles) > 0
-        self.tile_bounds = shapely.bounds(self.tiles)
-        self.grid = np.arange(self.nr * self.nz).reshape(self.nr, self.nz)  # tile (i, j)'s index
-        self._stock = None
-        self.contacts: list[Contact] = []
-        self.pos: tuple[float, float] | None = None
-
-    def snapshot(self) -> _Sim:
-        """A copy to go on from (the stock's tiles copied; the geometry itself is immutable)."""
-        other = copy.copy(self)
-        other.tiles, other.alive, other.tile_bounds = self.tiles.copy(), self.alive.copy(), self.tile_bounds.copy()
-        other.contacts = list(self.contacts)
-        return other
-
-    def use(self, station) -> None:
-        """Take the tool of `station` (the default shape when it has none of its own)."""
-        shape = self.shapes.get(station, self.shapes[None])
-        self.ins_xy, self.cut_xy = snap(shape.outline_xy), snap(shape.cutting_xy)  # swept's module doc
-
-    def separate(self, z: float, width: float):
-        """The part above a part-off's slot [z, z + width] (shapely), a contact if stock
-        still joins it to the bar across the slot."""
-        import shapely
-
-        left = self.stock_geometry()
-        r_hi = self.nr * TILE
-        bridge = shapely.intersection(left, shapely.box(0.0, z, r_hi, z + width))
-        if bridge.area > AREA_TOL:
-            mv = SimMove(rapid=False, move=None, feed=0.0, label="part-off")
-            self.add("attached", "part-off", mv, bridge, None, depth=float(bridge.bounds[2]))
-        return shapely.intersection(left, shapely.box(0.0, z + width, r_hi, self.z_hi + 1.0))
-
-    # -- geometry ---------------------------------------------------------------------
-
-    def tiles_near(self, bounds) -> np.ndarray:
-        """The live tiles whose bounding boxes meet the box `bounds` (x0, y0, x1, y1)."""
-        x0, y0, x1, y1 = bounds
-        i0, i1 = max(0, int(x0 // TILE)), min(self.nr - 1, int(x1 // TILE))
-        j0 = max(0, int((y0 - self.z_lo) // TILE))
-        j1 = min(self.nz - 1, int((y1 - self.z_lo) // TILE))
-        if i1 < i0 or j1 < j0:
-            return np.empty(0, dtype=np.intp)
-        idx = self.grid[i0:i1 + 1, j0:j1 + 1].ravel()
-        idx = idx[self.alive[idx]]
-        tb = self.tile_bounds[idx]
-        return idx[(tb[:, 0] <= x1) & (tb[:, 2] >= x0) & (tb[:, 1] <= y1) & (tb[:, 3] >= y0)]
-
-    def stock_geometry(self):
-        """The stock left (one shapely geometry; kept until a tile changes)."""
-        import shapely
-
-        if self._stock is None:
-            self._stock = shapely.union_all(self.tiles[self.alive])
-        return self._stock
-
-    def set_tiles(self, idx: np.ndarray, left: np.ndarray) -> None:
-        import shapely
-
-        self.tiles[idx] = left
-        self.alive[idx] = shapely.area(left) > 0
-        self.tile_bounds[idx] = shapely.bounds(left)
-        self._stock = None
-
-    # -- replay -----------------------------------------------------------------------
-
-    def operation(self, op: SimOperation, rapid_rate: float) -> OperationFigures:
-        import shapely
-
-        before = self.stock_geometry()
-        self.use(op.station)
-        lathe = self.lathe
-        rapid_time = 0.0
-        area = volume = 0.0
-        part_cut = 0.0
-        # the feed pieces, all swept first (what does not depend on the stock)
-        feeds = [mv for mv in op.moves if not mv.rapid]
-        pts = [snap(_pieces(mv.move)) for mv in feeds]
-        p_s = np.concatenate([p[:-1] for p in pts]) if pts else np.empty((0, 2))
-        p_e = np.concatenate([p[1:] for p in pts]) if pts else np.empty((0, 2))
-        p_f = np.concatenate([np.full(len(p) - 1, mv.feed) for mv, p in zip(feeds, pts)]) if pts else np.empty(0)
-        p_a = np.zeros(len(p_s))
-        swept = swept_pieces(self.ins_xy, self.cut_xy, p_s, p_e, self.part, self.part_boundary, self.chuck)
-        rapids = snap(np.array([[mv.move.start, mv.move.end] for mv in op.moves if mv.rapid], float).reshape(-1, 2, 2))
-        rapid_regions = iter(sweep_rapids(self.ins_xy, rapids[:, 0], rapids[:, 1]))
-        first = i_feed = 0  # the feed move's first piece, its index in feeds
-        for mv in op.moves:
-            if self.pos is None:
-                self.pos = tuple(mv.move.start)
-            if mv.rapid:
-                a, b = np.asarray(mv.move.start, float), np.asarray(mv.move.end, float)
-                rapid_time += 60.0 * float(np.hypot(*(b - a))) / rapid_rate
-                self.rapid(mv, op.name, next(rapid_regions))
-                continue
-            last = first + len(pts[i_feed]) - 1
-            for k in range(first, last):
-                removed, vol, depth = self.feed_piece(mv, op.name, swept, k)
-                area += removed
-                volume += vol
-                part_cut = max(part_cut, depth)
-                p_a[k] = removed
-            first, i_feed = last, i_feed + 1
-            self.pos = tuple(mv.move.end)
-        after = self.stock_geometry()
-        removed_geom = shapely.difference(before, after)
-        if len(p_s):
-            s, e, f, a = p_s, p_e, p_f, p_a
-            t = feed_time(s, e, f, lathe)
-            length = np.hypot(*(e - s).T)
-            air = a <= 1e-4 * np.maximum(length, 1e-3)
-            ap = _windowed_depth(a, length)
-            r_mid = 0.5 * (s[:, 0] + e[:, 0])
-            mrr = 2 * math.pi * np.abs(r_mid) * ap * f * rpm(r_mid, lathe) / 1000.0  # cm^3/min
-            cut_time, air_time = float(t[~air].sum()), float(t[air].sum())
-            d = e - s
-            down = (d[:, 1] < 0) & (np.abs(d[:, 0]) <= math.tan(PLUNGE_ANGLE) * -d[:, 1])
-            plunge = float(length[down & ~air].sum())
-            max_ap = float(ap.max())
-            max_chip = float((ap * f).max())
-            max_mrr = float(mrr.max())
-        else:
-            cut_time = air_time = max_ap = max_chip = max_mrr = plunge = 0.0
-        feed = next((m.feed for m in op.moves if not m.rapid), 0.0)
-        drill = drill_figures(self.shapes.get(op.station, self.shapes[None]), before, feeds)
-        return OperationFigures(name=op.name, station=op.station, feed_mm_rev=feed, removed_area_mm2=area,
-                                removed_volume_mm3=volume, max_depth_of_cut_mm=None if drill else max_ap,
-                                max_chip_section_mm2=max_chip, max_removal_rate_cm3_min=max_mrr,
-                                cut_time_s=cut_time, air_time_s=air_time, rapid_time_s=rapid_time,
-                                max_part_cut_mm=part_cut, plunge_mm=plunge, stock_after=after, removed=removed_geom, **drill)
-
-    def rapid(self, mv: SimMove, op: str, regions: tuple) -> None:
-        """Stock or part inside the tool swept along the rapid ("rapid"), else over the
-        box its ends span, the path of a controller that moves one axis first ("dogleg"):
-        regions ((kind, region), ...) as swept.sweep_rapids gives them."""
-        import shapely
-
-        for kind, region in regions:
-            self.check_chuck(region, mv, op)
-            geom = None
-            idx = self.tiles_near(region.bounds)
-            if idx.size:
-                hit = shapely.intersection(self.tiles[idx], region)
-                hit = hit[shapely.area(hit) > 0]
-                if hit.size and float(shapely.area(hit).sum()) > AREA_TOL:
-                    geom = shapely.union_all(hit)
-            if geom is None and shapely.intersects(self.part, region):
-                inside = shapely.intersection(self.part, region)
-                if inside.area > AREA_TOL:
-                    geom = inside
-            if geom is not None:
-                self.add(kind, op, mv, geom, region)
-                return
-
-    def feed_piece(self, mv: SimMove, op: str, swept: Swept, k: int) -> tuple[float, float, float]:
-        """Cut the operation's straight piece k (swept: swept_pieces); returns (area
-        removed mm^2, volume mm^3, depth into the part mm)."""
-        import shapely
-
-        region = swept.regions[k]
-        if swept.chuck[k]:
-            self.chuck_contact(region, mv, op)
-        part_depth = swept.depths[k]
-        if part_depth > self.gouge:
-            self.add("part", op, mv, swept.part_inside[k], None, depth=part_depth)
-        idx = self.tiles_near(swept.boxes[k])
-        if idx.size == 0:
-            return 0.0, 0.0, part_depth
-        tiles = self.tiles[idx]
-        shapely.prepare(region)
-        touch = shapely.intersects(region, tiles)
-        idx, tiles = idx[touch], tiles[touch]
-        if idx.size == 0:
-            return 0.0, 0.0, part_depth
-        hit = shapely.intersection(tiles, region)
-        areas = shapely.area(hit)
-        removed = float(areas.sum())
-        if removed <= 0.0:
-            return 0.0, 0.0, part_depth
-        if not areas.all():
-            hit, areas = hit[areas > 0], areas[areas > 0]
-        cx = shapely.get_x(shapely.centroid(hit))
-        volume = float(np.sum(2 * math.pi * np.abs(cx) * areas))
-        zone = swept.zones[k]
-        # the body's contact, measured only where the hit may stick out of the zone by AREA_TOL: not
-        # when its vertices are all in the (convex) zone, and its pieces beyond the zone may add up to it
-        if (not swept.within_zone(k, shapely.get_coordinates(hit))
-                and float(shapely.area(shapely.difference(hit, zone)).sum()) > 0.5 * AREA_TOL):
-            body = shapely.difference(shapely.union_all(hit), zone)
-            if body.area > AREA_TOL:
-                depth = _depth_inside(body, zone.boundary)
-                if depth > BODY_TOL:
-                    self.add("body", op, mv, body, None, depth=depth)
-        self.set_tiles(idx, shapely.difference(tiles, region))
-        return removed, volume, part_depth
-
-    def check_chuck(self, region, mv: SimMove, op: str) -> None:
-        import shapely
-
-        if region.bounds[1] < self.chuck.bounds[3] and shapely.intersects(self.chuck, region):
-            self.chuck_contact(region, mv, op)
-
-    def chuck_contact(self, region, mv: SimMove, op: str) -> None:
-        """The chuck inside `region` (which meets it), a contact if it has area."""
-        import shapely
-
-        geom = shapely.intersection(self.chuck, region)
-        if geom.area > AREA_TOL:
-            self.add("chuck", op, mv, geom, region)
-
-    def add(self, kind: str, op: str, mv: SimMove, geom, region, *, depth: float | None = None) -> None:
-        """Record a contact once per block and kind."""
-        if any(c.kind == kind and c.label == mv.label for c in self.contacts):
-            return
-        if depth is None:
-            depth = _depth_inside(geom, region.boundary)
-        at = _deepest_point(geom, region.boundary if region is not None else None)
-        self.contacts.append(Contact(kind=kind, operation=op, label=mv.label, area=float(geom.area),
-                                     depth=float(depth), at=at))
-
-
-def _pieces(move: Move) -> np.ndarray:
-    """Points along a move: a line in pieces of at most PIECE mm, an arc (LinuxCNC's
-    spiral when its radii differ) in chords of at most CHORD mm."""
-    if isinstance(move, Arc):
-        length = abs(move.sweep) * max(move.radius, move.end_radius)
-        n = max(2, int(math.ceil(length / CHORD)) + 1)
-        pts = move.sample(n)
-        pts[0], pts[-1] = move.start, move.end
-        return pts
-    a, b = np.asarray(move.start, float), np.asarray(move.end, float)
-    n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / PIECE)))
-    t = np.linspace(0.0, 1.0, n + 1)[:, None]
-    return a + (b - a) * t
-
-
-def _windowed_depth(area: np.ndarray, length: np.ndarray) -> np.ndarray:
-    """Depth of cut (mm) per piece: the removed area over the path length of the window
-    of consecutive pieces (at least STAT_WINDOW mm) it belongs to."""
-    out = np.zeros(area.size)
-    i = 0
-    while i < area.size:
-        j, acc = i, 0.0
-        while j < area.size and acc < STAT_WINDOW:
-            acc += length[j]
-            j += 1
-        out[i:j] = area[i:j].sum() / acc if acc > 0 else 0.0
-        i = j
-    return out
-
-
-def _depth_inside(geom, boundary) -> float:
-    """Largest distance (mm) from a vertex of geom to `boundary`."""
-    import shapely
-
-    pts = shapely.get_coordinates(geom)
-    if pts.size == 0:
-        return 0.0
-    return float(shapely.distance(shapely.points(pts), boundary).max())
-
-
-def _deepest_point(geom, boundary) -> tuple[float, float]:
-    import shapely
-
-    pts = shapely.get_coordinates(geom)
-    if boundary is None or pts.size == 0:
-        c = geom.representative_point()
-        return (float(c.x), float(c.y))
-    d = shapely.distance(shapely.points(pts), boundary)
-    k = int(np.argmax(d))
-    return (float(pts[k, 0]), float(pts[k, 1]))
