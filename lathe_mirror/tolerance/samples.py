@@ -21,12 +21,11 @@ from ..optics.stereo import band_elevations, stereo_centre_z
 #: Azimuths of the stereo points.
 DEPTH_AZIMUTHS = 4
 #: The widest lobe (px of image radius) whose sample's bins are tolerance.bin_px wide: a
-#: wider lobe is cut into SAMPLE_LOBE_PX / bin_px equal bins (71 at the default 4 px), so
-#: a trial of a 12-megapixel design traces about what the paper's does (142 bins against
-#: 71 + 48); the paper's lobes (281 and 192 px wide) keep bin_px, whatever it is. Halving
-#: and doubling it keeps the yield and the trials' mean RMS image displacement within 1 %
-#: (tests/test_sampling.py).
-SAMPLE_LOBE_PX = 284.0
+#: wider lobe is cut into SAMPLE_LOBE_PX / bin_px equal bins (80 at the default 4 px), so
+#: a trial of a 12-megapixel design traces what the paper's does; the paper's lobes (281
+#: and 192 px wide) keep bin_px, whatever it is. Halving and doubling it keeps the yield
+#: and the trials' mean RMS image displacement within 1 % (tests/test_sampling.py).
+SAMPLE_LOBE_PX = 320.0
 
 
 @dataclass(frozen=True)
